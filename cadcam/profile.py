@@ -1,0 +1,122 @@
+"""Cam profile ρ(φ) in a polynomial basis (seed 003, Sec. 6).
+
+A profile is the polar function ρ(φ) [m] of the cam-attached angle φ [rad], with the wire
+anchored at φ = 0. Two bases are offered:
+
+* ``monomial`` — the papers' basis, ρ(φ) = Σ β_k φ^k (seed 003, Eq. 38). Coefficients are stored
+  in increasing powers; the papers print them highest power first (MATLAB ``polyval`` order),
+  and :func:`monomial_from_highest_first` converts.
+* ``chebyshev`` — Chebyshev polynomials of the first kind on the design interval
+  ``domain = (0, φ_max)``; the same polynomials, far better conditioned at high order.
+
+Both are exact polynomials of the same degree, so :meth:`Basis.to_monomial` and
+:meth:`Basis.from_monomial` are exact linear maps.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from numpy.polynomial import Chebyshev, Polynomial
+
+BASES = ("monomial", "chebyshev")
+
+
+@dataclass(frozen=True)
+class Basis:
+    """A polynomial basis of degree ``order`` for ρ(φ).
+
+    Parameters
+    ----------
+    name : {"monomial", "chebyshev"}
+    order : int
+        Polynomial degree n; there are n + 1 coefficients [m].
+    domain : tuple of float
+        Design interval (φ_lo, φ_hi) [rad] on which the Chebyshev basis is orthogonal;
+        ignored by the monomial basis except for plotting.
+    """
+
+    name: str
+    order: int
+    domain: tuple[float, float]
+
+    def __post_init__(self):
+        if self.name not in BASES:
+            raise ValueError(f"unknown basis {self.name!r}; expected one of {BASES}")
+
+    @property
+    def size(self) -> int:
+        """Number of coefficients, n + 1."""
+        return self.order + 1
+
+    def rho(self, phi, c):
+        """ρ(φ) [m] as a CasADi expression of ``phi`` [rad] and coefficients ``c`` [m].
+
+        Monomial: Horner's rule for Eq. 38 of seed 003. Chebyshev: three-term recurrence
+        T_{k+1} = 2uT_k − T_{k−1} with u the affine image of φ on [−1, 1].
+        """
+        if self.name == "monomial":
+            out = c[self.order]
+            for k in range(self.order - 1, -1, -1):
+                out = out * phi + c[k]
+            return out
+        lo, hi = self.domain
+        u = (2 * phi - (lo + hi)) / (hi - lo)
+        t_prev, t_cur = 1, u
+        out = c[0] + (c[1] * u if self.order >= 1 else 0)
+        for k in range(2, self.order + 1):
+            t_prev, t_cur = t_cur, 2 * u * t_cur - t_prev
+            out = out + c[k] * t_cur
+        return out
+
+    def _numpy_poly(self, c):
+        c = np.asarray(c, dtype=float)
+        if self.name == "monomial":
+            return Polynomial(c)
+        return Chebyshev(c, domain=list(self.domain))
+
+    def to_monomial(self, c) -> np.ndarray:
+        """Coefficients in increasing powers of φ [m·rad^-k] of the same polynomial."""
+        out = self._numpy_poly(c).convert(kind=Polynomial).coef
+        return np.pad(out, (0, self.size - out.size))
+
+    def from_monomial(self, m) -> np.ndarray:
+        """Coefficients in this basis of ρ(φ) = Σ m_k φ^k (``m`` in increasing powers)."""
+        m = np.asarray(m, dtype=float)
+        if m.size != self.size:
+            raise ValueError(f"expected {self.size} monomial coefficients, got {m.size}")
+        if self.name == "monomial":
+            return m.copy()
+        out = Polynomial(m).convert(kind=Chebyshev, domain=list(self.domain)).coef
+        return np.pad(out, (0, self.size - out.size))
+
+
+def monomial_from_highest_first(beta) -> np.ndarray:
+    """Papers' β (highest power first, seed 003 Tables 3–4) → increasing powers."""
+    return np.asarray(beta, dtype=float)[::-1].copy()
+
+
+def convexity_margin(rho, drho, ddrho):
+    """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] (seed 003, Eq. 40); the profile is convex where > 0.
+
+    It is x′y″ − y′x″ of the polar curve (Eq. 37, 39).
+    """
+    return rho**2 + 2 * drho**2 - rho * ddrho  # seed 003, Eq. 40
+
+
+def profile_function(basis: Basis) -> ca.Function:
+    """CasADi Function ``profile(phi, c) -> (rho, drho, ddrho, convexity)``.
+
+    ``rho`` [m] (Eq. 38), its first and second derivatives with respect to φ [m/rad, m/rad²]
+    by automatic differentiation, and the convexity margin of Eq. 40 [m²].
+    """
+    phi = ca.SX.sym("phi")
+    c = ca.SX.sym("c", basis.size)
+    rho = basis.rho(phi, c)
+    drho = ca.jacobian(rho, phi)
+    ddrho = ca.jacobian(drho, phi)
+    return ca.Function(
+        "profile", [phi, c], [rho, drho, ddrho, convexity_margin(rho, drho, ddrho)],
+        ["phi", "c"], ["rho", "drho", "ddrho", "convexity"],
+    )

@@ -1,0 +1,51 @@
+"""Wrapped wire length by Gauss–Legendre quadrature (seed 003, Sec. 3.1)."""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import casadi as ca
+import numpy as np
+
+from .profile import Basis, profile_function
+
+
+@lru_cache(maxsize=None)
+def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of the ``order``-point Gauss–Legendre rule on [0, 1]."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    return (x + 1) / 2, w / 2
+
+
+def arc_length_density(rho, drho):
+    """‖r′(φ)‖ = √(ρ² + ρ′²) [m/rad], the integrand of Eq. 10 (seed 003)."""
+    return ca.sqrt(rho**2 + drho**2)  # seed 003, Eq. 10
+
+
+def length_function(basis: Basis, order: int) -> ca.Function:
+    """``length(a, b, c) -> ∫_a^b √(ρ² + ρ′²) dφ`` [m] by ``order``-point Gauss–Legendre.
+
+    This is l_cam of Eq. 10 between two cam angles; Eq. 14's wrapped-length change is
+    ``length(α₀, α, c)``.
+    """
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    c = ca.SX.sym("c", basis.size)
+    s, w = gauss_legendre(order)
+    phi = a + (b - a) * ca.DM(s).T
+    prof = profile_function(basis).map(order)
+    rho, drho, _, _ = prof(phi, c)
+    integral = (b - a) * ca.mtimes(arc_length_density(rho, drho), ca.DM(w))
+    return ca.Function("length", [a, b, c], [integral], ["a", "b", "c"], ["length"])
+
+
+def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha, c):
+    """Profile lengths of the segments [α_ref, α₀], [α₀, α₁], … [m] (Eq. 10, seed 003).
+
+    ``order`` Gauss–Legendre points per segment, ``first_order`` for the first (long when the
+    angle range does not start at θ = 0). Segments between neighbouring grid contacts are
+    short, so a low-order rule there is as accurate as a high-order one over the whole wrap;
+    the wrapped length at α_i is the running sum (Eq. 14).
+    """
+    n = alpha.shape[0]
+    first = length_function(basis, first_order)(alpha_ref, alpha[0], c)
+    rest = length_function(basis, order).map(n - 1)(alpha[:n - 1].T, alpha[1:].T, c).T
+    return ca.vertcat(first, rest)
