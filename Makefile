@@ -1,0 +1,26 @@
+# cadcam — the two commands a fresh machine needs are `make demo` and `make test`.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-stamp
+
+.PHONY: demo test bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/cadcam design models/johnston2023_1dof.toml -o out/johnston2023_1dof
+	@echo "demo outputs: out/johnston2023_1dof/ (result.json, torque.csv, profile.csv, *.png)"
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_design.py
+
+clean:
+	rm -rf out .pytest_cache build *.egg-info

@@ -1,0 +1,120 @@
+"""Command line: ``cadcam design`` and ``cadcam evaluate``.
+
+Exit codes: 0 success; 1 a solve that failed or did not pass its re-check (the result is still
+written); 2 bad input (one line on stderr naming what is wrong).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .capstan import FRICTION_MODELS
+from .design import Design, DesignError
+from .spec import SpecError, load_spec
+from .targets import ExpressionError
+
+
+class InputError(ValueError):
+    """Bad command-line input."""
+
+
+def _problem(args):
+    problem = load_spec(args.spec)
+    if getattr(args, "friction_model", None):
+        problem = problem.with_friction_model(args.friction_model)
+    changes = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
+    if changes.get("grid", 3) < 3:
+        raise InputError("--grid must be at least 3")
+    return problem.with_options(**changes) if changes else problem
+
+
+def write_outputs(result, out: Path) -> None:
+    """``result.json``, ``torque.csv``, ``profile.csv`` and the PNG figures in ``out``."""
+    from .files import write_csv, write_json
+    from .plots import plot_profiles, plot_springs, plot_torque
+
+    ev = result.evaluation
+    m, S = len(ev.cams), len(ev.problem.springs)
+    write_json(out / "result.json", result.to_dict())
+    header = ([f"theta{i + 1}_rad" for i in range(m)]
+              + [f"{k}{i + 1}_Nm" for i in range(m) for k in ("tau", "tau_d", "error")]
+              + [f"x{j + 1}_m" for j in range(S)])
+    cols = [*ev.theta] + [v for i in range(m) for v in (ev.tau[i], ev.tau_d[i], ev.tau[i] - ev.tau_d[i])]
+    write_csv(out / "torque.csv", header, np.column_stack(cols + [*ev.x]))
+    rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.cams)
+            for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
+    write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
+    plot_profiles(ev, out / "profile.png")
+    plot_torque(ev, out / "torque.png")
+    plot_springs(ev, out / "springs.png")
+
+
+def cmd_design(args) -> int:
+    from .optimize import optimize
+
+    problem = _problem(args)
+    out = Path(args.output)
+    result = optimize(problem)
+    write_outputs(result, out)
+    d = result.to_dict()
+    mm = [f"{1e3 * v:.4g}" for v in d["metrics"]["rmse"]]
+    print(f"{result.status}: {result.message}")
+    print(f"  RMSE per cam [N·mm]: {', '.join(mm)}; iterations {d['solver']['iterations']}, "
+          f"build {d['solver']['build_time_s']:.3f} s, solve {d['solver']['solve_time_s']:.3f} s")
+    for v in d["violations"]:
+        print(f"  violated: {v}")
+    print(f"  outputs in {out}/: result.json torque.csv profile.csv profile.png torque.png springs.png")
+    return 0 if result.success else 1
+
+
+def cmd_evaluate(args) -> int:
+    from .evaluate import evaluate
+
+    problem = _problem(args)
+    try:
+        data = json.loads(Path(args.design).read_text())
+    except OSError as exc:
+        raise InputError(f"{args.design}: cannot read the design ({exc.strerror})") from None
+    except ValueError:
+        raise InputError(f"{args.design}: not valid JSON") from None
+    design = Design.from_dict(data, problem, args.design)
+    ev = evaluate(problem, design, grid=args.grid)
+    print(json.dumps({"friction_model": problem.friction_model, "design": design.to_dict(),
+                      "metrics": ev.metrics}, indent=2))
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="cadcam", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    def common(p):
+        p.add_argument("spec", help="problem spec (TOML) or a cadcam result.json")
+        p.add_argument("--friction-model", choices=FRICTION_MODELS,
+                       help="override the spec's friction model")
+        p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
+
+    p = sub.add_parser("design", help="optimise a cam system and re-check it")
+    common(p)
+    p.add_argument("-o", "--output", required=True, help="output folder")
+    p.add_argument("--multistart", type=int, help="extra random starts")
+    p.set_defaults(run=cmd_design)
+    p = sub.add_parser("evaluate", help="metrics of a given design, as JSON")
+    common(p)
+    p.add_argument("--design", required=True, help="design or result JSON")
+    p.set_defaults(run=cmd_evaluate)
+
+    args = parser.parse_args(argv)
+    try:
+        return args.run(args)
+    except (SpecError, DesignError, ExpressionError, InputError) as exc:
+        print(f"cadcam: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,90 @@
+"""Design a cam system: solve the NLP (with optional multistarts) and re-check the optimum.
+
+The NLP's answer is trusted only after :func:`cadcam.evaluate.evaluate` has re-evaluated it on
+a grid ``recheck_factor`` times finer, by the rootfinder and independent quadrature, and found
+every constraint satisfied (status ``success``); otherwise the status says what went wrong.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .design import Design
+from .evaluate import evaluate
+from .problem import Problem
+from .result import Result
+from .transcription import Transcription
+
+
+def default_start(problem: Problem) -> Design:
+    """Circular cams of radius min(1.2 ρ_min, mid-range) and pre-extensions at 10 % of travel."""
+    bases, coefs = [], []
+    for cam in problem.cams:
+        radius = min(1.2 * cam.rho_min, 0.5 * (cam.rho_min + cam.rho_max))
+        m = np.zeros(cam.basis.size)
+        m[0] = radius
+        bases.append(cam.basis)
+        coefs.append(cam.basis.from_monomial(m))
+    return Design(bases, coefs, np.array([0.1 * s.travel for s in problem.springs]))
+
+
+def random_start(problem: Problem, rng: np.random.Generator) -> Design:
+    """A random convex start: ρ = ρ₀ + sφ with ρ₀ ∈ [ρ_min, 3ρ_min], s ∈ [0, ρ₀/2] per rad,
+    pre-extensions uniform in [0, travel/2]."""
+    bases, coefs = [], []
+    for cam in problem.cams:
+        hi = min(3 * cam.rho_min, cam.rho_max)
+        rho0 = rng.uniform(cam.rho_min, 0.5 * (cam.rho_min + hi))
+        m = np.zeros(cam.basis.size)
+        m[0] = rho0
+        if cam.basis.order >= 1:
+            m[1] = rng.uniform(0, 0.5 * rho0)
+        bases.append(cam.basis)
+        coefs.append(cam.basis.from_monomial(m))
+    return Design(bases, coefs, np.array([rng.uniform(0, 0.5 * s.travel) for s in problem.springs]))
+
+
+def optimize(problem: Problem, transcription: Transcription | None = None,
+             start: Design | None = None) -> Result:
+    """Solve ``problem`` and re-check the optimum.
+
+    Parameters
+    ----------
+    problem : Problem
+    transcription : Transcription, optional
+        A solver built for a problem of the same structure (reused across sweep cases).
+    start : Design, optional
+        First initial guess (default :func:`default_start`); ``problem.options.multistart``
+        random starts follow, and the best converged one is kept.
+
+    Returns
+    -------
+    Result
+        ``status`` is ``success`` only for a converged optimum whose fine re-check passed.
+    """
+    tr = transcription or Transcription(problem)
+    rng = np.random.default_rng(problem.options.seed)
+    starts = [start or default_start(problem)]
+    starts += [random_start(problem, rng) for _ in range(problem.options.multistart)]
+    solves = []
+    for k, s in enumerate(starts):
+        sol = tr.solve(problem, s)
+        sol.start = k
+        solves.append(sol)
+    converged = [s for s in solves if s.status == "converged"]
+    best = min(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
+    best.trials = [{"start": s.start, "status": s.status, "objective": s.objective,
+                    "iterations": s.iterations, "solve_time_s": s.solve_time_s} for s in solves]
+    on_grid = evaluate(problem, best.design)
+    fine = evaluate(problem, best.design,
+                    grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
+    if best.status != "converged":
+        status = best.status
+        message = f"IPOPT stopped: {best.return_status}"
+    elif fine.violations:
+        status = "recheck_failed"
+        message = "the optimum violates constraints on the fine re-check grid"
+    else:
+        status = "success"
+        message = "converged; every constraint holds on the fine re-check grid"
+    return Result(status=status, message=message, problem=problem, design=best.design,
+                  evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s)

@@ -1,0 +1,104 @@
+"""Figures of an evaluated design (PNG, written atomically). Views only: no physics here."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .evaluate import Evaluation, cached_profile_function  # noqa: E402
+from .files import atomic_path  # noqa: E402
+
+MM = 1e3
+
+
+def _save(fig, path):
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
+def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
+    """Each cam in the world frame at a few angles, with its idler and the free wire [mm]."""
+    m = len(ev.cams)
+    fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 5.2), squeeze=False)
+    for i, (ax, cs) in enumerate(zip(axes[0], ev.cams)):
+        cam, basis = ev.problem.cams[i], ev.design.bases[i]
+        prof = cached_profile_function(basis)
+        phi_full = np.linspace(0, cs.phi[-1], 400)
+        rho_full = np.asarray(prof.map(phi_full.size)(phi_full, ev.design.coefficients[i])[0]).ravel()
+        poses = np.unique(np.linspace(0, cs.theta.size - 1, n_poses).round().astype(int))
+        colors = plt.cm.viridis(np.linspace(0, 0.85, poses.size))
+        for col, k in zip(colors, poses):
+            th = cs.theta[k]
+            ang = phi_full - th
+            ax.plot(MM * rho_full * np.cos(ang), MM * rho_full * np.sin(ang), color=col,
+                    label=f"θ = {np.degrees(th):.0f}°")
+            q = np.array([cs.qx[k], cam.idler_offset])
+            t = np.linspace(0, 2 * np.pi, 100)
+            ax.plot(MM * (q[0] + cam.idler_radius * np.cos(t)),
+                    MM * (q[1] + cam.idler_radius * np.sin(t)), color=col, lw=0.8, ls="--")
+            a = cs.alpha[k]
+            mask = phi_full <= a
+            ax.plot(MM * rho_full[mask] * np.cos(ang[mask]), MM * rho_full[mask] * np.sin(ang[mask]),
+                    color=col, lw=2.5, alpha=0.5)
+        ax.plot(0, 0, "k+")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [mm]")
+        ax.set_ylabel("y [mm]")
+        ax.set_title(f"{cam.name}: profile (thick: wrapped wire), idler dashed")
+        ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_torque(ev: Evaluation, path) -> None:
+    """Torque against target and the error [N·mm]: lines for one cam, heat maps for two."""
+    m = len(ev.cams)
+    if m == 1:
+        th = np.degrees(ev.theta[0])
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+        a1.plot(th, MM * ev.tau_d[0], "k--", label="target τ_d")
+        a1.plot(th, MM * ev.tau[0], label=f"cam τ ({ev.problem.friction_model} friction)")
+        a1.set_ylabel("torque [N·mm]")
+        a1.legend()
+        a2.plot(th, MM * (ev.tau[0] - ev.tau_d[0]), color="C3")
+        a2.set_ylabel("τ − τ_d [N·mm]")
+        a2.set_xlabel("θ [deg]")
+        a1.set_title(f"RMSE {MM * ev.metrics['rmse'][0]:.3g} N·mm, "
+                     f"max {MM * ev.metrics['max_abs_error'][0]:.3g} N·mm")
+    else:
+        n = ev.grid
+        fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 4.5), squeeze=False)
+        ext = [np.degrees(ev.theta[1].min()), np.degrees(ev.theta[1].max()),
+               np.degrees(ev.theta[0].min()), np.degrees(ev.theta[0].max())]
+        for i, ax in enumerate(axes[0]):
+            err = MM * (ev.tau[i] - ev.tau_d[i]).reshape((n,) * m)
+            im = ax.imshow(err if m == 2 else err.reshape(n, -1), origin="lower", extent=ext,
+                           aspect="auto", cmap="RdBu_r", vmin=-np.abs(err).max(), vmax=np.abs(err).max())
+            fig.colorbar(im, ax=ax, label="τ − τ_d [N·mm]")
+            ax.set_xlabel("θ₂ [deg]")
+            ax.set_ylabel("θ₁ [deg]")
+            ax.set_title(f"cam {i + 1}: RMSE {MM * ev.metrics['rmse'][i]:.3g} N·mm")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_springs(ev: Evaluation, path) -> None:
+    """Spring extensions against their travel limits [mm] over the grid points."""
+    springs = ev.problem.springs
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    m = len(ev.cams)
+    for j, s in enumerate(springs):
+        if m == 1:
+            ax.plot(np.degrees(ev.theta[0]), MM * ev.x[j], color=f"C{j}", label=s.name)
+        else:
+            ax.plot(MM * np.sort(ev.x[j]), color=f"C{j}", label=f"{s.name} (sorted grid values)")
+        ax.axhline(MM * s.travel, color=f"C{j}", ls=":", lw=1)
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel("θ [deg]" if m == 1 else "grid point (sorted)")
+    ax.set_ylabel("extension [mm] (dotted: travel limit)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)

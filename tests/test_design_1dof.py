@@ -1,0 +1,99 @@
+"""`cadcam design` on the 1-DOF model: a verified optimum and files that agree with it."""
+import csv
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from cadcam import Design, evaluate, load_spec
+from cadcam.cli import main
+from cadcam.evaluate import LENGTH_TOL
+
+from .conftest import SPEC_1DOF
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("design")
+    rc = main(["design", str(SPEC_1DOF), "-o", str(out)])
+    return rc, out, json.loads((out / "result.json").read_text())
+
+
+def test_design_succeeds_and_writes_its_files(run):
+    rc, out, res = run
+    assert rc == 0 and res["status"] == "success"
+    for name in ("result.json", "torque.csv", "profile.csv", "profile.png", "torque.png", "springs.png"):
+        assert (out / name).stat().st_size > 0
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
+    assert res["friction_model"] == "exact"
+    assert res["solver"]["iterations"] > 0 and res["solver"]["solve_time_s"] > 0
+
+
+def test_constraints_hold_on_the_fine_recheck(run):
+    _, _, res = run
+    problem = load_spec(SPEC_1DOF)
+    fine = res["recheck"]
+    assert fine["grid"] == 10 * (problem.options.grid - 1) + 1
+    assert fine["violations"] == []
+    assert min(fine["convexity_min"]) > 0
+    cam = problem.cams[0]
+    assert fine["rho_min"][0] >= cam.rho_min - LENGTH_TOL
+    assert fine["rho_max"][0] <= cam.rho_max + LENGTH_TOL
+    for s, lo, hi in zip(problem.springs, fine["extension_min"], fine["extension_max"]):
+        assert -LENGTH_TOL <= lo and hi <= s.travel + LENGTH_TOL
+    assert fine["tangency_residual_max"] <= 1e-10
+
+
+def test_nlp_and_rootfinder_agree_on_the_tangency(run):
+    _, _, res = run
+    assert res["solver"]["tangency_nlp_vs_rootfinder_max"] <= 1e-7
+
+
+def test_reported_rmse_equals_an_independent_reevaluation(run, capsys):
+    _, out, res = run
+    # the saved design, read back through the interchange form only (monomial coefficients)
+    mono = {"cams": [{"monomial_coefficients": c["monomial_coefficients"]} for c in res["design"]["cams"]],
+            "preextension": res["design"]["preextension"]}
+    d = out / "mono.json"
+    d.write_text(json.dumps(mono))
+    assert main(["evaluate", str(SPEC_1DOF), "--design", str(d)]) == 0
+    metrics = json.loads(capsys.readouterr().out)["metrics"]
+    np.testing.assert_allclose(metrics["rmse"], res["metrics"]["rmse"], rtol=1e-6)
+    np.testing.assert_allclose(metrics["max_abs_error"], res["metrics"]["max_abs_error"], rtol=1e-6)
+    # and from the result alone (its resolved problem), without the spec
+    problem = load_spec(out / "result.json")
+    ev = evaluate(problem, Design.from_dict(res, problem))
+    np.testing.assert_allclose(ev.metrics["rmse"], res["metrics"]["rmse"], rtol=1e-12)
+    # the NLP's objective (its quadrature, its tangency variables, its epigraph slacks s ≥ |∂τ/∂k|,
+    # which the interior point leaves slightly above |∂τ/∂k|) bounds the evaluated one from above
+    nlp, evaluated = res["solver"]["objective"], res["metrics"]["objective"]
+    assert evaluated * (1 - 1e-9) <= nlp <= evaluated * (1 + 1e-3)
+    # torque.csv holds the same torques
+    rows = list(csv.DictReader(open(out / "torque.csv")))
+    err = np.array([float(r["error1_Nm"]) for r in rows])
+    assert np.sqrt(np.mean(err**2)) == pytest.approx(res["metrics"]["rmse"][0], rel=1e-12)
+
+
+def test_optimum_beats_the_circular_start_and_tracks_the_target(run):
+    _, _, res = run
+    from cadcam.optimize import default_start
+    problem = load_spec(SPEC_1DOF)
+    start = evaluate(problem, default_start(problem))
+    assert res["metrics"]["objective"] < 0.01 * start.metrics["objective"]
+    # τ_d reaches 0.08·(π/2)² ≈ 197 N·mm; the optimum tracks it to ~1 %
+    assert res["metrics"]["rmse"][0] < 2e-3
+
+
+def test_failed_solve_writes_its_status_and_exits_1(tmp_path):
+    # a 0.3 N·mm² torque is out of reach with a 2-iteration budget: the result says so
+    spec = tmp_path / "short.toml"
+    spec.write_text(SPEC_1DOF.read_text().replace("quadrature_order = 4", "quadrature_order = 4\nmax_iter = 2"))
+    out = tmp_path / "o"
+    p = subprocess.run([sys.executable, "-m", "cadcam", "design", str(spec), "-o", str(out)],
+                       capture_output=True, text=True)
+    assert p.returncode == 1
+    res = json.loads((out / "result.json").read_text())
+    assert res["status"] == "max_iterations"
+    assert res["solver"]["iterations"] == 2

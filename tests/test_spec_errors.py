@@ -1,0 +1,81 @@
+"""Every malformed spec gets one line naming file, key and expected form, and exit code 2."""
+import subprocess
+import sys
+
+import pytest
+
+from cadcam.cli import main
+
+from .conftest import SPEC_1DOF
+
+BASE = SPEC_1DOF.read_text()
+
+CASES = {
+    "unknown top-level key": ("friction_model = \"exact\"", "friction_model = \"exact\"\ncolour = 1",
+                              "unknown key 'colour'"),
+    "unknown cam key": ("order = 3", "order = 3\nradius = 0.02", "unknown key 'cams[1].radius'"),
+    "unknown idler key": ("offset = 0.015", "offset = 0.015\nheight = 1.0", "cams[1].idler.height"),
+    "missing spring rate": ("rate = 1100.0\n", "", "missing key 'springs[1].rate'"),
+    "missing idler radius": ("radius = 0.020\n", "", "missing key 'cams[1].idler.radius'"),
+    "missing rho_min": ("rho_min = 0.010\n", "", "missing key 'cams[1].rho_min'"),
+    "missing target": ("[cams.target]\nkind = \"expression\"\nexpression = \"0.08*theta**2\"\n", "",
+                       "missing key 'cams[1].target'"),
+    "rate as a string": ("rate = 1100.0", "rate = \"1100\"", "springs[1].rate = '1100'"),
+    "order not an integer": ("order = 3", "order = 3.5", "cams[1].order = 3.5"),
+    "range as a string": ("theta_range_deg = [0.0, 90.0]", "theta_range_deg = \"0..90\"",
+                          "cams[1].theta_range_deg"),
+    "negative rate": ("rate = 7350.0", "rate = -7350.0", "springs[2].rate = -7350.0: expected a positive"),
+    "zero rate": ("rate = 1100.0", "rate = 0.0", "springs[1].rate = 0.0: expected a positive"),
+    "rho_min >= rho_max": ("rho_max = 0.100", "rho_max = 0.010", "cams[1].rho_max = 0.01"),
+    "empty angle range": ("theta_range_deg = [0.0, 90.0]", "theta_range_deg = [90.0, 90.0]",
+                          "non-empty range"),
+    "reversed angle range": ("theta_range_deg = [0.0, 90.0]", "theta_range_deg = [90.0, 0.0]",
+                             "non-empty range"),
+    "target not finite": ("0.08*theta**2", "0.08/theta", "target is not finite at theta = [0.0] deg"),
+    "target with code": ("0.08*theta**2", "__import__('os').getcwd()", "__import__('os').getcwd"),
+    "target attribute": ("0.08*theta**2", "theta.real", "Attribute 'theta.real' is not allowed"),
+    "unknown friction model": ("friction_model = \"exact\"", "friction_model = \"coulomb\"",
+                               "friction_model = 'coulomb'"),
+    "bad port": ("ports = [\"wire:1\"]", "ports = [\"rope:1\"]", "springs[1].ports"),
+    "port of a missing cam": ("ports = [\"wire:1\"]", "ports = [\"wire:2\"]", "a cam number between 1 and 1"),
+    "wrong number of weights": ("sensitivity_weights = [1.0, 1.0]", "sensitivity_weights = [1.0]",
+                                "a list of 2 weights"),
+    "not TOML": ("[solver]", "[solver", "not valid TOML"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_bad_spec_gives_one_line_and_exit_2(name, tmp_path, capsys):
+    old, new, expected = CASES[name]
+    assert old in BASE
+    spec = tmp_path / "bad.toml"
+    spec.write_text(BASE.replace(old, new, 1))
+    out = tmp_path / "out"
+    assert main(["design", str(spec), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("cadcam: error: ")
+    assert str(spec) in err
+    assert expected in err
+    assert not out.exists()  # nothing written for bad input
+
+
+def test_missing_spec_file(tmp_path, capsys):
+    assert main(["evaluate", str(tmp_path / "none.toml"), "--design", "x.json"]) == 2
+    assert "cannot read the spec" in capsys.readouterr().err
+
+
+def test_bad_design_file(tmp_path, capsys):
+    d = tmp_path / "d.json"
+    d.write_text('{"design": {"cams": [{"monomial_coefficients": [0.02]}], "preextension": [0.0]}}')
+    assert main(["evaluate", str(SPEC_1DOF), "--design", str(d)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "preextension must hold 2" in err
+
+
+def test_no_traceback_from_the_command(tmp_path):
+    spec = tmp_path / "bad.toml"
+    spec.write_text(BASE.replace("rate = 1100.0", "rate = -1.0"))
+    p = subprocess.run([sys.executable, "-m", "cadcam", "design", str(spec), "-o", str(tmp_path / "o")],
+                       capture_output=True, text=True)
+    assert p.returncode == 2
+    assert "Traceback" not in p.stderr and p.stderr.count("\n") == 1
