@@ -29,7 +29,7 @@ def default_start(problem: Problem) -> Design:
 
 def random_start(problem: Problem, rng: np.random.Generator) -> Design:
     """A random convex start: ρ = ρ₀ + sφ with ρ₀ ∈ [ρ_min, 3ρ_min], s ∈ [0, ρ₀/2] per rad,
-    pre-extensions uniform in [0, travel/2]."""
+    pre-extensions uniform in [0, 0.9 travel]."""
     bases, coefs = [], []
     for cam in problem.cams:
         hi = min(3 * cam.rho_min, cam.rho_max)
@@ -40,7 +40,7 @@ def random_start(problem: Problem, rng: np.random.Generator) -> Design:
             m[1] = rng.uniform(0, 0.5 * rho0)
         bases.append(cam.basis)
         coefs.append(cam.basis.from_monomial(m))
-    return Design(bases, coefs, np.array([rng.uniform(0, 0.5 * s.travel) for s in problem.springs]))
+    return Design(bases, coefs, np.array([rng.uniform(0, 0.9 * s.travel) for s in problem.springs]))
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,

@@ -23,7 +23,7 @@ import numpy as np
 
 from .departure import cam_function
 from .design import Design
-from .evaluate import (cached_length_function, cached_port_function, cached_profile_function, tangency_solver,
+from .evaluate import (evaluate, cached_length_function, cached_port_function, cached_profile_function, tangency_solver,
                        trapezoid_weights)
 from .wrap import segment_lengths
 from .problem import Problem
@@ -240,6 +240,11 @@ class Transcription:
                                              ).map(n)(a[0], a[1:], c)
             v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
+        if self.pairs:  # epigraph slacks start on |∂τ/∂k|, i.e. feasible and tight
+            ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
+                          wire_arm="closed-form")
+            for i, j in self.pairs:
+                v.put(w0, f"s{i}_{j}", np.abs(ev.dtau_dk[i, :, j]) / SENS_SCALE)
         return w0
 
     def design_of(self, w) -> Design:
