@@ -33,7 +33,7 @@ def bench(problem, runs: int) -> dict:
         rechecks.append(time.perf_counter() - t0)
     return {"build": statistics.median(builds), "solve": statistics.median(solves),
             "iterations": statistics.median(iters), "recheck": statistics.median(rechecks),
-            "status": sol.status, "n_var": tr.v.size, "n_con": tr.lbg.size}
+            "status": sol.status, "n_var": tr.v.size, "n_con": tr.bounds(problem)[0].size}
 
 
 def main() -> None:

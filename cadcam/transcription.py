@@ -3,7 +3,8 @@
 Transcription: a uniform grid of n cam angles per cam, with the tangency unknowns (α, γ) of
 every grid angle and of θ = 0 as NLP variables constrained by the residuals of Eq. 6–7
 (simultaneous approach); Gauss–Legendre integrals along the profile; trapezoidal integrals
-over the angle grid; epigraph slacks for ∫|∂τ/∂k| (no ``abs`` in the NLP).
+over the angle grid; ∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised
+(no ``abs`` in the NLP).
 
 Everything that is a number of the problem rather than its structure — grid angles, spring
 rates and travels, idler radius and offset, μ, ρ bounds, weights, target samples — is a CasADi
@@ -118,32 +119,34 @@ class Transcription:
             v.add(f"ref{i}", 2)
             v.add(f"len{i}", n)
         v.add("x0", S)
-        for i, j in self.pairs:
-            v.add(f"s{i}_{j}", self.N)
+        for i, j in self.pairs:  # ∂τ_i/∂k_j = s⁺ − s⁻, see below
+            v.add(f"sp{i}_{j}", self.N)
+            v.add(f"sn{i}_{j}", self.N)
         for i in range(m):
-            for name, size in (("theta", n), ("tau_d", self.N), ("cam", 8), ("wsens", S)):
+            for name, size in (("theta", n), ("tau_d", self.N), ("cam", 4), ("wsens", S)):
                 p.add(f"{name}{i}", size)
         p.add("k", S)
-        p.add("travel", S)
         p.add("obj_scale", 1)
         x, P = v.sym("w"), p.sym("p")
         self.v, self.p = v, p
 
         L = LENGTH_SCALE
-        g, lbg, ubg = [], [], []
+        g, self._bounds = [], []
 
-        def constrain(expr, lo, hi):
+        def constrain(expr, bounds):
+            """Add constraint rows; ``bounds(problem) -> (lo, hi)`` gives their numbers at
+            solve time, so limits change between cases without a rebuild."""
             g.append(expr)
-            lbg.append(np.full(expr.shape[0], lo))
-            ubg.append(np.full(expr.shape[0], hi))
+            self._bounds.append((expr.shape[0], bounds))
+
+        zero = lambda pr: (0.0, 0.0)  # noqa: E731
 
         idx = np.indices((n,) * m).reshape(m, -1)
         D, A, tau_d, weights = [], [], [], []
-        tracking = 0
         for i, cam in enumerate(problem.cams):
             c = L * v[f"c{i}"]
             theta = p[f"theta{i}"]
-            r, a0, mu, rho_min, rho_max, w_track, _, _ = (p[f"cam{i}"][k] for k in range(8))
+            r, a0, mu, _ = (p[f"cam{i}"][k] for k in range(4))
             alpha, gamma, ref = v[f"alpha{i}"], v[f"gamma{i}"], v[f"ref{i}"]
             ports = cached_port_function(cam.basis, problem.friction_model,
                                          opt.quadrature_order, "closed-form").map(n)
@@ -153,18 +156,19 @@ class Transcription:
             # which keeps the Lagrangian Hessian banded instead of dense
             wrapped = L * v[f"len{i}"]
             seg = segment_lengths(cam.basis, opt.quadrature_order, first, ref[0], alpha, c)
-            constrain((wrapped - ca.vertcat(0, wrapped[:n - 1]) - seg) / L, 0, 0)
+            constrain((wrapped - ca.vertcat(0, wrapped[:n - 1]) - seg) / L, zero)
             d, arm, res, _ = ports(theta, alpha, gamma, ref[0], ref[1], wrapped.T, c, r, a0, mu)
             res_ref = cam_function(cam.basis)(0, ref[0], ref[1], c, r, a0)[0]
             # seed 003, Eq. 6–7 at every grid angle and at θ = 0
-            constrain(ca.vertcat(res[0, :].T, res_ref[0]), 0, 0)
-            constrain(ca.vertcat(res[1, :].T, res_ref[1]) / L, 0, 0)
+            constrain(ca.vertcat(res[0, :].T, res_ref[0]), zero)
+            constrain(ca.vertcat(res[1, :].T, res_ref[1]) / L, zero)
             # seed 003, Eq. 40 and ρ bounds over the whole wrapped range [0, α(θ_max)]
             M = opt.convexity_points
             phi = alpha[n - 1] * ca.DM(np.linspace(0, 1, M)).T
             rho, _, _, conv = cached_profile_function(cam.basis).map(M)(phi, c)
-            constrain(conv.T / L**2 - opt.convexity_epsilon * (rho_min / L) ** 2, 0, np.inf)
-            constrain(ca.vertcat((rho.T - rho_min) / L, (rho_max - rho.T) / L), 0, np.inf)
+            constrain(conv.T / L**2, lambda pr, i=i: (
+                pr.options.convexity_epsilon * (pr.cams[i].rho_min / L) ** 2, np.inf))
+            constrain(rho.T / L, lambda pr, i=i: (pr.cams[i].rho_min / L, pr.cams[i].rho_max / L))
             D.append(d[:, idx[i]])
             A.append(arm[:, idx[i]])
             weights.append(trapezoid_weights_sx(theta)[idx[i]])
@@ -176,19 +180,18 @@ class Transcription:
         net = network_function(list(problem.springs), m).map(self.N)
         xs, tau, jac = net(ca.vertcat(*D), ca.vertcat(*A), p["k"], L * v["x0"])
         # seed 003, Eq. 46: 0 ≤ x_i ≤ x_i,max on the grid
-        constrain(ca.vec(xs) / L, 0, np.inf)
-        constrain(ca.vec(ca.repmat(p["travel"], 1, self.N) - xs) / L, 0, np.inf)
+        constrain(ca.vec(xs) / L, lambda pr: (
+            0.0, np.tile([s.travel / L for s in pr.springs], self.N)))
         objective = 0
         for i in range(m):
-            w_track = p[f"cam{i}"][5]
+            w_track = p[f"cam{i}"][3]
             objective += w_track * ca.dot(W.T, (tau_d[i] - tau[i, :].T) ** 2)  # Eq. 46 term 1
         for i, j in self.pairs:
-            s = v[f"s{i}_{j}"]
-            J = jac[i, j::S].T / SENS_SCALE
-            constrain(ca.vertcat(s - J, s + J), 0, np.inf)  # epigraph of |∂τ_i/∂k_j|
-            objective += p[f"wsens{i}"][j] * SENS_SCALE * ca.dot(W.T, s)  # Eq. 46 terms 2–3
+            # |∂τ_i/∂k_j| without abs: ∂τ/∂k = s⁺ − s⁻ with s± ≥ 0, and s⁺ + s⁻ is minimised
+            sp, sn = v[f"sp{i}_{j}"], v[f"sn{i}_{j}"]
+            constrain(sp - sn - jac[i, j::S].T / SENS_SCALE, zero)
+            objective += p[f"wsens{i}"][j] * SENS_SCALE * ca.dot(W.T, sp + sn)  # Eq. 46 terms 2–3
         self.objective = ca.Function("objective", [x, P], [objective])
-        self.lbg, self.ubg = np.concatenate(lbg), np.concatenate(ubg)
         nlp = {"x": x, "p": P, "f": objective * p["obj_scale"], "g": ca.vertcat(*g)}
         self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
             "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
@@ -197,7 +200,8 @@ class Transcription:
         self.lbx = np.full(v.size, -np.inf)
         self.lbx[v.blocks["x0"][0]:v.blocks["x0"][0] + S] = 0  # seed 003, Eq. 46: x₀ ≥ 0
         for i, j in self.pairs:
-            v.put(self.lbx, f"s{i}_{j}", 0)
+            v.put(self.lbx, f"sp{i}_{j}", 0)
+            v.put(self.lbx, f"sn{i}_{j}", 0)
         self.ubx = np.full(v.size, np.inf)
         self.build_time_s = time.perf_counter() - t0
 
@@ -216,16 +220,20 @@ class Transcription:
             energy += c.tracking_weight * np.dot(W, td**2)
             p.put(vec, f"theta{i}", grids[i])
             p.put(vec, f"tau_d{i}", td)
-            p.put(vec, f"cam{i}", [c.idler_radius, c.idler_offset, c.mu, c.rho_min, c.rho_max,
-                                   c.tracking_weight, 0, 0])
+            p.put(vec, f"cam{i}", [c.idler_radius, c.idler_offset, c.mu, c.tracking_weight])
             p.put(vec, f"wsens{i}", c.sensitivity_weights)
         p.put(vec, "k", [s.rate for s in problem.springs])
-        p.put(vec, "travel", [s.travel for s in problem.springs])
         p.put(vec, "obj_scale", 1.0 / energy if energy > 0 else 1.0)
         return vec
 
+    def bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the constraint rows for ``problem``'s limits."""
+        lo, hi = zip(*[np.broadcast_arrays(*(np.broadcast_to(b, (size,)) for b in fn(problem)))
+                       for size, fn in self._bounds])
+        return np.concatenate(lo), np.concatenate(hi)
+
     def initial_guess(self, problem: Problem, design: Design) -> np.ndarray:
-        """NLP start from a design: tangency angles by the rootfinder, slacks at |∂τ/∂k|."""
+        """NLP start from a design: tangency angles by the rootfinder, s± from ∂τ/∂k."""
         v, n = self.v, self.n
         w0 = np.zeros(v.size)
         for i, cam in enumerate(problem.cams):
@@ -240,11 +248,13 @@ class Transcription:
                                              ).map(n)(a[0], a[1:], c)
             v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
-        if self.pairs:  # epigraph slacks start on |∂τ/∂k|, i.e. feasible and tight
+        if self.pairs:  # s⁺ − s⁻ start on ∂τ/∂k, i.e. feasible and tight
             ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
                           wire_arm="closed-form")
             for i, j in self.pairs:
-                v.put(w0, f"s{i}_{j}", np.abs(ev.dtau_dk[i, :, j]) / SENS_SCALE)
+                J = ev.dtau_dk[i, :, j] / SENS_SCALE
+                v.put(w0, f"sp{i}_{j}", np.maximum(J, 0))
+                v.put(w0, f"sn{i}_{j}", np.maximum(-J, 0))
         return w0
 
     def design_of(self, w) -> Design:
@@ -258,7 +268,8 @@ class Transcription:
         pv = self.parameters(problem)
         w0 = self.initial_guess(problem, start)
         t0 = time.perf_counter()
-        sol = self.solver(x0=w0, p=pv, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        lbg, ubg = self.bounds(problem)
+        sol = self.solver(x0=w0, p=pv, lbx=self.lbx, ubx=self.ubx, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()
         w = np.asarray(sol["x"]).ravel()

@@ -66,7 +66,7 @@ def test_reported_rmse_equals_an_independent_reevaluation(run, capsys):
     problem = load_spec(out / "result.json")
     ev = evaluate(problem, Design.from_dict(res, problem))
     np.testing.assert_allclose(ev.metrics["rmse"], res["metrics"]["rmse"], rtol=1e-12)
-    # the NLP's objective (its quadrature, its tangency variables, its epigraph slacks s ≥ |∂τ/∂k|,
+    # the NLP's objective (its quadrature, its tangency variables, its split s⁺ + s⁻ ≥ |∂τ/∂k|,
     # which the interior point leaves slightly above |∂τ/∂k|) bounds the evaluated one from above
     nlp, evaluated = res["solver"]["objective"], res["metrics"]["objective"]
     assert evaluated * (1 - 1e-9) <= nlp <= evaluated * (1 + 1e-3)
