@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench clean study-weights_1dof
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,3 +24,6 @@ bench: $(STAMP)
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info
+
+study-weights_1dof: $(STAMP)
+	$(PY) studies/weights_1dof.py

@@ -99,6 +99,17 @@ class Problem:
         """Copy solved or evaluated under another friction model."""
         return replace(self, friction_model=name)
 
+    def with_spring_rates(self, factor: float) -> "Problem":
+        """Copy with every spring rate multiplied by ``factor`` (seed 003, Table 5 study)."""
+        return replace(self, springs=tuple(replace(s, rate=s.rate * factor) for s in self.springs))
+
+    def with_weights(self, tracking: float | None = None, sensitivity=None) -> "Problem":
+        """Copy with every cam's tracking weight and/or sensitivity weights replaced."""
+        cams = tuple(replace(c, tracking_weight=c.tracking_weight if tracking is None else tracking,
+                             sensitivity_weights=c.sensitivity_weights if sensitivity is None
+                             else tuple(sensitivity)) for c in self.cams)
+        return replace(self, cams=cams)
+
     def to_dict(self) -> dict:
         """The fully resolved problem in the spec format (SI units; tables inlined)."""
         return {

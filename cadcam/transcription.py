@@ -7,8 +7,9 @@ over the angle grid; ∂τ/∂k split into non-negative parts s⁺ − s⁻ whos
 (no ``abs`` in the NLP).
 
 Everything that is a number of the problem rather than its structure — grid angles, spring
-rates and travels, idler radius and offset, μ, ρ bounds, weights, target samples — is a CasADi
-parameter, so one built solver serves every case of a parameter sweep.
+rates, idler radius and offset, μ, weights, target samples — is a CasADi parameter, and every
+limit (travels, ρ bounds, convexity margin) a bound passed at solve time, so one built solver
+serves every case of a parameter sweep.
 
 Scaling: lengths in millimetres (coefficients, pre-extensions, closure and travel constraints),
 convexity margins in mm², sensitivities in units of :data:`SENS_SCALE`, and the objective

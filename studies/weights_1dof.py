@@ -1,0 +1,51 @@
+"""Why the 1-DOF spec weighs sensitivity: tracking-only optima cancel springs against each other.
+
+Solves models/johnston2023_1dof.toml for several sensitivity weights w2 = w3 and reports the
+tracking RMSE, the largest wire torque, and the torque change (RMS over the grid) when one
+spring's rate is 5 % higher than nominal, and when all are (seed 003, Table 5's perturbation).
+
+    python studies/weights_1dof.py            # writes out/weights_1dof/report.md
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from cadcam import evaluate, load_spec, optimize
+from cadcam.files import write_text
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def one_rate(problem, j, factor):
+    springs = list(problem.springs)
+    springs[j] = dataclasses.replace(springs[j], rate=springs[j].rate * factor)
+    return dataclasses.replace(problem, springs=tuple(springs))
+
+
+def rms_change(problem, design, nominal):
+    return 1e3 * float(np.sqrt(np.mean((evaluate(problem, design).tau - nominal.tau) ** 2)))
+
+
+def main() -> None:
+    base = load_spec(ROOT / "models" / "johnston2023_1dof.toml").with_options(multistart=4)
+    rows = ["| w2 = w3 | status | RMSE [N·mm] | max wire torque [N·m] | +5 % k1 [N·mm] | +5 % k2 [N·mm] | +5 % all [N·mm] |",
+            "|---|---|---|---|---|---|---|"]
+    for w in (0.0, 0.1, 1.0, 10.0):
+        p = base.with_weights(sensitivity=(w, w))
+        r = optimize(p)
+        ev = r.evaluation
+        wire = float(np.max(p.springs[0].rate * ev.x[0] * ev.cams[0].arm[0]))
+        d = [rms_change(one_rate(p, j, 1.05), r.design, ev) for j in range(2)]
+        d.append(rms_change(p.with_spring_rates(1.05), r.design, ev))
+        rows.append(f"| {w:g} | {r.status} | {1e3 * ev.metrics['rmse'][0]:.3f} | {wire:.3f} | "
+                    + " | ".join(f"{v:.2f}" for v in d) + " |")
+    text = "# 1-DOF weights study\n\n" + __doc__.split("\n\n")[1] + "\n\n" + "\n".join(rows) + "\n"
+    write_text(ROOT / "out" / "weights_1dof" / "report.md", text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
