@@ -14,7 +14,7 @@ import numpy as np
 
 from .capstan import FRICTION_MODELS
 from .design import Design, DesignError
-from .spec import SpecError, load_spec
+from .spec import SpecError, load_spec, parse_value
 from .targets import ExpressionError
 
 
@@ -22,8 +22,15 @@ class InputError(ValueError):
     """Bad command-line input."""
 
 
+def _override(text: str):
+    key, sep, value = text.partition("=")
+    if not sep:
+        raise InputError(f"--set {text!r}: expected KEY=VALUE such as springs.1.rate=1200.0")
+    return key.strip(), parse_value(value.strip(), f"--set {key.strip()}")
+
+
 def _problem(args):
-    problem = load_spec(args.spec)
+    problem = load_spec(args.spec, args.variant, [_override(t) for t in args.set or ()])
     if getattr(args, "friction_model", None):
         problem = problem.with_friction_model(args.friction_model)
     changes = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
@@ -97,6 +104,10 @@ def main(argv=None) -> int:
         p.add_argument("--friction-model", choices=FRICTION_MODELS,
                        help="override the spec's friction model")
         p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
+        p.add_argument("--variant", help="apply the spec's [variants.NAME] overrides")
+        p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                       help="override a spec value by dotted key, e.g. springs.1.rate=1200.0 "
+                            "or 'cams.*.sensitivity_weights=[0, 0]' (repeatable)")
 
     p = sub.add_parser("design", help="optimise a cam system and re-check it")
     common(p)

@@ -29,6 +29,9 @@ class Options:
         and ρ bounds are imposed.
     convexity_epsilon : float
         Required convexity margin as a fraction of ρ_min² (Eq. 40 asks for > 0).
+    limit_margin : float
+        Fraction of every limit (spring travel, ρ_min, ρ_max) the NLP keeps in reserve, so
+        that what happens between grid points stays inside the limit on the re-check.
     multistart : int
         Extra randomised starts besides the default one (0 = single start).
     seed : int
@@ -45,6 +48,7 @@ class Options:
     quadrature_order: int = 4
     convexity_points: int = 120
     convexity_epsilon: float = 1e-3
+    limit_margin: float = 1e-4
     multistart: int = 0
     seed: int = 0
     max_iter: int = 500

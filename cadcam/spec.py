@@ -83,8 +83,21 @@ def _list_of(ok, n=None):
     return lambda v: isinstance(v, list) and (n is None or len(v) == n) and all(ok(x) for x in v)
 
 
-def _target(r: _Reader, base: Path, n_cams: int) -> Target:
-    kinds = ("expression", "pendulum", "table")
+def _arm(r: _Reader, n_cams: int) -> dict:
+    """An arm table: masses, lengths, com (one per joint) and g."""
+    n = r.get("masses", lambda v: isinstance(v, list) and 1 <= len(v) <= n_cams and all(
+        _positive(x) for x in v), f"a list of 1…{n_cams} positive link masses [kg]")
+    arm = {"masses": [float(v) for v in n],
+           "lengths": [float(v) for v in r.get("lengths", _list_of(_nonneg, len(n)),
+                                               f"a list of {len(n)} link lengths ≥ 0 [m]")],
+           "com": [float(v) for v in r.get("com", _list_of(_number, len(n)),
+                                           f"a list of {len(n)} centre-of-mass distances [m]")],
+           "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
+    return arm
+
+
+def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
+    kinds = ("expression", "pendulum", "table", "arm")
     kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
     if kind == "expression":
         data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
@@ -97,6 +110,13 @@ def _target(r: _Reader, base: Path, n_cams: int) -> Target:
                 "length": r.get("length", _positive, "a positive length to the centre of mass [m]"),
                 "g": r.get("g", _positive, "a positive gravity [m/s²]", 9.81),
                 "phase": r.get("phase", _number, "a phase angle [rad]", 0.0)}
+    elif kind == "arm":
+        inline = {k: r.table[k] for k in ("masses", "lengths", "com", "g") if k in r.table}
+        if inline or arm is None:
+            arm = _arm(r, n_cams)
+        joint = r.get("joint", lambda v: _posint(v) and v <= len(arm["masses"]),
+                      f"a joint number between 1 and {len(arm['masses'])}")
+        data = {"joint": joint, **arm}
     else:
         if "samples" in r.table:
             samples = r.get("samples", _list_of(_list_of(_number, 2)),
@@ -160,6 +180,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         convexity_points=sol.get("convexity_points", lambda v: _posint(v) and v >= 2,
                                  "an integer ≥ 2", 120),
         convexity_epsilon=sol.get("convexity_epsilon", _nonneg, "a number ≥ 0", 1e-3),
+        limit_margin=sol.get("limit_margin", lambda v: _nonneg(v) and v < 0.1,
+                              "a fraction in [0, 0.1)", 1e-4),
         multistart=sol.get("multistart", lambda v: isinstance(v, int) and v >= 0,
                            "an integer ≥ 0", 0),
         seed=sol.get("seed", lambda v: isinstance(v, int), "an integer", 0),
@@ -174,8 +196,14 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                           "a non-empty array of [[springs]] tables")
     raw_cams = top.get("cams", lambda v: isinstance(v, list) and v,
                        "a non-empty array of [[cams]] tables")
-    top.done()
     n_cams, n_springs = len(raw_cams), len(raw_springs)
+    arm = None
+    if "arm" in data:
+        ra = _Reader(origin, top.get("arm", lambda v: isinstance(v, dict), "an [arm] table"), "arm")
+        arm = _arm(ra, n_cams)
+        ra.done()
+    top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
+    top.done()
 
     springs = []
     for j, raw in enumerate(raw_springs):
@@ -227,7 +255,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
             sensitivity_weights=tuple(float(w) for w in sens)))
         targets.append(_target(_Reader(origin, r.get("target", lambda v: isinstance(v, dict),
                                                      "a [cams.target] table"), f"{where}.target"),
-                               base, n_cams))
+                               base, n_cams, arm))
         r.done()
 
     ranges = [c["theta_range"] for c in cams]
@@ -238,8 +266,63 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                    cams=tuple(Cam(target=t, **c) for c, t in zip(cams, targets)))
 
 
-def load_spec(path) -> Problem:
+def parse_value(text: str, origin: str = "--set"):
+    """A TOML value written on the command line (``1.5``, ``[1, 2]``, ``"exact"``)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        try:  # a bare word is a string
+            return tomllib.loads(f'v = "{text}"')["v"]
+        except tomllib.TOMLDecodeError:
+            raise SpecError(f"{origin}: {text!r} is not a TOML value") from None
+
+
+def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
+    """Set dotted ``key`` (``springs.1.rate``, ``cams.*.order``) to ``value`` in ``data``.
+
+    Array elements are numbered from 1; ``*`` means every element. Every table and array on
+    the path must exist in the spec; the last part may name a key the spec leaves at its
+    default (the spec's own validation then checks it).
+    """
+    parts = key.split(".")
+    if not key or not all(parts):
+        raise SpecError(f"{origin}: {key!r} is not a dotted key such as 'springs.1.rate'")
+
+    def walk(node, i, path):
+        part = parts[i]
+        last = i == len(parts) - 1
+        if isinstance(node, list):
+            if part == "*":
+                targets = range(len(node))
+            elif part.isdigit() and 1 <= int(part) <= len(node):
+                targets = [int(part) - 1]
+            else:
+                raise SpecError(f"{origin}: '{key}': '{path}' has {len(node)} entries; use "
+                                f"1…{len(node)} or * for '{part}'")
+            for t in targets:
+                if last:
+                    node[t] = value
+                else:
+                    walk(node[t], i + 1, f"{path}.{t + 1}")
+        elif isinstance(node, dict):
+            if last:
+                node[part] = value
+            elif part in node:
+                walk(node[part], i + 1, f"{path}.{part}" if path else part)
+            else:
+                raise SpecError(f"{origin}: '{key}': the spec has no '{part}' in "
+                                f"'{path or 'the top level'}'")
+        else:
+            raise SpecError(f"{origin}: '{key}': '{path}' is a value, not a table or array")
+
+    walk(data, 0, "")
+
+
+def load_spec(path, variant: str | None = None, overrides=()) -> Problem:
     """Load a TOML spec, or the resolved problem inside a cadcam ``result.json``.
+
+    ``variant`` applies the dotted-key overrides of ``[variants.NAME]`` in the spec;
+    ``overrides`` are further (key, value) pairs applied after it.
 
     Raises
     ------
@@ -261,4 +344,14 @@ def load_spec(path) -> Problem:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    if variant is not None:
+        variants = data.get("variants", {})
+        if variant not in variants:
+            raise SpecError(f"{path}: no variant {variant!r}; the spec defines "
+                            f"{sorted(variants) or 'none'}")
+        for key, value in variants[variant].items():
+            apply_override(data, key, value, f"{path}: variants.{variant}")
+    for key, value in overrides:
+        apply_override(data, key, value, str(path))
+    data.pop("variants", None)
     return parse_spec(data, str(path), path.parent)

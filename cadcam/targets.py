@@ -90,6 +90,29 @@ def angle_names(thetas, cam: int) -> dict:
     return out
 
 
+def serial_arm_torques(thetas, masses, lengths, com, g):
+    """Gravity-balancing torques [N·m] of a planar serial arm by the transposed Jacobian.
+
+    Joint angles ``thetas`` [rad] are measured from the upward vertical, each relative to the
+    previous link; link i has mass ``masses[i]`` [kg] at ``com[i]`` [m] from its joint and
+    length ``lengths[i]`` [m]. With p_i the centre of mass of link i and F_i = (0, −m_i g) its
+    weight, τ = Σ_i J_i(θ)ᵀ F_i (seed 002, Eq. 3–8) is the torque a balancer must supply; for
+    the RR arm it is seed 003's Eq. 49.
+    """
+    q = ca.vertcat(*thetas)
+    tau = ca.SX.zeros(q.shape[0])
+    base = ca.SX.zeros(2)
+    phi = 0
+    for i, m in enumerate(masses):
+        phi = phi + q[i]
+        direction = ca.vertcat(ca.sin(phi), ca.cos(phi))
+        p_i = base + com[i] * direction  # seed 002, Eq. 4: position of the point mass
+        J_i = ca.jacobian(p_i, q)  # seed 002, Eq. 5
+        tau = tau + ca.mtimes(J_i.T, ca.vertcat(0, -m * g))  # seed 002, Eq. 3, 6–8
+        base = base + lengths[i] * direction
+    return [tau[i] for i in range(q.shape[0])]
+
+
 @dataclass
 class Target:
     """A target torque τ_d [N·m] for one cam.
@@ -97,7 +120,9 @@ class Target:
     ``kind`` is ``expression`` (``expression`` with optional numeric ``parameters``),
     ``pendulum`` (τ = m g l sin(θ + phase): ``mass`` [kg], ``length`` [m] to the centre of
     mass, ``g`` [m/s²], ``phase`` [rad]) or ``table`` (``samples`` of (θ [rad], τ [N·m]),
-    interpolated by a cubic B-spline in the cam's own angle).
+    interpolated by a cubic B-spline in the cam's own angle) or ``arm`` (joint ``joint``'s
+    gravity torque of a planar serial arm with ``masses`` [kg], ``lengths`` [m], ``com`` [m]
+    and ``g``, the cam angles being the joint angles; see :func:`serial_arm_torques`).
     """
 
     kind: str
@@ -112,6 +137,11 @@ class Target:
         if self.kind == "pendulum":
             d = self.data
             return d["mass"] * d["g"] * d["length"] * ca.sin(thetas[cam] + d["phase"])
+        if self.kind == "arm":
+            d = self.data
+            joints = serial_arm_torques(thetas[:len(d["masses"])], d["masses"], d["lengths"],
+                                        d["com"], d["g"])
+            return joints[d["joint"] - 1]
         if self.kind == "table":
             s = np.asarray(self.data["samples"], dtype=float)
             interp = ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])

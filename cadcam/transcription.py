@@ -12,8 +12,8 @@ limit (travels, ρ bounds, convexity margin) a bound passed at solve time, so on
 serves every case of a parameter sweep.
 
 Scaling: lengths in millimetres (coefficients, pre-extensions, closure and travel constraints),
-convexity margins in mm², sensitivities in units of :data:`SENS_SCALE`, and the objective
-divided by the tracking weight times ∫τ_d² so that a zero torque scores about 1.
+convexity margins in mm², moment arms in units of :data:`ARM_SCALE`, and the objective
+divided by the tracking weight times ∫τ_d² and multiplied by :data:`OBJECTIVE_SCALE`.
 """
 from __future__ import annotations
 
@@ -29,10 +29,17 @@ from .evaluate import (evaluate, cached_length_function, cached_port_function, c
                        trapezoid_weights)
 from .wrap import segment_lengths
 from .problem import Problem
-from .springs import network_function
+from .springs import cam_term, cams_of, incidence, torque_terms
 
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
-SENS_SCALE = 1e-3    # m²: scale of ∂τ/∂k
+ARM_SCALE = 1e-2     # m: scale of the moment arms in the sensitivity terms
+TORQUE_SCALE = 1.0   # N·m: scale of lifted one-angle torque terms
+FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
+#: The objective is scaled so that a zero torque scores this much. The barrier terms of
+#: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from seed 003's
+#: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
+#: (and the 1-DOF and Sec. 10.4 problems converge in fewer iterations).
+OBJECTIVE_SCALE = 1000.0
 EXTRA = {}
 
 IPOPT_STATUS = {
@@ -109,8 +116,10 @@ class Transcription:
         m, S, n = len(problem.cams), len(problem.springs), opt.grid
         self.m, self.S, self.n = m, S, n
         self.N = n**m
+        inc = incidence(list(problem.springs), m)
         self.pairs = [(i, j) for i, c in enumerate(problem.cams)
-                      for j, w in enumerate(c.sensitivity_weights) if w > 0]
+                      for j, w in enumerate(c.sensitivity_weights)
+                      if w > 0 and i in cams_of(inc, j)]  # others have ∂τ_i/∂k_j ≡ 0
 
         v, p = _Vars(), _Vars()
         for i, cam in enumerate(problem.cams):
@@ -120,12 +129,34 @@ class Transcription:
             v.add(f"ref{i}", 2)
             v.add(f"len{i}", n)
         v.add("x0", S)
-        for i, j in self.pairs:  # ∂τ_i/∂k_j = s⁺ − s⁻, see below
-            v.add(f"sp{i}_{j}", self.N)
-            v.add(f"sn{i}_{j}", self.N)
+        for j in range(S):
+            if len(cams_of(inc, j)) > 1:
+                v.add(f"hi{j}", len(cams_of(inc, j)))
+                v.add(f"lo{j}", len(cams_of(inc, j)))
+        # shares e_jc of springs that join several cams, and the terms of those cams' torques
+        # (springs.torque_terms) are lifted to variables: the tensor-grid objective then
+        # couples the cams through a small polynomial graph only
+        self.lifted = []
+        for j in range(S):
+            if len(cams_of(inc, j)) > 1:
+                self.lifted += [(f"e{j}_{c}", LENGTH_SCALE) for c in cams_of(inc, j)]
         for i in range(m):
-            for name, size in (("theta", n), ("tau_d", self.N), ("cam", 4), ("wsens", S)):
+            shared = [(j, c) for j in range(S) if i in cams_of(inc, j)
+                      for c in cams_of(inc, j) if c != i]
+            if shared:
+                self.lifted.append((f"U{i}", TORQUE_SCALE))
+                self.lifted += [(f"V{i}_{j}_{c}", FORCE_SCALE) for j, c in shared]
+        for name, _ in self.lifted:
+            v.add(name, n)
+        for i, j in self.pairs:  # a_ij = s⁺ − s⁻ on cam i's grid, see below
+            v.add(f"sp{i}_{j}", n)
+            v.add(f"sn{i}_{j}", n)
+        for i in range(m):
+            for name, size in (("theta", n), ("cam", 4), ("wsens", S), ("rt", n), ("td2", 1)):
                 p.add(f"{name}{i}", size)
+            for c in range(m):
+                if c != i:
+                    p.add(f"Mt{i}_{c}", n * n)
         p.add("k", S)
         p.add("obj_scale", 1)
         x, P = v.sym("w"), p.sym("p")
@@ -142,8 +173,8 @@ class Transcription:
 
         zero = lambda pr: (0.0, 0.0)  # noqa: E731
 
-        idx = np.indices((n,) * m).reshape(m, -1)
-        D, A, tau_d, weights = [], [], [], []
+        # -- per cam and per angle: O(n) ------------------------------------------------------
+        d, arm, w = [], [], []
         for i, cam in enumerate(problem.cams):
             c = L * v[f"c{i}"]
             theta = p[f"theta{i}"]
@@ -158,7 +189,7 @@ class Transcription:
             wrapped = L * v[f"len{i}"]
             seg = segment_lengths(cam.basis, opt.quadrature_order, first, ref[0], alpha, c)
             constrain((wrapped - ca.vertcat(0, wrapped[:n - 1]) - seg) / L, zero)
-            d, arm, res, _ = ports(theta, alpha, gamma, ref[0], ref[1], wrapped.T, c, r, a0, mu)
+            di, ai, res, _ = ports(theta, alpha, gamma, ref[0], ref[1], wrapped.T, c, r, a0, mu)
             res_ref = cam_function(cam.basis)(0, ref[0], ref[1], c, r, a0)[0]
             # seed 003, Eq. 6–7 at every grid angle and at θ = 0
             constrain(ca.vertcat(res[0, :].T, res_ref[0]), zero)
@@ -169,34 +200,73 @@ class Transcription:
             rho, _, _, conv = cached_profile_function(cam.basis).map(M)(phi, c)
             constrain(conv.T / L**2, lambda pr, i=i: (
                 pr.options.convexity_epsilon * (pr.cams[i].rho_min / L) ** 2, np.inf))
-            constrain(rho.T / L, lambda pr, i=i: (pr.cams[i].rho_min / L, pr.cams[i].rho_max / L))
-            D.append(d[:, idx[i]])
-            A.append(arm[:, idx[i]])
-            weights.append(trapezoid_weights_sx(theta)[idx[i]])
-            tau_d.append(p[f"tau_d{i}"])
+            constrain(rho.T / L, lambda pr, i=i: (pr.cams[i].rho_min * (1 + pr.options.limit_margin) / L,
+                                                  pr.cams[i].rho_max * (1 - pr.options.limit_margin) / L))
+            d.append([di[0, :].T, di[1, :].T])
+            arm.append([ai[0, :].T, ai[1, :].T])
+            w.append(trapezoid_weights_sx(theta).T)
 
-        W = weights[0]
-        for w in weights[1:]:
-            W = W * w
-        net = network_function(list(problem.springs), m).map(self.N)
-        xs, tau, jac = net(ca.vertcat(*D), ca.vertcat(*A), p["k"], L * v["x0"])
-        # seed 003, Eq. 46: 0 ≤ x_i ≤ x_i,max on the grid
-        constrain(ca.vec(xs) / L, lambda pr: (
-            0.0, np.tile([s.travel / L for s in pr.springs], self.N)))
+        # -- the spring network over the grid of all cams: still O(n) -------------------------
+        # Every spring's extension is a sum of one-angle shares e_jc(θ_c) (springs.cam_term),
+        # so its range over the tensor grid is the sum of the shares' ranges, and every cam
+        # torque is τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (springs.torque_terms).
+        x0 = L * v["x0"]
+        e = {(j, c): cam_term(inc, j, c, d[c]) for j in range(S) for c in cams_of(inc, j)}
+        terms = [torque_terms(inc, i, p["k"], x0, arm[i], e) for i in range(m)]
+        lifted_expr = {}
+        for (j, c), ejc in list(e.items()):
+            if f"e{j}_{c}" in v.blocks:
+                lifted_expr[f"e{j}_{c}"] = ejc
+                e[j, c] = L * v[f"e{j}_{c}"]
+        for i, (U, V) in enumerate(terms):
+            if f"U{i}" in v.blocks:
+                lifted_expr[f"U{i}"] = U
+                lifted_expr.update({f"V{i}_{j}_{c}": Vq for (j, c), Vq in V.items()})
+                terms[i] = (TORQUE_SCALE * v[f"U{i}"],
+                            {(j, c): FORCE_SCALE * v[f"V{i}_{j}_{c}"] for j, c in V})
+        for name, scale in self.lifted:
+            constrain(v[name] - lifted_expr[name] / scale, zero)
+        self._lifted = ca.Function("lifted", [x, P], [lifted_expr[name] / scale
+                                                      for name, scale in self.lifted])
+        for j in range(S):
+            cams = cams_of(inc, j)
+            if len(cams) == 1:  # seed 003, Eq. 46: 0 ≤ x_j ≤ x_j,max on the grid
+                constrain((x0[j] + e[j, cams[0]]) / L, lambda pr, j=j: _travel(pr, j))
+                continue
+            hi, lo = v[f"hi{j}"], v[f"lo{j}"]  # bounds of each cam's share over its grid
+            for k, c in enumerate(cams):
+                constrain(ca.vertcat(L * hi[k] - e[j, c], e[j, c] - L * lo[k]) / L,
+                          lambda pr: (0.0, np.inf))
+            constrain(ca.vertcat(x0[j] / L + ca.sum1(lo), x0[j] / L + ca.sum1(hi)),
+                      lambda pr, j=j: ([_travel(pr, j)[0], -np.inf], [np.inf, _travel(pr, j)[1]]))
+
+        span = [ca.sum1(wc) for wc in w]
         objective = 0
-        for i in range(m):
-            w_track = p[f"cam{i}"][3]
-            objective += w_track * ca.dot(W.T, (tau_d[i] - tau[i, :].T) ** 2)  # Eq. 46 term 1
+        for i in range(m):  # seed 003, Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
+            U, V = terms[i]
+            mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
+            objective += p[f"cam{i}"][3] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"],
+                                                          mt, p[f"td2{i}"])
+
+        # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i) and x_j ≥ 0 (a constraint), so
+        # |∂τ_i/∂k_j| = x_j |a_ij|; |a_ij| = s⁺ + s⁻ with a_ij = s⁺ − s⁻, s± ≥ 0 (no abs), and
+        # the integral over the other cams' angles of x_j = x₀_j + Σ_c e_jc is separable.
         for i, j in self.pairs:
-            # |∂τ_i/∂k_j| without abs: ∂τ/∂k = s⁺ − s⁻ with s± ≥ 0, and s⁺ + s⁻ is minimised
             sp, sn = v[f"sp{i}_{j}"], v[f"sn{i}_{j}"]
-            constrain(sp - sn - jac[i, j::S].T / SENS_SCALE, zero)
-            objective += p[f"wsens{i}"][j] * SENS_SCALE * ca.dot(W.T, sp + sn)  # Eq. 46 terms 2–3
+            constrain(sp - sn - cam_term(inc, j, i, arm[i]) / ARM_SCALE, zero)
+            others = [c for c in range(m) if c != i]
+            x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
+                                           for c in others if (j, c) in e)
+            integral = ARM_SCALE * ca.dot(w[i], (sp + sn) * x_mean)
+            for c in others:
+                integral = integral * span[c]
+            objective += p[f"wsens{i}"][j] * integral  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
         self.objective = ca.Function("objective", [x, P], [objective])
         nlp = {"x": x, "p": P, "f": objective * p["obj_scale"], "g": ca.vertcat(*g)}
         self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
             "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-            "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol, **EXTRA,
+            "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
+            "ipopt.mu_strategy": "adaptive", **EXTRA,
         })
         self.lbx = np.full(v.size, -np.inf)
         self.lbx[v.blocks["x0"][0]:v.blocks["x0"][0] + S] = 0  # seed 003, Eq. 46: x₀ ≥ 0
@@ -208,23 +278,39 @@ class Transcription:
 
     # -- numbers of a case -------------------------------------------------------------------
     def parameters(self, problem: Problem) -> np.ndarray:
-        """The parameter vector of ``problem`` (same structure as the one built)."""
+        """The parameter vector of ``problem`` (same structure as the one built).
+
+        The target enters through its weighted marginals: r̃_i(a) = w_i(a) Σ W′ τ_d,i and
+        M̃_ic(a, b) = w_i(a) w_c(b) Σ W″ τ_d,i, summed over the other cams' angles, and
+        ∫τ_d,i² — all that :func:`_squared_error` needs.
+        """
         p, m, n = self.p, self.m, self.n
         vec = np.zeros(p.size)
         grids = [c.grid(n) for c in problem.cams]
-        theta = np.vstack([grids[i][g] for i, g in enumerate(np.indices((n,) * m).reshape(m, -1))])
+        ws = [trapezoid_weights(g) for g in grids]
+        mesh = np.meshgrid(*grids, indexing="ij")
+        theta = np.vstack([t.ravel() for t in mesh])
         energy = 0.0
-        W = np.prod([trapezoid_weights(grids[i])[g] for i, g in
-                     enumerate(np.indices((n,) * m).reshape(m, -1))], axis=0)
         for i, c in enumerate(problem.cams):
-            td = np.asarray(c.target.function(m, i).map(self.N)(theta)).ravel()
-            energy += c.tracking_weight * np.dot(W, td**2)
+            td = np.asarray(c.target.function(m, i).map(self.N)(theta)).reshape((n,) * m)
+            weighted = td
+            for ax in range(m):
+                weighted = weighted * np.expand_dims(ws[ax], [a for a in range(m) if a != ax])
+            td2 = float(np.sum(weighted * td))
+            energy += c.tracking_weight * td2
             p.put(vec, f"theta{i}", grids[i])
-            p.put(vec, f"tau_d{i}", td)
             p.put(vec, f"cam{i}", [c.idler_radius, c.idler_offset, c.mu, c.tracking_weight])
             p.put(vec, f"wsens{i}", c.sensitivity_weights)
+            p.put(vec, f"rt{i}", weighted.sum(axis=tuple(a for a in range(m) if a != i)))
+            p.put(vec, f"td2{i}", td2)
+            for cc in range(m):
+                if cc != i:
+                    marg = weighted.sum(axis=tuple(a for a in range(m) if a not in (i, cc)))
+                    if i > cc:
+                        marg = marg.T  # rows: cam i's angles, columns: cam cc's
+                    p.put(vec, f"Mt{i}_{cc}", marg.ravel(order="F"))
         p.put(vec, "k", [s.rate for s in problem.springs])
-        p.put(vec, "obj_scale", 1.0 / energy if energy > 0 else 1.0)
+        p.put(vec, "obj_scale", OBJECTIVE_SCALE / energy if energy > 0 else 1.0)
         return vec
 
     def bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
@@ -249,13 +335,23 @@ class Transcription:
                                              ).map(n)(a[0], a[1:], c)
             v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
-        if self.pairs:  # s⁺ − s⁻ start on ∂τ/∂k, i.e. feasible and tight
-            ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
-                          wire_arm="closed-form")
-            for i, j in self.pairs:
-                J = ev.dtau_dk[i, :, j] / SENS_SCALE
-                v.put(w0, f"sp{i}_{j}", np.maximum(J, 0))
-                v.put(w0, f"sn{i}_{j}", np.maximum(-J, 0))
+        ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
+                      wire_arm="closed-form")
+        P = incidence(list(problem.springs), self.m)
+        for i, j in self.pairs:  # s⁺ − s⁻ start on a_ij: feasible and tight
+            a = cam_term(P, j, i, ev.cams[i].arm) / ARM_SCALE
+            v.put(w0, f"sp{i}_{j}", np.maximum(a, 0))
+            v.put(w0, f"sn{i}_{j}", np.maximum(-a, 0))
+        for j in range(self.S):
+            cams = cams_of(P, j)
+            if len(cams) > 1:
+                shares = [cam_term(P, j, c, ev.cams[c].d) / LENGTH_SCALE for c in cams]
+                v.put(w0, f"hi{j}", [s.max() for s in shares])
+                v.put(w0, f"lo{j}", [s.min() for s in shares])
+        if self.lifted:  # lifted terms start on their definitions
+            values = self._lifted(w0, self.parameters(problem))
+            for (name, _), value in zip(self.lifted, values):
+                v.put(w0, name, np.asarray(value).ravel())
         return w0
 
     def design_of(self, w) -> Design:
@@ -281,6 +377,44 @@ class Transcription:
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
             alpha=[self.v.part(w, f"alpha{i}") for i in range(self.m)],
             gamma=[self.v.part(w, f"gamma{i}") for i in range(self.m)])
+
+
+def _travel(problem: Problem, j: int) -> tuple[float, float]:
+    """Bounds of spring j's extension [mm] with the limit margin kept in reserve."""
+    travel, margin = problem.springs[j].travel, problem.options.limit_margin
+    return margin * travel / LENGTH_SCALE, (1 - margin) * travel / LENGTH_SCALE
+
+
+def _squared_error(U, V, e, w, span, i, rt, mt, td2):
+    """∫(τ_d,i − τ_i)² over the tensor grid of all cams with trapezoidal weights, exactly.
+
+    With τ_i = U(θ_i) + Σ_q V_q(θ_i) e_q(θ_c(q)) (q = (spring j, cam c), see
+    :func:`cadcam.springs.torque_terms`) the square expands into one-angle sums and bilinear
+    forms V_qᵀ M̃_ic e_q with the target's weighted marginals (``rt``, ``mt``, ``td2``; see
+    :meth:`Transcription.parameters`): O(n²) constants instead of O(n^m) model evaluations.
+    """
+    def others(*cams):
+        out = 1
+        for c, s in enumerate(span):
+            if c != i and c not in cams:
+                out = out * s
+        return out
+
+    wi = w[i]
+    moment = {q: ca.dot(w[q[1]], e[q]) for q in V}
+    total = td2 - 2 * ca.dot(U, rt) + others() * ca.dot(wi, U * U)
+    for q, Vq in V.items():
+        c = q[1]
+        total += -2 * ca.dot(Vq, ca.mtimes(mt[c], e[q]))
+        total += 2 * others(c) * ca.dot(wi, U * Vq) * moment[q]
+        for r, Vr in V.items():
+            cr = r[1]
+            vv = ca.dot(wi, Vq * Vr)
+            if cr == c:
+                total += others(c) * vv * ca.dot(w[c], e[q] * e[r])
+            else:
+                total += others(c, cr) * vv * moment[q] * moment[r]
+    return total
 
 
 def trapezoid_weights_sx(x):
