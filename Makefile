@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean study-weights_1dof
+.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,3 +27,6 @@ clean:
 
 study-weights_1dof: $(STAMP)
 	$(PY) studies/weights_1dof.py
+
+reproduce-johnston2023: $(STAMP)
+	$(PY) studies/johnston2023.py

@@ -86,19 +86,42 @@ def plot_torque(ev: Evaluation, path) -> None:
 
 
 def plot_springs(ev: Evaluation, path) -> None:
-    """Spring extensions against their travel limits [mm] over the grid points."""
-    springs = ev.problem.springs
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    m = len(ev.cams)
+    """Spring extensions against their travel limits [mm].
+
+    A spring on one cam is a line over that cam's angle; a spring joining two cams (seed 003's
+    spring 2) is a map over both angles with its travel limit drawn as a contour.
+    """
+    from .springs import cams_of, incidence
+
+    springs, m, n = ev.problem.springs, len(ev.cams), ev.grid
+    P = incidence(list(springs), m)
+    fig, axes = plt.subplots(1, len(springs) if m > 1 else 1, figsize=(5 * max(len(springs), 1) if m > 1 else 7, 4.5),
+                             squeeze=False)
     for j, s in enumerate(springs):
-        if m == 1:
-            ax.plot(np.degrees(ev.theta[0]), MM * ev.x[j], color=f"C{j}", label=s.name)
+        ax = axes[0][j if m > 1 else 0]
+        cams = cams_of(P, j)
+        x = MM * ev.x[j].reshape((n,) * m)
+        if len(cams) == 1:
+            c = cams[0]
+            line = x[tuple(slice(None) if a == c else 0 for a in range(m))]
+            ax.plot(np.degrees(ev.cams[c].theta), line, color=f"C{j}", label=s.name)
+            ax.axhline(MM * s.travel, color=f"C{j}", ls=":", lw=1)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_xlabel(f"θ{c + 1 if m > 1 else ''} [deg]")
+            ax.set_ylabel("extension [mm] (dotted: travel)")
+            ax.legend(fontsize=8)
         else:
-            ax.plot(MM * np.sort(ev.x[j]), color=f"C{j}", label=f"{s.name} (sorted grid values)")
-        ax.axhline(MM * s.travel, color=f"C{j}", ls=":", lw=1)
-    ax.axhline(0, color="k", lw=0.5)
-    ax.set_xlabel("θ [deg]" if m == 1 else "grid point (sorted)")
-    ax.set_ylabel("extension [mm] (dotted: travel limit)")
-    ax.legend(fontsize=8)
+            a, b = cams[:2]
+            sl = x[tuple(slice(None) if k in (a, b) else 0 for k in range(m))]
+            ext = [np.degrees(ev.cams[b].theta[0]), np.degrees(ev.cams[b].theta[-1]),
+                   np.degrees(ev.cams[a].theta[0]), np.degrees(ev.cams[a].theta[-1])]
+            im = ax.imshow(sl, origin="lower", extent=ext, aspect="auto", cmap="viridis")
+            fig.colorbar(im, ax=ax, label="extension [mm]")
+            if sl.max() >= 0.98 * MM * s.travel:
+                ax.contour(np.degrees(ev.cams[b].theta), np.degrees(ev.cams[a].theta), sl,
+                           levels=[0.98 * MM * s.travel], colors="r", linewidths=1)
+            ax.set_xlabel(f"θ{b + 1} [deg]")
+            ax.set_ylabel(f"θ{a + 1} [deg]")
+        ax.set_title(f"{s.name}\nmax {x.max():.2f} of {MM * s.travel:.2f} mm", fontsize=9)
     fig.tight_layout()
     _save(fig, path)
