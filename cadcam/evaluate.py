@@ -147,8 +147,9 @@ def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
     n = theta.size
     wrapped = cached_length_function(basis, order).map(n)(alpha[0], alpha[1:], c)
     ports = cached_port_function(basis, problem.friction_model, order, wire_arm).map(n)
-    d, arm, _, branch = (np.asarray(v) for v in ports(theta, alpha[1:], gamma[1:], alpha[0],
-                                                       gamma[0], wrapped, c, r, a0, cam.mu))
+    qx_ref = float(cached_cam_function(basis)(0.0, alpha[0], gamma[0], c, r, a0)[2])
+    d, arm, _, branch = (np.asarray(v) for v in ports(theta, alpha[1:], gamma[1:], gamma[0],
+                                                       qx_ref, wrapped, c, r, a0, cam.mu))
     qx = np.asarray(cached_cam_function(basis).map(n)(theta, alpha[1:], gamma[1:], c, r, a0)[2]).ravel()
     phi_hi = max(float(np.max(alpha)), 1e-9)
     phi, rho, conv, conv_min, rho_lo, rho_hi = _profile_extremes(basis, c, phi_hi, max(20 * n, 2000))

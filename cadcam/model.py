@@ -51,8 +51,9 @@ def torque_function(problem: Problem, bases: list[Basis], order: int = 48) -> ca
         z = rf(_circle_guess(b, theta[i], c, r, a0), ca.vertcat(theta[i], c, r, a0))
         zr = rf(_circle_guess(b, 0, c, r, a0), ca.vertcat(0, c, r, a0))
         wrapped = length_function(b, order)(zr[0], z[0], c)
+        qx_ref = cam_function(b)(0, zr[0], zr[1], c, r, a0)[2]
         d, arm, _, _ = port_function(b, problem.friction_model, order, "quadrature")(
-            theta[i], z[0], z[1], zr[0], zr[1], wrapped, c, r, a0, cam.mu)
+            theta[i], z[0], z[1], zr[1], qx_ref, wrapped, c, r, a0, cam.mu)
         D.append(d)
         A.append(arm)
     x, tau, _ = network_function(list(problem.springs), m)(ca.vertcat(*D), ca.vertcat(*A), k, x0)

@@ -23,7 +23,7 @@ class Options:
         Cam angles per cam on the uniform design grid (including both ends).
     quadrature_order : int
         Gauss–Legendre points per segment of the wrapped length between neighbouring grid
-        contacts, and 4× that over the whole wrap for the as-printed friction integral.
+        contacts, and 8× that over the whole wrap for the as-printed friction integral.
     convexity_points : int
         Profile samples, spread over the whole wrapped range [0, α(θ_max)], at which convexity
         and ρ bounds are imposed.
@@ -45,7 +45,7 @@ class Options:
     """
 
     grid: int = 46
-    quadrature_order: int = 4
+    quadrature_order: int = 2
     convexity_points: int = 120
     convexity_epsilon: float = 1e-3
     limit_margin: float = 1e-4

@@ -176,7 +176,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     sol = _Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}), "solver")
     options = Options(
         grid=sol.get("grid", lambda v: _posint(v) and v >= 3, "an integer ≥ 3", 46),
-        quadrature_order=sol.get("quadrature_order", _posint, "a positive integer", 4),
+        quadrature_order=sol.get("quadrature_order", _posint, "a positive integer", 2),
         convexity_points=sol.get("convexity_points", lambda v: _posint(v) and v >= 2,
                                  "an integer ≥ 2", 120),
         convexity_epsilon=sol.get("convexity_epsilon", _nonneg, "a number ≥ 0", 1e-3),

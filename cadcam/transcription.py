@@ -33,6 +33,7 @@ from .springs import cam_term, cams_of, incidence, torque_terms
 
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
 ARM_SCALE = 1e-2     # m: scale of the moment arms in the sensitivity terms
+FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8× the points
 TORQUE_SCALE = 1.0   # N·m: scale of lifted one-angle torque terms
 FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
@@ -68,22 +69,22 @@ class Solve:
 
 
 class _Vars:
-    """Named blocks of one symbolic vector."""
+    """Named blocks of symbols, stacked into one vector in the order they were added."""
 
-    def __init__(self):
-        self.blocks, self.size = {}, 0
+    def __init__(self, kind: str):
+        self.kind, self.blocks, self.syms, self.size = kind, {}, {}, 0
 
-    def add(self, name, n):
+    def add(self, name: str, n: int):
         self.blocks[name] = (self.size, n)
+        self.syms[name] = ca.SX.sym(f"{self.kind}_{name}", n)
         self.size += n
-
-    def sym(self, name):
-        self.x = ca.SX.sym(name, self.size)
-        return self.x
+        return self.syms[name]
 
     def __getitem__(self, name):
-        a, n = self.blocks[name]
-        return self.x[a:a + n]
+        return self.syms[name]
+
+    def vector(self):
+        return ca.vertcat(*self.syms.values())
 
     def part(self, vec, name):
         a, n = self.blocks[name]
@@ -120,37 +121,8 @@ class Transcription:
         self.pairs = [(i, j) for i, c in enumerate(problem.cams)
                       for j, w in enumerate(c.sensitivity_weights)
                       if w > 0 and i in cams_of(inc, j)]  # others have ∂τ_i/∂k_j ≡ 0
-
-        v, p = _Vars(), _Vars()
-        for i, cam in enumerate(problem.cams):
-            v.add(f"c{i}", cam.basis.size)
-            v.add(f"alpha{i}", n)
-            v.add(f"gamma{i}", n)
-            v.add(f"ref{i}", 2)
-            v.add(f"len{i}", n)
-        v.add("x0", S)
-        for j in range(S):
-            if len(cams_of(inc, j)) > 1:
-                v.add(f"hi{j}", len(cams_of(inc, j)))
-                v.add(f"lo{j}", len(cams_of(inc, j)))
-        # shares e_jc of springs that join several cams, and the terms of those cams' torques
-        # (springs.torque_terms) are lifted to variables: the tensor-grid objective then
-        # couples the cams through a small polynomial graph only
-        self.lifted = []
-        for j in range(S):
-            if len(cams_of(inc, j)) > 1:
-                self.lifted += [(f"e{j}_{c}", LENGTH_SCALE) for c in cams_of(inc, j)]
-        for i in range(m):
-            shared = [(j, c) for j in range(S) if i in cams_of(inc, j)
-                      for c in cams_of(inc, j) if c != i]
-            if shared:
-                self.lifted.append((f"U{i}", TORQUE_SCALE))
-                self.lifted += [(f"V{i}_{j}_{c}", FORCE_SCALE) for j, c in shared]
-        for name, _ in self.lifted:
-            v.add(name, n)
-        for i, j in self.pairs:  # a_ij = s⁺ − s⁻ on cam i's grid, see below
-            v.add(f"sp{i}_{j}", n)
-            v.add(f"sn{i}_{j}", n)
+        v, p = _Vars("w"), _Vars("p")
+        self.v, self.p = v, p
         for i in range(m):
             for name, size in (("theta", n), ("cam", 4), ("wsens", S), ("rt", n), ("td2", 1)):
                 p.add(f"{name}{i}", size)
@@ -159,11 +131,8 @@ class Transcription:
                     p.add(f"Mt{i}_{c}", n * n)
         p.add("k", S)
         p.add("obj_scale", 1)
-        x, P = v.sym("w"), p.sym("p")
-        self.v, self.p = v, p
-
         L = LENGTH_SCALE
-        g, self._bounds = [], []
+        g, self._bounds, self._lifted = [], [], []
 
         def constrain(expr, bounds):
             """Add constraint rows; ``bounds(problem) -> (lo, hi)`` gives their numbers at
@@ -173,24 +142,32 @@ class Transcription:
 
         zero = lambda pr: (0.0, 0.0)  # noqa: E731
 
+        def lift(name, expr, scale):
+            """A new variable tied to ``expr`` by an equality: keeps the Hessian sparse where
+            ``expr`` would couple many variables through a large graph."""
+            var = v.add(name, expr.shape[0])
+            constrain(var - expr / scale, zero)
+            self._lifted.append((name, expr / scale))
+            return scale * var
+
         # -- per cam and per angle: O(n) ------------------------------------------------------
-        d, arm, w = [], [], []
+        d, arm, w, design = [], [], [], []
         for i, cam in enumerate(problem.cams):
-            c = L * v[f"c{i}"]
+            c = L * v.add(f"c{i}", cam.basis.size)
+            alpha, gamma, ref = v.add(f"alpha{i}", n), v.add(f"gamma{i}", n), v.add(f"ref{i}", 2)
             theta = p[f"theta{i}"]
             r, a0, mu, _ = (p[f"cam{i}"][k] for k in range(4))
-            alpha, gamma, ref = v[f"alpha{i}"], v[f"gamma{i}"], v[f"ref{i}"]
             ports = cached_port_function(cam.basis, problem.friction_model,
-                                         opt.quadrature_order, "closed-form").map(n)
+                                         FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
             h = (cam.theta_range[1] - cam.theta_range[0]) / (n - 1)
             first = opt.quadrature_order * int(np.ceil(max(abs(cam.theta_range[0]) / h, 1)))
             # wrapped lengths are lifted to variables, tied segment by segment (Eq. 10, 14),
             # which keeps the Lagrangian Hessian banded instead of dense
-            wrapped = L * v[f"len{i}"]
+            wrapped = L * v.add(f"len{i}", n)
             seg = segment_lengths(cam.basis, opt.quadrature_order, first, ref[0], alpha, c)
             constrain((wrapped - ca.vertcat(0, wrapped[:n - 1]) - seg) / L, zero)
-            di, ai, res, _ = ports(theta, alpha, gamma, ref[0], ref[1], wrapped.T, c, r, a0, mu)
-            res_ref = cam_function(cam.basis)(0, ref[0], ref[1], c, r, a0)[0]
+            res_ref, _, qx_ref = cam_function(cam.basis)(0, ref[0], ref[1], c, r, a0)[:3]
+            di, ai, res, _ = ports(theta, alpha, gamma, ref[1], qx_ref, wrapped.T, c, r, a0, mu)
             # seed 003, Eq. 6–7 at every grid angle and at θ = 0
             constrain(ca.vertcat(res[0, :].T, res_ref[0]), zero)
             constrain(ca.vertcat(res[1, :].T, res_ref[1]) / L, zero)
@@ -205,54 +182,46 @@ class Transcription:
             d.append([di[0, :].T, di[1, :].T])
             arm.append([ai[0, :].T, ai[1, :].T])
             w.append(trapezoid_weights_sx(theta).T)
+        x0 = L * v.add("x0", S)
 
         # -- the spring network over the grid of all cams: still O(n) -------------------------
         # Every spring's extension is a sum of one-angle shares e_jc(θ_c) (springs.cam_term),
         # so its range over the tensor grid is the sum of the shares' ranges, and every cam
-        # torque is τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (springs.torque_terms).
-        x0 = L * v["x0"]
+        # torque is τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (springs.torque_terms). Shares of
+        # springs that join several cams, and the terms that couple cams, are lifted.
         e = {(j, c): cam_term(inc, j, c, d[c]) for j in range(S) for c in cams_of(inc, j)}
         terms = [torque_terms(inc, i, p["k"], x0, arm[i], e) for i in range(m)]
-        lifted_expr = {}
-        for (j, c), ejc in list(e.items()):
-            if f"e{j}_{c}" in v.blocks:
-                lifted_expr[f"e{j}_{c}"] = ejc
-                e[j, c] = L * v[f"e{j}_{c}"]
-        for i, (U, V) in enumerate(terms):
-            if f"U{i}" in v.blocks:
-                lifted_expr[f"U{i}"] = U
-                lifted_expr.update({f"V{i}_{j}_{c}": Vq for (j, c), Vq in V.items()})
-                terms[i] = (TORQUE_SCALE * v[f"U{i}"],
-                            {(j, c): FORCE_SCALE * v[f"V{i}_{j}_{c}"] for j, c in V})
-        for name, scale in self.lifted:
-            constrain(v[name] - lifted_expr[name] / scale, zero)
-        self._lifted = ca.Function("lifted", [x, P], [lifted_expr[name] / scale
-                                                      for name, scale in self.lifted])
         for j in range(S):
             cams = cams_of(inc, j)
             if len(cams) == 1:  # seed 003, Eq. 46: 0 ≤ x_j ≤ x_j,max on the grid
                 constrain((x0[j] + e[j, cams[0]]) / L, lambda pr, j=j: _travel(pr, j))
                 continue
-            hi, lo = v[f"hi{j}"], v[f"lo{j}"]  # bounds of each cam's share over its grid
+            for c in cams:
+                e[j, c] = lift(f"e{j}_{c}", e[j, c], L)
+            hi, lo = v.add(f"hi{j}", len(cams)), v.add(f"lo{j}", len(cams))  # ranges of shares
             for k, c in enumerate(cams):
                 constrain(ca.vertcat(L * hi[k] - e[j, c], e[j, c] - L * lo[k]) / L,
                           lambda pr: (0.0, np.inf))
             constrain(ca.vertcat(x0[j] / L + ca.sum1(lo), x0[j] / L + ca.sum1(hi)),
                       lambda pr, j=j: ([_travel(pr, j)[0], -np.inf], [np.inf, _travel(pr, j)[1]]))
+        for i, (U, V) in enumerate(terms):
+            if V:
+                terms[i] = (lift(f"U{i}", U, TORQUE_SCALE),
+                            {q: lift(f"V{i}_{q[0]}_{q[1]}", Vq, FORCE_SCALE) for q, Vq in V.items()})
 
         span = [ca.sum1(wc) for wc in w]
         objective = 0
         for i in range(m):  # seed 003, Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
             U, V = terms[i]
             mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
-            objective += p[f"cam{i}"][3] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"],
-                                                          mt, p[f"td2{i}"])
+            objective += p[f"cam{i}"][3] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
+                                                          p[f"td2{i}"], lift)
 
         # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i) and x_j ≥ 0 (a constraint), so
         # |∂τ_i/∂k_j| = x_j |a_ij|; |a_ij| = s⁺ + s⁻ with a_ij = s⁺ − s⁻, s± ≥ 0 (no abs), and
         # the integral over the other cams' angles of x_j = x₀_j + Σ_c e_jc is separable.
         for i, j in self.pairs:
-            sp, sn = v[f"sp{i}_{j}"], v[f"sn{i}_{j}"]
+            sp, sn = v.add(f"sp{i}_{j}", n), v.add(f"sn{i}_{j}", n)
             constrain(sp - sn - cam_term(inc, j, i, arm[i]) / ARM_SCALE, zero)
             others = [c for c in range(m) if c != i]
             x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
@@ -261,7 +230,11 @@ class Transcription:
             for c in others:
                 integral = integral * span[c]
             objective += p[f"wsens{i}"][j] * integral  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
+
+        x, P = v.vector(), p.vector()
         self.objective = ca.Function("objective", [x, P], [objective])
+        self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
+                           for name, expr in self._lifted]
         nlp = {"x": x, "p": P, "f": objective * p["obj_scale"], "g": ca.vertcat(*g)}
         self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
             "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
@@ -269,7 +242,7 @@ class Transcription:
             "ipopt.mu_strategy": "adaptive", **EXTRA,
         })
         self.lbx = np.full(v.size, -np.inf)
-        self.lbx[v.blocks["x0"][0]:v.blocks["x0"][0] + S] = 0  # seed 003, Eq. 46: x₀ ≥ 0
+        v.put(self.lbx, "x0", 0)  # seed 003, Eq. 46: x₀ ≥ 0
         for i, j in self.pairs:
             v.put(self.lbx, f"sp{i}_{j}", 0)
             v.put(self.lbx, f"sn{i}_{j}", 0)
@@ -320,23 +293,20 @@ class Transcription:
         return np.concatenate(lo), np.concatenate(hi)
 
     def initial_guess(self, problem: Problem, design: Design) -> np.ndarray:
-        """NLP start from a design: tangency angles by the rootfinder, s± from ∂τ/∂k."""
+        """NLP start from a design: tangency angles by the rootfinder, the wrapped lengths and
+        s± from the evaluator, every lifted variable on its definition."""
         v, n = self.v, self.n
         w0 = np.zeros(v.size)
-        for i, cam in enumerate(problem.cams):
-            c = design.coefficients[i]
-            th = np.concatenate([[0.0], cam.grid(n)])
-            a, g, _ = tangency_solver(cam.basis).solve(th, c, cam.idler_radius, cam.idler_offset)
-            v.put(w0, f"c{i}", c / LENGTH_SCALE)
-            v.put(w0, f"alpha{i}", a[1:])
-            v.put(w0, f"gamma{i}", g[1:])
-            v.put(w0, f"ref{i}", [a[0], g[0]])
-            wrapped = cached_length_function(cam.basis, 4 * self.problem.options.quadrature_order
-                                             ).map(n)(a[0], a[1:], c)
-            v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
-        v.put(w0, "x0", design.preextension / LENGTH_SCALE)
         ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
                       wire_arm="closed-form")
+        for i, cs in enumerate(ev.cams):
+            v.put(w0, f"c{i}", design.coefficients[i] / LENGTH_SCALE)
+            v.put(w0, f"alpha{i}", cs.alpha)
+            v.put(w0, f"gamma{i}", cs.gamma)
+            v.put(w0, f"ref{i}", [cs.alpha_ref, cs.gamma_ref])
+            wrapped = cs.d[0] - problem.cams[i].idler_radius * (cs.gamma - cs.gamma_ref)  # Eq. 14
+            v.put(w0, f"len{i}", wrapped / LENGTH_SCALE)
+        v.put(w0, "x0", design.preextension / LENGTH_SCALE)
         P = incidence(list(problem.springs), self.m)
         for i, j in self.pairs:  # s⁺ − s⁻ start on a_ij: feasible and tight
             a = cam_term(P, j, i, ev.cams[i].arm) / ARM_SCALE
@@ -348,10 +318,9 @@ class Transcription:
                 shares = [cam_term(P, j, c, ev.cams[c].d) / LENGTH_SCALE for c in cams]
                 v.put(w0, f"hi{j}", [s.max() for s in shares])
                 v.put(w0, f"lo{j}", [s.min() for s in shares])
-        if self.lifted:  # lifted terms start on their definitions
-            values = self._lifted(w0, self.parameters(problem))
-            for (name, _), value in zip(self.lifted, values):
-                v.put(w0, name, np.asarray(value).ravel())
+        pv = self.parameters(problem)
+        for name, fn in self._lifted_fn:  # in creation order: later ones use earlier ones
+            v.put(w0, name, np.asarray(fn(w0, pv)).ravel())
         return w0
 
     def design_of(self, w) -> Design:
@@ -385,13 +354,15 @@ def _travel(problem: Problem, j: int) -> tuple[float, float]:
     return margin * travel / LENGTH_SCALE, (1 - margin) * travel / LENGTH_SCALE
 
 
-def _squared_error(U, V, e, w, span, i, rt, mt, td2):
+def _squared_error(U, V, e, w, span, i, rt, mt, td2, lift):
     """∫(τ_d,i − τ_i)² over the tensor grid of all cams with trapezoidal weights, exactly.
 
     With τ_i = U(θ_i) + Σ_q V_q(θ_i) e_q(θ_c(q)) (q = (spring j, cam c), see
     :func:`cadcam.springs.torque_terms`) the square expands into one-angle sums and bilinear
     forms V_qᵀ M̃_ic e_q with the target's weighted marginals (``rt``, ``mt``, ``td2``; see
     :meth:`Transcription.parameters`): O(n²) constants instead of O(n^m) model evaluations.
+    The products that couple two cams' angles go through lifted variables (``lift``:
+    M̃_ic e_q and the one-angle moments), so the Hessian stays sparse.
     """
     def others(*cams):
         out = 1
@@ -401,17 +372,20 @@ def _squared_error(U, V, e, w, span, i, rt, mt, td2):
         return out
 
     wi = w[i]
-    moment = {q: ca.dot(w[q[1]], e[q]) for q in V}
+    tag = lambda *parts: "_".join(str(x) for x in (i,) + parts)  # noqa: E731
+    moment = {q: lift(f"mom{tag(*q)}", ca.dot(w[q[1]], e[q]), LENGTH_SCALE) for q in V}
     total = td2 - 2 * ca.dot(U, rt) + others() * ca.dot(wi, U * U)
     for q, Vq in V.items():
         c = q[1]
-        total += -2 * ca.dot(Vq, ca.mtimes(mt[c], e[q]))
-        total += 2 * others(c) * ca.dot(wi, U * Vq) * moment[q]
+        y = lift(f"Me{tag(*q)}", ca.mtimes(mt[c], e[q]), LENGTH_SCALE)
+        total += -2 * ca.dot(Vq, y)
+        total += 2 * others(c) * lift(f"UV{tag(*q)}", ca.dot(wi, U * Vq), 1.0) * moment[q]
         for r, Vr in V.items():
             cr = r[1]
-            vv = ca.dot(wi, Vq * Vr)
+            vv = lift(f"VV{tag(*q, *r)}", ca.dot(wi, Vq * Vr), FORCE_SCALE**2)
             if cr == c:
-                total += others(c) * vv * ca.dot(w[c], e[q] * e[r])
+                total += others(c) * vv * lift(f"ee{tag(*q, *r)}", ca.dot(w[c], e[q] * e[r]),
+                                               LENGTH_SCALE**2)
             else:
                 total += others(c, cr) * vv * moment[q] * moment[r]
     return total

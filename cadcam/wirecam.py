@@ -19,7 +19,7 @@ def port_function(basis: Basis, friction_model: str, order: int,
                   wire_arm: str = "closed-form") -> ca.Function:
     """Per-angle port quantities of one cam as a CasADi Function.
 
-    ``ports(theta, alpha, gamma, alpha_ref, gamma_ref, wrapped, c, r, a0, mu) ->
+    ``ports(theta, alpha, gamma, gamma_ref, qx_ref, wrapped, c, r, a0, mu) ->
     (d[2], arm[2], residual[2], branch)``
 
     ``wrapped`` is the profile length between α₀ and α [m] (Eq. 10; see
@@ -28,7 +28,8 @@ def port_function(basis: Basis, friction_model: str, order: int,
     ``d`` = [wire, platform] displacements [m] relative to θ = 0 (Eq. 14, 16), ``arm`` the
     moment arms of unit port forces [m]: the wire term per unit departure tension (Eq. 21 or
     35) and the normal term (Eq. 20–21). ``residual``/``branch`` are the tangency conditions
-    at (θ, α, γ) (Eq. 6–7). ``(alpha_ref, gamma_ref)`` solve the tangency at θ = 0.
+    at (θ, α, γ) (Eq. 6–7). ``gamma_ref`` and ``qx_ref`` are γ and the idler centre q_x
+    (Eq. 15) at θ = 0, computed once per cam by the caller (see :func:`reference`).
 
     Parameters
     ----------
@@ -43,18 +44,17 @@ def port_function(basis: Basis, friction_model: str, order: int,
     """
     check_friction_model(friction_model)
     cam = cam_function(basis)
-    names = ("theta", "alpha", "gamma", "alpha_ref", "gamma_ref", "wrapped", "r", "a0", "mu")
-    theta, alpha, gamma, alpha_ref, gamma_ref, wrapped, r, a0, mu = (ca.SX.sym(n) for n in names)
+    names = ("theta", "alpha", "gamma", "gamma_ref", "qx_ref", "wrapped", "r", "a0", "mu")
+    theta, alpha, gamma, gamma_ref, qx_ref, wrapped, r, a0, mu = (ca.SX.sym(n) for n in names)
     c = ca.SX.sym("c", basis.size)
     res, branch, qx, arm_t, arm_n, *_ = cam(theta, alpha, gamma, c, r, a0)
-    qx_ref = cam(0, alpha_ref, gamma_ref, c, r, a0)[2]
     if friction_model == "as-printed" or wire_arm == "quadrature":
         arm_t = wire_torque_function(basis, friction_model, order)(alpha, c, mu)
     d = ca.vertcat(wire_displacement(wrapped, r, gamma, gamma_ref),
                    platform_displacement(qx, qx_ref))
     return ca.Function(
-        "ports", [theta, alpha, gamma, alpha_ref, gamma_ref, wrapped, c, r, a0, mu],
+        "ports", [theta, alpha, gamma, gamma_ref, qx_ref, wrapped, c, r, a0, mu],
         [d, ca.vertcat(arm_t, arm_n), res, branch],
-        ["theta", "alpha", "gamma", "alpha_ref", "gamma_ref", "wrapped", "c", "r", "a0", "mu"],
+        ["theta", "alpha", "gamma", "gamma_ref", "qx_ref", "wrapped", "c", "r", "a0", "mu"],
         ["d", "arm", "residual", "branch"],
     )

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from cadcam import Design, evaluate, load_spec, optimize
-from cadcam.departure import cam_function
 from cadcam.optimize import default_start
 from cadcam.springs import Port, Spring
 from cadcam.targets import serial_arm_torques
-from cadcam.transcription import Transcription
+from cadcam.transcription import FRICTION_ORDER, Transcription
+from cadcam.wirecam import port_function
 
 from .conftest import SPEC_RR, TABLE3, TABLE4
 
@@ -144,9 +144,12 @@ def test_tangency_evaluations_grow_linearly_with_the_grid(rr_problem):
 
     Counted in the compiled NLP functions: all their trigonometry is the tangency geometry
     (profiles are polynomials), and each grid angle added must add exactly one evaluation of
-    Eq. 1–8 per cam — the trig instructions of one ``cam_function`` call.
+    the per-angle model (Eq. 1–8, 14–21) per cam — the trig instructions of one call of the
+    per-angle function the NLP maps over its grid.
     """
-    per_evaluation = _trig(cam_function(rr_problem.cams[0].basis))
+    opt = rr_problem.options
+    per_evaluation = _trig(port_function(rr_problem.cams[0].basis, rr_problem.friction_model,
+                                         FRICTION_ORDER * opt.quadrature_order, "closed-form"))
     m = len(rr_problem.cams)
     trig = {}
     for n in (6, 12, 24):
