@@ -1,6 +1,6 @@
 """Build and solve times of the design NLPs, and cadcam against the papers' nested approach.
 
-``make bench`` (``python benchmarks/bench_design.py [--runs 7] [--baseline-cap 180]``). Measured,
+``make bench`` (``python benchmarks/bench_design.py [--runs 7] [--baseline-cap 300]``). Measured,
 not asserted: run on the machine at hand and read the tables. Targets on a 2-core machine:
 1-DOF solve ≤ 0.1 s and build ≤ 0.5 s (issue 2); 2-DOF Sec. 10.4 at 46 × 46 build + solve
 ≤ 2 s and ≥ 100× faster than the nested baseline with an objective no worse (issue 3).
@@ -48,7 +48,7 @@ def bench(problem, runs: int) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=7)
-    ap.add_argument("--baseline-cap", type=float, default=180.0,
+    ap.add_argument("--baseline-cap", type=float, default=300.0,
                     help="wall-time budget of the nested baseline [s]")
     args = ap.parse_args()
     print(f"cadcam design NLPs, median of {args.runs} runs (wall time, this machine)\n")

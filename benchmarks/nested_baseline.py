@@ -113,12 +113,17 @@ class NestedBaseline:
                          for i, c in enumerate(self.problem.cams)))
 
     def constraints(self, z):
-        """Eq. 47's constraints as g(z) ≥ 0 (mm and mm² scales)."""
+        """Eq. 47's constraints as g(z) ≥ 0 (mm and mm² scales), with the same margins as
+        cadcam's NLP (``limit_margin``, ``convexity_epsilon``) so both solve one problem."""
         tau, x, prof = self.model(z)
-        out = [(np.array([s.travel for s in self.problem.springs])[:, None] - x).ravel() / 1e-3,
-               x.ravel() / 1e-3]
+        opt = self.problem.options
+        travel = np.array([s.travel for s in self.problem.springs])[:, None]
+        out = [((1 - opt.limit_margin) * travel - x).ravel() / 1e-3,
+               (x - opt.limit_margin * travel).ravel() / 1e-3]
         for (rho, conv), cam in zip(prof, self.problem.cams):
-            out += [conv / 1e-6, (rho - cam.rho_min) / 1e-3, (cam.rho_max - rho) / 1e-3]
+            out += [(conv - opt.convexity_epsilon * cam.rho_min**2) / 1e-6,
+                    (rho - (1 + opt.limit_margin) * cam.rho_min) / 1e-3,
+                    ((1 - opt.limit_margin) * cam.rho_max - rho) / 1e-3]
         return np.concatenate(out)
 
     def solve(self, start: Design, time_cap: float = 180.0, max_iter: int = 200):

@@ -1,0 +1,64 @@
+"""The command lines the README and the issues name, and spec overrides by dotted key."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from cadcam import load_spec
+from cadcam.cli import main
+from cadcam.spec import SpecError
+
+from .conftest import SPEC_1DOF, SPEC_RR, TABLE3
+
+
+def test_evaluate_table3_as_printed_from_the_command_line():
+    p = subprocess.run([sys.executable, "-m", "cadcam", "evaluate", str(SPEC_RR), "--design", str(TABLE3),
+                        "--grid", "46", "--friction-model", "as-printed"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    assert out["friction_model"] == "as-printed"
+    # REFERENCE.md: ≈ 270 / 862 (cam 1) and ≈ 128 / 389 N·mm (cam 2)
+    np.testing.assert_allclose(np.array(out["metrics"]["rmse"]) * 1e3, [270, 128], rtol=0.01)
+    np.testing.assert_allclose(np.array(out["metrics"]["max_abs_error"]) * 1e3, [862, 389], rtol=0.01)
+    # the papers' coefficient order is printed back next to the increasing one
+    assert out["design"]["cams"][0]["monomial_coefficients_highest_first"] == [-0.0052, 0.0133, 0.0046, 0.025]
+
+
+def test_variant_applies_the_sec10_5_weights():
+    base, v = load_spec(SPEC_RR), load_spec(SPEC_RR, "sec10_5")
+    assert [c.tracking_weight for c in base.cams] == [10.0, 10.0]
+    assert [c.tracking_weight for c in v.cams] == [1.0, 1.0]
+    assert all(c.sensitivity_weights == (1000.0,) * 3 for c in v.cams)
+
+
+def test_set_overrides_by_dotted_key():
+    p = load_spec(SPEC_1DOF, overrides=[("springs.1.rate", 1200.0), ("cams.*.order", 5),
+                                        ("solver.grid", 31)])
+    assert p.springs[0].rate == 1200.0 and p.cams[0].basis.order == 5 and p.options.grid == 31
+
+
+@pytest.mark.parametrize("key,value,message", [
+    ("springs.3.rate", 1.0, "has 2 entries"),
+    ("spring.1.rate", 1.0, "the spec has no 'spring'"),
+    ("springs.1.rate.x", 1.0, "is a value"),
+    ("cams.1.colour", 1.0, "unknown key 'cams[1].colour'"),
+    ("springs.1.rate", "soft", "springs[1].rate = 'soft'"),
+])
+def test_bad_overrides_are_refused_in_one_line(key, value, message):
+    with pytest.raises(SpecError) as err:
+        load_spec(SPEC_1DOF, overrides=[(key, value)])
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_cli_set_and_unknown_variant(tmp_path, capsys):
+    d = tmp_path / "d.json"
+    d.write_text(TABLE3.read_text())
+    assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--grid", "5",
+                 "--set", "springs.2.rate=0.0"]) == 2
+    assert "springs[2].rate = 0.0: expected a positive spring rate" in capsys.readouterr().err
+    assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--variant", "nope"]) == 2
+    assert "no variant 'nope'" in capsys.readouterr().err
+    assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--grid", "5",
+                 "--set", "springs.2.rate=7000.0"]) == 0
