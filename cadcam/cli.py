@@ -1,4 +1,4 @@
-"""Command line: ``cadcam design`` and ``cadcam evaluate``.
+"""Command line: ``cadcam design``, ``cadcam evaluate`` and ``cadcam export``.
 
 Exit codes: 0 success; 1 a solve that failed or did not pass its re-check (the result is still
 written); 2 bad input (one line on stderr naming what is wrong).
@@ -95,6 +95,26 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .export import ExportError, export
+
+    problem = _problem(args)
+    try:
+        data = json.loads(Path(args.design).read_text())
+    except OSError as exc:
+        raise InputError(f"{args.design}: cannot read the design ({exc.strerror})") from None
+    except ValueError:
+        raise InputError(f"{args.design}: not valid JSON") from None
+    design = Design.from_dict(data, problem, args.design)
+    try:
+        manifest = export(problem, design, args.what, args.format.split(","), args.output)
+    except ExportError as exc:
+        raise InputError(str(exc)) from None
+    print(f"exported {args.what} ({', '.join(f['name'] for f in manifest['functions'])}) to "
+          f"{args.output}/: {' '.join(manifest['files'])} manifest.json")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="cadcam", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -118,6 +138,15 @@ def main(argv=None) -> int:
     common(p)
     p.add_argument("--design", required=True, help="design or result JSON")
     p.set_defaults(run=cmd_evaluate)
+    p = sub.add_parser("export", help="the model or the NLP as C, a shared library, .casadi")
+    common(p)
+    p.add_argument("--design", required=True, help="design or result JSON")
+    p.add_argument("--what", choices=("model", "problem"), default="model",
+                   help="model: torque, extensions, tangency and Jacobians; problem: the NLP")
+    p.add_argument("--format", default="c,shared,casadi",
+                   help="comma-separated: c, shared, casadi (default all three)")
+    p.add_argument("-o", "--output", required=True, help="output folder")
+    p.set_defaults(run=cmd_export)
 
     args = parser.parse_args(argv)
     try:

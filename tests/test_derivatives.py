@@ -36,6 +36,6 @@ def test_the_model_agrees_with_the_evaluator(rr_problem, table3):
     ev = evaluate(rr_problem, table3, grid=5)
     k = np.array([s.rate for s in rr_problem.springs])
     for p in (0, 7, 24):
-        tau, x = f(ev.theta[:, p], np.concatenate(table3.coefficients), k, table3.preextension)
+        tau, x, _, _ = f(ev.theta[:, p], np.concatenate(table3.coefficients), k, table3.preextension)
         np.testing.assert_allclose(np.asarray(tau).ravel(), ev.tau[:, p], rtol=1e-10)
         np.testing.assert_allclose(np.asarray(x).ravel(), ev.x[:, p], rtol=1e-10, atol=1e-15)

@@ -1,0 +1,151 @@
+"""Exported code: generated C, shared library, serialized Functions, and the README example."""
+import json
+import re
+import shutil
+import subprocess
+import sys
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from cadcam import Design, load_spec
+from cadcam.departure import TangencySolver, newton_function
+from cadcam.export import CFLAGS, export, model_functions
+from cadcam.model import NEWTON_STEPS, torque_function
+
+from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
+
+GCC = shutil.which("gcc") or shutil.which("cc")
+needs_gcc = pytest.mark.skipif(GCC is None, reason="no C compiler on this machine")
+
+
+@pytest.fixture(scope="module")
+def rr():
+    problem = load_spec(SPEC_RR)
+    return problem, Design.from_dict(json.loads(TABLE3.read_text()), problem)
+
+
+@pytest.fixture(scope="module")
+def exported(rr, tmp_path_factory):
+    out = tmp_path_factory.mktemp("model")
+    formats = ["c", "casadi"] + (["shared"] if GCC else [])
+    return out, export(*rr, "model", formats, out)
+
+
+def _inputs(problem, design, rng):
+    return [rng.uniform(0.05, 1.5, len(problem.cams)), np.concatenate(design.coefficients)
+            * (1 + 1e-3 * rng.standard_normal(sum(b.size for b in design.bases))),
+            np.array([s.rate for s in problem.springs]) * rng.uniform(0.9, 1.1, len(problem.springs)),
+            design.preextension + rng.uniform(0, 2e-3, len(problem.springs))]
+
+
+def test_unrolled_newton_matches_the_rootfinder(rr):
+    problem, design = rr
+    for i, (cam, b) in enumerate(zip(problem.cams, design.bases)):
+        theta = np.linspace(0, np.pi / 2, 451)
+        a, g, _ = TangencySolver(b).solve(theta, design.coefficients[i], cam.idler_radius, cam.idler_offset)
+        an, gn = newton_function(b, NEWTON_STEPS).map(451)(theta, design.coefficients[i],
+                                                           cam.idler_radius, cam.idler_offset)
+        assert np.abs(np.asarray(an).ravel() - a).max() <= 1e-12
+        assert np.abs(np.asarray(gn).ravel() - g).max() <= 1e-12
+
+
+def test_exported_model_and_jacobians_equal_the_rootfinder_model(rr):
+    """Newton + explicit implicit-function Jacobians against the MX rootfinder model."""
+    problem, design = rr
+    f, jac = model_functions(problem, design)
+    ref = torque_function(problem, design.bases)
+    names = [n for n in jac.name_out()]
+    ref_jac = ref.factory("refjac", ["theta", "c", "k", "x0"],
+                          [f"jac:{n[1:].split('_d')[0]}:{n.split('_d')[-1]}" for n in names])
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        args = _inputs(problem, design, rng)
+        for a, b in zip(f(*args), ref(*args)):
+            np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-15)
+        for name, a, b in zip(names, jac(*args), ref_jac(*args)):
+            scale = np.abs(np.asarray(b)).max()
+            assert np.abs(np.asarray(a) - np.asarray(b)).max() <= 1e-10 * scale, name
+
+
+@needs_gcc
+def test_generated_c_compiles_warning_free(exported, tmp_path):
+    out, _ = exported
+    run = subprocess.run([GCC, *CFLAGS, "-c", str(out / "cadcam_model.c"), "-o", str(tmp_path / "m.o")],
+                         capture_output=True, text=True)
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+
+
+@needs_gcc
+def test_shared_library_matches_in_process_values_and_jacobians(rr, exported):
+    problem, design = rr
+    out, manifest = exported
+    rng = np.random.default_rng(11)
+    for fn in model_functions(problem, design):
+        ext = ca.external(fn.name(), str(out / "libcadcam_model.so"))
+        for _ in range(5):
+            args = _inputs(problem, design, rng)
+            for a, b in zip(ext(*args), fn(*args)):
+                a, b = np.asarray(a), np.asarray(b)
+                assert np.abs(a - b).max() <= 1e-12 * max(np.abs(b).max(), 1e-300)
+    shapes = {f["name"]: [o["shape"] for o in f["outputs"]] for f in manifest["functions"]}
+    assert shapes["cadcam_torque"] == [[2, 1], [3, 1], [2, 1], [2, 1]]
+
+
+def test_serialized_functions_load_in_a_fresh_interpreter(rr, exported):
+    problem, design = rr
+    out, _ = exported
+    args = _inputs(problem, design, np.random.default_rng(2))
+    code = ("import sys, json, casadi as ca, numpy as np\n"
+            "f = ca.Function.load(sys.argv[1]); a = json.loads(sys.argv[2])\n"
+            "print(json.dumps([np.asarray(v).ravel(order='F').tolist() for v in f(*a)]))")
+    for fn in model_functions(problem, design):
+        run = subprocess.run([sys.executable, "-c", code, str(out / f"{fn.name()}.casadi"),
+                              json.dumps([a.tolist() for a in args])], capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        for a, b in zip(json.loads(run.stdout), fn(*args)):
+            np.testing.assert_allclose(a, np.asarray(b).ravel(order="F"), rtol=1e-14, atol=0)
+
+
+@needs_gcc
+def test_readme_c_example_compiles_and_runs(rr, exported, tmp_path):
+    problem, design = rr
+    out, _ = exported
+    readme = (ROOT / "README.md").read_text()
+    example = re.search(r"<!-- c-example -->\s*```c\n(.*?)```", readme, re.S)[1]
+    (tmp_path / "example.c").write_text(example)
+    exe = tmp_path / "example"
+    build = subprocess.run([GCC, *CFLAGS, f"-I{out}", str(tmp_path / "example.c"),
+                            str(out / "cadcam_model.c"), "-lm", "-o", str(exe)], capture_output=True, text=True)
+    assert build.returncode == 0 and build.stderr == "", build.stderr
+    run = subprocess.run([str(exe)], capture_output=True, text=True)
+    assert run.returncode == 0
+    values = [float(v) for v in re.findall(r"[-+]?\d\.\d+(?:e[-+]\d+)?", run.stdout)]
+    f, jac = model_functions(problem, design)
+    args = [np.array([0.5, 0.3]), np.concatenate(design.coefficients),
+            np.array([s.rate for s in problem.springs]), design.preextension]
+    tau = np.asarray(f(*args)[0]).ravel()
+    J = dict(zip(jac.name_out(), (np.asarray(v) for v in jac(*args))))
+    np.testing.assert_allclose(values, [tau[0], tau[1], J["dtau_dtheta"][0, 1], J["dtau_dk"][0, 1]],
+                               rtol=1e-12)
+
+
+@needs_gcc
+def test_problem_export_compiles_and_matches_the_solver(tmp_path):
+    problem = load_spec(SPEC_1DOF).with_options(grid=8, convexity_points=10)
+    from cadcam.optimize import default_start
+    manifest = export(problem, default_start(problem), "problem", ["c", "casadi"], tmp_path)
+    names = [f["name"] for f in manifest["functions"]]
+    assert names == ["cadcam_nlp_f", "cadcam_nlp_g", "cadcam_nlp_grad_f", "cadcam_nlp_jac_g", "cadcam_nlp_hess_l"]
+    run = subprocess.run([GCC, *CFLAGS, "-c", str(tmp_path / "cadcam_problem.c"), "-o", str(tmp_path / "p.o")],
+                         capture_output=True, text=True)
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    data = json.loads((tmp_path / "problem_data.json").read_text())
+    x, p = np.array(data["x0"]), np.array(data["p"])
+    g = ca.Function.load(str(tmp_path / "cadcam_nlp_g.casadi"))(x, p)
+    g = np.asarray(g).ravel()
+    lbg, ubg = np.array(data["lbg"], dtype=float), np.array(data["ubg"], dtype=float)
+    # the start is the design's feasible tangency: equality rows hold there
+    eq = lbg == ubg
+    assert np.abs(g[eq] - lbg[eq]).max() < 1e-9
