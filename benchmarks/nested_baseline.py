@@ -29,13 +29,13 @@ class TimeCap(Exception):
 class NestedBaseline:
     """SLSQP + finite differences + per-angle Levenberg–Marquardt on a cadcam problem."""
 
-    def __init__(self, problem, convexity_points: int = 60):
+    def __init__(self, problem):
         self.problem = problem
         self.n = problem.options.grid
         self.m = len(problem.cams)
         self.bases = [Basis("monomial", c.basis.order, c.basis.domain) for c in problem.cams]
         self.sizes = [b.size for b in self.bases]
-        self.M = convexity_points
+        self.M = problem.options.convexity_points  # the same samples as cadcam's NLP
         self.net = network_function(list(problem.springs), self.m).map(self.n ** self.m)
         grids = [c.grid(self.n) for c in problem.cams]
         mesh = np.meshgrid(*grids, indexing="ij")
