@@ -39,6 +39,17 @@ def _problem(args):
     return problem.with_options(**changes) if changes else problem
 
 
+def _problem_and_design(args):
+    problem = _problem(args)
+    try:
+        data = json.loads(Path(args.design).read_text())
+    except OSError as exc:
+        raise InputError(f"{args.design}: cannot read the design ({exc.strerror})") from None
+    except ValueError:
+        raise InputError(f"{args.design}: not valid JSON") from None
+    return problem, Design.from_dict(data, problem, args.design)
+
+
 def write_outputs(result, out: Path) -> None:
     """``result.json``, ``torque.csv``, ``profile.csv`` and the PNG figures in ``out``."""
     from .files import write_csv, write_json
@@ -81,14 +92,7 @@ def cmd_design(args) -> int:
 def cmd_evaluate(args) -> int:
     from .evaluate import evaluate
 
-    problem = _problem(args)
-    try:
-        data = json.loads(Path(args.design).read_text())
-    except OSError as exc:
-        raise InputError(f"{args.design}: cannot read the design ({exc.strerror})") from None
-    except ValueError:
-        raise InputError(f"{args.design}: not valid JSON") from None
-    design = Design.from_dict(data, problem, args.design)
+    problem, design = _problem_and_design(args)
     ev = evaluate(problem, design, grid=args.grid)
     print(json.dumps({"friction_model": problem.friction_model, "design": design.to_dict(),
                       "metrics": ev.metrics}, indent=2))
@@ -98,14 +102,7 @@ def cmd_evaluate(args) -> int:
 def cmd_export(args) -> int:
     from .export import ExportError, export
 
-    problem = _problem(args)
-    try:
-        data = json.loads(Path(args.design).read_text())
-    except OSError as exc:
-        raise InputError(f"{args.design}: cannot read the design ({exc.strerror})") from None
-    except ValueError:
-        raise InputError(f"{args.design}: not valid JSON") from None
-    design = Design.from_dict(data, problem, args.design)
+    problem, design = _problem_and_design(args)
     try:
         manifest = export(problem, design, args.what, args.format.split(","), args.output)
     except ExportError as exc:
