@@ -69,7 +69,7 @@ def main() -> None:
     ev = evaluate(problem, design)
     cad = ours["build"] + ours["solve"]
     bound = "" if finished else "≥ "
-    print(f"\nSec. 10.4 (cubic cams, 46 × 46 grid), same start, same model, same objective (Eq. 47):\n")
+    print("\nSec. 10.4 (cubic cams, 46 × 46 grid), same start, same model, same objective (Eq. 47):\n")
     print("| approach | time [s] | iterations | model evaluations | LM tangency solves | objective | feasible on the re-check |")
     print("|---|---|---|---|---|---|---|")
     print(f"| cadcam (build + solve, median) | {cad:.2f} | {ours['iterations']:.0f} | – | 0 | "

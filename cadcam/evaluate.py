@@ -122,7 +122,6 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     prof = cached_profile_function(basis)
     phi = np.linspace(0.0, phi_hi, n)
     rho, _, _, conv = (np.asarray(v).ravel() for v in prof.map(n)(phi, c))
-
     conv_min = _refine_min(prof, c, phi, conv, 3)
     rho_lo = _refine_min(prof, c, phi, rho, 0)
     rho_hi = -_refine_min(prof, c, phi, -rho, 0, sign=-1.0)

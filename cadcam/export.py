@@ -21,7 +21,6 @@ each generated function so the code compiles warning-free with
 """
 from __future__ import annotations
 
-import json
 import re
 import shutil
 import subprocess

@@ -25,8 +25,7 @@ import numpy as np
 
 from .departure import cam_function
 from .design import Design
-from .evaluate import (evaluate, cached_length_function, cached_port_function, cached_profile_function, tangency_solver,
-                       trapezoid_weights)
+from .evaluate import (evaluate, cached_port_function, cached_profile_function, trapezoid_weights)
 from .wrap import segment_lengths
 from .problem import Problem
 from .springs import cam_term, cams_of, incidence, torque_terms
@@ -41,7 +40,6 @@ FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
 #: (and the 1-DOF and Sec. 10.4 problems converge in fewer iterations).
 OBJECTIVE_SCALE = 1000.0
-EXTRA = {}
 
 IPOPT_STATUS = {
     "Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "converged",
@@ -151,7 +149,7 @@ class Transcription:
             return scale * var
 
         # -- per cam and per angle: O(n) ------------------------------------------------------
-        d, arm, w, design = [], [], [], []
+        d, arm, w = [], [], []
         for i, cam in enumerate(problem.cams):
             c = L * v.add(f"c{i}", cam.basis.size)
             alpha, gamma, ref = v.add(f"alpha{i}", n), v.add(f"gamma{i}", n), v.add(f"ref{i}", 2)
@@ -239,7 +237,7 @@ class Transcription:
         self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
             "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
             "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-            "ipopt.mu_strategy": "adaptive", **EXTRA,
+            "ipopt.mu_strategy": "adaptive",
         })
         self.lbx = np.full(v.size, -np.inf)
         v.put(self.lbx, "x0", 0)  # seed 003, Eq. 46: x₀ ≥ 0

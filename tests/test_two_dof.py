@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from cadcam import Design, evaluate, load_spec, optimize
-from cadcam.optimize import default_start
 from cadcam.springs import Port, Spring
 from cadcam.targets import serial_arm_torques
 from cadcam.transcription import FRICTION_ORDER, Transcription
