@@ -71,13 +71,43 @@ def write_outputs(result, out: Path) -> None:
     plot_springs(ev, out / "springs.png")
 
 
+def write_workshop_files(ev, out: Path, args) -> list[str]:
+    """Per cam: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request."""
+    from .drawing import draw_sheet
+    from .manufacture import closed_outline, polyline, write_csv, write_dxf, write_stl, write_svg
+
+    notes = []
+    for i, (cam, cs) in enumerate(zip(ev.problem.cams, ev.cams)):
+        outline = closed_outline(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
+        stem = out / f"cam{i + 1}"
+        write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
+        write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
+        write_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
+        for suffix in (".pdf", ".png"):
+            draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
+                       args.anchor_diameter, cam.rho_min, cam.rho_max, f"{ev.problem.name}: {cam.name}")
+        note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
+        if args.stl is not None:
+            volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
+                               args.groove_depth, args.groove_width, args.tolerance)
+            note += f", STL {volume * 1e9:.0f} mm³"
+        notes.append(note)
+    return notes
+
+
 def cmd_design(args) -> int:
     from .optimize import optimize
 
     problem = _problem(args)
     out = Path(args.output)
+    _check_workshop_args(args)
     result = optimize(problem)
     write_outputs(result, out)
+    try:
+        workshop = write_workshop_files(result.evaluation, out, args)
+    except ValueError as exc:
+        print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
+        return 1
     d = result.to_dict()
     mm = [f"{1e3 * v:.4g}" for v in d["metrics"]["rmse"]]
     print(f"{result.status}: {result.message}")
@@ -86,7 +116,19 @@ def cmd_design(args) -> int:
     for v in d["violations"]:
         print(f"  violated: {v}")
     print(f"  outputs in {out}/: result.json torque.csv profile.csv profile.png torque.png springs.png")
+    print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png"
+          f"{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
+
+
+def _check_workshop_args(args) -> None:
+    for name in ("bore_diameter", "anchor_diameter", "tolerance"):
+        if not getattr(args, name) > 0:
+            raise InputError(f"--{name.replace('_', '-')} must be positive [m]")
+    if args.stl is not None and not args.stl > 0:
+        raise InputError("--stl THICKNESS must be positive [m]")
+    if args.groove_depth < 0 or args.groove_width < 0:
+        raise InputError("--groove-depth and --groove-width must be ≥ 0 [m]")
 
 
 def cmd_evaluate(args) -> int:
@@ -130,6 +172,15 @@ def main(argv=None) -> int:
     common(p)
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--multistart", type=int, help="extra random starts")
+    w = p.add_argument_group("workshop files (lengths in metres)")
+    w.add_argument("--bore-diameter", type=float, default=0.006, help="shaft bore (default 0.006)")
+    w.add_argument("--anchor-diameter", type=float, default=0.0025,
+                   help="cable anchor hole near φ = 0 (default 0.0025)")
+    w.add_argument("--tolerance", type=float, default=1e-5,
+                   help="chordal tolerance of DXF/SVG/CSV/STL polygons (default 1e-5 = 0.01 mm)")
+    w.add_argument("--stl", type=float, metavar="THICKNESS", help="also write cam*.stl of this thickness")
+    w.add_argument("--groove-depth", type=float, default=0.0, help="cable groove depth in the STL")
+    w.add_argument("--groove-width", type=float, default=0.0, help="cable groove width in the STL")
     p.set_defaults(run=cmd_design)
     p = sub.add_parser("evaluate", help="metrics of a given design, as JSON")
     common(p)

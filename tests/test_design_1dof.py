@@ -24,8 +24,10 @@ def run(tmp_path_factory):
 def test_design_succeeds_and_writes_its_files(run):
     rc, out, res = run
     assert rc == 0 and res["status"] == "success"
-    for name in ("result.json", "torque.csv", "profile.csv", "profile.png", "torque.png", "springs.png"):
+    for name in ("result.json", "torque.csv", "profile.csv", "profile.png", "torque.png", "springs.png",
+                 "cam1.dxf", "cam1.svg", "cam1_points.csv", "cam1_sheet.pdf", "cam1_sheet.png"):
         assert (out / name).stat().st_size > 0
+    assert not (out / "cam1.stl").exists()  # STL only on request
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
     assert res["friction_model"] == "exact"
     assert res["solver"]["iterations"] > 0 and res["solver"]["solve_time_s"] > 0
@@ -83,6 +85,31 @@ def test_optimum_beats_the_circular_start_and_tracks_the_target(run):
     assert res["metrics"]["objective"] < 0.01 * start.metrics["objective"]
     # τ_d reaches 0.08·(π/2)² ≈ 197 N·mm; the optimum tracks it to ~1 %
     assert res["metrics"]["rmse"][0] < 2e-3
+
+
+def test_design_leaves_a_dxf_of_a_closed_cam_with_its_bore(run):
+    import ezdxf
+    _, out, res = run
+    doc = ezdxf.readfile(out / "cam1.dxf")
+    msp = doc.modelspace()
+    (profile,) = msp.query('LWPOLYLINE[layer=="PROFILE"]')
+    assert profile.closed
+    pts = np.array([p[:2] for p in profile.get_points()])
+    radii = np.hypot(*pts.T)
+    # the designed arc starts at the anchor: ρ(0) is the first vertex, in mm
+    assert radii[0] == pytest.approx(1e3 * res["design"]["cams"][0]["monomial_coefficients"][0], rel=1e-9)
+    bores = [c.dxf.radius for c in msp.query('CIRCLE[layer=="HOLES"]')]
+    assert 3.0 in bores  # the default Ø6 mm bore on the rotation axis
+    assert radii.min() > 3.0 + 1.0  # at least 1 mm of wall around it
+
+
+def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["design", str(SPEC_1DOF), "-o", str(out), "--stl", "0.005"]) == 0
+    assert (out / "cam1.stl").stat().st_size > 84
+    assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "b"), "--bore-diameter", "0.05"]) == 1
+    err = capsys.readouterr().err
+    assert "workshop files cannot be made" in err and "bore_diameter" in err
 
 
 def test_failed_solve_writes_its_status_and_exits_1(tmp_path):

@@ -1,0 +1,541 @@
+"""From a designed profile to files a workshop can cut, print or mill.
+
+The optimiser designs ρ(φ) only over the wrapped range φ ∈ [0, α_max]. :func:`closed_outline`
+completes it into a closed, convex, C2 outline; :func:`polyline` turns that into a polygon
+within a chordal tolerance; the writers export it as DXF, SVG, CSV and a watertight binary STL.
+Everything is in SI units (metres) inside; the files are in millimetres.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import ezdxf
+import numpy as np
+from manifold3d import CrossSection, JoinType, Manifold
+from numpy.polynomial import Legendre, Polynomial
+
+from .evaluate import cached_profile_function
+from .files import atomic_path, write_csv as write_table, write_text
+from .profile import Basis, convexity_margin
+
+TWO_PI = 2 * np.pi
+MM = 1e3
+"""Millimetres per metre: the length unit of every exported file."""
+MIN_WALL = 1e-3
+"""Least material [m] left between the bore, the anchor hole, the groove and the profile."""
+DEFAULT_TOLERANCE = 1e-5
+"""Default chordal tolerance [m] (0.01 mm)."""
+CLOSURE_FREE = 8
+"""Free coefficients of the closing polynomial beyond the six matching conditions."""
+CLOSURE_GRID = 400
+"""Points of the closing arc at which the programs of :func:`closed_outline` impose constraints."""
+CHECK_GRID = 8000
+"""Points at which the designed arc and the closing arc found are checked to be convex."""
+CHORD_SPARE = 1.05
+"""Chords :func:`polyline` first lays per chord an exact estimate would need (sag ≈ 0.9 tol)."""
+SAG_SAMPLES = 31
+"""Interior samples per chord at which :func:`polyline` measures the sag (odd: with the middle)."""
+
+
+# --------------------------------------------------------------------------------------- outline
+
+@dataclass
+class Outline:
+    """A closed convex cam outline: the designed arc and the arc that closes it.
+
+    The designed arc is ρ(φ) of the optimised profile for φ ∈ [0, ``phi_end``]; the closing arc
+    is ρ = 1/u with u a polynomial of x = (φ − φ_end)/(2π − φ_end) ∈ [0, 1]. Angles outside
+    [0, 2π) are taken modulo 2π.
+
+    Attributes
+    ----------
+    profile : casadi.Function
+        ``profile(phi, c) -> (rho, drho, ddrho, convexity)`` of the design's basis.
+    coefficients : ndarray
+        The designed profile's coefficients [m].
+    phi_end : float
+        Angle where the designed (wrapped) arc ends and the closing arc begins [rad].
+    closing : numpy.polynomial.Polynomial
+        u(x) = 1/ρ [1/m] on the closing arc.
+    samples : int
+        Number of points of the dense sample.
+    phi : ndarray
+        Angles of the dense sample [rad], increasing in [0, 2π), including ``phi_end``.
+    points : ndarray, shape (N, 2)
+        Dense sample of the outline [m], counter-clockwise.
+    """
+
+    profile: ca.Function = field(repr=False)
+    coefficients: np.ndarray
+    phi_end: float
+    closing: Polynomial
+    samples: int = 2048
+    phi: np.ndarray = field(init=False, repr=False)
+    points: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        grid = np.linspace(0.0, TWO_PI, self.samples, endpoint=False)
+        self.phi = np.union1d(grid, [self.phi_end])
+        self.points = self.xy(self.phi)
+
+    @property
+    def closing_span(self) -> float:
+        """Angle 2π − φ_end covered by the closing arc [rad]."""
+        return TWO_PI - self.phi_end
+
+    @property
+    def rho_range(self) -> tuple[float, float]:
+        """Least and greatest radius of the dense sample [m]."""
+        r = np.hypot(*self.points.T)
+        return float(r.min()), float(r.max())
+
+    def designed(self, phi) -> np.ndarray:
+        """True where φ (modulo 2π) lies on the designed arc."""
+        return np.mod(np.asarray(phi, dtype=float), TWO_PI) <= self.phi_end
+
+    def derivatives(self, phi) -> np.ndarray:
+        """ρ, ρ′, ρ″ [m, m/rad, m/rad²] at the angles ``phi``, as a (3, N) array."""
+        phi = np.mod(np.atleast_1d(np.asarray(phi, dtype=float)), TWO_PI)
+        out = np.empty((3, phi.size))
+        on = self.designed(phi)
+        if on.any():
+            out[:, on] = designed_values(self.profile, self.coefficients, phi[on])[:3]
+        if not on.all():
+            x = (phi[~on] - self.phi_end) / self.closing_span
+            out[:, ~on] = _rho_from_u(*self._u(x))
+        return out
+
+    def _u(self, x) -> np.ndarray:
+        """u, u′, u″ with respect to φ on the closing arc at x ∈ [0, 1]."""
+        p, span = self.closing, self.closing_span
+        return np.array([p(x), p.deriv(1)(x) / span, p.deriv(2)(x) / span**2])
+
+    def rho(self, phi) -> np.ndarray:
+        """ρ(φ) [m] on the full circle."""
+        return self.derivatives(phi)[0]
+
+    def margin(self, phi) -> np.ndarray:
+        """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] on the full circle (seed 003, Eq. 40)."""
+        return convexity_margin(*self.derivatives(phi))
+
+    def xy(self, phi) -> np.ndarray:
+        """Points (ρ cos φ, ρ sin φ) [m] of the outline, shape (N, 2)."""
+        phi = np.atleast_1d(np.asarray(phi, dtype=float))
+        rho = self.rho(phi)
+        return np.column_stack((rho * np.cos(phi), rho * np.sin(phi)))
+
+
+def designed_values(profile: ca.Function, coefficients, phi) -> np.ndarray:
+    """ρ, ρ′, ρ″ and the Eq. 40 margin of the designed profile at ``phi``, shape (4, N)."""
+    phi = np.atleast_1d(np.asarray(phi, dtype=float))
+    out = profile.map(phi.size)(phi.reshape(1, -1), np.asarray(coefficients, dtype=float))
+    return np.array([np.asarray(v).ravel() for v in out])
+
+
+def _u_from_rho(rho, drho, ddrho) -> np.ndarray:
+    """u = 1/ρ and its first two φ-derivatives."""
+    return np.array([1 / rho, -drho / rho**2, (2 * drho**2 - rho * ddrho) / rho**3])
+
+
+def _rho_from_u(u, du, ddu) -> np.ndarray:
+    """ρ = 1/u and its first two φ-derivatives (the inverse of :func:`_u_from_rho`)."""
+    return np.array([1 / u, -du / u**2, (2 * du**2 - u * ddu) / u**3])
+
+
+def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
+                   free: int = CLOSURE_FREE) -> Outline:
+    """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], into a convex C2 outline.
+
+    Method. In u = 1/ρ a polar curve is convex where u + u″ > 0: u + u″ is the Eq. 40 margin
+    divided by ρ³ (seed 003, Eq. 40), and it is linear in u. The closing arc is a polynomial
+    u(x) in x = (φ − φ_max)/(2π − φ_max): a quintic Hermite part matches u, u′, u″ of the
+    designed profile at φ_max (x = 0) and at φ = 2π ≡ 0 (x = 1), so the outline is C2 at both
+    joints, and ``free`` further terms x³(1 − x)³ P_j(2x − 1) (Legendre P_j) leave those
+    conditions untouched. Two small programs on a grid of the closing arc pick them:
+
+    1. a linear program: the largest t* with u + u″ ≥ t* everywhere — if t* ≤ 0 (or no u
+       meets the bounds) no convex closure exists and a ValueError is raised;
+    2. a quadratic program: among closures with u + u″ ≥ t*/2, the one minimising
+       ∫ ((u + u″)′)² dφ. u + u″ constant is a conic with a focus on the rotation axis (a
+       circle about it when u′ = 0), so the closing arc is as near such an ellipse as the end
+       conditions allow: smooth and round, without bulges.
+
+    Both programs keep ρ within ``rho_bounds`` (u > 0 otherwise) and are solved by HiGHS
+    through CasADi; the result is then verified on a grid 20× finer.
+
+    Parameters
+    ----------
+    basis : Basis
+        Basis of the designed profile.
+    coefficients : array_like
+        Its coefficients [m].
+    phi_max : float
+        End of the designed (wrapped) range, α_max [rad], 0 < phi_max < 2π.
+    rho_bounds : tuple of float, optional
+        (ρ_lo, ρ_hi) [m] the closing arc must stay within, e.g. the spec's radius limits.
+    free : int
+        Free coefficients of the closing polynomial (≥ 1; its degree is 5 + ``free``).
+
+    Returns
+    -------
+    Outline
+
+    Raises
+    ------
+    ValueError
+        If ``phi_max`` is outside (0, 2π), ``free`` < 1, the designed arc is not positive and
+        convex, or no convex closure within ``rho_bounds`` exists.
+    """
+    if not 0 < phi_max < TWO_PI:
+        raise ValueError(f"phi_max = {phi_max!r} rad must lie in (0, 2π)")
+    if free < 1:
+        raise ValueError(f"free = {free!r} must be at least 1")
+    profile = cached_profile_function(basis)
+    _check_designed_arc(profile, coefficients, phi_max)
+    span = TWO_PI - phi_max
+    ends = [_u_from_rho(*designed_values(profile, coefficients, phi)[:3, 0]) * span ** np.arange(3)
+            for phi in (phi_max, 0.0)]  # u, du/dx, d²u/dx² at x = 0 and x = 1
+    scale = ends[1][0]  # u(0): the programs work with u/u(0), of order one
+    hermite = _hermite(ends[0] / scale, ends[1] / scale)
+    bubble = Polynomial([0, 0, 0, 1]) * Polynomial([1, -1]) ** 3
+    terms = [bubble * Legendre.basis(j, domain=[0, 1]).convert(kind=Polynomial)
+             for j in range(free)]
+    a = _closure_coefficients(hermite, terms, span, _u_bounds(rho_bounds, scale))
+    closing = scale * (hermite + sum((aj * t for aj, t in zip(a, terms)), Polynomial([0.0])))
+    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
+    _check_closing_arc(outline)
+    return outline
+
+
+def _u_bounds(rho_bounds, scale) -> tuple[float, float]:
+    """Bounds on u/u(0) from (ρ_lo, ρ_hi) [m]; u > 0 only when ``rho_bounds`` is None."""
+    if rho_bounds is None:
+        return 0.0, np.inf
+    lo, hi = (float(v) for v in rho_bounds)
+    if not 0 < lo < hi:
+        raise ValueError(f"rho_bounds = {rho_bounds!r} must be (ρ_lo, ρ_hi) [m], 0 < ρ_lo < ρ_hi")
+    return 1 / (hi * scale), 1 / (lo * scale)
+
+
+def _check_designed_arc(profile, coefficients, phi_max):
+    """Raise ValueError unless ρ > 0 and the Eq. 40 margin > 0 on [0, phi_max]."""
+    phi = np.linspace(0.0, phi_max, CHECK_GRID)
+    rho, _, _, margin = designed_values(profile, coefficients, phi)
+    bad = (rho <= 0) | (margin <= 0)
+    if bad.any():
+        raise ValueError(f"the designed profile is not positive and convex at φ = "
+                         f"{phi[bad][0]:.4f} rad (seed 003, Eq. 40 margin "
+                         f"{margin[bad][0]:.3g} m²); "
+                         "it cannot be closed into a convex outline")
+
+
+def _hermite(start, end) -> Polynomial:
+    """The quintic p(x) with p, p′, p″ equal to ``start`` at x = 0 and ``end`` at x = 1."""
+    monomials = [Polynomial.basis(k) for k in range(6)]
+    rows = [[m.deriv(d)(x) for m in monomials] for x in (0.0, 1.0) for d in range(3)]
+    return Polynomial(np.linalg.solve(np.array(rows), np.concatenate((start, end))))
+
+
+def _closure_coefficients(hermite, terms, span, u_bounds) -> np.ndarray:
+    """Free coefficients of the closing arc by the two programs of :func:`closed_outline`."""
+    x = np.linspace(0.0, 1.0, CLOSURE_GRID)
+
+    def rows(p):  # u, u + u″ and (u + u″)′ with respect to φ on the grid
+        return np.array([p(x), p(x) + p.deriv(2)(x) / span**2,
+                         p.deriv(1)(x) / span + p.deriv(3)(x) / span**3])
+
+    (u0, c0, v0), cols = rows(hermite), np.array([rows(t) for t in terms])
+    u, c, v = (cols[:, k].T for k in range(3))
+    n, ones = len(terms), np.ones((x.size, 1))
+    # 1. maximise t subject to u + u″ ≥ t (variables: the free coefficients and t)
+    best = _solve_qp(np.zeros((n + 1, n + 1)), np.r_[np.zeros(n), -1.0],
+                     np.vstack((np.hstack((c, -ones)), np.hstack((u, 0 * ones)))),
+                     np.concatenate((-c0, u_bounds[0] - u0)),
+                     np.concatenate((np.full(x.size, np.inf), u_bounds[1] - u0)))
+    if best is None or best[-1] <= 0:
+        raise ValueError("no convex closure of the designed arc exists: over the remaining "
+                         "angle no u = 1/ρ keeps u + u″ > 0 (seed 003, Eq. 40), matches ρ, ρ′, ρ″ "
+                         "of the designed arc at both ends and stays within rho_bounds")
+    # 2. minimise ∫ ((u + u″)′)² dx subject to u + u″ ≥ t*/2
+    smooth = _solve_qp(2 * v.T @ v / x.size, 2 * v.T @ v0 / x.size, np.vstack((c, u)),
+                       np.concatenate((best[-1] / 2 - c0, u_bounds[0] - u0)),
+                       np.concatenate((np.full(x.size, np.inf), u_bounds[1] - u0)))
+    return best[:n] if smooth is None else smooth
+
+
+def _solve_qp(h, g, a, lba, uba):
+    """argmin ½zᵀhz + gᵀz subject to lba ≤ az ≤ uba with HiGHS through CasADi; None if it fails."""
+    solver = ca.conic("closure", "highs", {"h": ca.Sparsity.dense(*h.shape),
+                                           "a": ca.Sparsity.dense(*a.shape)},
+                      {"highs": {"output_flag": False}, "error_on_fail": False})
+    out = solver(h=h, g=g, a=a, lba=lba, uba=uba)
+    return np.asarray(out["x"]).ravel() if solver.stats()["success"] else None
+
+
+def _check_closing_arc(outline):
+    """Raise ValueError unless u > 0 and u + u″ > 0 on a fine grid of the closing arc."""
+    u, _, ddu = outline._u(np.linspace(0.0, 1.0, CHECK_GRID))
+    if np.any(u <= 0) or np.any(u + ddu <= 0):
+        raise ValueError("the closing arc found is not convex between its grid points; "
+                         "try a different number of free coefficients")
+
+
+# -------------------------------------------------------------------------------------- polyline
+
+def polyline(outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> np.ndarray:
+    """Vertices [m] of a polygon inscribed in ``outline`` whose chords are within ``tolerance``.
+
+    The sag of a chord (the largest distance from the outline between its ends to the chord)
+    is about ℓ²κ/8 for a chord of length ℓ where the curvature is κ, so the first vertices are
+    spread evenly in ∫ √(κ/8·tolerance) ds, each arc on its own, with φ = 0 and φ_end as
+    vertices: the designed arc is covered by chords of its own. Every chord whose sag still
+    exceeds ``tolerance`` is then split evenly into ⌈√(sag/tolerance)⌉ chords until none does.
+
+    Parameters
+    ----------
+    outline : Outline
+    tolerance : float
+        Largest allowed distance between the outline and a chord [m].
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        Counter-clockwise from φ = 0; the first vertex is not repeated.
+    """
+    tolerance = _positive("tolerance", tolerance)
+    designed = _even_chords(outline, 0.0, outline.phi_end, tolerance)
+    closing = _even_chords(outline, outline.phi_end, TWO_PI, tolerance)
+    knots = np.concatenate((designed[:-1], closing))
+    while True:
+        pieces = np.maximum(1, np.ceil(np.sqrt(chord_sag(outline, knots) / tolerance))).astype(int)
+        if pieces.max() == 1:
+            return outline.xy(knots[:-1])
+        knots = np.append(np.concatenate([np.linspace(a, b, p, endpoint=False) for a, b, p
+                                          in zip(knots[:-1], knots[1:], pieces)]), TWO_PI)
+
+
+def _even_chords(outline, start, stop, tolerance) -> np.ndarray:
+    """Angles from ``start`` to ``stop`` [rad] spreading chords evenly in ∫ √(κ/8·tolerance) ds.
+
+    With ds/dφ = √(ρ² + ρ′²) and κ = (ρ² + 2ρ′² − ρρ″)/(ρ² + ρ′²)^(3/2) (seed 003, Eq. 40),
+    the chord count per radian is √(margin/8·tolerance)/(ρ² + ρ′²)^(1/4).
+    """
+    phi = np.linspace(start, stop, 513)
+    rho, drho, ddrho = outline.derivatives(phi)
+    margin = convexity_margin(rho, drho, ddrho)  # seed 003, Eq. 40
+    density = np.sqrt(margin / (8 * tolerance)) / (rho**2 + drho**2) ** 0.25
+    count = np.concatenate(([0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(phi))))
+    chords = max(1, int(np.ceil(CHORD_SPARE * count[-1])))
+    return np.interp(np.linspace(0.0, count[-1], chords + 1), count, phi)
+
+
+def chord_sag(outline: Outline, knots) -> np.ndarray:
+    """Largest distance [m] from the outline to each chord between consecutive ``knots`` [rad].
+
+    Measured at SAG_SAMPLES evenly spaced interior angles and multiplied by 1 + h² (h the
+    sample spacing as a fraction of the chord): the most a sampled maximum can miss of a
+    parabolic sag, which is what a short convex arc has.
+    """
+    knots = np.asarray(knots, dtype=float)
+    s = np.arange(1, SAG_SAMPLES + 1) / (SAG_SAMPLES + 1)
+    start, step = knots[:-1, None], np.diff(knots)[:, None]
+    inner = outline.xy((start + step * s).ravel()).reshape(step.size, s.size, 2)
+    ends = outline.xy(knots)
+    return segment_distance(inner, ends[:-1, None], ends[1:, None]).max(axis=1) * (1 + s[0] ** 2)
+
+
+def segment_distance(points, a, b) -> np.ndarray:
+    """Distance from ``points`` to the segments from ``a`` to ``b`` (broadcast, last axis x, y)."""
+    ab = b - a
+    t = np.clip(np.sum((points - a) * ab, axis=-1) / np.sum(ab * ab, axis=-1), 0.0, 1.0)
+    return np.linalg.norm(points - a - t[..., None] * ab, axis=-1)
+
+
+# ---------------------------------------------------------------------------------------- holes
+
+def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
+    """Centre [m] of the wire's anchor hole.
+
+    On the inward normal of the outline at the anchor point φ = 0, deep enough to leave
+    MIN_WALL of material between the hole and the profile.
+    """
+    rho, drho, _ = outline.derivatives(0.0)[:, 0]
+    outward = np.array([rho, -drho]) / np.hypot(rho, drho)  # tangent (ρ′, ρ) turned by −90°
+    return np.array([rho, 0.0]) - (anchor_diameter / 2 + MIN_WALL) * outward
+
+
+def holes(outline: Outline, bore_diameter: float,
+          anchor_diameter: float) -> list[tuple[np.ndarray, float]]:
+    """The bore and the anchor hole as (centre [m], diameter [m]) pairs, checked to fit.
+
+    Raises
+    ------
+    ValueError
+        Naming ``bore_diameter`` or ``anchor_diameter`` when a size is not positive or a hole
+        leaves less than MIN_WALL of material to the profile or to the other hole.
+    """
+    _check_bore(outline, bore_diameter)
+    anchor = anchor_centre(outline, _positive("anchor_diameter", anchor_diameter))
+    to_bore = np.hypot(*anchor) - (anchor_diameter + bore_diameter) / 2
+    to_profile = np.min(np.hypot(*(outline.points - anchor).T)) - anchor_diameter / 2
+    if min(to_bore, to_profile) < MIN_WALL - 1e-9:  # 1 nm: rounding, not a wall
+        raise ValueError(f"anchor_diameter = {_length(anchor_diameter)} does not fit near the "
+                         f"anchor point: it leaves {_length(min(to_bore, to_profile))} of wall "
+                         f"to the {'bore' if to_bore < to_profile else 'profile'}; at least "
+                         f"{_length(MIN_WALL)} is needed")
+    return [(np.zeros(2), bore_diameter), (anchor, anchor_diameter)]
+
+
+def _check_bore(outline, bore_diameter):
+    """ValueError naming ``bore_diameter`` unless the bore leaves MIN_WALL inside ρ_min."""
+    rho_min = outline.rho_range[0]
+    if _positive("bore_diameter", bore_diameter) / 2 + MIN_WALL > rho_min:
+        raise ValueError(f"bore_diameter = {_length(bore_diameter)} is too large: with a "
+                         f"{_length(MIN_WALL)} wall inside the least outline radius ρ_min = "
+                         f"{_length(rho_min)} it may be at most "
+                         f"{_length(2 * (rho_min - MIN_WALL))}")
+
+
+def _length(value: float) -> str:
+    """A length [m] for messages, with millimetres."""
+    return f"{value:.6g} m ({value * MM:.4g} mm)"
+
+
+def _positive(name: str, value) -> float:
+    """``value`` as a float; ValueError naming ``name`` unless it is finite and > 0."""
+    value = float(value)
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive length [m], got {value!r}")
+    return value
+
+
+# --------------------------------------------------------------------------------------- writers
+
+def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
+              tolerance: float = DEFAULT_TOLERANCE) -> None:
+    """Write the cam as a DXF drawing in millimetres ($INSUNITS = 4), atomically.
+
+    A closed LWPOLYLINE of :func:`polyline` on layer PROFILE; the bore (centred on the rotation
+    axis, the origin) and the anchor hole (:func:`anchor_centre`) as circles on layer HOLES.
+    """
+    circles = holes(outline, bore_diameter, anchor_diameter)
+    doc = ezdxf.new("R2010", units=ezdxf.units.MM)
+    doc.layers.add("PROFILE", color=7)
+    doc.layers.add("HOLES", color=1)
+    msp = doc.modelspace()
+    msp.add_lwpolyline(polyline(outline, tolerance) * MM, format="xy", close=True,
+                       dxfattribs={"layer": "PROFILE"})
+    for centre, diameter in circles:
+        msp.add_circle(tuple(centre * MM), diameter * MM / 2, dxfattribs={"layer": "HOLES"})
+    with atomic_path(path) as tmp:
+        doc.saveas(tmp)
+
+
+def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
+              tolerance: float = DEFAULT_TOLERANCE) -> None:
+    """Write the cam as an SVG at 1:1 scale, atomically.
+
+    ``width`` and ``height`` are in millimetres and the viewBox, in millimetres, is the bounding
+    box of the profile, seen from +z (SVG's y axis points down, so y is negated). One path for
+    the profile and one circle per hole, as hairlines for a laser cutter.
+    """
+    circles = holes(outline, bore_diameter, anchor_diameter)
+    flip = np.array([MM, -MM])
+    points = polyline(outline, tolerance) * flip + 0.0  # + 0.0: no '-0.000000'
+    centres = np.array([centre for centre, _ in circles]) * flip + 0.0
+    lo, size = points.min(axis=0), np.ptp(points, axis=0)
+    path_data = "M " + " L ".join(f"{x:.6f},{y:.6f}" for x, y in points) + " Z"
+    shapes = [f'  <path d="{path_data}"/>'] + [
+        f'  <circle cx="{x:.6f}" cy="{y:.6f}" r="{diameter * MM / 2:.6f}"/>'
+        for (x, y), (_, diameter) in zip(centres, circles)]
+    write_text(path, "\n".join([
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{size[0]:.6f}mm" '
+        f'height="{size[1]:.6f}mm" viewBox="{lo[0]:.6f} {lo[1]:.6f} {size[0]:.6f} {size[1]:.6f}">',
+        '<g fill="none" stroke="black" stroke-width="0.05">', *shapes, "</g>", "</svg>", ""]))
+
+
+def write_csv(path, outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> None:
+    """Write the vertices of :func:`polyline` as CSV ``x_mm,y_mm``, atomically."""
+    write_table(path, ["x_mm", "y_mm"], polyline(outline, tolerance) * MM)
+
+
+def write_stl(path, outline: Outline, thickness: float, bore_diameter: float,
+              groove_depth: float = 0.0, groove_width: float = 0.0,
+              tolerance: float = DEFAULT_TOLERANCE) -> float:
+    """Write the cam as a watertight binary STL in millimetres, atomically.
+
+    The profile of :func:`polyline` extruded along z by ``thickness`` with the bore through it
+    (a regular polygon circumscribing the circle within ``tolerance``, so that a shaft of
+    ``bore_diameter`` fits). With a groove, a cable groove ``groove_width`` wide, centred in
+    the thickness, is cut all round: there the section is the profile offset inward by
+    ``groove_depth``. manifold3d builds the solid by extrusion and boolean difference, which
+    always yield a closed 2-manifold.
+
+    Parameters
+    ----------
+    path : path-like
+    outline : Outline
+    thickness : float
+        Cam thickness along z [m].
+    bore_diameter : float
+        [m]
+    groove_depth, groove_width : float
+        Cable groove [m]; both 0 (no groove) or both positive.
+    tolerance : float
+        Chordal tolerance of the profile and the bore [m].
+
+    Returns
+    -------
+    float
+        Volume of the solid [m³].
+    """
+    _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width)
+    profile = CrossSection([polyline(outline, tolerance) * MM])
+    bore = _bore_section(bore_diameter / 2, tolerance)
+    solid = Manifold.extrude(profile - bore, thickness * MM)
+    if groove_depth > 0:
+        ring = (profile.offset(groove_depth * MM, JoinType.Round)
+                - profile.offset(-groove_depth * MM, JoinType.Miter))
+        groove = Manifold.extrude(ring, groove_width * MM)
+        solid = solid - groove.translate((0.0, 0.0, (thickness - groove_width) / 2 * MM))
+    mesh = solid.to_mesh()
+    _write_binary_stl(path, np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts))
+    return solid.volume() / MM**3
+
+
+def _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width):
+    """ValueError naming the parameter unless the solid of :func:`write_stl` can be made."""
+    thickness = _positive("thickness", thickness)
+    _check_bore(outline, bore_diameter)
+    if groove_depth == 0 and groove_width == 0:
+        return
+    depth, width = _positive("groove_depth", groove_depth), _positive("groove_width", groove_width)
+    if width >= thickness:
+        raise ValueError(f"groove_width = {_length(width)} must be less than thickness = "
+                         f"{_length(thickness)}")
+    deepest = outline.rho_range[0] - bore_diameter / 2 - MIN_WALL
+    if depth >= deepest:
+        raise ValueError(f"groove_depth = {_length(depth)} is too deep: it must be less than "
+                         f"ρ_min − bore radius − wall = {_length(deepest)}")
+
+
+def _bore_section(radius: float, tolerance: float) -> CrossSection:
+    """A regular polygon [mm] around the circle of ``radius`` [m], corners within ``tolerance``."""
+    sides = max(8, int(np.ceil(np.pi / np.arccos(radius / (radius + tolerance)))))
+    return CrossSection.circle(radius / np.cos(np.pi / sides) * MM, sides)
+
+
+def _write_binary_stl(path, vertices, triangles):
+    """Write triangles (index triples into ``vertices`` [mm]) as a binary STL, atomically."""
+    corners = vertices[triangles]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), np.finfo(float).tiny)
+    records = np.zeros(len(corners), dtype=[("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)),
+                                            ("attribute", "<u2")])
+    records["normal"], records["corners"] = normals, corners
+    with atomic_path(path) as tmp, open(tmp, "wb") as out:
+        out.write(b"cadcam cam, millimetres".ljust(80, b" "))
+        out.write(np.uint32(len(records)).tobytes())
+        out.write(records.tobytes())
