@@ -1,4 +1,5 @@
-"""Command line: ``cadcam design``, ``cadcam evaluate`` and ``cadcam export``.
+"""Command line: ``cadcam design``, ``evaluate``, ``export``, ``sweep``, ``sweep-export`` and
+``plot-study``.
 
 Exit codes: 0 success; 1 a solve that failed or did not pass its re-check (the result is still
 written); 2 bad input (one line on stderr naming what is wrong).
@@ -15,6 +16,8 @@ import numpy as np
 from .capstan import FRICTION_MODELS
 from .design import Design, DesignError
 from .spec import SpecError, load_spec, parse_value
+from .study import StudyError
+from .sweep import SweepError
 from .targets import ExpressionError
 
 
@@ -154,6 +157,53 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_sweep(args) -> int:
+    from .study import load_study
+    from .sweep import run_sweep
+
+    study = load_study(args.study)
+    summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
+    print(f"{study.name}: {summary['cases']} cases, {summary['ran']} run now, {summary['skipped']} "
+          f"already recorded; {summary['cases_per_min']:.1f} cases/min; statuses {summary['statuses']}; "
+          f"results in {args.output}")
+    failed = sum(n for k, n in summary["statuses"].items() if k != "success")
+    return 0 if failed == 0 else 1
+
+
+def cmd_sweep_export(args) -> int:
+    import csv
+    import io
+
+    from .files import write_text
+    from .sweep import flat_table, read_rows
+
+    study, rows = read_rows(args.database)
+    table = flat_table(study, rows)
+    header = list(dict.fromkeys(k for row in table for k in row))
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=header)
+    writer.writeheader()
+    writer.writerows(table)
+    write_text(args.csv, buf.getvalue())
+    print(f"{len(table)} cases of {study['name']} written to {args.csv}")
+    return 0
+
+
+def cmd_plot_study(args) -> int:
+    from .plots import plot_study
+    from .sweep import flat_table, read_rows
+
+    study, rows = read_rows(args.database)
+    table = flat_table(study, rows)
+    missing = [k for k in (args.x, args.y, args.color) if k and not any(k in r for r in table)]
+    if missing:
+        keys = sorted({k for r in table for k in r})
+        raise InputError(f"{args.database}: no column {missing[0]!r}; columns: {', '.join(keys)}")
+    plot_study(table, args.x, args.y, args.color, args.pareto, args.output, study["name"])
+    print(f"plot written to {args.output}")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="cadcam", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -196,10 +246,30 @@ def main(argv=None) -> int:
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.set_defaults(run=cmd_export)
 
+    p = sub.add_parser("sweep", help="run a parameter study, recorded to SQLite (resumable)")
+    p.add_argument("study", help="study file (TOML)")
+    p.add_argument("-o", "--output", required=True, help="study database (SQLite)")
+    p.add_argument("--workers", type=int, help="worker processes (default: the machine's cores)")
+    p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler address, "
+                   "or 'local' for a LocalCluster on this machine")
+    p.set_defaults(run=cmd_sweep)
+    p = sub.add_parser("sweep-export", help="a study database as a tidy CSV table")
+    p.add_argument("database")
+    p.add_argument("--csv", required=True, help="output CSV file")
+    p.set_defaults(run=cmd_sweep_export)
+    p = sub.add_parser("plot-study", help="plot a metric of a study against a parameter or metric")
+    p.add_argument("database")
+    p.add_argument("--x", required=True, help="parameter key or metric column (see sweep-export)")
+    p.add_argument("--y", required=True, help="metric column, e.g. rmse_1")
+    p.add_argument("--color", help="parameter key or metric column that colours the points")
+    p.add_argument("--pareto", action="store_true", help="mark the front minimising both x and y")
+    p.add_argument("-o", "--output", required=True, help="PNG file")
+    p.set_defaults(run=cmd_plot_study)
+
     args = parser.parse_args(argv)
     try:
         return args.run(args)
-    except (SpecError, DesignError, ExpressionError, InputError) as exc:
+    except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
         return 2
 

@@ -125,3 +125,46 @@ def plot_springs(ev: Evaluation, path) -> None:
         ax.set_title(f"{s.name}\nmax {x.max():.2f} of {MM * s.travel:.2f} mm", fontsize=9)
     fig.tight_layout()
     _save(fig, path)
+
+
+def pareto_front(points: np.ndarray) -> np.ndarray:
+    """Indices of the points no other point beats in both coordinates (minimising both)."""
+    order = np.lexsort((points[:, 1], points[:, 0]))
+    front, best = [], np.inf
+    for k in order:
+        if points[k, 1] < best:
+            front.append(k)
+            best = points[k, 1]
+    return np.array(front, dtype=int)
+
+
+def plot_study(table: list[dict], x: str, y: str, color: str | None, pareto: bool, path,
+               title: str) -> None:
+    """Scatter of column ``y`` against ``x`` over a study's successful cases, optionally
+    coloured by ``color`` and with the Pareto front (both minimised) drawn."""
+    rows = [r for r in table if r.get("status") == "success"
+            and isinstance(r.get(x), (int, float)) and isinstance(r.get(y), (int, float))]
+    pts = np.array([[r[x], r[y]] for r in rows], dtype=float).reshape(-1, 2)
+    fig, ax = plt.subplots(figsize=(7, 5))
+    if color:
+        c = [r.get(color) for r in rows]
+        numeric = all(isinstance(v, (int, float)) for v in c)
+        if numeric:
+            sc = ax.scatter(pts[:, 0], pts[:, 1], c=c, cmap="viridis")
+            fig.colorbar(sc, ax=ax, label=color)
+        else:
+            for k, level in enumerate(dict.fromkeys(c)):
+                mask = np.array([v == level for v in c])
+                ax.scatter(pts[mask, 0], pts[mask, 1], color=f"C{k}", label=str(level))
+            ax.legend(fontsize=8, title=color)
+    else:
+        ax.scatter(pts[:, 0], pts[:, 1])
+    if pareto and len(pts):
+        front = pts[pareto_front(pts)]
+        ax.plot(front[:, 0], front[:, 1], "r-o", mfc="none", label="Pareto front")
+        ax.legend(fontsize=8)
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    ax.set_title(f"{title}: {len(rows)} successful cases of {len(table)}")
+    fig.tight_layout()
+    _save(fig, path)

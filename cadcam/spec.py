@@ -277,10 +277,16 @@ def parse_value(text: str, origin: str = "--set"):
             raise SpecError(f"{origin}: {text!r} is not a TOML value") from None
 
 
+def _merged(old, new):
+    """A table assigned onto a table updates it (a catalogue spring keeps its ports)."""
+    return {**old, **new} if isinstance(old, dict) and isinstance(new, dict) else new
+
+
 def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
     """Set dotted ``key`` (``springs.1.rate``, ``cams.*.order``) to ``value`` in ``data``.
 
-    Array elements are numbered from 1; ``*`` means every element. Every table and array on
+    Array elements are numbered from 1; ``*`` means every element; a table value updates the
+    table at ``key`` rather than replacing it. Every table and array on
     the path must exist in the spec; the last part may name a key the spec leaves at its
     default (the spec's own validation then checks it).
     """
@@ -301,12 +307,12 @@ def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
                                 f"1…{len(node)} or * for '{part}'")
             for t in targets:
                 if last:
-                    node[t] = value
+                    node[t] = _merged(node[t], value)
                 else:
                     walk(node[t], i + 1, f"{path}.{t + 1}")
         elif isinstance(node, dict):
             if last:
-                node[part] = value
+                node[part] = _merged(node.get(part), value)
             elif part in node:
                 walk(node[part], i + 1, f"{path}.{part}" if path else part)
             else:
@@ -318,17 +324,9 @@ def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
     walk(data, 0, "")
 
 
-def load_spec(path, variant: str | None = None, overrides=()) -> Problem:
-    """Load a TOML spec, or the resolved problem inside a cadcam ``result.json``.
-
-    ``variant`` applies the dotted-key overrides of ``[variants.NAME]`` in the spec;
-    ``overrides`` are further (key, value) pairs applied after it.
-
-    Raises
-    ------
-    SpecError
-        One line naming the file, the key and the expected form.
-    """
+def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
+    """The spec at ``path`` as data, with ``variant`` and ``overrides`` applied (not yet
+    validated: :func:`parse_spec` does that)."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -354,4 +352,20 @@ def load_spec(path, variant: str | None = None, overrides=()) -> Problem:
     for key, value in overrides:
         apply_override(data, key, value, str(path))
     data.pop("variants", None)
+    return data
+
+
+def load_spec(path, variant: str | None = None, overrides=()) -> Problem:
+    """Load a TOML spec, or the resolved problem inside a cadcam ``result.json``.
+
+    ``variant`` applies the dotted-key overrides of ``[variants.NAME]`` in the spec;
+    ``overrides`` are further (key, value) pairs applied after it.
+
+    Raises
+    ------
+    SpecError
+        One line naming the file, the key and the expected form.
+    """
+    path = Path(path)
+    data = read_spec_data(path, variant, overrides)
     return parse_spec(data, str(path), path.parent)

@@ -1,0 +1,291 @@
+"""Run a study's cases on a process pool or a Dask cluster, recording each to SQLite.
+
+One database per study (WAL journal): a ``study`` row holding the study's definition and one
+``cases`` row per case, committed the moment the case finishes — parameters, status,
+metrics, design, iterations, times, the error of a failed case, the cadcam version and the
+friction model. Running the same study on the same database again resumes it: cases already
+recorded are skipped (the case id, a hash of its values, is the primary key), so nothing is
+repeated or duplicated, also after the whole process tree was killed.
+
+Workers keep one :class:`~cadcam.transcription.Transcription` per problem structure and
+reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
+NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
+already solved (in normalised parameter space) instead of the default start; which case that
+is depends on the order cases finish, so warm-started sweeps are reproducible only serially.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sqlite3
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from multiprocessing import get_context
+from pathlib import Path
+
+from . import __version__
+from .study import Study
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS study (
+    id INTEGER PRIMARY KEY CHECK (id = 1), definition TEXT NOT NULL,
+    cadcam_version TEXT NOT NULL, created REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS cases (
+    case_id TEXT PRIMARY KEY, idx INTEGER NOT NULL, params TEXT NOT NULL,
+    status TEXT NOT NULL, message TEXT, metrics TEXT, recheck TEXT, design TEXT,
+    iterations INTEGER, solve_time_s REAL, build_time_s REAL, wall_time_s REAL, error TEXT,
+    cadcam_version TEXT NOT NULL, friction_model TEXT, finished REAL NOT NULL);
+"""
+COLUMNS = ("case_id", "idx", "params", "status", "message", "metrics", "recheck", "design",
+           "iterations", "solve_time_s", "build_time_s", "wall_time_s", "error",
+           "cadcam_version", "friction_model", "finished")
+
+
+class SweepError(ValueError):
+    """A sweep that cannot start (a database holding another study, a bad executor)."""
+
+
+# -- worker side ----------------------------------------------------------------------------
+_TRANSCRIPTIONS: dict = {}
+
+
+def structure_key(problem) -> str:
+    """What a built NLP depends on beyond its CasADi parameters and bounds."""
+    o = problem.options
+    return json.dumps([
+        problem.friction_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
+        [[c.basis.name, c.basis.order, list(c.basis.domain), list(c.theta_range),
+          [w > 0 for w in c.sensitivity_weights]] for c in problem.cams],
+        [[[p.cam, p.kind, p.sign] for p in s.ports] for s in problem.springs]])
+
+
+def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
+    """Solve one case and return its database row; never raises (a failure is a row)."""
+    from .design import Design
+    from .optimize import optimize
+    from .transcription import Transcription
+
+    t0 = time.perf_counter()
+    row = {"case_id": Study.case_id(case), "params": json.dumps(case, sort_keys=True),
+           "cadcam_version": __version__}
+    try:
+        problem = Study.from_dict(study).problem(case)
+        row["friction_model"] = problem.friction_model
+        key = structure_key(problem)
+        tr = _TRANSCRIPTIONS.get(key)
+        built = tr is None
+        if built:
+            tr = _TRANSCRIPTIONS[key] = Transcription(problem)
+        initial = Design.from_dict(start, problem) if start else None
+        result = optimize(problem, transcription=tr, start=initial)
+        d = result.to_dict()
+        row.update(status=result.status, message=result.message, metrics=json.dumps(d["metrics"]),
+                   recheck=json.dumps(d["recheck"]), design=json.dumps(d["design"]),
+                   iterations=result.solve.iterations, solve_time_s=result.solve.solve_time_s,
+                   build_time_s=tr.build_time_s if built else 0.0)
+    except Exception as exc:  # noqa: BLE001 - any failure of a case is recorded, the sweep goes on
+        row.update(status="error", error=f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}")
+    row["wall_time_s"] = time.perf_counter() - t0
+    return row
+
+
+# -- database ---------------------------------------------------------------------------------
+def open_db(path, study: Study) -> sqlite3.Connection:
+    """Open (or create) the study database; refuse one that holds a different study."""
+    db = sqlite3.connect(str(path))
+    db.execute("PRAGMA journal_mode=WAL")
+    db.execute("PRAGMA synchronous=FULL")
+    db.executescript(SCHEMA)
+    definition = json.dumps(study.to_dict(), sort_keys=True)
+    row = db.execute("SELECT definition FROM study WHERE id = 1").fetchone()
+    if row is None:
+        with db:
+            db.execute("INSERT INTO study VALUES (1, ?, ?, ?)", (definition, __version__, time.time()))
+    elif row[0] != definition:
+        db.close()
+        raise SweepError(f"{path}: holds the results of a different study; use another -o file")
+    return db
+
+
+def record(db: sqlite3.Connection, row: dict) -> None:
+    """Commit one case's row (a repeated case id is ignored, never duplicated)."""
+    row = {**row, "finished": time.time()}
+    with db:
+        db.execute(f"INSERT OR IGNORE INTO cases ({','.join(COLUMNS)}) VALUES ({','.join('?' * len(COLUMNS))})",
+                   [row.get(c) for c in COLUMNS])
+
+
+def read_rows(path) -> tuple[dict, list[dict]]:
+    """The study definition and every recorded case (parsed JSON), ordered by case index."""
+    if not Path(path).exists():
+        raise SweepError(f"{path}: no such study database")
+    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    try:
+        study = json.loads(db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0])
+        rows = []
+        for r in db.execute(f"SELECT {','.join(COLUMNS)} FROM cases ORDER BY idx"):
+            row = dict(zip(COLUMNS, r))
+            for k in ("params", "metrics", "recheck", "design"):
+                row[k] = json.loads(row[k]) if row[k] else None
+            rows.append(row)
+    except (sqlite3.DatabaseError, TypeError):
+        raise SweepError(f"{path}: not a cadcam study database") from None
+    finally:
+        db.close()
+    return study, rows
+
+
+# -- executors --------------------------------------------------------------------------------
+class _Local:
+    def __init__(self, workers: int):
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+
+    def submit(self, *args):
+        return self.pool.submit(run_case, *args)
+
+    def wait(self, futures):
+        return wait(futures, return_when=FIRST_COMPLETED)[0]
+
+    def close(self):
+        self.pool.shutdown(cancel_futures=True)
+
+
+class _Dask:
+    def __init__(self, address: str, workers: int):
+        try:
+            from dask.distributed import Client, LocalCluster, wait as dask_wait
+        except ImportError:
+            raise SweepError("--dask needs the optional extra: pip install 'cadcam[dask]'") from None
+        self._wait = dask_wait
+        if address == "local":
+            self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                        host="127.0.0.1", dashboard_address=None)
+            self.client = Client(self.cluster)
+        else:
+            self.cluster = None
+            self.client = Client(address)
+
+    def submit(self, *args):
+        return self.client.submit(run_case, *args, pure=False)
+
+    def wait(self, futures):
+        return self._wait(list(futures), return_when="FIRST_COMPLETED").done
+
+    def close(self):
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def _nearest(case: dict, solved: list[tuple[dict, dict]], scales: dict):
+    """Design of the solved case nearest to ``case`` in normalised numeric parameters."""
+    def dist(other):
+        total = 0.0
+        for k, v in case.items():
+            w = other[k]
+            if isinstance(v, (int, float)) and isinstance(w, (int, float)):
+                total += ((v - w) / scales[k]) ** 2
+            elif v != w:
+                total += 1.0
+        return total
+    return min(solved, key=lambda s: dist(s[0]))[1] if solved else None
+
+
+def _reporter(total: int, done: int):
+    """A progress bar on a terminal (tqdm), plain log lines otherwise."""
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+        bar = tqdm(total=total, initial=done, unit="case", dynamic_ncols=True)
+        return lambda row: (bar.set_postfix_str(row["status"]), bar.update(1)), bar.close
+    t0, count = time.perf_counter(), [done]
+
+    def line(row):
+        count[0] += 1
+        rate = (count[0] - done) / max(time.perf_counter() - t0, 1e-9)
+        eta = (total - count[0]) / rate if rate > 0 else math.inf
+        print(f"[{count[0]}/{total}] {row['case_id']} {row['status']} "
+              f"({rate * 60:.1f} cases/min, ETA {eta:.0f} s)", file=sys.stderr, flush=True)
+    return line, lambda: None
+
+
+def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | None = None,
+              progress: bool = True) -> dict:
+    """Run every case of ``study`` not yet in ``db_path``; return counts and timing.
+
+    ``workers`` defaults to the machine's cores; ``dask`` is ``None`` (local process pool),
+    ``"local"`` (a Dask LocalCluster on loopback) or a scheduler address.
+    """
+    cases = study.validate()
+    workers = workers or os.cpu_count() or 1
+    db = open_db(db_path, study)
+    try:
+        done_ids = {r[0] for r in db.execute("SELECT case_id FROM cases")}
+        todo = [(i, c) for i, c in enumerate(cases) if Study.case_id(c) not in done_ids]
+        numeric = {k: [c[k] for c in cases if isinstance(c[k], (int, float))] for k in cases[0]}
+        scales = {k: (max(v) - min(v)) or 1.0 if v else 1.0 for k, v in numeric.items()}
+        solved = []
+        if study.warm_start:
+            for r in db.execute("SELECT params, design FROM cases WHERE status = 'success'"):
+                solved.append((json.loads(r[0]), json.loads(r[1])))
+        if not todo:
+            return {"cases": len(cases), "ran": 0, "skipped": len(cases), "wall_time_s": 0.0,
+                    "statuses": dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall()),
+                    "cases_per_min": float("nan")}
+        executor = _Dask(dask, workers) if dask else _Local(workers)
+        report, finish = _reporter(len(cases), len(cases) - len(todo)) if progress else (lambda r: None, lambda: None)
+        definition = study.to_dict()
+        t0 = time.perf_counter()
+        pending, queue = {}, list(todo)
+        try:
+            while queue or pending:
+                while queue and len(pending) < 2 * workers:
+                    idx, case = queue.pop(0)
+                    start = _nearest(case, solved, scales) if study.warm_start else None
+                    pending[executor.submit(definition, case, start)] = idx
+                for fut in executor.wait(list(pending)):
+                    idx = pending.pop(fut)
+                    row = {**fut.result(), "idx": idx}
+                    record(db, row)
+                    if study.warm_start and row["status"] == "success":
+                        solved.append((json.loads(row["params"]), json.loads(row["design"])))
+                    report(row)
+        finally:
+            finish()
+            executor.close()
+        elapsed = time.perf_counter() - t0
+        statuses = dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall())
+    finally:
+        db.close()
+    return {"cases": len(cases), "ran": len(todo), "skipped": len(cases) - len(todo),
+            "wall_time_s": elapsed, "statuses": statuses,
+            "cases_per_min": 60 * len(todo) / elapsed if todo and elapsed > 0 else float("nan")}
+
+
+# -- tables -------------------------------------------------------------------------------------
+def _flat(prefix: str, value, out: dict) -> None:
+    if isinstance(value, list):
+        for i, v in enumerate(value):
+            _flat(f"{prefix}_{i + 1}", v, out)
+    elif isinstance(value, dict):
+        out[prefix] = value.get("name", json.dumps(value, sort_keys=True))
+    else:
+        out[prefix] = value
+
+
+def flat_table(study: dict, rows: list[dict]) -> list[dict]:
+    """One flat dict per case: its parameters, run facts, recorded metrics (per-cam lists as
+    ``rmse_1``, ``rmse_2``…) and the number of re-check violations."""
+    table = []
+    for r in rows:
+        out = {"case_id": r["case_id"], "idx": r["idx"]}
+        for k, v in r["params"].items():
+            _flat(k, v, out)
+        out.update({k: r[k] for k in ("status", "iterations", "solve_time_s", "build_time_s",
+                                      "wall_time_s", "error", "friction_model", "cadcam_version")})
+        for name in study["record"]:
+            _flat(name, (r["metrics"] or {}).get(name), out)
+        out["recheck_violations"] = len(r["recheck"]["violations"]) if r["recheck"] else None
+        table.append(out)
+    return table
