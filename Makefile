@@ -21,6 +21,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_design.py
+	$(PY) benchmarks/bench_sweep.py
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info

@@ -249,7 +249,7 @@ def main(argv=None) -> int:
     p = sub.add_parser("sweep", help="run a parameter study, recorded to SQLite (resumable)")
     p.add_argument("study", help="study file (TOML)")
     p.add_argument("-o", "--output", required=True, help="study database (SQLite)")
-    p.add_argument("--workers", type=int, help="worker processes (default: the machine's cores)")
+    p.add_argument("--workers", type=int, help="worker processes (default: the machine's cores; 0 runs serially in this process)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler address, "
                    "or 'local' for a LocalCluster on this machine")
     p.set_defaults(run=cmd_sweep)

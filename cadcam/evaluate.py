@@ -138,8 +138,10 @@ def _refine_min(prof, c, phi, values, out_index, sign=1.0):
 
 
 def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
-                order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature") -> CamSamples:
-    """Solve the tangency with the rootfinder and evaluate cam ``i``'s port quantities."""
+                order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature",
+                profile: bool = True) -> CamSamples:
+    """Solve the tangency with the rootfinder and evaluate cam ``i``'s port quantities
+    (and, with ``profile``, scan ρ and the convexity margin over the wrapped range)."""
     cam, basis, c = problem.cams[i], design.bases[i], np.asarray(design.coefficients[i])
     r, a0 = cam.idler_radius, cam.idler_offset
     alpha, gamma, residual = tangency_solver(basis).solve(np.concatenate([[0.0], theta]), c, r, a0)
@@ -151,14 +153,17 @@ def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
                                                        qx_ref, wrapped, c, r, a0, cam.mu))
     qx = np.asarray(cached_cam_function(basis).map(n)(theta, alpha[1:], gamma[1:], c, r, a0)[2]).ravel()
     phi_hi = max(float(np.max(alpha)), 1e-9)
-    phi, rho, conv, conv_min, rho_lo, rho_hi = _profile_extremes(basis, c, phi_hi, max(20 * n, 2000))
+    phi, rho, conv, conv_min, rho_lo, rho_hi = (
+        _profile_extremes(basis, c, phi_hi, max(20 * n, 2000)) if profile
+        else (np.array([]), np.array([]), np.array([]), np.nan, np.nan, np.nan))
     return CamSamples(theta, alpha[1:], gamma[1:], float(alpha[0]), float(gamma[0]),
                       np.maximum(residual[1:], residual[0]), branch.ravel(), d, arm, qx,
                       phi, rho, conv, conv_min, rho_lo, rho_hi)
 
 
 def evaluate(problem: Problem, design: Design, grid: int | None = None,
-             order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature") -> Evaluation:
+             order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature",
+             profile: bool = True) -> Evaluation:
     """Evaluate ``design`` on a uniform grid of ``grid`` angles per cam (default: the problem's).
 
     Returns an :class:`Evaluation` whose ``metrics`` hold, in SI units: ``rmse`` and
@@ -166,11 +171,12 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     [m] per spring; ``convexity_min`` [m²], ``rho_min``/``rho_max`` [m] per cam over the whole
     wrapped range [0, max α]; ``tangency_residual_max``; ``sensitivity_integral``
     ∫|∂τ_i/∂k_j| [m²·rad^m] per cam and spring (trapezoidal); ``objective`` (Eq. 46/47);
-    ``margins`` (positive = satisfied) and ``violations``.
+    ``margins`` (positive = satisfied) and ``violations``. ``profile = False`` skips the
+    scan of the profile (its metrics are then NaN), for callers that need only the grid.
     """
     n = grid or problem.options.grid
     m, S = len(problem.cams), len(problem.springs)
-    cams = [cam_samples(problem, design, i, problem.cams[i].grid(n), order, wire_arm)
+    cams = [cam_samples(problem, design, i, problem.cams[i].grid(n), order, wire_arm, profile)
             for i in range(m)]
     idx = np.indices((n,) * m).reshape(m, -1)
     N = idx.shape[1]

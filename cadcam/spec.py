@@ -119,8 +119,9 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
         data = {"joint": joint, **arm}
     else:
         if "samples" in r.table:
-            samples = r.get("samples", _list_of(_list_of(_number, 2)),
-                            "a list of [theta_rad, torque_Nm] pairs")
+            samples = r.get("samples", lambda v: _list_of(_list_of(_number, 2))(v) and len(v) >= 4
+                            and all(b[0] > a[0] for a, b in zip(v, v[1:])),
+                            "a list of at least 4 [theta_rad, torque_Nm] pairs, angles increasing")
         else:
             name = r.get("file", lambda v: isinstance(v, str) and v,
                          "a CSV file (relative to the spec) with header theta_rad,torque_Nm")

@@ -296,7 +296,7 @@ class Transcription:
         v, n = self.v, self.n
         w0 = np.zeros(v.size)
         ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
-                      wire_arm="closed-form")
+                      wire_arm="closed-form", profile=False)
         for i, cs in enumerate(ev.cams):
             v.put(w0, f"c{i}", design.coefficients[i] / LENGTH_SCALE)
             v.put(w0, f"alpha{i}", cs.alpha)

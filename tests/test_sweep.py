@@ -1,0 +1,159 @@
+"""Parameter sweeps: same rows on every executor, resumable after SIGKILL, failures recorded."""
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from cadcam.study import Study, StudyError, load_study
+from cadcam.sweep import read_rows, run_sweep
+
+from .conftest import SPEC_1DOF
+
+STUDY = f'''
+name = "small"
+base = "{SPEC_1DOF}"
+[[parameters]]
+key = "cams.1.idler.offset"
+range = [0.010, 0.020]
+num = {{num}}
+[[parameters]]
+key = "springs.1.rate"
+values = [1000.0, 1200.0]
+[[parameters]]
+key = "solver.grid"
+values = [12]
+'''
+
+
+def _study(tmp_path, num=2, name="study.toml"):
+    path = tmp_path / name
+    path.write_text(STUDY.format(num=num))
+    return load_study(path)
+
+
+def _values(path):
+    _, rows = read_rows(path)
+    return {r["case_id"]: (r["status"], r["iterations"], r["metrics"]["rmse"], r["design"]) for r in rows}
+
+
+def test_local_pool_and_dask_local_cluster_give_identical_rows(tmp_path):
+    pytest.importorskip("dask.distributed")
+    study = _study(tmp_path)
+    run_sweep(study, tmp_path / "pool.db", workers=2, progress=False)
+    run_sweep(study, tmp_path / "dask.db", workers=2, dask="local", progress=False)
+    pool, dask = _values(tmp_path / "pool.db"), _values(tmp_path / "dask.db")
+    assert len(pool) == 4 and pool == dask
+    assert all(v[0] == "success" for v in pool.values())
+
+
+def test_sigkill_midway_then_resume_gives_one_row_per_case(tmp_path):
+    study = _study(tmp_path, num=4)
+    reference = tmp_path / "reference.db"
+    run_sweep(study, reference, workers=0, progress=False)
+    db = tmp_path / "killed.db"
+    cmd = [sys.executable, "-m", "cadcam", "sweep", str(tmp_path / "study.toml"), "-o", str(db), "--workers", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 120
+    done = 0
+    while time.time() < deadline and proc.poll() is None:
+        if db.exists():
+            try:
+                with sqlite3.connect(db) as con:
+                    done = con.execute("SELECT COUNT(*) FROM cases").fetchone()[0]
+            except sqlite3.OperationalError:
+                done = 0
+            if done >= 2:
+                break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the sweep finished before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)  # the whole process tree: parent and workers
+    proc.wait()
+    with sqlite3.connect(db) as con:
+        killed_at = con.execute("SELECT COUNT(*) FROM cases").fetchone()[0]
+    assert 2 <= killed_at < 8
+    assert subprocess.run(cmd, capture_output=True).returncode == 0
+    with sqlite3.connect(db) as con:
+        ids = [r[0] for r in con.execute("SELECT case_id FROM cases")]
+    assert len(ids) == len(set(ids)) == 8
+    ours, theirs = _values(db), _values(reference)
+    assert ours.keys() == theirs.keys()
+    for k in ours:  # the same numbers as an uninterrupted (serial) run
+        assert ours[k][0] == theirs[k][0] and ours[k][1] == theirs[k][1]
+        np.testing.assert_allclose(ours[k][2], theirs[k][2], rtol=1e-12)
+
+
+def test_a_case_that_raises_is_recorded_and_the_others_complete(tmp_path, monkeypatch):
+    module = sys.modules["cadcam.optimize"]  # the package re-exports the function by this name
+    real = module.optimize
+
+    def flaky(problem, **kw):
+        if problem.springs[0].rate == 1200.0 and problem.cams[0].idler_offset == 0.010:
+            raise RuntimeError("Error in Function::call for 'cadcam' [IpoptInterface]: boom")
+        return real(problem, **kw)
+
+    monkeypatch.setattr(module, "optimize", flaky)
+    study = _study(tmp_path)
+    summary = run_sweep(study, tmp_path / "s.db", workers=0, progress=False)
+    _, rows = read_rows(tmp_path / "s.db")
+    assert summary["statuses"] == {"error": 1, "success": 3} and len(rows) == 4
+    (bad,) = [r for r in rows if r["status"] == "error"]
+    assert bad["error"] == "RuntimeError: Error in Function::call for 'cadcam' [IpoptInterface]: boom"
+    assert bad["params"] == {"cams.1.idler.offset": 0.01, "springs.1.rate": 1200.0, "solver.grid": 12}
+    # a re-run retries nothing that is recorded, failed cases included
+    assert run_sweep(study, tmp_path / "s.db", workers=0, progress=False)["ran"] == 0
+
+
+@pytest.mark.parametrize("body,message", [
+    ('name = "x"\nbase = "{spec}"\n', "varies no parameter"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.ratee"\nvalues = [1.0]\n',
+     "unknown key 'springs[1].ratee'"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.9.rate"\nvalues = [1.0]\n', "has 2 entries"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.rate"\nrange = ["a", 2]\nnum = 3\n',
+     "range = ['a', 2]: expected [low, high] numbers"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.rate"\nrange = [1.0, 2.0]\n',
+     "num = 0: expected an integer ≥ 2"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.rate"\nvalues = [-5.0]\n',
+     "springs.1.rate = -5.0"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.rate"\nvalues = []\n', "non-empty list"),
+    ('name = "x"\nbase = "{spec}"\ncolour = 2\n', "unknown key 'colour'"),
+])
+def test_bad_study_files_are_refused_before_any_case_runs(tmp_path, body, message, capsys):
+    from cadcam.cli import main
+    path = tmp_path / "bad.toml"
+    path.write_text(body.format(spec=SPEC_1DOF))
+    with pytest.raises(StudyError) as err:
+        load_study(path).validate()
+    assert message in str(err.value) and "\n" not in str(err.value)
+    assert main(["sweep", str(path), "-o", str(tmp_path / "bad.db")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert not (tmp_path / "bad.db").exists()  # nothing ran, nothing was created
+
+
+def test_export_csv_and_plot(tmp_path):
+    from cadcam.cli import main
+    study = _study(tmp_path)
+    run_sweep(study, tmp_path / "s.db", workers=0, progress=False)
+    assert main(["sweep-export", str(tmp_path / "s.db"), "--csv", str(tmp_path / "s.csv")]) == 0
+    lines = (tmp_path / "s.csv").read_text().splitlines()
+    assert len(lines) == 5 and "cams.1.idler.offset" in lines[0] and "rmse_1" in lines[0]
+    assert main(["plot-study", str(tmp_path / "s.db"), "--x", "cams.1.idler.offset", "--y", "rmse_1",
+                 "--color", "springs.1.rate", "--pareto", "-o", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").stat().st_size > 0
+
+
+def test_catalogue_parameters_update_the_spring_and_keep_its_ports(tmp_path):
+    cat = tmp_path / "cat.csv"
+    cat.write_text("id,source,rate_N_per_m,travel_m,pretension_N,notes\nA,test,900,0.05,0,\nB,test,1500,0.06,0,\n")
+    path = tmp_path / "c.toml"
+    path.write_text(f'name = "c"\nbase = "{SPEC_1DOF}"\n[[parameters]]\nkey = "springs.1"\ncatalogue = "cat.csv"\n')
+    study = load_study(path)
+    p = study.problem(study.cases()[1])
+    assert (p.springs[0].rate, p.springs[0].travel, p.springs[0].name) == (1500.0, 0.06, "B (test)")
+    assert p.springs[0].ports == load_study(path).problem(study.cases()[0]).springs[0].ports
+    assert Study.case_id(study.cases()[0]) != Study.case_id(study.cases()[1])
