@@ -31,3 +31,8 @@ study-weights_1dof: $(STAMP)
 
 reproduce-johnston2023: $(STAMP)
 	$(PY) studies/johnston2023.py
+
+STUDIES := sensitivity_pareto idler_placement basis_order spring_catalogue
+.PHONY: $(addprefix study-,$(STUDIES))
+$(addprefix study-,$(STUDIES)): study-%: $(STAMP)
+	$(PY) studies/$*.py

@@ -140,7 +140,8 @@ class TangencySolver:
         res = self.cam(theta, z[0], z[1], c, r, a0)[0]
         g = ca.Function("tangency", [z, ca.vertcat(theta, c, r, a0)], [res])
         self._rf = ca.rootfinder("tangency_newton", "newton", g,
-                                 {"abstol": abstol, "max_iter": max_iter, "error_on_fail": False})
+                                 {"abstol": abstol, "max_iter": max_iter, "error_on_fail": False,
+                                  "show_eval_warnings": False})  # failures show in the residual
 
     def guess(self, theta, c, r, a0):
         """Initial (α, γ) [rad] for each θ in ``theta``; see :func:`guess_function`."""

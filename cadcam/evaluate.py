@@ -129,7 +129,10 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
 
 
 def _refine_min(prof, c, phi, values, out_index, sign=1.0):
-    """Minimum of ``values`` (= sign·output ``out_index`` of ``prof``) refined between samples."""
+    """Minimum of ``values`` (= sign·output ``out_index`` of ``prof``) refined between samples
+    (NaN where the profile itself is not finite)."""
+    if not np.all(np.isfinite(values)):
+        return float("nan")
     k = int(np.argmin(values))
     lo, hi = phi[max(k - 1, 0)], phi[min(k + 1, phi.size - 1)]
     res = minimize_scalar(lambda p: sign * float(prof(p, c)[out_index]), bounds=(lo, hi),
@@ -152,7 +155,8 @@ def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
     d, arm, _, branch = (np.asarray(v) for v in ports(theta, alpha[1:], gamma[1:], gamma[0],
                                                        qx_ref, wrapped, c, r, a0, cam.mu))
     qx = np.asarray(cached_cam_function(basis).map(n)(theta, alpha[1:], gamma[1:], c, r, a0)[2]).ravel()
-    phi_hi = max(float(np.max(alpha)), 1e-9)
+    # the wrapped range; where the tangency failed (NaN), the whole design interval
+    phi_hi = float(np.max(alpha)) if np.all(np.isfinite(alpha)) else basis.domain[1]
     phi, rho, conv, conv_min, rho_lo, rho_hi = (
         _profile_extremes(basis, c, phi_hi, max(20 * n, 2000)) if profile
         else (np.array([]), np.array([]), np.array([]), np.nan, np.nan, np.nan))
@@ -224,7 +228,7 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
     for key, vals in margins.items():
         owner = p.springs if key in ("travel", "extension_lower", "preextension") else p.cams
         for item, v in zip(owner, vals):
-            if v < -tol[key]:
+            if not v >= -tol[key]:  # NaN (not computable) counts as violated
                 violations.append(f"{names[key]}: {item.name} (margin {v:.3g})")
     return {
         "grid": ev.grid,

@@ -16,10 +16,15 @@ from .transcription import Transcription
 
 
 def default_start(problem: Problem) -> Design:
-    """Circular cams of radius min(1.2 ρ_min, mid-range) and pre-extensions at 10 % of travel."""
+    """Circular cams and pre-extensions at 10 % of travel.
+
+    The radius is 1.2 ρ_min, raised if needed so that the idler can touch the cam
+    ((ρ + r) sin(α − θ) = a₀ needs ρ + r > a₀), and kept inside the mid-range of ρ.
+    """
     bases, coefs = [], []
     for cam in problem.cams:
-        radius = min(1.2 * cam.rho_min, 0.5 * (cam.rho_min + cam.rho_max))
+        reach = 1.2 * (abs(cam.idler_offset) - cam.idler_radius) + 0.2 * cam.rho_min
+        radius = min(max(1.2 * cam.rho_min, reach), 0.5 * (cam.rho_min + cam.rho_max))
         m = np.zeros(cam.basis.size)
         m[0] = radius
         bases.append(cam.basis)

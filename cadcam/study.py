@@ -97,7 +97,7 @@ class Study:
     record: tuple[str, ...] = DEFAULT_RECORD
     warm_start: bool = False
     origin: str = "<study>"
-    _base_data: dict = field(default=None, repr=False, compare=False)
+    _base_data: dict = field(default=None, init=False, repr=False, compare=False)
 
     # -- cases ------------------------------------------------------------------------------
     def cases(self) -> list[dict]:

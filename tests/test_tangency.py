@@ -64,3 +64,13 @@ def test_table3_design_reproduces_reference_values(rr_problem, table3, model, ex
     assert ev.metrics["extension_min"][1] * 1e3 == pytest.approx(9.33, abs=0.01)
     assert ev.metrics["extension_max"][1] * 1e3 == pytest.approx(30.1, abs=0.05)
     assert ev.metrics["convexity_min"][0] == pytest.approx(2.3e-6, rel=0.05)
+
+
+def test_a_cam_the_idler_cannot_reach_gives_violations_not_an_exception(problem_1dof):
+    """(ρ + r) < a₀: no tangency exists; the evaluator reports it instead of raising."""
+    import dataclasses
+    cam = dataclasses.replace(problem_1dof.cams[0], idler_offset=0.045, idler_radius=0.005)
+    problem = dataclasses.replace(problem_1dof, cams=(cam,))
+    ev = evaluate(problem, circle_design(problem, 0.010, [0.0, 0.0]), grid=12)
+    assert any(v.startswith("tangency not solved") for v in ev.violations)
+    assert not np.isfinite(ev.metrics["rmse"][0])
