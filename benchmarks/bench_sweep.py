@@ -7,7 +7,6 @@ warm starts from the nearest solved case. Target (issue 4): ≥ 10× the naive l
 """
 from __future__ import annotations
 
-import json
 import statistics
 import tempfile
 import time

@@ -149,11 +149,15 @@ class TangencySolver:
         alpha, gamma = self._guess.map(theta.size)(theta, c, r, a0)
         return np.asarray(alpha).ravel(), np.asarray(gamma).ravel()
 
-    def solve(self, theta, c, r, a0):
-        """(α, γ) [rad] and the max residual at each θ; see :func:`tangency_residuals`."""
+    def solve(self, theta, c, r, a0, start=None):
+        """(α, γ) [rad] and the max residual at each θ; see :func:`tangency_residuals`.
+
+        ``start`` = (α, γ) arrays overrides :meth:`guess` as Newton's starting point (the
+        converged root is the same; a better start only helps where the guess is poor).
+        """
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         c = np.asarray(c, dtype=float).ravel()
-        alpha0, gamma0 = self.guess(theta, c, r, a0)
+        alpha0, gamma0 = self.guess(theta, c, r, a0) if start is None else start
         n = theta.size
         p = np.vstack([theta, np.tile(c[:, None], (1, n)), np.full(n, r), np.full(n, a0)])
         z = np.asarray(self._rf.map(n)(np.vstack([alpha0, gamma0]), p))

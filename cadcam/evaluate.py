@@ -142,12 +142,17 @@ def _refine_min(prof, c, phi, values, out_index, sign=1.0):
 
 def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
                 order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature",
-                profile: bool = True) -> CamSamples:
+                profile: bool = True, seed=None) -> CamSamples:
     """Solve the tangency with the rootfinder and evaluate cam ``i``'s port quantities
-    (and, with ``profile``, scan ρ and the convexity margin over the wrapped range)."""
+    (and, with ``profile``, scan ρ and the convexity margin over the wrapped range).
+
+    ``seed`` = (θ, α, γ) samples, e.g. an NLP's solution, interpolated as Newton's start.
+    """
     cam, basis, c = problem.cams[i], design.bases[i], np.asarray(design.coefficients[i])
     r, a0 = cam.idler_radius, cam.idler_offset
-    alpha, gamma, residual = tangency_solver(basis).solve(np.concatenate([[0.0], theta]), c, r, a0)
+    th = np.concatenate([[0.0], theta])
+    start = None if seed is None else (np.interp(th, seed[0], seed[1]), np.interp(th, seed[0], seed[2]))
+    alpha, gamma, residual = tangency_solver(basis).solve(th, c, r, a0, start)
     n = theta.size
     wrapped = cached_length_function(basis, order).map(n)(alpha[0], alpha[1:], c)
     ports = cached_port_function(basis, problem.friction_model, order, wire_arm).map(n)
@@ -167,7 +172,7 @@ def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
 
 def evaluate(problem: Problem, design: Design, grid: int | None = None,
              order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature",
-             profile: bool = True) -> Evaluation:
+             profile: bool = True, seeds=None) -> Evaluation:
     """Evaluate ``design`` on a uniform grid of ``grid`` angles per cam (default: the problem's).
 
     Returns an :class:`Evaluation` whose ``metrics`` hold, in SI units: ``rmse`` and
@@ -176,12 +181,13 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     wrapped range [0, max α]; ``tangency_residual_max``; ``sensitivity_integral``
     ∫|∂τ_i/∂k_j| [m²·rad^m] per cam and spring (trapezoidal); ``objective`` (Eq. 46/47);
     ``margins`` (positive = satisfied) and ``violations``. ``profile = False`` skips the
-    scan of the profile (its metrics are then NaN), for callers that need only the grid.
+    scan of the profile (its metrics are then NaN), for callers that need only the grid;
+    ``seeds`` (per cam, see :func:`cam_samples`) start the rootfinder from known angles.
     """
     n = grid or problem.options.grid
     m, S = len(problem.cams), len(problem.springs)
-    cams = [cam_samples(problem, design, i, problem.cams[i].grid(n), order, wire_arm, profile)
-            for i in range(m)]
+    cams = [cam_samples(problem, design, i, problem.cams[i].grid(n), order, wire_arm, profile,
+                        None if seeds is None else seeds[i]) for i in range(m)]
     idx = np.indices((n,) * m).reshape(m, -1)
     N = idx.shape[1]
     theta = np.vstack([cams[i].theta[idx[i]] for i in range(m)])
@@ -197,6 +203,19 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     ev = Evaluation(problem, design, n, cams, theta, tau, tau_d, x, dtau_dk)
     ev.metrics = _metrics(ev, weights)
     return ev
+
+
+def rate_deviation(problem: Problem, design: Design, factor: float, springs=None,
+                   grid: int | None = None) -> np.ndarray:
+    """RMSE per cam [N·m] between the torques of ``design`` with nominal spring rates and with
+    the rates of ``springs`` (default all, as seed 003's Table 5) multiplied by ``factor``.
+
+    τ is linear in the rates, so with every rate scaled this is |factor − 1| × the RMS torque
+    for any design; one spring at a time is what measures robustness.
+    """
+    nominal = evaluate(problem, design, grid=grid, profile=False)
+    changed = evaluate(problem.with_spring_rates(factor, springs), design, grid=grid, profile=False)
+    return np.sqrt(np.mean((changed.tau - nominal.tau) ** 2, axis=1))
 
 
 def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:

@@ -79,8 +79,12 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     best = min(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
     best.trials = [{"start": s.start, "status": s.status, "objective": s.objective,
                     "iterations": s.iterations, "solve_time_s": s.solve_time_s} for s in solves]
-    on_grid = evaluate(problem, best.design)
-    fine = evaluate(problem, best.design,
+    # the NLP's tangency angles start the independent rootfinder (the roots it converges to
+    # are checked by their residuals either way)
+    seeds = [(cam.grid(problem.options.grid), best.alpha[i], best.gamma[i])
+             for i, cam in enumerate(problem.cams)]
+    on_grid = evaluate(problem, best.design, seeds=seeds)
+    fine = evaluate(problem, best.design, seeds=seeds,
                     grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
     if best.status != "converged":
         status = best.status

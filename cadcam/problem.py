@@ -103,9 +103,12 @@ class Problem:
         """Copy solved or evaluated under another friction model."""
         return replace(self, friction_model=name)
 
-    def with_spring_rates(self, factor: float) -> "Problem":
-        """Copy with every spring rate multiplied by ``factor`` (seed 003, Table 5 study)."""
-        return replace(self, springs=tuple(replace(s, rate=s.rate * factor) for s in self.springs))
+    def with_spring_rates(self, factor: float, springs=None) -> "Problem":
+        """Copy with the rates of ``springs`` (indices; default every spring, as seed 003's
+        Table 5 study does) multiplied by ``factor``."""
+        return replace(self, springs=tuple(
+            replace(s, rate=s.rate * factor) if springs is None or j in springs else s
+            for j, s in enumerate(self.springs)))
 
     def with_weights(self, tracking: float | None = None, sensitivity=None) -> "Problem":
         """Copy with every cam's tracking weight and/or sensitivity weights replaced."""

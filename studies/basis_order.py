@@ -47,7 +47,7 @@ COND_POINTS = 120
 def rr_study(study: Study) -> Study:
     """The same grid for every cam of the RR arm (``cams.1.`` keys become ``cams.*.``)."""
     return dataclasses.replace(
-        study, name=f"{study.name}_rr_arm", base=RR_SPEC, variant=None, _base_data=None,
+        study, name=f"{study.name}_rr_arm", base=RR_SPEC, variant=None,
         origin=f"{study.origin} (RR arm)",
         parameters=[dataclasses.replace(p, key=p.key.replace("cams.1.", "cams.*.", 1)) for p in study.parameters])
 

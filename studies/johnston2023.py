@@ -10,13 +10,11 @@ error maps and spring extensions.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
-import numpy as np
-
 from cadcam import Design, evaluate, load_spec, optimize
+from cadcam.evaluate import rate_deviation
 from cadcam.files import write_json, write_text
 from cadcam.plots import plot_profiles, plot_springs, plot_torque
 
@@ -30,16 +28,6 @@ MM = 1e3
 
 def fmt(values, digits=1):
     return " / ".join(f"{MM * v:.{digits}f}" for v in values)
-
-
-def deviation(problem, design, factor, springs=None):
-    """RMSE [N·m] per cam between nominal torques and torques with rates × ``factor``
-    (every spring, as Table 5 does, or only ``springs``)."""
-    nominal = evaluate(problem, design)
-    changed = tuple(dataclasses.replace(s, rate=s.rate * factor) if springs is None or j in springs
-                    else s for j, s in enumerate(problem.springs))
-    perturbed = evaluate(dataclasses.replace(problem, springs=changed), design)
-    return np.sqrt(np.mean((perturbed.tau - nominal.tau) ** 2, axis=1))
 
 
 def figures(ev, stem):
@@ -113,8 +101,8 @@ def main() -> None:
         row = []
         for stem, *_ in CASES:
             problem, _, published = results[stem]
-            row.append(fmt(deviation(problem.with_friction_model("as-printed"), published, 1 + delta)))
-        cad = [fmt(deviation(p, r.design, 1 + delta)) for p, r, _ in results.values()]
+            row.append(fmt(rate_deviation(problem.with_friction_model("as-printed"), published, 1 + delta)))
+        cad = [fmt(rate_deviation(p, r.design, 1 + delta)) for p, r, _ in results.values()]
         lines.append(f"| +{delta:.0%} | {row[0]} | {row[1]} | {paper[delta][0]} ; {paper[delta][1]} | {cad[0]} | {cad[1]} |")
     lines += ["", "τ is linear in the rates, so raising all of them by δ scales every torque by 1 + δ: "
               "this study measures δ times the RMS torque and cannot distinguish a robust design from "
@@ -123,7 +111,7 @@ def main() -> None:
     for stem, (problem, r, published) in results.items():
         for label, d, model in ((f"published ({stem})", published, "exact"), (f"cadcam ({stem})", r.design, "exact")):
             p = problem.with_friction_model(model)
-            lines.append(f"| {label} | " + " | ".join(fmt(deviation(p, d, 1.10, {j})) for j in range(3)) + " |")
+            lines.append(f"| {label} | " + " | ".join(fmt(rate_deviation(p, d, 1.10, {j})) for j in range(3)) + " |")
 
     lines += ["", "## 4. Figures", ""]
     for stem, *_ in CASES:

@@ -19,7 +19,6 @@ report.md, summary.json and pareto_fronts.png, deviation_vs_weight.png; prints t
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import time
 from pathlib import Path
@@ -31,6 +30,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from cadcam import Design, evaluate, load_spec
+from cadcam.evaluate import rate_deviation
 from cadcam.files import atomic_path, write_json, write_text
 from cadcam.plots import pareto_front
 from cadcam.study import Study, load_study
@@ -50,22 +50,11 @@ def rms(values) -> float:
     return float(np.sqrt(np.mean(np.square(values))))
 
 
-def one_rate(problem, j, factor):
-    """``problem`` with only spring ``j``'s rate multiplied by ``factor``."""
-    springs = list(problem.springs)
-    springs[j] = dataclasses.replace(springs[j], rate=springs[j].rate * factor)
-    return dataclasses.replace(problem, springs=tuple(springs))
-
-
 def score(problem, design) -> dict:
     """Tracking and +10 % rate deviations [N·m] of ``design`` (per cam and RMS over cams)."""
     nominal = evaluate(problem, design)
-
-    def dev(p):
-        return np.sqrt(np.mean((evaluate(p, design).tau - nominal.tau) ** 2, axis=1))
-
-    all_rates = dev(problem.with_spring_rates(FACTOR))
-    single = [dev(one_rate(problem, j, FACTOR)) for j in range(len(problem.springs))]
+    all_rates = rate_deviation(problem, design, FACTOR)
+    single = [rate_deviation(problem, design, FACTOR, {j}) for j in range(len(problem.springs))]
     single_rms = [rms(s) for s in single]
     return {"rmse": nominal.metrics["rmse"], "rmse_rms": rms(nominal.metrics["rmse"]),
             "max_abs_error": nominal.metrics["max_abs_error"],

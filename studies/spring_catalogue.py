@@ -14,7 +14,6 @@ spring_pairs.png; prints the report.
 from __future__ import annotations
 
 import csv
-import dataclasses
 import time
 from pathlib import Path
 
@@ -24,7 +23,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from cadcam import Design, evaluate
+from cadcam import Design
+from cadcam.evaluate import rate_deviation
 from cadcam.files import atomic_path, write_json, write_text
 from cadcam.study import Study, load_study
 from cadcam.sweep import read_rows, run_sweep
@@ -47,17 +47,9 @@ def rms(values) -> float:
     return float(np.sqrt(np.mean(np.square(values))))
 
 
-def one_rate(problem, j, factor):
-    springs = list(problem.springs)
-    springs[j] = dataclasses.replace(springs[j], rate=springs[j].rate * factor)
-    return dataclasses.replace(problem, springs=tuple(springs))
-
-
 def single_spring_deviation(problem, design) -> list[float]:
     """RMS over both cams of the torque change [N·m] when spring j alone is 10 % stiffer."""
-    nominal = evaluate(problem, design)
-    return [rms(np.sqrt(np.mean((evaluate(one_rate(problem, j, 1.10), design).tau - nominal.tau) ** 2, axis=1)))
-            for j in range(len(problem.springs))]
+    return [rms(rate_deviation(problem, design, 1.10, {j})) for j in range(len(problem.springs))]
 
 
 def figure(ids, cases):

@@ -1,5 +1,4 @@
 """Parameter sweeps: same rows on every executor, resumable after SIGKILL, failures recorded."""
-import json
 import os
 import signal
 import sqlite3
