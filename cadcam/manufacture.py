@@ -208,6 +208,11 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
     return outline
 
 
+#: Relative margin by which ρ bounds are tightened on the closure's grid, so that the curve
+#: between grid points stays inside them.
+RHO_BOUND_MARGIN = 1e-5
+
+
 def _u_bounds(rho_bounds, scale) -> tuple[float, float]:
     """Bounds on u/u(0) from (ρ_lo, ρ_hi) [m]; u > 0 only when ``rho_bounds`` is None."""
     if rho_bounds is None:
@@ -215,7 +220,7 @@ def _u_bounds(rho_bounds, scale) -> tuple[float, float]:
     lo, hi = (float(v) for v in rho_bounds)
     if not 0 < lo < hi:
         raise ValueError(f"rho_bounds = {rho_bounds!r} must be (ρ_lo, ρ_hi) [m], 0 < ρ_lo < ρ_hi")
-    return 1 / (hi * scale), 1 / (lo * scale)
+    return 1 / (hi * (1 - RHO_BOUND_MARGIN) * scale), 1 / (lo * (1 + RHO_BOUND_MARGIN) * scale)
 
 
 def _check_designed_arc(profile, coefficients, phi_max):

@@ -64,10 +64,11 @@ def test_reported_rmse_equals_an_independent_reevaluation(run, capsys):
     metrics = json.loads(capsys.readouterr().out)["metrics"]
     np.testing.assert_allclose(metrics["rmse"], res["metrics"]["rmse"], rtol=1e-6)
     np.testing.assert_allclose(metrics["max_abs_error"], res["metrics"]["max_abs_error"], rtol=1e-6)
-    # and from the result alone (its resolved problem), without the spec
+    # and from the result alone (its resolved problem), without the spec; the rootfinder starts
+    # from its own guess here, not from the NLP's angles, so the roots agree to its tolerance
     problem = load_spec(out / "result.json")
     ev = evaluate(problem, Design.from_dict(res, problem))
-    np.testing.assert_allclose(ev.metrics["rmse"], res["metrics"]["rmse"], rtol=1e-12)
+    np.testing.assert_allclose(ev.metrics["rmse"], res["metrics"]["rmse"], rtol=1e-9)
     # the NLP's own objective (its segment quadrature, its tangency variables, its split
     # s⁺ + s⁻ ≥ |a|) agrees with the independent evaluation
     assert res["solver"]["objective"] == pytest.approx(res["metrics"]["objective"], rel=1e-5)
