@@ -306,6 +306,14 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
             "cases_per_min": 60 * len(todo) / elapsed if todo and elapsed > 0 else float("nan")}
 
 
+def sweep_and_read(study: Study, db_path, workers: int | None = None) -> tuple[dict, list[dict]]:
+    """Run (or resume) ``study`` into ``db_path`` (creating its folder) and read every row back:
+    the run's summary (see :func:`run_sweep`) and the rows (see :func:`read_rows`)."""
+    Path(db_path).parent.mkdir(parents=True, exist_ok=True)
+    summary = run_sweep(study, db_path, workers=workers)
+    return summary, read_rows(db_path)[1]
+
+
 # -- tables -------------------------------------------------------------------------------------
 def _flat(prefix: str, value, out: dict) -> None:
     if isinstance(value, list):

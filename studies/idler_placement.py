@@ -28,8 +28,8 @@ from matplotlib.colors import Normalize
 
 from cadcam import Design, evaluate, optimize
 from cadcam.files import atomic_path, write_json, write_text
-from cadcam.study import Study, load_study
-from cadcam.sweep import read_rows, run_sweep
+from cadcam.study import load_study
+from cadcam.sweep import sweep_and_read
 from cadcam.transcription import Transcription
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,11 +96,8 @@ def heat(ax, fig, radii, offsets, values, ok, marks, title, label, norm, fmt="{:
 
 def main() -> None:
     t0 = time.perf_counter()
-    study = load_study(STUDY)
-    OUT.mkdir(parents=True, exist_ok=True)
-    sweep = run_sweep(study, OUT / "study.db", workers=2)
-    study_dict, rows = read_rows(OUT / "study.db")
-    s = Study.from_dict(study_dict)
+    s = load_study(STUDY)
+    sweep, rows = sweep_and_read(s, OUT / "study.db", workers=2)
 
     radii = np.array(sorted({r["params"][R_KEY] for r in rows}))
     offsets = np.array(sorted({r["params"][A_KEY] for r in rows}))

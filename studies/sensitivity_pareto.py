@@ -33,8 +33,8 @@ from cadcam import Design, evaluate, load_spec
 from cadcam.evaluate import rate_deviation
 from cadcam.files import atomic_path, write_json, write_text
 from cadcam.plots import pareto_front
-from cadcam.study import Study, load_study
-from cadcam.sweep import read_rows, run_sweep
+from cadcam.study import load_study
+from cadcam.sweep import sweep_and_read
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "sensitivity_pareto.toml"
@@ -147,11 +147,8 @@ def pair(v, digits=1):
 
 def main() -> None:
     t0 = time.perf_counter()
-    study = load_study(STUDY)
-    OUT.mkdir(parents=True, exist_ok=True)
-    sweep = run_sweep(study, OUT / "study.db", workers=2)
-    study_dict, rows = read_rows(OUT / "study.db")
-    s = Study.from_dict(study_dict)
+    s = load_study(STUDY)
+    sweep, rows = sweep_and_read(s, OUT / "study.db", workers=2)
 
     cases, failed = [], []
     for r in rows:
