@@ -12,18 +12,37 @@ from __future__ import annotations
 
 import time
 
+import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares, minimize
 
+from cadcam.departure import cam_tangent, tangency_residuals
 from cadcam.design import Design
-from cadcam.evaluate import (cached_cam_function, cached_length_function, cached_port_function,
-                             cached_profile_function, trapezoid_weights)
-from cadcam.profile import Basis
+from cadcam.evaluate import (
+    cached_cam_function,
+    cached_length_function,
+    cached_port_function,
+    cached_profile_function,
+    trapezoid_weights,
+)
+from cadcam.profile import Basis, profile_function
 from cadcam.springs import network_function
 
 
 class TimeCap(Exception):
     """The baseline ran out of its time budget."""
+
+
+def _eq8_function(basis: Basis) -> ca.Function:
+    """Residuals of seed 003's Eq. 8, [t̂(α) + t̂(γ); (ρ sin(α − θ) − r sin γ − a₀)/mm], from
+    cadcam's symbolic tangency functions."""
+    theta, alpha, gamma, r, a0 = (ca.SX.sym(n) for n in ("theta", "alpha", "gamma", "r", "a0"))
+    c = ca.SX.sym("c", basis.size)
+    rho, drho, _, _ = profile_function(basis)(alpha, c)
+    tx, ty = cam_tangent(theta, alpha, rho, drho)
+    closure = tangency_residuals(theta, alpha, gamma, rho, drho, r, a0)[1]
+    return ca.Function("eq8", [theta, alpha, gamma, c, r, a0],
+                       [ca.vertcat(tx - ca.sin(gamma), ty + ca.cos(gamma), closure / 1e-3)])
 
 
 class NestedBaseline:
@@ -44,6 +63,7 @@ class NestedBaseline:
         self.W = np.prod([trapezoid_weights(g)[i] for g, i in zip(grids, self.idx)], axis=0)
         self.tau_d = np.vstack([np.asarray(c.target.function(self.m, i).map(self.theta.shape[1])(self.theta)).ravel()
                                 for i, c in enumerate(problem.cams)])
+        self.eq8 = [_eq8_function(b) for b in self.bases]
         self.evaluations = 0
         self.lm_solves = 0
         self._cache = (None, None)
@@ -59,20 +79,11 @@ class NestedBaseline:
     def tangency(self, i, theta, c, guess):
         """Eq. 8 by Levenberg–Marquardt: ‖t̂(α) + t̂(γ)‖² + (closure)² → 0."""
         cam = self.problem.cams[i]
-        f = cached_cam_function(self.bases[i])
-        prof = cached_profile_function(self.bases[i])
-
-        def residual(z):
-            a, g = z
-            rho, drho = (float(v) for v in prof(a, c)[:2])
-            w = a - theta
-            s = np.hypot(rho, drho)
-            t = np.array([drho * np.cos(w) - rho * np.sin(w), drho * np.sin(w) + rho * np.cos(w)]) / s
-            closure = float(f(theta, a, g, c, cam.idler_radius, cam.idler_offset)[0][1])
-            return [t[0] - np.sin(g), t[1] + np.cos(g), closure / 1e-3]
-
+        eq8 = self.eq8[i]
         self.lm_solves += 1
-        return least_squares(residual, guess, method="lm", xtol=1e-12, ftol=1e-12).x
+        return least_squares(lambda z: np.asarray(eq8(theta, z[0], z[1], c, cam.idler_radius,
+                                                     cam.idler_offset)).ravel(),
+                             guess, method="lm", xtol=1e-12, ftol=1e-12).x
 
     def model(self, z):
         """Torques and spring extensions on the grid, and profile samples, for design ``z``."""
