@@ -25,7 +25,8 @@ import numpy as np
 
 from .departure import cam_function
 from .design import Design
-from .evaluate import (evaluate, cached_port_function, cached_profile_function, trapezoid_weights)
+from .evaluate import (cached_length_function, cached_port_function, cached_profile_function, evaluate,
+                       trapezoid_weights)
 from .wrap import segment_lengths
 from .problem import Problem
 from .springs import cam_term, cams_of, incidence, torque_terms
@@ -290,20 +291,22 @@ class Transcription:
                        for size, fn in self._bounds])
         return np.concatenate(lo), np.concatenate(hi)
 
-    def initial_guess(self, problem: Problem, design: Design) -> np.ndarray:
+    def initial_guess(self, problem: Problem, design: Design, pv=None) -> np.ndarray:
         """NLP start from a design: tangency angles by the rootfinder, the wrapped lengths and
-        s± from the evaluator, every lifted variable on its definition."""
+        s± from the evaluator, every lifted variable on its definition. ``pv`` is
+        :meth:`parameters` of ``problem`` if the caller has it already."""
         v, n = self.v, self.n
+        order = 4 * problem.options.quadrature_order
         w0 = np.zeros(v.size)
-        ev = evaluate(problem, design, grid=n, order=4 * problem.options.quadrature_order,
-                      wire_arm="closed-form", profile=False)
+        ev = evaluate(problem, design, grid=n, order=order, wire_arm="closed-form", profile=False)
         for i, cs in enumerate(ev.cams):
             v.put(w0, f"c{i}", design.coefficients[i] / LENGTH_SCALE)
             v.put(w0, f"alpha{i}", cs.alpha)
             v.put(w0, f"gamma{i}", cs.gamma)
             v.put(w0, f"ref{i}", [cs.alpha_ref, cs.gamma_ref])
-            wrapped = cs.d[0] - problem.cams[i].idler_radius * (cs.gamma - cs.gamma_ref)  # Eq. 14
-            v.put(w0, f"len{i}", wrapped / LENGTH_SCALE)
+            wrapped = cached_length_function(design.bases[i], order).map(n)(
+                cs.alpha_ref, cs.alpha, design.coefficients[i])  # seed 003, Eq. 10
+            v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
         P = incidence(list(problem.springs), self.m)
         for i, j in self.pairs:  # s⁺ − s⁻ start on a_ij: feasible and tight
@@ -316,7 +319,7 @@ class Transcription:
                 shares = [cam_term(P, j, c, ev.cams[c].d) / LENGTH_SCALE for c in cams]
                 v.put(w0, f"hi{j}", [s.max() for s in shares])
                 v.put(w0, f"lo{j}", [s.min() for s in shares])
-        pv = self.parameters(problem)
+        pv = self.parameters(problem) if pv is None else pv
         for name, fn in self._lifted_fn:  # in creation order: later ones use earlier ones
             v.put(w0, name, np.asarray(fn(w0, pv)).ravel())
         return w0
@@ -330,7 +333,7 @@ class Transcription:
     def solve(self, problem: Problem, start: Design) -> Solve:
         """Run IPOPT from ``start`` with ``problem``'s numbers."""
         pv = self.parameters(problem)
-        w0 = self.initial_guess(problem, start)
+        w0 = self.initial_guess(problem, start, pv)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         sol = self.solver(x0=w0, p=pv, lbx=self.lbx, ubx=self.ubx, lbg=lbg, ubg=ubg)
