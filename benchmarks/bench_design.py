@@ -14,8 +14,8 @@ import time
 from pathlib import Path
 
 from cadcam import evaluate, load_spec
-from cadcam.optimize import default_start
-from cadcam.transcription import Transcription
+from cadcam.optimize import default_start, solve
+from cadcam.nlp.transcription import Transcription
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -33,7 +33,7 @@ def bench(problem, runs: int) -> dict:
         t0 = time.perf_counter()
         tr = Transcription(problem)
         builds.append(time.perf_counter() - t0)
-        sol = tr.solve(problem, default_start(problem))
+        sol = solve(tr, problem, default_start(problem))
         solves.append(sol.solve_time_s)
         iters.append(sol.iterations)
         t0 = time.perf_counter()

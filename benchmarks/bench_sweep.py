@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from cadcam.optimize import optimize
-from cadcam.study import Parameter, Study
-from cadcam.sweep import read_rows, run_sweep
+from cadcam.studies.study import Parameter, Study
+from cadcam.studies.sweep import read_rows, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -16,17 +16,14 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares, minimize
 
-from cadcam.departure import cam_tangent, tangency_residuals
+from cadcam.physics.departure import cam_tangent, tangency_residuals
 from cadcam.design import Design
-from cadcam.evaluate import (
-    cached_cam_function,
-    cached_length_function,
-    cached_port_function,
-    cached_profile_function,
-    trapezoid_weights,
-)
-from cadcam.profile import Basis, profile_function
-from cadcam.springs import network_function
+from cadcam.mechanisms.wire_cam import port_function
+from cadcam.physics.departure import cam_function
+from cadcam.physics.quadrature import trapezoid_weights
+from cadcam.physics.wrap import length_function
+from cadcam.physics.profile import Basis, profile_function
+from cadcam.physics.springs import network_function
 
 
 class TimeCap(Exception):
@@ -101,16 +98,16 @@ class NestedBaseline:
                 guess = self.tangency(i, t, c, guess + [th[1] - th[0] if t > 0 else 0, 0])
                 sol.append(guess)
             a, g = np.array(sol).T
-            wrapped = cached_length_function(self.bases[i], 48).map(self.n)(a[0], a[1:], c)
-            qx_ref = float(cached_cam_function(self.bases[i])(0.0, a[0], g[0], c, cam.idler_radius,
+            wrapped = length_function(self.bases[i], 48).map(self.n)(a[0], a[1:], c)
+            qx_ref = float(cam_function(self.bases[i])(0.0, a[0], g[0], c, cam.idler_radius,
                                                               cam.idler_offset)[2])
-            d, arm, _, _ = cached_port_function(self.bases[i], self.problem.friction_model, 48, "closed-form"
+            d, arm, _, _ = port_function(self.bases[i], self.problem.friction_model, 48, "closed-form"
                                                 ).map(self.n)(th[1:], a[1:], g[1:], g[0], qx_ref, wrapped, c,
                                                               cam.idler_radius, cam.idler_offset, cam.mu)
             D.append(np.asarray(d)[:, self.idx[i]])
             A.append(np.asarray(arm)[:, self.idx[i]])
             phi = np.linspace(0, a.max(), self.M)
-            rho, _, _, conv = (np.asarray(v).ravel() for v in cached_profile_function(self.bases[i]).map(self.M)(phi, c))
+            rho, _, _, conv = (np.asarray(v).ravel() for v in profile_function(self.bases[i]).map(self.M)(phi, c))
             prof.append((rho, conv))
         k = np.array([s.rate for s in self.problem.springs])
         x, tau, _ = (np.asarray(v) for v in self.net(np.vstack(D), np.vstack(A), k, x0))

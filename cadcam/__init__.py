@@ -6,13 +6,13 @@ Quick start::
     result = optimize(load_spec("models/johnston2023_1dof.toml"))
     result.status, result.evaluation.metrics["rmse"]
 """
-__version__ = "0.1.0"
 
 from .design import Design, DesignError  # noqa: E402
-from .evaluate import evaluate  # noqa: E402
+from .check.evaluate import evaluate  # noqa: E402
 from .optimize import optimize  # noqa: E402
 from .problem import Cam, Options, Problem  # noqa: E402
 from .spec import SpecError, load_spec, parse_spec  # noqa: E402
+from .version import __version__  # noqa: E402
 
 __all__ = ["Cam", "Design", "DesignError", "Options", "Problem", "SpecError", "evaluate",
            "load_spec", "optimize", "parse_spec", "__version__"]

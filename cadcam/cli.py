@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .capstan import FRICTION_MODELS
+from .physics.capstan import FRICTION_MODELS
 from .design import Design, DesignError
 from .spec import SpecError, load_spec, parse_value
-from .study import StudyError
-from .sweep import SweepError
+from .studies.study import StudyError
+from .studies.sweep import SweepError
 from .targets import ExpressionError
 
 
@@ -56,7 +56,7 @@ def _problem_and_design(args):
 def write_outputs(result, out: Path) -> None:
     """``result.json``, ``torque.csv``, ``profile.csv`` and the PNG figures in ``out``."""
     from .files import write_csv, write_json
-    from .plots import plot_profiles, plot_springs, plot_torque
+    from .views.plots import plot_profiles, plot_springs, plot_torque
 
     ev = result.evaluation
     m, S = len(ev.cams), len(ev.problem.springs)
@@ -76,8 +76,8 @@ def write_outputs(result, out: Path) -> None:
 
 def write_workshop_files(ev, out: Path, args) -> list[str]:
     """Per cam: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request."""
-    from .drawing import draw_sheet
-    from .manufacture import closed_outline, polyline, write_csv, write_dxf, write_stl, write_svg
+    from .views.drawing import draw_sheet
+    from .views.workshop import closed_outline, polyline, write_csv, write_dxf, write_stl, write_svg
 
     notes = []
     for i, (cam, cs) in enumerate(zip(ev.problem.cams, ev.cams)):
@@ -135,7 +135,7 @@ def _check_workshop_args(args) -> None:
 
 
 def cmd_evaluate(args) -> int:
-    from .evaluate import evaluate
+    from .check.evaluate import evaluate
 
     problem, design = _problem_and_design(args)
     ev = evaluate(problem, design, grid=args.grid)
@@ -145,7 +145,7 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from .export import ExportError, export
+    from .views.export import ExportError, export
 
     problem, design = _problem_and_design(args)
     try:
@@ -158,8 +158,8 @@ def cmd_export(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from .study import load_study
-    from .sweep import run_sweep
+    from .studies.study import load_study
+    from .studies.sweep import run_sweep
 
     study = load_study(args.study)
     summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
@@ -175,7 +175,7 @@ def cmd_sweep_export(args) -> int:
     import io
 
     from .files import write_text
-    from .sweep import flat_table, read_rows
+    from .studies.sweep import flat_table, read_rows
 
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)
@@ -190,8 +190,8 @@ def cmd_sweep_export(args) -> int:
 
 
 def cmd_plot_study(args) -> int:
-    from .plots import plot_study
-    from .sweep import flat_table, read_rows
+    from .views.plots import plot_study
+    from .studies.sweep import flat_table, read_rows
 
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)

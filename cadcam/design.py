@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .problem import Problem
-from .profile import Basis, monomial_from_highest_first
+from .physics.profile import Basis, monomial_from_highest_first
 
 
 class DesignError(ValueError):

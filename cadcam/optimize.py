@@ -1,6 +1,6 @@
 """Design a cam system: solve the NLP (with optional multistarts) and re-check the optimum.
 
-The NLP's answer is trusted only after :func:`cadcam.evaluate.evaluate` has re-evaluated it on
+The NLP's answer is trusted only after :func:`cadcam.check.evaluate.evaluate` has re-evaluated it on
 a grid ``recheck_factor`` times finer, by the rootfinder and independent quadrature, and found
 every constraint satisfied (status ``success``); otherwise the status says what went wrong.
 """
@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from .design import Design
-from .evaluate import evaluate
+from .check.evaluate import evaluate
 from .problem import Problem
 from .result import Result
-from .transcription import Transcription
+from .nlp.transcription import Transcription
 
 
 def default_start(problem: Problem) -> Design:
@@ -48,6 +48,19 @@ def random_start(problem: Problem, rng: np.random.Generator) -> Design:
     return Design(bases, coefs, np.array([rng.uniform(0, 0.9 * s.travel) for s in problem.springs]))
 
 
+def start_samples(tr: Transcription, problem: Problem, design: Design) -> list:
+    """Per-cam samples of ``design`` on ``tr``'s grid for :meth:`Transcription.initial_guess`:
+    tangency by the rootfinder, port quantities in closed form."""
+    ev = evaluate(problem, design, grid=tr.n, order=tr.start_order(), wire_arm="closed-form",
+                  profile=False)
+    return ev.cams
+
+
+def solve(tr: Transcription, problem: Problem, start: Design):
+    """One IPOPT run of ``tr`` from ``start``; see :meth:`Transcription.solve`."""
+    return tr.solve(problem, start, start_samples(tr, problem, start))
+
+
 def optimize(problem: Problem, transcription: Transcription | None = None,
              start: Design | None = None) -> Result:
     """Solve ``problem`` and re-check the optimum.
@@ -72,7 +85,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     starts += [random_start(problem, rng) for _ in range(problem.options.multistart)]
     solves = []
     for k, s in enumerate(starts):
-        sol = tr.solve(problem, s)
+        sol = solve(tr, problem, s)
         sol.start = k
         solves.append(sol)
     converged = [s for s in solves if s.status == "converged"]

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .profile import Basis
-from .springs import Spring
+from .physics.profile import Basis
+from .physics.springs import Spring
 from .targets import Target
 
 

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import __version__
-from .evaluate import Evaluation
+from .version import __version__
+from .check.evaluate import Evaluation
 
 
 @dataclass

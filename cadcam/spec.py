@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .capstan import FRICTION_MODELS
+from .physics.capstan import FRICTION_MODELS
 from .problem import Cam, Options, Problem
-from .profile import BASES, Basis
-from .springs import PORT_KINDS, Port, Spring
+from .physics.profile import BASES, Basis
+from .physics.springs import PORT_KINDS, Port, Spring
 from .targets import ExpressionError, Target, read_table
 
 _REQUIRED = object()

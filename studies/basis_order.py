@@ -27,12 +27,12 @@ import numpy as np
 from numpy.polynomial import chebyshev as C
 
 from cadcam import Design
-from cadcam.evaluate import tangency_solver
+from cadcam.check.evaluate import tangency_solver
 from cadcam.files import atomic_path, write_json, write_text
-from cadcam.optimize import default_start
-from cadcam.study import Study, load_study
-from cadcam.sweep import read_rows, run_sweep
-from cadcam.transcription import Transcription
+from cadcam.optimize import default_start, solve
+from cadcam.studies.study import Study, load_study
+from cadcam.studies.sweep import read_rows, run_sweep
+from cadcam.nlp.transcription import Transcription
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "basis_order.toml"
@@ -107,7 +107,7 @@ def diagnose(path, res) -> None:
         if res[key]["ok"]:
             continue
         problem = s.problem(r["params"])
-        sol = Transcription(problem).solve(problem, default_start(problem))
+        sol = solve(Transcription(problem), problem, default_start(problem))
         nan = 0
         for i, cam in enumerate(problem.cams):
             alpha, _, _ = tangency_solver(sol.design.bases[i]).solve(
@@ -267,7 +267,7 @@ def main() -> None:
                   "guess) cannot follow the wire on that profile at some angles, which makes "
                   "`cadcam.optimize` raise `ValueError: Optimization bounds must be finite scalars.` "
                   "(`scipy.optimize.minimize_scalar` given a NaN interval in "
-                  "`cadcam.evaluate._refine_min`) instead of returning a status such as "
+                  "`cadcam.check.evaluate._refine_min`) instead of returning a status such as "
                   "`recheck_failed`, so the sweep records `error` and loses the solve.", ""]
 
     lines += ["## Findings", ""]

@@ -28,9 +28,9 @@ from matplotlib.colors import Normalize
 
 from cadcam import Design, evaluate, optimize
 from cadcam.files import atomic_path, write_json, write_text
-from cadcam.study import load_study
-from cadcam.sweep import sweep_and_read
-from cadcam.transcription import Transcription
+from cadcam.studies.study import load_study
+from cadcam.studies.sweep import sweep_and_read
+from cadcam.nlp.transcription import Transcription
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "idler_placement.toml"
@@ -252,7 +252,7 @@ def main() -> None:
                   "finds no wire–idler tangent on it, the NLP's initial point holds NaN, IPOPT stops at "
                   "iteration 0 (`Invalid_Number_Detected`), and `cadcam.optimize` then evaluates that NaN "
                   "design and raises `ValueError: Optimization bounds must be finite scalars.` (from "
-                  "`scipy.optimize.minimize_scalar` in `cadcam.evaluate._refine_min`, given a NaN wrapped "
+                  "`scipy.optimize.minimize_scalar` in `cadcam.check.evaluate._refine_min`, given a NaN wrapped "
                   "range), so the case is recorded as `error`, not as a solver status. A case with "
                   "`solver.multistart` still succeeds when a random start (ρ₀ ≤ 2 ρ_min) converges, which "
                   "is why this only happens at the highest offsets. A converged re-solve shows the placement "

@@ -14,9 +14,9 @@ import json
 from pathlib import Path
 
 from cadcam import Design, evaluate, load_spec, optimize
-from cadcam.evaluate import rate_deviation
+from cadcam.check.evaluate import rate_deviation
 from cadcam.files import write_json, write_text
-from cadcam.plots import plot_profiles, plot_springs, plot_torque
+from cadcam.views.plots import plot_profiles, plot_springs, plot_torque
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "models" / "johnston2023_rr_arm.toml"

@@ -3,10 +3,10 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from cadcam.capstan import anchor_load, curve, loads_function, wire_torque_function
-from cadcam.departure import departure_moments
-from cadcam.profile import Basis, profile_function
-from cadcam.wrap import gauss_legendre
+from cadcam.physics.capstan import anchor_load, curve, loads_function, wire_torque_function
+from cadcam.physics.departure import departure_moments
+from cadcam.physics.profile import Basis, profile_function
+from cadcam.physics.quadrature import gauss_legendre
 
 BASIS = Basis("monomial", 3, (0.0, 3.5))
 PROFILE = profile_function(BASIS)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from cadcam import Design, load_spec
-from cadcam.departure import TangencySolver, newton_function
-from cadcam.export import CFLAGS, export, model_functions
-from cadcam.model import NEWTON_STEPS, torque_function
+from cadcam.physics.departure import TangencySolver, newton_function
+from cadcam.views.export import CFLAGS, export, model_functions
+from cadcam.check.model import NEWTON_STEPS, torque_function
 
 from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
 

@@ -8,11 +8,11 @@ import pytest
 from matplotlib.image import imread
 
 from cadcam import evaluate, optimize
-from cadcam.drawing import draw_sheet
-from cadcam.manufacture import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
+from cadcam.views.drawing import draw_sheet
+from cadcam.views.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
                                 polyline, segment_distance, write_csv, write_dxf, write_stl,
                                 write_svg)
-from cadcam.profile import Basis
+from cadcam.physics.profile import Basis
 
 TWO_PI = 2 * np.pi
 BORE, ANCHOR, THICKNESS = 6e-3, 1.5e-3, 5e-3  # [m]

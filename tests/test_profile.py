@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from cadcam.profile import Basis, monomial_from_highest_first, profile_function
+from cadcam.physics.profile import Basis, monomial_from_highest_first, profile_function
 
 
 @pytest.mark.parametrize("order", [1, 3, 5, 9])

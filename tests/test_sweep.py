@@ -9,8 +9,8 @@ import time
 import numpy as np
 import pytest
 
-from cadcam.study import Study, StudyError, load_study
-from cadcam.sweep import read_rows, run_sweep
+from cadcam.studies.study import Study, StudyError, load_study
+from cadcam.studies.sweep import read_rows, run_sweep
 
 from .conftest import SPEC_1DOF
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from cadcam.evaluate import evaluate
+from cadcam.check.evaluate import evaluate
 
 from .conftest import circle_design
 
@@ -44,8 +44,8 @@ def test_eq43_sensitivities_equal_the_automatic_derivative(rr_problem, table3):
     np.testing.assert_allclose(ev.dtau_dk[0, :, 2], 0.0, atol=0)
     np.testing.assert_allclose(ev.dtau_dk[1, :, 2], ev.x[2] * c2.arm[0, i2], rtol=1e-9)
     # the wire arm by quadrature of Eq. 35 equals the departure moment ρ²/√(ρ²+ρ′²)
-    from cadcam.evaluate import cached_cam_function
-    f = cached_cam_function(table3.bases[0]).map(n)
+    from cadcam.physics.departure import cam_function
+    f = cam_function(table3.bases[0]).map(n)
     out = f(c1.theta, c1.alpha, c1.gamma, table3.coefficients[0], 0.02, 0.015)
     np.testing.assert_allclose(c1.arm[0], np.asarray(out[3]).ravel(), rtol=1e-10)
 

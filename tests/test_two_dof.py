@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from cadcam import Design, evaluate, load_spec, optimize
-from cadcam.springs import Port, Spring
+from cadcam.physics.springs import Port, Spring
 from cadcam.targets import serial_arm_torques
-from cadcam.transcription import FRICTION_ORDER, Transcription
-from cadcam.wirecam import port_function
+from cadcam.nlp.transcription import FRICTION_ORDER, Transcription
+from cadcam.mechanisms.wire_cam import port_function
 
 from .conftest import SPEC_RR, TABLE3, TABLE4
 

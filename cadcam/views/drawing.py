@@ -1,6 +1,6 @@
 """A workshop sheet of a cam at true scale: A4 landscape, PNG or PDF, written atomically.
 
-Views only: the outline, holes and their checks come from :mod:`cadcam.manufacture`.
+Views only: the outline, holes and their checks come from :mod:`cadcam.views.workshop`.
 """
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
-from .files import atomic_path
-from .manufacture import MM, Outline, holes
+from ..files import atomic_path
+from .workshop import MM, Outline, holes
 
 SHEET = (297.0, 210.0)
 """A4 landscape [mm of paper]."""
@@ -44,7 +44,7 @@ def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: fl
         ``.png`` (at DPI dots per inch) or ``.pdf``.
     outline : Outline
     bore_diameter, anchor_diameter : float
-        [m], checked by :func:`cadcam.manufacture.holes`.
+        [m], checked by :func:`cadcam.views.workshop.holes`.
     rho_min, rho_max : float
         Radius limits of the design [m].
     title : str

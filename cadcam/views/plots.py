@@ -7,8 +7,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .evaluate import Evaluation, cached_profile_function  # noqa: E402
-from .files import atomic_path  # noqa: E402
+from ..check.evaluate import Evaluation  # noqa: E402
+from ..physics.profile import profile_function  # noqa: E402
+from ..files import atomic_path  # noqa: E402
 
 MM = 1e3
 
@@ -25,7 +26,7 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
     fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 5.2), squeeze=False)
     for i, (ax, cs) in enumerate(zip(axes[0], ev.cams)):
         cam, basis = ev.problem.cams[i], ev.design.bases[i]
-        prof = cached_profile_function(basis)
+        prof = profile_function(basis)
         phi_full = np.linspace(0, cs.phi[-1], 400)
         rho_full = np.asarray(prof.map(phi_full.size)(phi_full, ev.design.coefficients[i])[0]).ravel()
         poses = np.unique(np.linspace(0, cs.theta.size - 1, n_poses).round().astype(int))
@@ -91,7 +92,7 @@ def plot_springs(ev: Evaluation, path) -> None:
     A spring on one cam is a line over that cam's angle; a spring joining two cams (seed 003's
     spring 2) is a map over both angles with its travel limit drawn as a contour.
     """
-    from .springs import cams_of, incidence
+    from ..physics.springs import cams_of, incidence
 
     springs, m, n = ev.problem.springs, len(ev.cams), ev.grid
     P = incidence(list(springs), m)

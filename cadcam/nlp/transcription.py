@@ -23,13 +23,14 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .departure import cam_function
-from .design import Design
-from .evaluate import (cached_length_function, cached_port_function, cached_profile_function, evaluate,
-                       trapezoid_weights)
-from .wrap import segment_lengths
-from .problem import Problem
-from .springs import cam_term, cams_of, incidence, torque_terms
+from ..physics.departure import cam_function
+from ..design import Design
+from ..physics.profile import profile_function
+from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
+from ..physics.wrap import length_function, segment_lengths
+from ..mechanisms.wire_cam import port_function
+from ..problem import Problem
+from ..physics.springs import cam_term, cams_of, incidence, torque_terms
 
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
 ARM_SCALE = 1e-2     # m: scale of the moment arms in the sensitivity terms
@@ -156,7 +157,7 @@ class Transcription:
             alpha, gamma, ref = v.add(f"alpha{i}", n), v.add(f"gamma{i}", n), v.add(f"ref{i}", 2)
             theta = p[f"theta{i}"]
             r, a0, mu, _ = (p[f"cam{i}"][k] for k in range(4))
-            ports = cached_port_function(cam.basis, problem.friction_model,
+            ports = port_function(cam.basis, problem.friction_model,
                                          FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
             h = (cam.theta_range[1] - cam.theta_range[0]) / (n - 1)
             first = opt.quadrature_order * int(np.ceil(max(abs(cam.theta_range[0]) / h, 1)))
@@ -173,7 +174,7 @@ class Transcription:
             # seed 003, Eq. 40 and ρ bounds over the whole wrapped range [0, α(θ_max)]
             M = opt.convexity_points
             phi = alpha[n - 1] * ca.DM(np.linspace(0, 1, M)).T
-            rho, _, _, conv = cached_profile_function(cam.basis).map(M)(phi, c)
+            rho, _, _, conv = profile_function(cam.basis).map(M)(phi, c)
             constrain(conv.T / L**2, lambda pr, i=i: (
                 pr.options.convexity_epsilon * (pr.cams[i].rho_min / L) ** 2, np.inf))
             constrain(rho.T / L, lambda pr, i=i: (pr.cams[i].rho_min * (1 + pr.options.limit_margin) / L,
@@ -291,32 +292,41 @@ class Transcription:
                        for size, fn in self._bounds])
         return np.concatenate(lo), np.concatenate(hi)
 
-    def initial_guess(self, problem: Problem, design: Design, pv=None) -> np.ndarray:
-        """NLP start from a design: tangency angles by the rootfinder, the wrapped lengths and
-        s± from the evaluator, every lifted variable on its definition. ``pv`` is
-        :meth:`parameters` of ``problem`` if the caller has it already."""
+    def start_order(self) -> int:
+        """Gauss–Legendre order the samples handed to :meth:`initial_guess` should use."""
+        return 4 * self.problem.options.quadrature_order
+
+    def initial_guess(self, problem: Problem, design: Design, samples, pv=None) -> np.ndarray:
+        """NLP start from a design and its per-angle ``samples`` on the design grid.
+
+        ``samples`` holds, per cam, the tangency angles (``alpha``, ``gamma``, ``alpha_ref``,
+        ``gamma_ref``), the port displacements ``d`` and moment arms ``arm`` at the grid angles,
+        as :func:`cadcam.check.evaluate.cam_samples` computes them with the rootfinder (order
+        :meth:`start_order`); the wrapped lengths follow from the angles, s± from the arms,
+        and every lifted variable starts on its definition. ``pv`` is :meth:`parameters` of
+        ``problem`` if the caller has it already.
+        """
         v, n = self.v, self.n
-        order = 4 * problem.options.quadrature_order
+        order = self.start_order()
         w0 = np.zeros(v.size)
-        ev = evaluate(problem, design, grid=n, order=order, wire_arm="closed-form", profile=False)
-        for i, cs in enumerate(ev.cams):
+        for i, cs in enumerate(samples):
             v.put(w0, f"c{i}", design.coefficients[i] / LENGTH_SCALE)
             v.put(w0, f"alpha{i}", cs.alpha)
             v.put(w0, f"gamma{i}", cs.gamma)
             v.put(w0, f"ref{i}", [cs.alpha_ref, cs.gamma_ref])
-            wrapped = cached_length_function(design.bases[i], order).map(n)(
+            wrapped = length_function(design.bases[i], order).map(n)(
                 cs.alpha_ref, cs.alpha, design.coefficients[i])  # seed 003, Eq. 10
             v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
         P = incidence(list(problem.springs), self.m)
         for i, j in self.pairs:  # s⁺ − s⁻ start on a_ij: feasible and tight
-            a = cam_term(P, j, i, ev.cams[i].arm) / ARM_SCALE
+            a = cam_term(P, j, i, samples[i].arm) / ARM_SCALE
             v.put(w0, f"sp{i}_{j}", np.maximum(a, 0))
             v.put(w0, f"sn{i}_{j}", np.maximum(-a, 0))
         for j in range(self.S):
             cams = cams_of(P, j)
             if len(cams) > 1:
-                shares = [cam_term(P, j, c, ev.cams[c].d) / LENGTH_SCALE for c in cams]
+                shares = [cam_term(P, j, c, samples[c].d) / LENGTH_SCALE for c in cams]
                 v.put(w0, f"hi{j}", [s.max() for s in shares])
                 v.put(w0, f"lo{j}", [s.min() for s in shares])
         pv = self.parameters(problem) if pv is None else pv
@@ -330,10 +340,11 @@ class Transcription:
                       [self.v.part(w, f"c{i}") * LENGTH_SCALE for i in range(self.m)],
                       self.v.part(w, "x0") * LENGTH_SCALE)
 
-    def solve(self, problem: Problem, start: Design) -> Solve:
-        """Run IPOPT from ``start`` with ``problem``'s numbers."""
+    def solve(self, problem: Problem, start: Design, samples) -> Solve:
+        """Run IPOPT from ``start`` (with its ``samples``, see :meth:`initial_guess`) with
+        ``problem``'s numbers."""
         pv = self.parameters(problem)
-        w0 = self.initial_guess(problem, start, pv)
+        w0 = self.initial_guess(problem, start, samples, pv)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         sol = self.solver(x0=w0, p=pv, lbx=self.lbx, ubx=self.ubx, lbg=lbg, ubg=ubg)
@@ -359,7 +370,7 @@ def _squared_error(U, V, e, w, span, i, rt, mt, td2, lift):
     """∫(τ_d,i − τ_i)² over the tensor grid of all cams with trapezoidal weights, exactly.
 
     With τ_i = U(θ_i) + Σ_q V_q(θ_i) e_q(θ_c(q)) (q = (spring j, cam c), see
-    :func:`cadcam.springs.torque_terms`) the square expands into one-angle sums and bilinear
+    :func:`cadcam.physics.springs.torque_terms`) the square expands into one-angle sums and bilinear
     forms V_qᵀ M̃_ic e_q with the target's weighted marginals (``rt``, ``mt``, ``td2``; see
     :meth:`Transcription.parameters`): O(n²) constants instead of O(n^m) model evaluations.
     The products that couple two cams' angles go through lifted variables (``lift``:
@@ -391,10 +402,3 @@ def _squared_error(U, V, e, w, span, i, rt, mt, td2, lift):
                 total += others(c, cr) * vv * moment[q] * moment[r]
     return total
 
-
-def trapezoid_weights_sx(x):
-    """Trapezoidal weights (row vector) on symbolic nodes ``x`` (a column)."""
-    n = x.shape[0]
-    h = x[1:] - x[:-1]
-    w = ca.vertcat(h[0] / 2, (h[:-1] + h[1:]) / 2, h[n - 2] / 2) if n > 2 else ca.vertcat(h / 2, h / 2)
-    return w.T

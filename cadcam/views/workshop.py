@@ -15,9 +15,8 @@ import numpy as np
 from manifold3d import CrossSection, JoinType, Manifold
 from numpy.polynomial import Legendre, Polynomial
 
-from .evaluate import cached_profile_function
-from .files import atomic_path, write_csv as write_table, write_text
-from .profile import Basis, convexity_margin
+from ..files import atomic_path, write_csv as write_table, write_text
+from ..physics.profile import Basis, convexity_margin, profile_function
 
 TWO_PI = 2 * np.pi
 MM = 1e3
@@ -191,7 +190,7 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
         raise ValueError(f"phi_max = {phi_max!r} rad must lie in (0, 2π)")
     if free < 1:
         raise ValueError(f"free = {free!r} must be at least 1")
-    profile = cached_profile_function(basis)
+    profile = profile_function(basis)
     _check_designed_arc(profile, coefficients, phi_max)
     span = TWO_PI - phi_max
     ends = [_u_from_rho(*designed_values(profile, coefficients, phi)[:3, 0]) * span ** np.arange(3)

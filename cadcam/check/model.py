@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import casadi as ca
 
-from .departure import cam_function, guess_function, newton_function
-from .problem import Problem
-from .profile import Basis
-from .springs import network_function
-from .wirecam import port_function
-from .wrap import length_function
+from ..physics.departure import cam_function, guess_function, newton_function
+from ..problem import Problem
+from ..physics.profile import Basis
+from ..physics.springs import network_function
+from ..mechanisms.wire_cam import port_function
+from ..physics.wrap import length_function
 
 #: Unrolled Newton steps of the exported tangency; 4 already reach 1e-12 rad (tests check 6).
 NEWTON_STEPS = 6
@@ -74,7 +74,7 @@ def torque_function(problem: Problem, bases: list[Basis], order: int = 48,
     Gauss–Legendre order of the wrapped-length and friction integrals over the whole wrap;
     ``tangency`` is ``rootfinder`` (MX, implicit-function derivatives) or ``newton``
     (:data:`NEWTON_STEPS` unrolled steps, SX, code-generable; differentiate it with
-    :func:`torque_jacobian_function`); ``wire_arm`` as in :func:`cadcam.wirecam.port_function`
+    :func:`torque_jacobian_function`); ``wire_arm`` as in :func:`cadcam.mechanisms.wire_cam.port_function`
     (``closed-form`` is exact and cheap under ``exact`` friction).
     """
     if tangency == "rootfinder":

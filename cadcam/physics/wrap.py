@@ -4,16 +4,9 @@ from __future__ import annotations
 from functools import lru_cache
 
 import casadi as ca
-import numpy as np
 
 from .profile import Basis, profile_function
-
-
-@lru_cache(maxsize=None)
-def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes and weights of the ``order``-point Gauss–Legendre rule on [0, 1]."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    return (x + 1) / 2, w / 2
+from .quadrature import gauss_legendre
 
 
 def arc_length_density(rho, drho):
@@ -21,6 +14,7 @@ def arc_length_density(rho, drho):
     return ca.sqrt(rho**2 + drho**2)  # seed 003, Eq. 10
 
 
+@lru_cache(maxsize=64)
 def length_function(basis: Basis, order: int) -> ca.Function:
     """``length(a, b, c) -> ∫_a^b √(ρ² + ρ′²) dφ`` [m] by ``order``-point Gauss–Legendre.
 

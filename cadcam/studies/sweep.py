@@ -7,7 +7,7 @@ friction model. Running the same study on the same database again resumes it: ca
 recorded are skipped (the case id, a hash of its values, is the primary key), so nothing is
 repeated or duplicated, also after the whole process tree was killed.
 
-Workers keep one :class:`~cadcam.transcription.Transcription` per problem structure and
+Workers keep one :class:`~cadcam.nlp.transcription.Transcription` per problem structure and
 reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
 NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
 already solved (in normalised parameter space) instead of the default start; which case that
@@ -25,7 +25,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from multiprocessing import get_context
 from pathlib import Path
 
-from . import __version__
+from ..version import __version__
 from .study import Study
 
 SCHEMA = """
@@ -63,9 +63,9 @@ def structure_key(problem) -> str:
 
 def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
     """Solve one case and return its database row; never raises (a failure is a row)."""
-    from .design import Design
-    from .optimize import optimize
-    from .transcription import Transcription
+    from ..design import Design
+    from ..optimize import optimize
+    from ..nlp.transcription import Transcription
 
     t0 = time.perf_counter()
     row = {"case_id": Study.case_id(case), "params": json.dumps(case, sort_keys=True),

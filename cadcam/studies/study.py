@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import qmc
 
-from .problem import Problem
-from .spec import SpecError, apply_override, parse_spec, read_spec_data
+from ..problem import Problem
+from ..spec import SpecError, apply_override, parse_spec, read_spec_data
 
 DESIGNS = ("factorial", "zip", "latin_hypercube")
 DEFAULT_RECORD = ("rmse", "max_abs_error", "objective", "extension_max", "convexity_min")

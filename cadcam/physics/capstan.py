@@ -19,7 +19,7 @@ from __future__ import annotations
 import casadi as ca
 
 from .profile import Basis, profile_function
-from .wrap import gauss_legendre
+from .quadrature import gauss_legendre
 
 FRICTION_MODELS = ("exact", "as-printed")
 

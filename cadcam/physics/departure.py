@@ -12,6 +12,8 @@ components of Eq. 6 would over-determine the system.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import casadi as ca
 import numpy as np
 
@@ -62,6 +64,7 @@ def departure_moments(theta, alpha, rho, drho):
     return px * ty - py * tx, px * ny - py * nx  # seed 003, Eq. 21: τ = (r_p × f)ᵀẑ
 
 
+@lru_cache(maxsize=64)
 def cam_function(basis: Basis) -> ca.Function:
     """Per-angle geometry of one wire cam as a CasADi Function.
 

@@ -14,13 +14,14 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .departure import TangencySolver, cam_function
-from .design import Design
-from .problem import Problem
-from .profile import Basis, profile_function
-from .springs import network_function
-from .wirecam import port_function
-from .wrap import length_function
+from ..physics.departure import TangencySolver, cam_function
+from ..design import Design
+from ..problem import Problem
+from ..physics.profile import Basis, profile_function
+from ..physics.quadrature import trapezoid_weights
+from ..physics.springs import network_function
+from ..mechanisms.wire_cam import port_function
+from ..physics.wrap import length_function
 
 #: Tolerances of the feasibility check: lengths [m], tangency residual [-, m], branch [-].
 LENGTH_TOL = 1e-6
@@ -34,39 +35,6 @@ EVAL_QUADRATURE_ORDER = 48
 def tangency_solver(basis: Basis) -> TangencySolver:
     """Cached :class:`TangencySolver` for a basis."""
     return TangencySolver(basis)
-
-
-@lru_cache(maxsize=64)
-def cached_port_function(basis: Basis, model: str, order: int, wire_arm: str):
-    """Cached :func:`cadcam.wirecam.port_function`."""
-    return port_function(basis, model, order, wire_arm)
-
-
-@lru_cache(maxsize=64)
-def cached_length_function(basis: Basis, order: int):
-    """Cached :func:`cadcam.wrap.length_function`."""
-    return length_function(basis, order)
-
-
-@lru_cache(maxsize=64)
-def cached_cam_function(basis: Basis):
-    """Cached :func:`cadcam.departure.cam_function`."""
-    return cam_function(basis)
-
-
-@lru_cache(maxsize=64)
-def cached_profile_function(basis: Basis):
-    """Cached :func:`cadcam.profile.profile_function`."""
-    return profile_function(basis)
-
-
-def trapezoid_weights(x: np.ndarray) -> np.ndarray:
-    """Weights of the trapezoidal rule on the nodes ``x``."""
-    w = np.zeros_like(x)
-    h = np.diff(x)
-    w[:-1] += h / 2
-    w[1:] += h / 2
-    return w
 
 
 @dataclass
@@ -119,7 +87,7 @@ class Evaluation:
 
 def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     """Dense samples of ρ and the convexity margin on [0, phi_hi], with refined minima."""
-    prof = cached_profile_function(basis)
+    prof = profile_function(basis)
     phi = np.linspace(0.0, phi_hi, n)
     rho, _, _, conv = (np.asarray(v).ravel() for v in prof.map(n)(phi, c))
     conv_min = _refine_min(prof, c, phi, conv, 3)
@@ -154,12 +122,12 @@ def cam_samples(problem: Problem, design: Design, i: int, theta: np.ndarray,
     start = None if seed is None else (np.interp(th, seed[0], seed[1]), np.interp(th, seed[0], seed[2]))
     alpha, gamma, residual = tangency_solver(basis).solve(th, c, r, a0, start)
     n = theta.size
-    wrapped = cached_length_function(basis, order).map(n)(alpha[0], alpha[1:], c)
-    ports = cached_port_function(basis, problem.friction_model, order, wire_arm).map(n)
-    qx_ref = float(cached_cam_function(basis)(0.0, alpha[0], gamma[0], c, r, a0)[2])
+    wrapped = length_function(basis, order).map(n)(alpha[0], alpha[1:], c)
+    ports = port_function(basis, problem.friction_model, order, wire_arm).map(n)
+    qx_ref = float(cam_function(basis)(0.0, alpha[0], gamma[0], c, r, a0)[2])
     d, arm, _, branch = (np.asarray(v) for v in ports(theta, alpha[1:], gamma[1:], gamma[0],
                                                        qx_ref, wrapped, c, r, a0, cam.mu))
-    qx = np.asarray(cached_cam_function(basis).map(n)(theta, alpha[1:], gamma[1:], c, r, a0)[2]).ravel()
+    qx = np.asarray(cam_function(basis).map(n)(theta, alpha[1:], gamma[1:], c, r, a0)[2]).ravel()
     # the wrapped range; where the tangency failed (NaN), the whole design interval
     phi_hi = float(np.max(alpha)) if np.all(np.isfinite(alpha)) else basis.domain[1]
     phi, rho, conv, conv_min, rho_lo, rho_hi = (

@@ -2,19 +2,22 @@
 
 Composes the profile, the departure (tangency), the wrapped length and the capstan model into
 the two port displacements and two moment arms that the spring network needs
-(:mod:`cadcam.springs`). Everything depends on the cam's own angle only, which is what makes
+(:mod:`cadcam.physics.springs`). Everything depends on the cam's own angle only, which is what makes
 multi-cam grids separable.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import casadi as ca
 
-from .capstan import check_friction_model, wire_torque_function
-from .departure import cam_function
-from .profile import Basis
-from .springs import platform_displacement, wire_displacement
+from ..physics.capstan import check_friction_model, wire_torque_function
+from ..physics.departure import cam_function
+from ..physics.profile import Basis
+from ..physics.springs import platform_displacement, wire_displacement
 
 
+@lru_cache(maxsize=64)
 def port_function(basis: Basis, friction_model: str, order: int,
                   wire_arm: str = "closed-form") -> ca.Function:
     """Per-angle port quantities of one cam as a CasADi Function.
@@ -23,7 +26,7 @@ def port_function(basis: Basis, friction_model: str, order: int,
     (d[2], arm[2], residual[2], branch)``
 
     ``wrapped`` is the profile length between α₀ and α [m] (Eq. 10; see
-    :func:`cadcam.wrap.length_function`), given as an input so that a caller can integrate it
+    :func:`cadcam.physics.wrap.length_function`), given as an input so that a caller can integrate it
     per angle (the evaluator) or cumulatively along the grid (the NLP).
     ``d`` = [wire, platform] displacements [m] relative to θ = 0 (Eq. 14, 16), ``arm`` the
     moment arms of unit port forces [m]: the wire term per unit departure tension (Eq. 21 or

@@ -15,6 +15,7 @@ Both are exact polynomials of the same degree, so :meth:`Basis.to_monomial` and
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -105,6 +106,7 @@ def convexity_margin(rho, drho, ddrho):
     return rho**2 + 2 * drho**2 - rho * ddrho  # seed 003, Eq. 40
 
 
+@lru_cache(maxsize=64)
 def profile_function(basis: Basis) -> ca.Function:
     """CasADi Function ``profile(phi, c) -> (rho, drho, ddrho, convexity)``.
 

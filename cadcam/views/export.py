@@ -6,11 +6,11 @@ What can be exported:
 ``model``
     ``cadcam_torque(theta, c, k, x0) -> (tau, x, alpha, gamma)`` and
     ``cadcam_torque_jacobian`` (∂τ, ∂x, ∂α, ∂γ with respect to the angles, the design
-    coefficients, the spring rates and the pre-extensions) of :func:`cadcam.model.torque_function`
+    coefficients, the spring rates and the pre-extensions) of :func:`cadcam.check.model.torque_function`
     with the tangency by unrolled Newton steps (no callback), and ``cadcam_design.h`` holding
     the design's numbers.
 ``problem``
-    The design NLP of :class:`cadcam.transcription.Transcription`: objective, constraints,
+    The design NLP of :class:`cadcam.nlp.transcription.Transcription`: objective, constraints,
     objective gradient, constraint Jacobian and Lagrangian Hessian, with the problem's
     parameter vector, bounds and a starting point in ``problem_data.json``.
 
@@ -30,11 +30,12 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from . import __version__
-from .design import Design
-from .files import atomic_path, write_json, write_text
-from .model import NEWTON_STEPS, torque_function, torque_jacobian_function
-from .problem import Problem
+from ..version import __version__
+from ..design import Design
+from ..files import atomic_path, write_json, write_text
+from ..check.model import NEWTON_STEPS, torque_function, torque_jacobian_function
+from ..optimize import start_samples
+from ..problem import Problem
 
 WHATS = ("model", "problem")
 FORMATS = ("c", "shared", "casadi")
@@ -71,7 +72,7 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 def problem_functions(problem: Problem):
     """The NLP functions of ``problem`` and the Transcription that built them."""
-    from .transcription import Transcription
+    from ..nlp.transcription import Transcription
 
     tr = Transcription(problem)
     fns = []
@@ -151,9 +152,9 @@ def export(problem: Problem, design: Design, what: str, formats, out) -> dict:
         extra = {"problem_data.json": {
             "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},
             "parameters_layout": {k: {"offset": a, "size": n} for k, (a, n) in tr.p.blocks.items()},
-            "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design).tolist(),
+            "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(tr, problem, design)).tolist(),
             "lbx": tr.lbx.tolist(), "ubx": tr.ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
-            "note": "lengths in the NLP vector are in mm (see cadcam.transcription); "
+            "note": "lengths in the NLP vector are in mm (see cadcam.nlp.transcription); "
                     "infinite bounds are written as ±Infinity"}}
     stem = f"cadcam_{what}"
     manifest = {"cadcam_version": __version__, "casadi_version": ca.__version__, "what": what,

@@ -1,0 +1,1 @@
+"""Mechanisms: compositions of the physics layer, one module per mechanism."""

@@ -1,0 +1,1 @@
+"""Parameter studies: study files and sweeps recorded to SQLite."""

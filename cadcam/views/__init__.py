@@ -1,0 +1,1 @@
+"""Views of a result: plots, workshop drawings and files, code export. No physics here."""

@@ -1,0 +1,63 @@
+"""The package's folders are layers: no module imports from a layer above its own, and sibling
+layers of equal rank (the NLP and the re-check; views and studies) do not import each other."""
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "cadcam"
+#: Layer of each top-level module or folder of the package, lowest first.
+RANK = {"files": 0, "version": 0, "citations": 0, "physics": 1, "mechanisms": 2, "targets": 2,
+        "problem": 3, "design": 4, "spec": 4, "nlp": 5, "check": 5, "result": 6, "optimize": 7,
+        "views": 8, "studies": 8, "cli": 9, "__init__": 10, "__main__": 10}
+
+
+def _layer(parts: tuple[str, ...]) -> str:
+    return parts[0].removesuffix(".py")
+
+
+def _imports(here: tuple[str, ...], source: str):
+    """(line, imported layer) of every cadcam import in ``source`` of the module at path parts
+    ``here`` inside the package, relative or absolute."""
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = list(here[:-1])[:len(here) - node.level]
+                target = base + (node.module.split(".") if node.module else [])
+            elif node.module and node.module.split(".")[0] == "cadcam":
+                target = node.module.split(".")[1:]
+            else:
+                continue
+            names = target or [a.name for a in node.names]
+            yield node.lineno, names[0]
+
+
+MODULES = sorted(p for p in PACKAGE.rglob("*.py"))
+
+
+def _violations(here: tuple[str, ...], source: str) -> list[str]:
+    own = _layer(here)
+    assert own in RANK, f"{own}: give the new module or folder a layer in RANK"
+    out = []
+    for line, target in _imports(here, source):
+        if target not in RANK:
+            out.append(f"line {line}: unknown layer {target}")
+        elif target != own and not RANK[target] < RANK[own]:
+            out.append(f"line {line}: {own} (layer {RANK[own]}) imports {target} "
+                       f"(layer {RANK[target]})")
+    return out
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_import_from_a_higher_or_sibling_layer(path):
+    here = path.relative_to(PACKAGE).parts
+    assert _violations(here, path.read_text()) == []
+
+
+@pytest.mark.parametrize("source", ["from ..nlp.transcription import Transcription",
+                                    "from cadcam.check.evaluate import evaluate",
+                                    "from .. import optimize"])
+def test_the_rule_catches_upward_and_sibling_imports(source):
+    assert _violations(("physics", "profile.py"), source)
+    assert _violations(("nlp", "transcription.py"), "from ..check import evaluate")
+    assert not _violations(("nlp", "transcription.py"), "from ..physics.wrap import gauss_legendre")
