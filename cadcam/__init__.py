@@ -10,9 +10,9 @@ Quick start::
 from .design import Design, DesignError  # noqa: E402
 from .check.evaluate import evaluate  # noqa: E402
 from .optimize import optimize  # noqa: E402
-from .problem import Cam, Options, Problem  # noqa: E402
+from .problem import Joint, Options, Problem  # noqa: E402
 from .spec import SpecError, load_spec, parse_spec  # noqa: E402
 from .version import __version__  # noqa: E402
 
-__all__ = ["Cam", "Design", "DesignError", "Options", "Problem", "SpecError", "evaluate",
+__all__ = ["Joint", "Design", "DesignError", "Options", "Problem", "SpecError", "evaluate",
            "load_spec", "optimize", "parse_spec", "__version__"]

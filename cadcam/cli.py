@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .physics.capstan import FRICTION_MODELS
+from .mechanisms.base import TORQUE_MODELS
 from .design import Design, DesignError
 from .spec import SpecError, load_spec, parse_value
 from .studies.study import StudyError
@@ -34,8 +34,11 @@ def _override(text: str):
 
 def _problem(args):
     problem = load_spec(args.spec, args.variant, [_override(t) for t in args.set or ()])
-    if getattr(args, "friction_model", None):
-        problem = problem.with_friction_model(args.friction_model)
+    if getattr(args, "torque_model", None):
+        try:
+            problem = problem.with_torque_model(args.torque_model)
+        except ValueError as exc:
+            raise InputError(f"--torque-model: {exc}") from None
     changes = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
     if changes.get("grid", 3) < 3:
         raise InputError("--grid must be at least 3")
@@ -53,20 +56,29 @@ def _problem_and_design(args):
     return problem, Design.from_dict(data, problem, args.design)
 
 
-def write_outputs(result, out: Path) -> None:
-    """``result.json``, ``torque.csv``, ``profile.csv`` and the PNG figures in ``out``."""
-    from .files import write_csv, write_json
-    from .views.plots import plot_profiles, plot_springs, plot_torque
+def _write_torque_csv(path: Path, ev) -> None:
+    """θ, τ, τ_d, error per joint and the spring extensions at every grid point."""
+    from .files import write_csv
 
-    ev = result.evaluation
-    m, S = len(ev.cams), len(ev.problem.springs)
-    write_json(out / "result.json", result.to_dict())
+    m, S = len(ev.tau), len(ev.problem.springs)
     header = ([f"theta{i + 1}_rad" for i in range(m)]
               + [f"{k}{i + 1}_Nm" for i in range(m) for k in ("tau", "tau_d", "error")]
               + [f"x{j + 1}_m" for j in range(S)])
     cols = [*ev.theta] + [v for i in range(m) for v in (ev.tau[i], ev.tau_d[i], ev.tau[i] - ev.tau_d[i])]
-    write_csv(out / "torque.csv", header, np.column_stack(cols + [*ev.x]))
-    rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.cams)
+    write_csv(path, header, np.column_stack(cols + [*ev.x]))
+
+
+def write_outputs(result, out: Path) -> None:
+    """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
+    grid), ``profile.csv`` and the PNG figures in ``out``."""
+    from .files import write_csv, write_json
+    from .views.plots import plot_profiles, plot_springs, plot_torque
+
+    ev = result.evaluation
+    write_json(out / "result.json", result.to_dict())
+    _write_torque_csv(out / "torque.csv", ev)
+    _write_torque_csv(out / "torque_recheck.csv", result.recheck)
+    rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
             for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
     write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
     plot_profiles(ev, out / "profile.png")
@@ -75,12 +87,12 @@ def write_outputs(result, out: Path) -> None:
 
 
 def write_workshop_files(ev, out: Path, args) -> list[str]:
-    """Per cam: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request."""
+    """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request."""
     from .views.drawing import draw_sheet
     from .views.workshop import closed_outline, polyline, write_csv, write_dxf, write_stl, write_svg
 
     notes = []
-    for i, (cam, cs) in enumerate(zip(ev.problem.cams, ev.cams)):
+    for i, (cam, cs) in enumerate(zip(ev.problem.profiles, ev.profiles)):
         outline = closed_outline(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
         stem = out / f"cam{i + 1}"
         write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
@@ -118,7 +130,8 @@ def cmd_design(args) -> int:
           f"build {d['solver']['build_time_s']:.3f} s, solve {d['solver']['solve_time_s']:.3f} s")
     for v in d["violations"]:
         print(f"  violated: {v}")
-    print(f"  outputs in {out}/: result.json torque.csv profile.csv profile.png torque.png springs.png")
+    print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv profile.png "
+          "torque.png springs.png")
     print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png"
           f"{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
@@ -139,7 +152,7 @@ def cmd_evaluate(args) -> int:
 
     problem, design = _problem_and_design(args)
     ev = evaluate(problem, design, grid=args.grid)
-    print(json.dumps({"friction_model": problem.friction_model, "design": design.to_dict(),
+    print(json.dumps({"torque_model": problem.torque_model, "design": design.to_dict(),
                       "metrics": ev.metrics}, indent=2))
     return 0
 
@@ -210,8 +223,9 @@ def main(argv=None) -> int:
 
     def common(p):
         p.add_argument("spec", help="problem spec (TOML) or a cadcam result.json")
-        p.add_argument("--friction-model", choices=FRICTION_MODELS,
-                       help="override the spec's friction model")
+        p.add_argument("--torque-model", choices=TORQUE_MODELS,
+                       help="override the spec's torque model (energy: ∂V/∂θ, the default; "
+                            "force, force-as-printed: Johnston2023 Eq. 19–21 for wire cams)")
         p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
         p.add_argument("--variant", help="apply the spec's [variants.NAME] overrides")
         p.add_argument("--set", action="append", metavar="KEY=VALUE",

@@ -1,4 +1,6 @@
-"""A design: one profile per cam and one pre-extension per spring (seed 003, Eq. 46–47)."""
+"""A design: the coefficients of every profile and one pre-extension per spring (Johnston2023,
+Eq. 46–47). In JSON the profiles are ``cams`` (the name cadcam has always used), in the order of
+the problem's mechanisms."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,7 +23,7 @@ class Design:
     ----------
     bases : list of Basis
     coefficients : list of ndarray
-        ρ coefficients of each cam in its basis [m].
+        ρ coefficients of each profile in its basis [m].
     preextension : ndarray
         x₀ of each spring at θ = 0 [m].
     """
@@ -59,23 +61,24 @@ class Design:
         if not isinstance(data, dict) or not isinstance(data.get("cams"), list):
             raise DesignError(f"{origin}: expected a JSON object with design.cams (a list) and "
                               "design.preextension")
-        if len(data["cams"]) != len(problem.cams):
+        profiles = problem.profiles
+        if len(data["cams"]) != len(profiles):
             raise DesignError(f"{origin}: design.cams has {len(data['cams'])} entries; the "
-                              f"problem has {len(problem.cams)} cams")
+                              f"problem has {len(profiles)} profiles")
         bases, coefs = [], []
         for i, cam in enumerate(data["cams"]):
             where = f"{origin}: design.cams[{i + 1}]"
             try:
                 if "coefficients" in cam and cam.get("basis") in ("monomial", "chebyshev"):
                     c = np.asarray(cam["coefficients"], dtype=float)
-                    dom = tuple(cam.get("domain", problem.cams[i].basis.domain))
+                    dom = tuple(cam.get("domain", profiles[i].basis.domain))
                     b = Basis(cam["basis"], c.size - 1, (float(dom[0]), float(dom[1])))
                 elif "monomial_coefficients" in cam:
                     c = np.asarray(cam["monomial_coefficients"], dtype=float)
-                    b = Basis("monomial", c.size - 1, problem.cams[i].basis.domain)
+                    b = Basis("monomial", c.size - 1, profiles[i].basis.domain)
                 elif "monomial_coefficients_highest_first" in cam:
                     c = monomial_from_highest_first(cam["monomial_coefficients_highest_first"])
-                    b = Basis("monomial", c.size - 1, problem.cams[i].basis.domain)
+                    b = Basis("monomial", c.size - 1, profiles[i].basis.domain)
                 else:
                     raise DesignError(f"{where}: give basis + coefficients, "
                                       "monomial_coefficients or monomial_coefficients_highest_first")

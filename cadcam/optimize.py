@@ -16,44 +16,47 @@ from .nlp.transcription import Transcription
 
 
 def default_start(problem: Problem) -> Design:
-    """Circular cams and pre-extensions at 10 % of travel.
-
-    The radius is 1.2 ρ_min, raised if needed so that the idler can touch the cam
-    ((ρ + r) sin(α − θ) = a₀ needs ρ + r > a₀), and kept inside the mid-range of ρ.
-    """
+    """Circular profiles of each mechanism's start radius
+    (:meth:`cadcam.mechanisms.base.Mechanism.start_radius`) and pre-extensions at 10 % of travel
+    (or the spring's fixed pre-extension)."""
     bases, coefs = [], []
-    for cam in problem.cams:
-        reach = 1.2 * (abs(cam.idler_offset) - cam.idler_radius) + 0.2 * cam.rho_min
-        radius = min(max(1.2 * cam.rho_min, reach), 0.5 * (cam.rho_min + cam.rho_max))
-        m = np.zeros(cam.basis.size)
-        m[0] = radius
-        bases.append(cam.basis)
-        coefs.append(cam.basis.from_monomial(m))
-    return Design(bases, coefs, np.array([0.1 * s.travel for s in problem.springs]))
+    for mech in problem.mechanisms:
+        for prof in mech.profiles:
+            m = np.zeros(prof.basis.size)
+            m[0] = mech.start_radius(prof)
+            bases.append(prof.basis)
+            coefs.append(prof.basis.from_monomial(m))
+    return Design(bases, coefs, _preextensions(problem, lambda s: 0.1 * s.travel))
+
+
+def _preextensions(problem: Problem, free) -> np.ndarray:
+    """Each spring's fixed pre-extension, or ``free(spring)`` where it is a design variable."""
+    return np.array([free(s) if s.preextension is None else s.preextension for s in problem.springs])
 
 
 def random_start(problem: Problem, rng: np.random.Generator) -> Design:
     """A random convex start: ρ = ρ₀ + sφ with ρ₀ ∈ [ρ_min, 3ρ_min], s ∈ [0, ρ₀/2] per rad,
     pre-extensions uniform in [0, 0.9 travel]."""
     bases, coefs = [], []
-    for cam in problem.cams:
-        hi = min(3 * cam.rho_min, cam.rho_max)
-        rho0 = rng.uniform(cam.rho_min, 0.5 * (cam.rho_min + hi))
-        m = np.zeros(cam.basis.size)
+    for prof in problem.profiles:
+        hi = min(3 * prof.rho_min, prof.rho_max)
+        rho0 = rng.uniform(prof.rho_min, 0.5 * (prof.rho_min + hi))
+        m = np.zeros(prof.basis.size)
         m[0] = rho0
-        if cam.basis.order >= 1:
+        if prof.basis.order >= 1:
             m[1] = rng.uniform(0, 0.5 * rho0)
-        bases.append(cam.basis)
-        coefs.append(cam.basis.from_monomial(m))
-    return Design(bases, coefs, np.array([rng.uniform(0, 0.9 * s.travel) for s in problem.springs]))
+        bases.append(prof.basis)
+        coefs.append(prof.basis.from_monomial(m))
+    return Design(bases, coefs, _preextensions(problem, lambda s: rng.uniform(0, 0.9 * s.travel)))
 
 
 def start_samples(tr: Transcription, problem: Problem, design: Design) -> list:
-    """Per-cam samples of ``design`` on ``tr``'s grid for :meth:`Transcription.initial_guess`:
-    tangency by the rootfinder, port quantities in closed form."""
+    """Per-mechanism samples of ``design`` on ``tr``'s grid for
+    :meth:`Transcription.initial_guess`: departure by the rootfinder, port quantities in closed
+    form."""
     ev = evaluate(problem, design, grid=tr.n, order=tr.start_order(), wire_arm="closed-form",
                   profile=False)
-    return ev.cams
+    return ev.units
 
 
 def solve(tr: Transcription, problem: Problem, start: Design):
@@ -94,8 +97,8 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
                     "iterations": s.iterations, "solve_time_s": s.solve_time_s} for s in solves]
     # the NLP's tangency angles start the independent rootfinder (the roots it converges to
     # are checked by their residuals either way)
-    seeds = [(cam.grid(problem.options.grid), best.alpha[i], best.gamma[i])
-             for i, cam in enumerate(problem.cams)]
+    seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])
+             for u, mech in enumerate(problem.mechanisms)]
     on_grid = evaluate(problem, best.design, seeds=seeds)
     fine = evaluate(problem, best.design, seeds=seeds,
                     grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)

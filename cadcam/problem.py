@@ -1,4 +1,4 @@
-"""The resolved design problem: cams, springs, targets and options, in SI units.
+"""The resolved design problem: joints, mechanisms, springs, targets and options, in SI units.
 
 A :class:`Problem` is what a spec file (:mod:`cadcam.spec`) becomes after validation; its
 :meth:`Problem.to_dict` is a spec again, with tables inlined, so that every result carries the
@@ -10,8 +10,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .physics.profile import Basis
-from .physics.springs import Spring
+from .mechanisms.base import ENERGY, Mechanism, Profile
+from .physics.springs import Network, Spring
 from .targets import Target
 
 
@@ -57,84 +57,119 @@ class Options:
 
 
 @dataclass(frozen=True)
-class Cam:
-    """One wire cam with its follower idler, target and weights (seed 003, Fig. 1).
+class Joint:
+    """A joint angle with its range, its target and the weights of its objective terms.
 
-    Lengths [m], angles [rad]. ``theta_range`` is the range of cam angles to balance;
-    ``idler_radius`` r and ``idler_offset`` a₀ place the idler (Eq. 7); ``mu`` is the wire–cam
-    friction coefficient; ``tracking_weight`` is w₁ and ``sensitivity_weights`` the w of
-    ∫|∂τ/∂k_j| for each spring j (Eq. 46, 47).
+    ``theta_range`` [rad] is the range to balance; ``tracking_weight`` is w₁ and
+    ``sensitivity_weights`` the w of ∫|∂τ/∂k_j| for each spring j (Johnston2023 Eq. 46, 47).
+    The torque on a joint is the sum over the mechanisms on it.
     """
 
     name: str
-    basis: Basis
     theta_range: tuple[float, float]
-    rho_min: float
-    rho_max: float
-    idler_radius: float
-    idler_offset: float
-    mu: float
     target: Target
     tracking_weight: float
     sensitivity_weights: tuple[float, ...]
 
     def grid(self, n: int) -> np.ndarray:
-        """Uniform grid of ``n`` cam angles [rad] over ``theta_range``."""
+        """Uniform grid of ``n`` joint angles [rad] over ``theta_range``."""
         return np.linspace(*self.theta_range, n)
 
 
 @dataclass(frozen=True)
 class Problem:
-    """A cam-design problem: cams, springs joined by ports, friction model and options."""
+    """A design problem: joints, mechanisms on them, springs joining their ports, the torque
+    model (``energy`` by default; see :data:`cadcam.mechanisms.base.TORQUE_MODELS`) and options.
+
+    Raises ValueError if a mechanism cannot compute ``torque_model``.
+    """
 
     name: str
     source: str
-    cams: tuple[Cam, ...]
+    joints: tuple[Joint, ...]
+    mechanisms: tuple[Mechanism, ...]
     springs: tuple[Spring, ...]
-    friction_model: str = "exact"
+    torque_model: str = ENERGY
     options: Options = field(default_factory=Options)
     notes: str = ""
 
+    def __post_init__(self):
+        for mech in self.mechanisms:
+            mech.check_torque_model(self.torque_model)
+
+    # -- structure -----------------------------------------------------------------------------
+    @property
+    def profiles(self) -> tuple[Profile, ...]:
+        """Every mechanism's profiles, in mechanism order (the design's ``cams``)."""
+        return tuple(p for m in self.mechanisms for p in m.profiles)
+
+    def profile_slices(self) -> list[slice]:
+        """For each mechanism, the slice of :attr:`profiles` it owns."""
+        out, k = [], 0
+        for m in self.mechanisms:
+            out.append(slice(k, k + len(m.profiles)))
+            k += len(m.profiles)
+        return out
+
+    def profile_joint(self, k: int) -> int:
+        """The joint profile ``k`` turns with."""
+        return next(m.joint for m, s in zip(self.mechanisms, self.profile_slices())
+                    if s.start <= k < s.stop)
+
+    @property
+    def ports(self) -> list[tuple[int, str]]:
+        """(mechanism, port name) of every port, in global port order."""
+        return [(u, name) for u, m in enumerate(self.mechanisms) for name in m.ports]
+
+    def network(self) -> Network:
+        """The spring network over the global ports."""
+        ports = self.ports
+        return Network(list(self.springs), [self.mechanisms[u].joint for u, _ in ports],
+                       {p: g for g, p in enumerate(ports)}, len(self.joints))
+
+    # -- copies ----------------------------------------------------------------------------------
     def with_options(self, **kw) -> "Problem":
         """Copy with some :class:`Options` fields changed."""
         return replace(self, options=replace(self.options, **kw))
 
-    def with_friction_model(self, name: str) -> "Problem":
-        """Copy solved or evaluated under another friction model."""
-        return replace(self, friction_model=name)
+    def with_torque_model(self, name: str) -> "Problem":
+        """Copy solved or evaluated under another torque model."""
+        return replace(self, torque_model=name)
 
     def with_spring_rates(self, factor: float, springs=None) -> "Problem":
-        """Copy with the rates of ``springs`` (indices; default every spring, as seed 003's
+        """Copy with the rates of ``springs`` (indices; default every spring, as Johnston2023's
         Table 5 study does) multiplied by ``factor``."""
         return replace(self, springs=tuple(
             replace(s, rate=s.rate * factor) if springs is None or j in springs else s
             for j, s in enumerate(self.springs)))
 
     def with_weights(self, tracking: float | None = None, sensitivity=None) -> "Problem":
-        """Copy with every cam's tracking weight and/or sensitivity weights replaced."""
-        cams = tuple(replace(c, tracking_weight=c.tracking_weight if tracking is None else tracking,
-                             sensitivity_weights=c.sensitivity_weights if sensitivity is None
-                             else tuple(sensitivity)) for c in self.cams)
-        return replace(self, cams=cams)
+        """Copy with every joint's tracking weight and/or sensitivity weights replaced."""
+        joints = tuple(replace(c, tracking_weight=c.tracking_weight if tracking is None else tracking,
+                               sensitivity_weights=c.sensitivity_weights if sensitivity is None
+                               else tuple(sensitivity)) for c in self.joints)
+        return replace(self, joints=joints)
 
     def to_dict(self) -> dict:
         """The fully resolved problem in the spec format (SI units; tables inlined)."""
+        mechanisms = []
+        for m in self.mechanisms:
+            (prof,) = m.profiles  # the spec form has one profile per mechanism so far
+            mechanisms.append({
+                "kind": m.kind, "name": m.name, "joint": m.joint + 1,
+                "basis": prof.basis.name, "order": prof.basis.order,
+                "rho_min": prof.rho_min, "rho_max": prof.rho_max, **m.spec_fields()})
         return {
             "name": self.name, "source": self.source, "notes": self.notes,
-            "friction_model": self.friction_model,
+            "torque_model": self.torque_model,
             "solver": dict(vars(self.options)),
-            "cams": [{
+            "joints": [{
                 "name": c.name,
                 "theta_range_deg": [float(np.degrees(t)) for t in c.theta_range],
-                "basis": c.basis.name, "order": c.basis.order,
-                "rho_min": c.rho_min, "rho_max": c.rho_max, "mu": c.mu,
                 "tracking_weight": c.tracking_weight,
                 "sensitivity_weights": list(c.sensitivity_weights),
-                "idler": {"radius": c.idler_radius, "offset": c.idler_offset},
                 "target": c.target.to_dict(),
-            } for c in self.cams],
-            "springs": [{
-                "name": s.name, "rate": s.rate, "travel": s.travel,
-                "ports": [("-" if p.sign < 0 else "") + f"{p.kind}:{p.cam + 1}" for p in s.ports],
-            } for s in self.springs],
+            } for c in self.joints],
+            "mechanisms": mechanisms,
+            "springs": [s.to_dict() for s in self.springs],
         }

@@ -38,7 +38,8 @@ class Result:
             "cadcam_version": __version__,
             "status": self.status,
             "message": self.message,
-            "friction_model": self.problem.friction_model,
+            "torque_model": self.problem.torque_model,
+            "friction_model": self.problem.torque_model,  # the field's old name, kept for readers
             "design": self.design.to_dict(),
             "metrics": ev.metrics,
             "recheck": fine.metrics,
@@ -53,12 +54,11 @@ class Result:
                 "build_time_s": self.build_time_s, "objective": sol.objective,
                 "start": sol.start, "trials": sol.trials,
                 "tangency_nlp_vs_rootfinder_max": float(max(
-                    max(np.abs(sol.alpha[i] - c.alpha).max(), np.abs(sol.gamma[i] - c.gamma).max())
-                    for i, c in enumerate(ev.cams))),
+                    np.abs(sol.z[u] - unit.z).max() for u, unit in enumerate(ev.units))),
             }
         return out
 
 
 def target_samples(ev: Evaluation) -> list[list[list[float]]]:
-    """Per cam, rows [θ₁ … θ_m [rad], τ_d [N·m]] on the evaluation grid."""
-    return [np.column_stack([ev.theta.T, ev.tau_d[i]]).tolist() for i in range(len(ev.cams))]
+    """Per joint, rows [θ₁ … θ_m [rad], τ_d [N·m]] on the evaluation grid."""
+    return [np.column_stack([ev.theta.T, ev.tau_d[i]]).tolist() for i in range(len(ev.tau_d))]

@@ -16,14 +16,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .physics.capstan import FRICTION_MODELS
-from .problem import Cam, Options, Problem
+from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profile,
+                              mechanism_class, mechanism_kinds)
 from .physics.profile import BASES, Basis
-from .physics.springs import PORT_KINDS, Port, Spring
+from .physics.springs import Port, Spring
+from .problem import Joint, Options, Problem
 from .targets import ExpressionError, Target, read_table
 
 _REQUIRED = object()
-_PORT = re.compile(r"^(-?)(wire|platform):([1-9][0-9]*)$")
+_PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
 
 
 class SpecError(ValueError):
@@ -71,6 +72,14 @@ class _Reader:
         if not ok(value):
             self.fail(self.key(name), value, form)
         return value
+
+    def table_reader(self, name: str, form: str) -> "_Reader":
+        """A reader of the sub-table ``name`` (required)."""
+        return _Reader(self.origin, self.get(name, lambda v: isinstance(v, dict), form),
+                       self.key(name))
+
+    number = staticmethod(lambda v: _number(v))
+    positive = staticmethod(lambda v: _positive(v))
 
     def done(self):
         extra = sorted(set(self.table) - self.seen)
@@ -156,6 +165,20 @@ def _check_target(origin, where, target: Target, cams_ranges, cam: int):
                         f"[N·m] over the whole angle range")
 
 
+def _torque_model(top: "_Reader", data: dict) -> str:
+    """``torque_model`` (default ``energy``), or a legacy ``friction_model`` of cadcam ≤ 0.1
+    (``exact`` was the force model with the corrected capstan: now ``force``)."""
+    if "torque_model" in data and "friction_model" in data:
+        top.fail("friction_model", data["friction_model"],
+                 "nothing: it is the old name of torque_model; give only torque_model")
+    if "friction_model" in data:
+        legacy = top.get("friction_model", lambda v: v in LEGACY_TORQUE_MODELS,
+                         f"one of {tuple(LEGACY_TORQUE_MODELS)} (old name of torque_model)")
+        return LEGACY_TORQUE_MODELS[legacy]
+    return top.get("torque_model", lambda v: v in TORQUE_MODELS, f"one of {TORQUE_MODELS}",
+                   ENERGY)
+
+
 def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Problem:
     """Validate a spec dictionary and build the :class:`Problem`.
 
@@ -168,12 +191,15 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     base : Path
         Folder against which table files are resolved.
     """
+    shorthand = isinstance(data, dict) and "cams" in data and "joints" not in data
+    data = legacy_cams(data)
+    # errors in the [[cams]] shorthand name the user's own tables
+    joint_label, mech_label = ("cams", "cams") if shorthand else ("joints", "mechanisms")
     top = _Reader(origin, data, "")
     name = top.get("name", lambda v: isinstance(v, str) and v, "a non-empty string")
     source = top.get("source", lambda v: isinstance(v, str), "a string citing the source")
     notes = top.get("notes", lambda v: isinstance(v, str), "a string", "")
-    friction = top.get("friction_model", lambda v: v in FRICTION_MODELS,
-                       f"one of {FRICTION_MODELS}", "exact")
+    torque_model = _torque_model(top, data)
     sol = _Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}), "solver")
     options = Options(
         grid=sol.get("grid", lambda v: _posint(v) and v >= 3, "an integer ≥ 3", 46),
@@ -193,78 +219,137 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     )
     sol.done()
 
-    raw_springs = top.get("springs", lambda v: isinstance(v, list) and v,
-                          "a non-empty array of [[springs]] tables")
-    raw_cams = top.get("cams", lambda v: isinstance(v, list) and v,
-                       "a non-empty array of [[cams]] tables")
-    n_cams, n_springs = len(raw_cams), len(raw_springs)
+    n_joints = len(data["joints"]) if isinstance(data.get("joints"), list) else 0
     arm = None
     if "arm" in data:
         ra = _Reader(origin, top.get("arm", lambda v: isinstance(v, dict), "an [arm] table"), "arm")
-        arm = _arm(ra, n_cams)
+        arm = _arm(ra, max(n_joints, 1))
         ra.done()
+    raw_joints = top.get("joints", lambda v: isinstance(v, list) and v,
+                         "a non-empty array of [[joints]] tables")
+    raw_mechs = top.get("mechanisms", lambda v: isinstance(v, list) and v,
+                        "a non-empty array of [[mechanisms]] tables")
+    raw_springs = top.get("springs", lambda v: isinstance(v, list) and v,
+                          "a non-empty array of [[springs]] tables")
     top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
     top.done()
+    n_springs = len(raw_springs)
 
-    springs = []
-    for j, raw in enumerate(raw_springs):
-        r = _Reader(origin, raw, f"springs[{j + 1}]")
-        ports = []
-        for p in r.get("ports", lambda v: isinstance(v, list) and v and all(
-                isinstance(x, str) and _PORT.match(x) for x in v),
-                f"a non-empty list of ports such as 'wire:1' or '-platform:2' (kinds {PORT_KINDS})"):
-            sign, kind, cam = _PORT.match(p).groups()
-            if int(cam) > n_cams:
-                r.fail(r.key("ports"), p, f"a cam number between 1 and {n_cams}")
-            ports.append(Port(int(cam) - 1, kind, -1.0 if sign else 1.0))
-        springs.append(Spring(
-            name=r.get("name", lambda v: isinstance(v, str), "a string", f"spring {j + 1}"),
-            rate=float(r.get("rate", _positive, "a positive spring rate [N/m]")),
-            travel=float(r.get("travel", _positive, "a positive maximum extension [m]")),
-            ports=tuple(ports)))
-        r.done()
-
-    cams, targets = [], []
-    for i, raw in enumerate(raw_cams):
-        where = f"cams[{i + 1}]"
+    joints, targets = [], []
+    for i, raw in enumerate(raw_joints):
+        where = f"{joint_label}[{i + 1}]"
         r = _Reader(origin, raw, where)
-        rng = r.get("theta_range_deg", _list_of(_number, 2), "[min, max] cam angles [deg]")
+        rng = r.get("theta_range_deg", _list_of(_number, 2), "[min, max] joint angles [deg]")
         if not rng[1] > rng[0]:
             r.fail(r.key("theta_range_deg"), rng, "[min, max] with max > min (a non-empty range)")
-        theta_range = (math.radians(rng[0]), math.radians(rng[1]))
-        basis_name = r.get("basis", lambda v: v in BASES, f"one of {BASES}", "chebyshev")
-        order = r.get("order", lambda v: _posint(v) and v <= 15, "an integer 1…15", 3)
-        rho_min = float(r.get("rho_min", _positive, "a positive minimum cam radius [m]"))
-        rho_max = float(r.get("rho_max", _positive, "a positive maximum cam radius [m]"))
-        if rho_min >= rho_max:
-            r.fail(r.key("rho_max"), rho_max, f"a radius greater than rho_min = {rho_min} [m]")
-        idler = _Reader(origin, r.get("idler", lambda v: isinstance(v, dict),
-                                      "a table with radius and offset [m]"), f"{where}.idler")
-        radius = float(idler.get("radius", _positive, "a positive idler radius [m]"))
-        offset = float(idler.get("offset", _number, "the idler's vertical offset a0 [m]"))
-        idler.done()
         sens = r.get("sensitivity_weights", _list_of(_nonneg, n_springs),
                      f"a list of {n_springs} weights ≥ 0, one per spring", [0.0] * n_springs)
-        cams.append(dict(
-            name=r.get("name", lambda v: isinstance(v, str), "a string", f"cam {i + 1}"),
-            # the design interval of the basis covers every contact angle α ≤ θ_max + π/2
-            basis=Basis(basis_name, order, (0.0, theta_range[1] + math.pi / 2)),
-            theta_range=theta_range, rho_min=rho_min, rho_max=rho_max,
-            idler_radius=radius, idler_offset=offset,
-            mu=float(r.get("mu", _nonneg, "a friction coefficient ≥ 0")),
+        joints.append(dict(
+            name=r.get("name", lambda v: isinstance(v, str), "a string", f"joint {i + 1}"),
+            theta_range=(math.radians(rng[0]), math.radians(rng[1])),
             tracking_weight=float(r.get("tracking_weight", _nonneg, "a weight ≥ 0", 1.0)),
             sensitivity_weights=tuple(float(w) for w in sens)))
         targets.append(_target(_Reader(origin, r.get("target", lambda v: isinstance(v, dict),
-                                                     "a [cams.target] table"), f"{where}.target"),
-                               base, n_cams, arm))
+                                                     f"a [{joint_label}.target] table"), f"{where}.target"),
+                               base, n_joints, arm))
         r.done()
 
-    ranges = [c["theta_range"] for c in cams]
+    mechanisms = []
+    for u, raw in enumerate(raw_mechs):
+        mechanisms.append(_mechanism(_Reader(origin, raw, f"{mech_label}[{u + 1}]"), u, joints))
+    on_joint = {m.joint for m in mechanisms}
+    for i in range(n_joints):
+        if i not in on_joint:
+            raise SpecError(f"{origin}: joints[{i + 1}] has no mechanism; expected a "
+                            f"[[mechanisms]] table with joint = {i + 1}")
+
+    springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
+               for j, raw in enumerate(raw_springs)]
+
+    ranges = [c["theta_range"] for c in joints]
     for i, t in enumerate(targets):
-        _check_target(origin, f"cams[{i + 1}]", t, ranges, i)
-    return Problem(name=name, source=source, notes=notes, friction_model=friction,
-                   options=options, springs=tuple(springs),
-                   cams=tuple(Cam(target=t, **c) for c, t in zip(cams, targets)))
+        _check_target(origin, f"{joint_label}[{i + 1}]", t, ranges, i)
+    try:
+        return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
+                       options=options, springs=tuple(springs), mechanisms=tuple(mechanisms),
+                       joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
+    except ValueError as exc:
+        raise SpecError(f"{origin}: torque_model: {exc}") from None
+
+
+def _mechanism(r: "_Reader", u: int, joints: list[dict]):
+    """One [[mechanisms]] table: kind, name, joint, its profile and the mechanism's own keys."""
+    kinds = mechanism_kinds()
+    cls = mechanism_class(r.get("kind", lambda v: v in kinds, f"one of {kinds}"))
+    name = r.get("name", lambda v: isinstance(v, str), "a string", f"mechanism {u + 1}")
+    joint = r.get("joint", lambda v: _posint(v) and v <= len(joints),
+                  f"a joint number between 1 and {len(joints)}") - 1
+    basis_name = r.get("basis", lambda v: v in BASES, f"one of {BASES}", "chebyshev")
+    order = r.get("order", lambda v: _posint(v) and v <= 15, "an integer 1…15", 3)
+    rho_min = float(r.get("rho_min", _positive, "a positive minimum profile radius [m]"))
+    rho_max = float(r.get("rho_max", _positive, "a positive maximum profile radius [m]"))
+    if rho_min >= rho_max:
+        r.fail(r.key("rho_max"), rho_max, f"a radius greater than rho_min = {rho_min} [m]")
+    domain = cls.profile_domain(joints[joint]["theta_range"])
+    profile = Profile(name, Basis(basis_name, order, domain), rho_min, rho_max)
+    mech = cls.from_spec(r, name=name, joint=joint, profiles=(profile,))
+    r.done()
+    return mech
+
+
+def _spring(r: "_Reader", j: int, mechanisms) -> Spring:
+    """One [[springs]] table; ports name a mechanism's ports as 'port:mechanism'."""
+    ports = []
+    raw = r.get("ports", lambda v: isinstance(v, list) and v and all(
+        isinstance(x, str) and _PORT.match(x) for x in v),
+        "a non-empty list of ports such as 'wire:1' or '-platform:2' (port:mechanism number)")
+    for p in raw:
+        sign, port, number = _PORT.match(p).groups()
+        u = int(number) - 1
+        if u >= len(mechanisms):
+            r.fail(r.key("ports"), p, f"a mechanism number between 1 and {len(mechanisms)}")
+        if port not in mechanisms[u].ports:
+            r.fail(r.key("ports"), p, f"a port of mechanism {u + 1} ({mechanisms[u].kind}): "
+                                      f"{', '.join(mechanisms[u].ports)}")
+        ports.append(Port(u, port, -1.0 if sign else 1.0))
+    travel = float(r.get("travel", _positive, "a positive maximum extension [m]"))
+    pre = r.get("preextension", lambda v: _nonneg(v) and v <= travel,
+                f"a fixed pre-extension in [0, travel = {travel}] [m]", None)
+    spring = Spring(
+        name=r.get("name", lambda v: isinstance(v, str), "a string", f"spring {j + 1}"),
+        rate=float(r.get("rate", _positive, "a positive spring rate [N/m]")),
+        travel=travel, ports=tuple(ports),
+        preload=float(r.get("preload", _nonneg, "an initial tension F0 ≥ 0 [N]", 0.0)),
+        free_length=_optional_float(r.get("free_length", _positive,
+                                          "a positive free (unloaded) length [m]", None)),
+        preextension=_optional_float(pre))
+    r.done()
+    return spring
+
+
+def _optional_float(v):
+    return None if v is None else float(v)
+
+
+def legacy_cams(data: dict) -> dict:
+    """A spec in the ``[[cams]]`` shorthand (a wire cam on its own joint, cadcam ≤ 0.1) in the
+    general form: each cam becomes joint i and mechanism i of kind ``wire_cam``, so its ports
+    (``wire:i``, ``platform:i``) and every number keep their meaning."""
+    if not isinstance(data, dict) or "cams" not in data or not isinstance(data["cams"], list):
+        return data
+    if "joints" in data or "mechanisms" in data:
+        return data  # parse_spec then names 'cams' as an unknown key
+    out = {k: v for k, v in data.items() if k != "cams"}
+    joint_keys = ("name", "theta_range_deg", "tracking_weight", "sensitivity_weights", "target")
+    out["joints"], out["mechanisms"] = [], []
+    for i, cam in enumerate(data["cams"]):
+        if not isinstance(cam, dict):
+            out["joints"].append(cam)
+            continue
+        out["joints"].append({k: cam[k] for k in joint_keys if k in cam})
+        out["mechanisms"].append({"kind": "wire_cam", "joint": i + 1,
+                                  **{k: v for k, v in cam.items() if k not in joint_keys[1:]}})
+    return out
 
 
 def parse_value(text: str, origin: str = "--set"):

@@ -1,4 +1,4 @@
-"""Shared fixtures: the 1-DOF model spec and the RR-arm problem with seed 003's Table 3 design."""
+"""Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
 import json
 from pathlib import Path
 
@@ -32,7 +32,7 @@ def table3(rr_problem):
 
 def circle_design(problem, radius, x0):
     """A circular cam of ``radius`` [m] in the problem's basis."""
-    b = problem.cams[0].basis
+    b = problem.profiles[0].basis
     m = np.zeros(b.size)
     m[0] = radius
     return Design([b], [b.from_monomial(m)], np.asarray(x0, dtype=float))

@@ -1,4 +1,4 @@
-"""Capstan friction (seed 003, Sec. 4.1) and the correction of its Eq. 33."""
+"""Capstan friction (Johnston2023, Sec. 4.1) and the correction of its Eq. 33."""
 import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
@@ -10,7 +10,7 @@ from cadcam.physics.quadrature import gauss_legendre
 
 BASIS = Basis("monomial", 3, (0.0, 3.5))
 PROFILE = profile_function(BASIS)
-EXACT = wire_torque_function(BASIS, "exact", 40)
+EXACT = wire_torque_function(BASIS, "corrected", 40)
 PRINTED = wire_torque_function(BASIS, "as-printed", 40)
 
 
@@ -57,7 +57,7 @@ def test_force_balance_of_the_wire_along_the_wrap():
     """ψ(α) − ψ(0) = ∫₀^α ψ′ (Eq. 22, 24): the distributed loads and the anchor load balance
     the departure tension; tension decays as e^{μ(φ−α)} (Eq. 31)."""
     c, alpha, mu = np.array([0.025, 0.0046, 0.0133, -0.0052]), 1.6, 0.3273
-    loads = loads_function(BASIS, "exact")
+    loads = loads_function(BASIS, "corrected")
     s, w = gauss_legendre(40)
     phi = alpha * s
     ten, normal, friction, _ = (np.asarray(v).ravel() for v in loads.map(40)(phi, alpha, c, mu))

@@ -15,10 +15,10 @@ from .conftest import SPEC_1DOF, SPEC_RR, TABLE3
 
 def test_evaluate_table3_as_printed_from_the_command_line():
     p = subprocess.run([sys.executable, "-m", "cadcam", "evaluate", str(SPEC_RR), "--design", str(TABLE3),
-                        "--grid", "46", "--friction-model", "as-printed"], capture_output=True, text=True)
+                        "--grid", "46", "--torque-model", "force-as-printed"], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     out = json.loads(p.stdout)
-    assert out["friction_model"] == "as-printed"
+    assert out["torque_model"] == "force-as-printed"
     # REFERENCE.md: ≈ 270 / 862 (cam 1) and ≈ 128 / 389 N·mm (cam 2)
     np.testing.assert_allclose(np.array(out["metrics"]["rmse"]) * 1e3, [270, 128], rtol=0.01)
     np.testing.assert_allclose(np.array(out["metrics"]["max_abs_error"]) * 1e3, [862, 389], rtol=0.01)
@@ -28,15 +28,15 @@ def test_evaluate_table3_as_printed_from_the_command_line():
 
 def test_variant_applies_the_sec10_5_weights():
     base, v = load_spec(SPEC_RR), load_spec(SPEC_RR, "sec10_5")
-    assert [c.tracking_weight for c in base.cams] == [10.0, 10.0]
-    assert [c.tracking_weight for c in v.cams] == [1.0, 1.0]
-    assert all(c.sensitivity_weights == (1000.0,) * 3 for c in v.cams)
+    assert [c.tracking_weight for c in base.joints] == [10.0, 10.0]
+    assert [c.tracking_weight for c in v.joints] == [1.0, 1.0]
+    assert all(c.sensitivity_weights == (1000.0,) * 3 for c in v.joints)
 
 
 def test_set_overrides_by_dotted_key():
     p = load_spec(SPEC_1DOF, overrides=[("springs.1.rate", 1200.0), ("cams.*.order", 5),
                                         ("solver.grid", 31)])
-    assert p.springs[0].rate == 1200.0 and p.cams[0].basis.order == 5 and p.options.grid == 31
+    assert p.springs[0].rate == 1200.0 and p.profiles[0].basis.order == 5 and p.options.grid == 31
 
 
 @pytest.mark.parametrize("key,value,message", [

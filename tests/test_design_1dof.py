@@ -24,12 +24,12 @@ def run(tmp_path_factory):
 def test_design_succeeds_and_writes_its_files(run):
     rc, out, res = run
     assert rc == 0 and res["status"] == "success"
-    for name in ("result.json", "torque.csv", "profile.csv", "profile.png", "torque.png", "springs.png",
+    for name in ("result.json", "torque.csv", "torque_recheck.csv", "profile.csv", "profile.png", "torque.png", "springs.png",
                  "cam1.dxf", "cam1.svg", "cam1_points.csv", "cam1_sheet.pdf", "cam1_sheet.png"):
         assert (out / name).stat().st_size > 0
     assert not (out / "cam1.stl").exists()  # STL only on request
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
-    assert res["friction_model"] == "exact"
+    assert res["torque_model"] == res["friction_model"] == "energy"
     assert res["solver"]["iterations"] > 0 and res["solver"]["solve_time_s"] > 0
 
 
@@ -40,7 +40,7 @@ def test_constraints_hold_on_the_fine_recheck(run):
     assert fine["grid"] == 10 * (problem.options.grid - 1) + 1
     assert fine["violations"] == []
     assert min(fine["convexity_min"]) > 0
-    cam = problem.cams[0]
+    cam = problem.profiles[0]
     assert fine["rho_min"][0] >= cam.rho_min - LENGTH_TOL
     assert fine["rho_max"][0] <= cam.rho_max + LENGTH_TOL
     for s, lo, hi in zip(problem.springs, fine["extension_min"], fine["extension_max"]):

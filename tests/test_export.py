@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from cadcam import Design, load_spec
-from cadcam.physics.departure import TangencySolver, newton_function
+from cadcam.mechanisms.base import DepartureSolver, newton_function
 from cadcam.views.export import CFLAGS, export, model_functions
 from cadcam.check.model import NEWTON_STEPS, torque_function
 
@@ -34,21 +34,21 @@ def exported(rr, tmp_path_factory):
 
 
 def _inputs(problem, design, rng):
-    return [rng.uniform(0.05, 1.5, len(problem.cams)), np.concatenate(design.coefficients)
+    return [rng.uniform(0.05, 1.5, len(problem.joints)), np.concatenate(design.coefficients)
             * (1 + 1e-3 * rng.standard_normal(sum(b.size for b in design.bases))),
             np.array([s.rate for s in problem.springs]) * rng.uniform(0.9, 1.1, len(problem.springs)),
-            design.preextension + rng.uniform(0, 2e-3, len(problem.springs))]
+            design.preextension + rng.uniform(0, 2e-3, len(problem.springs)),
+            rng.uniform(0, 20.0, len(problem.springs))]
 
 
 def test_unrolled_newton_matches_the_rootfinder(rr):
     problem, design = rr
-    for i, (cam, b) in enumerate(zip(problem.cams, design.bases)):
+    for i, (mech, b) in enumerate(zip(problem.mechanisms, design.bases)):
         theta = np.linspace(0, np.pi / 2, 451)
-        a, g, _ = TangencySolver(b).solve(theta, design.coefficients[i], cam.idler_radius, cam.idler_offset)
-        an, gn = newton_function(b, NEWTON_STEPS).map(451)(theta, design.coefficients[i],
-                                                           cam.idler_radius, cam.idler_offset)
-        assert np.abs(np.asarray(an).ravel() - a).max() <= 1e-12
-        assert np.abs(np.asarray(gn).ravel() - g).max() <= 1e-12
+        structure, q = (type(mech), (b,)), mech.parameter_values()
+        z, _ = DepartureSolver(structure).solve(theta, design.coefficients[i], q)
+        zn = np.asarray(newton_function(structure, NEWTON_STEPS).map(451)(theta, design.coefficients[i], q))
+        assert np.abs(zn - z).max() <= 1e-12
 
 
 def test_exported_model_and_jacobians_equal_the_rootfinder_model(rr):
@@ -57,7 +57,7 @@ def test_exported_model_and_jacobians_equal_the_rootfinder_model(rr):
     f, jac = model_functions(problem, design)
     ref = torque_function(problem, design.bases)
     names = [n for n in jac.name_out()]
-    ref_jac = ref.factory("refjac", ["theta", "c", "k", "x0"],
+    ref_jac = ref.factory("refjac", ["theta", "c", "k", "x0", "F0"],
                           [f"jac:{n[1:].split('_d')[0]}:{n.split('_d')[-1]}" for n in names])
     rng = np.random.default_rng(5)
     for _ in range(3):
@@ -90,7 +90,7 @@ def test_shared_library_matches_in_process_values_and_jacobians(rr, exported):
                 a, b = np.asarray(a), np.asarray(b)
                 assert np.abs(a - b).max() <= 1e-12 * max(np.abs(b).max(), 1e-300)
     shapes = {f["name"]: [o["shape"] for o in f["outputs"]] for f in manifest["functions"]}
-    assert shapes["cadcam_torque"] == [[2, 1], [3, 1], [2, 1], [2, 1]]
+    assert shapes["cadcam_torque"] == [[2, 1], [3, 1], [4, 1]]  # τ per joint, x per spring, z
 
 
 def test_serialized_functions_load_in_a_fresh_interpreter(rr, exported):
@@ -124,7 +124,8 @@ def test_readme_c_example_compiles_and_runs(rr, exported, tmp_path):
     values = [float(v) for v in re.findall(r"[-+]?\d\.\d+(?:e[-+]\d+)?", run.stdout)]
     f, jac = model_functions(problem, design)
     args = [np.array([0.5, 0.3]), np.concatenate(design.coefficients),
-            np.array([s.rate for s in problem.springs]), design.preextension]
+            np.array([s.rate for s in problem.springs]), design.preextension,
+            np.array([s.preload for s in problem.springs])]
     tau = np.asarray(f(*args)[0]).ravel()
     J = dict(zip(jac.name_out(), (np.asarray(v) for v in jac(*args))))
     np.testing.assert_allclose(values, [tau[0], tau[1], J["dtau_dtheta"][0, 1], J["dtau_dk"][0, 1]],

@@ -20,7 +20,10 @@ BORE, ANCHOR, THICKNESS = 6e-3, 1.5e-3, 5e-3  # [m]
 
 @pytest.fixture(scope="module")
 def optimum_1dof(problem_1dof):
-    return optimize(problem_1dof)
+    # the geometry tests need one fixed smooth design whose closure inside the ρ bounds exists:
+    # the 1-DOF optimum under the force model is one (the energy model's needs the closing arc
+    # to leave [ρ_min, ρ_max], which the default unbounded closure allows)
+    return optimize(problem_1dof.with_torque_model("force"))
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +90,7 @@ def test_outline_is_closed_and_c2_at_both_joints(outline):
 
 def test_designed_arc_is_kept_and_closure_respects_rho_bounds(cam_1dof, optimum_1dof,
                                                               problem_1dof):
-    d, cam = optimum_1dof.design, problem_1dof.cams[0]
+    d, cam = optimum_1dof.design, problem_1dof.profiles[0]
     bounded = closed_outline(d.bases[0], d.coefficients[0], cam_1dof.phi_end,
                              rho_bounds=(cam.rho_min, cam.rho_max))
     phi = np.linspace(0, cam_1dof.phi_end, 50)
@@ -98,7 +101,7 @@ def test_designed_arc_is_kept_and_closure_respects_rho_bounds(cam_1dof, optimum_
 
 
 def test_no_convex_closure_is_a_value_error(rr_problem, table3, cams_table3):
-    cam = rr_problem.cams[0]  # Table 3 cam 1 starts at ρ_min with ρ′ > 0: below ρ_min before 2π
+    cam = rr_problem.profiles[0]  # Table 3 cam 1 starts at ρ_min with ρ′ > 0: below ρ_min before 2π
     with pytest.raises(ValueError, match="no convex closure.*rho_bounds"):
         closed_outline(table3.bases[0], table3.coefficients[0], cams_table3[0].phi_end,
                        rho_bounds=(cam.rho_min, cam.rho_max))
@@ -270,7 +273,7 @@ def test_bad_sizes_raise_naming_the_parameter(tmp_path, cam_1dof):
 # -------------------------------------------------------------------------------------- sheet
 
 def test_sheet_is_a4_at_true_scale(tmp_path, cam_1dof, problem_1dof):
-    cam = problem_1dof.cams[0]
+    cam = problem_1dof.profiles[0]
     args = (cam_1dof, BORE, ANCHOR, cam.rho_min, cam.rho_max, "1-DOF cam")
     assert draw_sheet(tmp_path / "cam.png", *args) == 1
     height, width = imread(tmp_path / "cam.png").shape[:2]

@@ -92,7 +92,7 @@ def test_a_case_that_raises_is_recorded_and_the_others_complete(tmp_path, monkey
     real = module.optimize
 
     def flaky(problem, **kw):
-        if problem.springs[0].rate == 1200.0 and problem.cams[0].idler_offset == 0.010:
+        if problem.springs[0].rate == 1200.0 and problem.mechanisms[0].idler_offset == 0.010:
             raise RuntimeError("Error in Function::call for 'cadcam' [IpoptInterface]: boom")
         return real(problem, **kw)
 

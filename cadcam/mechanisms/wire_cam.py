@@ -1,63 +1,123 @@
-"""The wire-wrapped cam on a follower idler, one angle at a time (seed 003, Sec. 2–4).
+"""The wire-wrapped cam on a follower idler (Johnston2023, Sec. 2–5).
 
-Composes the profile, the departure (tangency), the wrapped length and the capstan model into
-the two port displacements and two moment arms that the spring network needs
-(:mod:`cadcam.physics.springs`). Everything depends on the cam's own angle only, which is what makes
-multi-cam grids separable.
+The cam turns with its joint by θ; the wire anchored at φ = 0 wraps it and leaves it at the
+contact with an idler of radius r whose centre q rides a horizontal platform at height a₀
+(Johnston2023 Fig. 1). The wire wraps the idler from γ down to 0 and pulls a spring riding on
+the platform (port ``wire``, Eq. 14); the platform's travel stretches another (port
+``platform``, Eq. 16). Unknowns per angle: the contact angle α on the cam and γ on the idler
+(Eq. 6–7). Besides the energy torque it offers the paper's force model (Eq. 19–21) with the
+corrected capstan derivative (``force``) or with Eq. 33 as printed (``force-as-printed``).
 """
 from __future__ import annotations
 
-from functools import lru_cache
+from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
-from ..physics.capstan import check_friction_model, wire_torque_function
-from ..physics.departure import cam_function
-from ..physics.profile import Basis
-from ..physics.springs import platform_displacement, wire_displacement
+from ..physics.capstan import wire_torque_function
+from ..physics.departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
+from ..physics.profile import profile_function
+from .base import Mechanism, register
+
+#: Circle-solution sweeps of the closed-form guess of α.
+GUESS_SWEEPS = 6
 
 
-@lru_cache(maxsize=64)
-def port_function(basis: Basis, friction_model: str, order: int,
-                  wire_arm: str = "closed-form") -> ca.Function:
-    """Per-angle port quantities of one cam as a CasADi Function.
+def wire_displacement(length, r, gamma, gamma_ref):
+    """Change of the wire port [m]: Δl_cam + r(γ − γ₀) (Johnston2023 Eq. 14 without x₁₀)."""
+    return length + r * (gamma - gamma_ref)  # Johnston2023 Eq. 14
 
-    ``ports(theta, alpha, gamma, gamma_ref, qx_ref, wrapped, c, r, a0, mu) ->
-    (d[2], arm[2], residual[2], branch)``
 
-    ``wrapped`` is the profile length between α₀ and α [m] (Eq. 10; see
-    :func:`cadcam.physics.wrap.length_function`), given as an input so that a caller can integrate it
-    per angle (the evaluator) or cumulatively along the grid (the NLP).
-    ``d`` = [wire, platform] displacements [m] relative to θ = 0 (Eq. 14, 16), ``arm`` the
-    moment arms of unit port forces [m]: the wire term per unit departure tension (Eq. 21 or
-    35) and the normal term (Eq. 20–21). ``residual``/``branch`` are the tangency conditions
-    at (θ, α, γ) (Eq. 6–7). ``gamma_ref`` and ``qx_ref`` are γ and the idler centre q_x
-    (Eq. 15) at θ = 0, computed once per cam by the caller (see :func:`reference`).
+def platform_displacement(qx, qx_ref):
+    """Change of the platform port [m]: Δq_x (Johnston2023 Eq. 16, 18 without x₂₀)."""
+    return qx - qx_ref  # Johnston2023 Eq. 16, 18
 
-    Parameters
-    ----------
-    basis : Basis
-    friction_model : {"exact", "as-printed"}
-    order : int
-        Gauss–Legendre order of the friction integral (``as-printed`` or ``quadrature``).
-    wire_arm : {"closed-form", "quadrature"}
-        Under ``exact`` friction the wire arm equals the departure moment ẑ·(r_p × t̂) exactly
-        (``closed-form``, cheap); ``quadrature`` integrates Eq. 35 instead, the independent
-        path used by the re-check. ``as-printed`` always integrates.
-    """
-    check_friction_model(friction_model)
-    cam = cam_function(basis)
-    names = ("theta", "alpha", "gamma", "gamma_ref", "qx_ref", "wrapped", "r", "a0", "mu")
-    theta, alpha, gamma, gamma_ref, qx_ref, wrapped, r, a0, mu = (ca.SX.sym(n) for n in names)
-    c = ca.SX.sym("c", basis.size)
-    res, branch, qx, arm_t, arm_n, *_ = cam(theta, alpha, gamma, c, r, a0)
-    if friction_model == "as-printed" or wire_arm == "quadrature":
-        arm_t = wire_torque_function(basis, friction_model, order)(alpha, c, mu)
-    d = ca.vertcat(wire_displacement(wrapped, r, gamma, gamma_ref),
-                   platform_displacement(qx, qx_ref))
-    return ca.Function(
-        "ports", [theta, alpha, gamma, gamma_ref, qx_ref, wrapped, c, r, a0, mu],
-        [d, ca.vertcat(arm_t, arm_n), res, branch],
-        ["theta", "alpha", "gamma", "gamma_ref", "qx_ref", "wrapped", "c", "r", "a0", "mu"],
-        ["d", "arm", "residual", "branch"],
-    )
+
+@register
+@dataclass(frozen=True)
+class WireCam(Mechanism):
+    """A wire cam with its follower idler: ``idler_radius`` r and ``idler_offset`` a₀ [m]
+    (Johnston2023 Eq. 7), ``mu`` the wire–cam friction coefficient (force models only)."""
+
+    idler_radius: float = 0.0
+    idler_offset: float = 0.0
+    mu: float = 0.0
+
+    kind = "wire_cam"
+    citation = "Johnston2023"
+    ports = ("wire", "platform")
+    unknowns = ("alpha", "gamma")
+    unknown_units = ("rad", "rad")
+    residual_units = ("", "m")  # Eq. 6 as a cross product, Eq. 7 closure
+    parameter_names = ("idler_radius", "idler_offset", "mu")
+    force_models = ("force", "force-as-printed")
+
+    @classmethod
+    def residual(cls, bases, theta, z, c, q):
+        rho, drho, _, _ = profile_function(bases[0])(z[0], c)
+        cross, closure, branch = tangency_residuals(theta, z[0], z[1], rho, drho, q[0], q[1])
+        return ca.vertcat(cross, closure), 1 + branch
+
+    @classmethod
+    def guess(cls, bases, theta, c, q):
+        """The circle solution (ρ + r) sin(α − θ) = a₀ iterated with ρ = ρ(α), then γ along the
+        inward normal ẑ × t̂(α); exact for a circular cam."""
+        prof = profile_function(bases[0])
+        r, a0 = q[0], q[1]
+        alpha = theta
+        for _ in range(GUESS_SWEEPS):
+            alpha = theta + ca.asin(a0 / (prof(alpha, c)[0] + r))
+        rho, drho, _, _ = prof(alpha, c)
+        tx, ty = cam_tangent(theta, alpha, rho, drho)
+        return ca.vertcat(alpha, ca.atan2(-tx, ty) + ca.pi)  # n̂ = (−t_y, t_x), γ kept near π
+
+    @classmethod
+    def idler_x(cls, bases, theta, z, c, q):
+        """Idler centre q_x [m] (Johnston2023 Eq. 15)."""
+        rho = profile_function(bases[0])(z[0], c)[0]
+        return idler_centre_x(theta, z[0], z[1], rho, q[0])
+
+    @classmethod
+    def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
+        qx = cls.idler_x(bases, theta, z, c, q)
+        qx_ref = cls.idler_x(bases, cls.reference_angle, z_ref, c, q)
+        return ca.vertcat(wire_displacement(wrapped[0], q[0], z[1], z_ref[1]),
+                          platform_displacement(qx, qx_ref))
+
+    @classmethod
+    def force_arms(cls, bases, model, theta, z, c, q, order, wire_arm):
+        """Johnston2023 Eq. 19–21: the wire term per unit tension (the departure moment, or
+        Eq. 35 by quadrature of the capstan loads) and the unit-normal idler term."""
+        rho, drho, _, _ = profile_function(bases[0])(z[0], c)
+        arm_t, arm_n = departure_moments(theta, z[0], rho, drho)
+        if model == "force-as-printed" or wire_arm == "quadrature":
+            capstan = "as-printed" if model == "force-as-printed" else "corrected"
+            arm_t = wire_torque_function(bases[0], capstan, order)(z[0], c, q[2])
+        return ca.vertcat(arm_t, arm_n)
+
+    def start_radius(self, profile):
+        """1.2 ρ_min, raised so the idler can touch the cam ((ρ + r) sin(α − θ) = a₀ needs
+        ρ + r > a₀), kept inside the mid-range of ρ."""
+        reach = 1.2 * (abs(self.idler_offset) - self.idler_radius) + 0.2 * profile.rho_min
+        return min(max(1.2 * profile.rho_min, reach), 0.5 * (profile.rho_min + profile.rho_max))
+
+    def circles(self, theta, z, c):
+        """The idler at one pose."""
+        th, zz, cc = ca.SX.sym("theta"), ca.SX.sym("z", 2), ca.SX.sym("c", self.bases[0].size)
+        qx = ca.Function("qx", [th, zz, cc], [self.idler_x(self.bases, th, zz, cc,
+                                                             self.parameter_values())])
+        return [(np.array([float(qx(theta, z, c)), self.idler_offset]), self.idler_radius)]
+
+    @classmethod
+    def from_spec(cls, reader, name, joint, profiles):
+        idler = reader.table_reader("idler", "a table with radius and offset [m]")
+        radius = float(idler.get("radius", reader.positive, "a positive idler radius [m]"))
+        offset = float(idler.get("offset", reader.number, "the idler's vertical offset a0 [m]"))
+        idler.done()
+        mu = float(reader.get("mu", lambda v: reader.number(v) and v >= 0, "a friction coefficient ≥ 0"))
+        return cls(name=name, joint=joint, profiles=profiles, idler_radius=radius,
+                   idler_offset=offset, mu=mu)
+
+    def spec_fields(self) -> dict:
+        return {"mu": self.mu, "idler": {"radius": self.idler_radius, "offset": self.idler_offset}}

@@ -1,15 +1,17 @@
-"""The design NLP of seed 003 (Eq. 46, 47) for IPOPT, built once and solved with parameters.
+"""The design NLP of Johnston2023 (Eq. 46, 47) for IPOPT, for any mechanisms, built once and
+solved with parameters.
 
-Transcription: a uniform grid of n cam angles per cam, with the tangency unknowns (α, γ) of
-every grid angle and of θ = 0 as NLP variables constrained by the residuals of Eq. 6–7
-(simultaneous approach); Gauss–Legendre integrals along the profile; trapezoidal integrals
-over the angle grid; ∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised
-(no ``abs`` in the NLP).
+Transcription: a uniform grid of n angles per joint; every mechanism's departure unknowns z at
+every grid angle of its joint and at its reference angle are NLP variables constrained by the
+mechanism's residuals (simultaneous approach); wrapped lengths by Gauss–Legendre integrals
+along each profile, lifted segment by segment; trapezoidal integrals over the angle grid;
+∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised (no ``abs`` in the NLP).
 
 Everything that is a number of the problem rather than its structure — grid angles, spring
-rates, idler radius and offset, μ, weights, target samples — is a CasADi parameter, and every
-limit (travels, ρ bounds, convexity margin) a bound passed at solve time, so one built solver
-serves every case of a parameter sweep.
+rates and preloads, the mechanisms' numbers (idler radius and offset, μ, …), weights, target
+samples — is a CasADi parameter, and every limit (travels, ρ bounds, convexity margin, fixed
+pre-extensions) a bound passed at solve time, so one built solver serves every case of a
+parameter sweep.
 
 Scaling: lengths in millimetres (coefficients, pre-extensions, closure and travel constraints),
 convexity margins in mm², moment arms in units of :data:`ARM_SCALE`, and the objective
@@ -23,14 +25,12 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..physics.departure import cam_function
 from ..design import Design
+from ..mechanisms.base import port_function, residual_function, split_coefficients
 from ..physics.profile import profile_function
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.wrap import length_function, segment_lengths
-from ..mechanisms.wire_cam import port_function
 from ..problem import Problem
-from ..physics.springs import cam_term, cams_of, incidence, torque_terms
 
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
 ARM_SCALE = 1e-2     # m: scale of the moment arms in the sensitivity terms
@@ -62,8 +62,7 @@ class Solve:
     iterations: int
     solve_time_s: float
     objective: float        # Eq. 46/47 value in SI units
-    alpha: list[np.ndarray]  # NLP's tangency angles per cam [rad]
-    gamma: list[np.ndarray]
+    z: list[np.ndarray]     # NLP's departure unknowns per mechanism (unknowns × n)
     start: int = 0
     trials: list[dict] = field(default_factory=list)
 
@@ -101,8 +100,9 @@ class Transcription:
     Parameters
     ----------
     problem : Problem
-        Supplies the structure (cams and bases, springs and ports, friction model, grid size,
-        quadrature order, convexity points, which sensitivity weights are non-zero).
+        Supplies the structure (joints, mechanisms and their bases, springs and ports, torque
+        model, grid size, quadrature order, convexity points, which sensitivity weights are
+        non-zero).
 
     Attributes
     ----------
@@ -114,22 +114,25 @@ class Transcription:
         t0 = time.perf_counter()
         self.problem = problem
         opt = problem.options
-        m, S, n = len(problem.cams), len(problem.springs), opt.grid
+        m, S, n = len(problem.joints), len(problem.springs), opt.grid
         self.m, self.S, self.n = m, S, n
         self.N = n**m
-        inc = incidence(list(problem.springs), m)
-        self.pairs = [(i, j) for i, c in enumerate(problem.cams)
+        net = problem.network()
+        self.pairs = [(i, j) for i, c in enumerate(problem.joints)
                       for j, w in enumerate(c.sensitivity_weights)
-                      if w > 0 and i in cams_of(inc, j)]  # others have ∂τ_i/∂k_j ≡ 0
+                      if w > 0 and i in net.joints_of(j)]  # others have ∂τ_i/∂k_j ≡ 0
         v, p = _Vars("w"), _Vars("p")
         self.v, self.p = v, p
         for i in range(m):
-            for name, size in (("theta", n), ("cam", 4), ("wsens", S), ("rt", n), ("td2", 1)):
+            for name, size in (("theta", n), ("weights", 1), ("wsens", S), ("rt", n), ("td2", 1)):
                 p.add(f"{name}{i}", size)
             for c in range(m):
                 if c != i:
                     p.add(f"Mt{i}_{c}", n * n)
+        for u, mech in enumerate(problem.mechanisms):
+            p.add(f"q{u}", len(mech.parameter_names))
         p.add("k", S)
+        p.add("F0", S)
         p.add("obj_scale", 1)
         L = LENGTH_SCALE
         g, self._bounds, self._lifted = [], [], []
@@ -150,56 +153,67 @@ class Transcription:
             self._lifted.append((name, expr / scale))
             return scale * var
 
-        # -- per cam and per angle: O(n) ------------------------------------------------------
-        d, arm, w = [], [], []
-        for i, cam in enumerate(problem.cams):
-            c = L * v.add(f"c{i}", cam.basis.size)
-            alpha, gamma, ref = v.add(f"alpha{i}", n), v.add(f"gamma{i}", n), v.add(f"ref{i}", 2)
-            theta = p[f"theta{i}"]
-            r, a0, mu, _ = (p[f"cam{i}"][k] for k in range(4))
-            ports = port_function(cam.basis, problem.friction_model,
-                                         FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
-            h = (cam.theta_range[1] - cam.theta_range[0]) / (n - 1)
-            first = opt.quadrature_order * int(np.ceil(max(abs(cam.theta_range[0]) / h, 1)))
-            # wrapped lengths are lifted to variables, tied segment by segment (Eq. 10, 14),
-            # which keeps the Lagrangian Hessian banded instead of dense
-            wrapped = L * v.add(f"len{i}", n)
-            seg = segment_lengths(cam.basis, opt.quadrature_order, first, ref[0], alpha, c)
-            constrain((wrapped - ca.vertcat(0, wrapped[:n - 1]) - seg) / L, zero)
-            res_ref, _, qx_ref = cam_function(cam.basis)(0, ref[0], ref[1], c, r, a0)[:3]
-            di, ai, res, _ = ports(theta, alpha, gamma, ref[1], qx_ref, wrapped.T, c, r, a0, mu)
-            # seed 003, Eq. 6–7 at every grid angle and at θ = 0
-            constrain(ca.vertcat(res[0, :].T, res_ref[0]), zero)
-            constrain(ca.vertcat(res[1, :].T, res_ref[1]) / L, zero)
-            # seed 003, Eq. 40 and ρ bounds over the whole wrapped range [0, α(θ_max)]
+        # -- per mechanism and per angle: O(n) --------------------------------------------------
+        d = [[] for _ in range(m)]
+        arm = [[] for _ in range(m)]
+        for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+            i = mech.joint
+            joint = problem.joints[i]
+            bases = mech.bases
+            structure = mech.structure()
+            c = ca.vertcat(*[L * v.add(f"c{k}", b.size) for k, b in zip(range(sl.start, sl.stop), bases)])
+            Z = ca.vertcat(*[v.add(f"z{u}_{name}", n).T for name in mech.unknowns])
+            ref = v.add(f"ref{u}", len(mech.unknowns))
+            theta, q = p[f"theta{i}"], p[f"q{u}"]
+            h = (joint.theta_range[1] - joint.theta_range[0]) / (n - 1)
+            first = opt.quadrature_order * int(np.ceil(max(
+                abs(joint.theta_range[0] - mech.reference_angle) / h, 1)))
+            # wrapped lengths are lifted to variables, tied segment by segment (Johnston2023
+            # Eq. 10, 14), which keeps the Lagrangian Hessian banded instead of dense
+            wrapped = []
+            for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
+                lk = L * v.add(f"len{sl.start + k}", n)
+                seg = segment_lengths(b, opt.quadrature_order, first, ref[k], Z[k, :].T, ck)
+                constrain((lk - ca.vertcat(0, lk[:n - 1]) - seg) / L, zero)
+                wrapped.append(lk.T)
+            ports = port_function(structure, problem.torque_model,
+                                  FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
+            du, au, res, _ = ports(theta.T, Z, ref, ca.vertcat(*wrapped), c, q)
+            res_ref = residual_function(structure)(mech.reference_angle, ref, c, q)[0]
+            for r, unit in enumerate(mech.residual_units):  # the mechanism's R = 0 everywhere
+                constrain(ca.vertcat(res[r, :].T, res_ref[r]) / (L if unit == "m" else 1.0), zero)
+            # convexity and ρ bounds over each wrapped range [0, α(θ_max)] (Johnston2023 Eq. 40)
             M = opt.convexity_points
-            phi = alpha[n - 1] * ca.DM(np.linspace(0, 1, M)).T
-            rho, _, _, conv = profile_function(cam.basis).map(M)(phi, c)
-            constrain(conv.T / L**2, lambda pr, i=i: (
-                pr.options.convexity_epsilon * (pr.cams[i].rho_min / L) ** 2, np.inf))
-            constrain(rho.T / L, lambda pr, i=i: (pr.cams[i].rho_min * (1 + pr.options.limit_margin) / L,
-                                                  pr.cams[i].rho_max * (1 - pr.options.limit_margin) / L))
-            d.append([di[0, :].T, di[1, :].T])
-            arm.append([ai[0, :].T, ai[1, :].T])
-            w.append(trapezoid_weights_sx(theta).T)
+            for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
+                phi = Z[k, n - 1] * ca.DM(np.linspace(0, 1, M)).T
+                rho, _, _, conv = profile_function(b).map(M)(phi, ck)
+                pk = sl.start + k
+                constrain(conv.T / L**2, lambda pr, pk=pk: (
+                    pr.options.convexity_epsilon * (pr.profiles[pk].rho_min / L) ** 2, np.inf))
+                constrain(rho.T / L, lambda pr, pk=pk: (
+                    pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
+                    pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
+            d[i] += [du[r, :].T for r in range(du.shape[0])]
+            arm[i] += [au[r, :].T for r in range(au.shape[0])]
+        w = [trapezoid_weights_sx(p[f"theta{i}"]).T for i in range(m)]
         x0 = L * v.add("x0", S)
 
-        # -- the spring network over the grid of all cams: still O(n) -------------------------
-        # Every spring's extension is a sum of one-angle shares e_jc(θ_c) (springs.cam_term),
-        # so its range over the tensor grid is the sum of the shares' ranges, and every cam
-        # torque is τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (springs.torque_terms). Shares of
-        # springs that join several cams, and the terms that couple cams, are lifted.
-        e = {(j, c): cam_term(inc, j, c, d[c]) for j in range(S) for c in cams_of(inc, j)}
-        terms = [torque_terms(inc, i, p["k"], x0, arm[i], e) for i in range(m)]
+        # -- the spring network over the grid of all joints: still O(n) -------------------------
+        # Every spring's extension is a sum of one-angle shares e_jc(θ_c) (Network.term), so its
+        # range over the tensor grid is the sum of the shares' ranges, and every joint torque is
+        # τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (Network.torque_terms). Shares of springs that
+        # join several joints, and the terms that couple joints, are lifted.
+        e = net.shares(d)
+        terms = [net.torque_terms(i, p["k"], p["F0"], x0, arm[i], e) for i in range(m)]
         for j in range(S):
-            cams = cams_of(inc, j)
-            if len(cams) == 1:  # seed 003, Eq. 46: 0 ≤ x_j ≤ x_j,max on the grid
-                constrain((x0[j] + e[j, cams[0]]) / L, lambda pr, j=j: _travel(pr, j))
+            joints = net.joints_of(j)
+            if len(joints) == 1:  # Johnston2023 Eq. 46: 0 ≤ x_j ≤ x_j,max on the grid
+                constrain((x0[j] + e[j, joints[0]]) / L, lambda pr, j=j: _travel(pr, j))
                 continue
-            for c in cams:
+            for c in joints:
                 e[j, c] = lift(f"e{j}_{c}", e[j, c], L)
-            hi, lo = v.add(f"hi{j}", len(cams)), v.add(f"lo{j}", len(cams))  # ranges of shares
-            for k, c in enumerate(cams):
+            hi, lo = v.add(f"hi{j}", len(joints)), v.add(f"lo{j}", len(joints))  # share ranges
+            for k, c in enumerate(joints):
                 constrain(ca.vertcat(L * hi[k] - e[j, c], e[j, c] - L * lo[k]) / L,
                           lambda pr: (0.0, np.inf))
             constrain(ca.vertcat(x0[j] / L + ca.sum1(lo), x0[j] / L + ca.sum1(hi)),
@@ -211,18 +225,18 @@ class Transcription:
 
         span = [ca.sum1(wc) for wc in w]
         objective = 0
-        for i in range(m):  # seed 003, Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
+        for i in range(m):  # Johnston2023 Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
             U, V = terms[i]
             mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
-            objective += p[f"cam{i}"][3] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
-                                                          p[f"td2{i}"], lift)
+            objective += p[f"weights{i}"] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
+                                                           p[f"td2{i}"], lift)
 
         # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i) and x_j ≥ 0 (a constraint), so
         # |∂τ_i/∂k_j| = x_j |a_ij|; |a_ij| = s⁺ + s⁻ with a_ij = s⁺ − s⁻, s± ≥ 0 (no abs), and
-        # the integral over the other cams' angles of x_j = x₀_j + Σ_c e_jc is separable.
+        # the integral over the other joints' angles of x_j = x₀_j + Σ_c e_jc is separable.
         for i, j in self.pairs:
             sp, sn = v.add(f"sp{i}_{j}", n), v.add(f"sn{i}_{j}", n)
-            constrain(sp - sn - cam_term(inc, j, i, arm[i]) / ARM_SCALE, zero)
+            constrain(sp - sn - net.term(j, i, arm[i]) / ARM_SCALE, zero)
             others = [c for c in range(m) if c != i]
             x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
                                            for c in others if (j, c) in e)
@@ -241,12 +255,6 @@ class Transcription:
             "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
             "ipopt.mu_strategy": "adaptive",
         })
-        self.lbx = np.full(v.size, -np.inf)
-        v.put(self.lbx, "x0", 0)  # seed 003, Eq. 46: x₀ ≥ 0
-        for i, j in self.pairs:
-            v.put(self.lbx, f"sp{i}_{j}", 0)
-            v.put(self.lbx, f"sn{i}_{j}", 0)
-        self.ubx = np.full(v.size, np.inf)
         self.build_time_s = time.perf_counter() - t0
 
     # -- numbers of a case -------------------------------------------------------------------
@@ -254,17 +262,17 @@ class Transcription:
         """The parameter vector of ``problem`` (same structure as the one built).
 
         The target enters through its weighted marginals: r̃_i(a) = w_i(a) Σ W′ τ_d,i and
-        M̃_ic(a, b) = w_i(a) w_c(b) Σ W″ τ_d,i, summed over the other cams' angles, and
+        M̃_ic(a, b) = w_i(a) w_c(b) Σ W″ τ_d,i, summed over the other joints' angles, and
         ∫τ_d,i² — all that :func:`_squared_error` needs.
         """
         p, m, n = self.p, self.m, self.n
         vec = np.zeros(p.size)
-        grids = [c.grid(n) for c in problem.cams]
+        grids = [c.grid(n) for c in problem.joints]
         ws = [trapezoid_weights(g) for g in grids]
         mesh = np.meshgrid(*grids, indexing="ij")
         theta = np.vstack([t.ravel() for t in mesh])
         energy = 0.0
-        for i, c in enumerate(problem.cams):
+        for i, c in enumerate(problem.joints):
             td = np.asarray(c.target.function(m, i).map(self.N)(theta)).reshape((n,) * m)
             weighted = td
             for ax in range(m):
@@ -272,7 +280,7 @@ class Transcription:
             td2 = float(np.sum(weighted * td))
             energy += c.tracking_weight * td2
             p.put(vec, f"theta{i}", grids[i])
-            p.put(vec, f"cam{i}", [c.idler_radius, c.idler_offset, c.mu, c.tracking_weight])
+            p.put(vec, f"weights{i}", c.tracking_weight)
             p.put(vec, f"wsens{i}", c.sensitivity_weights)
             p.put(vec, f"rt{i}", weighted.sum(axis=tuple(a for a in range(m) if a != i)))
             p.put(vec, f"td2{i}", td2)
@@ -280,9 +288,12 @@ class Transcription:
                 if cc != i:
                     marg = weighted.sum(axis=tuple(a for a in range(m) if a not in (i, cc)))
                     if i > cc:
-                        marg = marg.T  # rows: cam i's angles, columns: cam cc's
+                        marg = marg.T  # rows: joint i's angles, columns: joint cc's
                     p.put(vec, f"Mt{i}_{cc}", marg.ravel(order="F"))
+        for u, mech in enumerate(problem.mechanisms):
+            p.put(vec, f"q{u}", mech.parameter_values())
         p.put(vec, "k", [s.rate for s in problem.springs])
+        p.put(vec, "F0", [s.preload for s in problem.springs])
         p.put(vec, "obj_scale", OBJECTIVE_SCALE / energy if energy > 0 else 1.0)
         return vec
 
@@ -292,41 +303,59 @@ class Transcription:
                        for size, fn in self._bounds])
         return np.concatenate(lo), np.concatenate(hi)
 
+    def variable_bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the NLP variables: x₀ ≥ 0 (Johnston2023 Eq. 46) or fixed where a spring
+        gives its pre-extension, s± ≥ 0."""
+        v = self.v
+        lbx, ubx = np.full(v.size, -np.inf), np.full(v.size, np.inf)
+        fixed = np.array([np.nan if s.preextension is None else s.preextension / LENGTH_SCALE
+                          for s in problem.springs])
+        v.put(lbx, "x0", np.where(np.isnan(fixed), 0.0, fixed))
+        v.put(ubx, "x0", np.where(np.isnan(fixed), np.inf, fixed))
+        for i, j in self.pairs:
+            v.put(lbx, f"sp{i}_{j}", 0)
+            v.put(lbx, f"sn{i}_{j}", 0)
+        return lbx, ubx
+
     def start_order(self) -> int:
         """Gauss–Legendre order the samples handed to :meth:`initial_guess` should use."""
         return 4 * self.problem.options.quadrature_order
 
     def initial_guess(self, problem: Problem, design: Design, samples, pv=None) -> np.ndarray:
-        """NLP start from a design and its per-angle ``samples`` on the design grid.
+        """NLP start from a design and its per-mechanism ``samples`` on the design grid.
 
-        ``samples`` holds, per cam, the tangency angles (``alpha``, ``gamma``, ``alpha_ref``,
-        ``gamma_ref``), the port displacements ``d`` and moment arms ``arm`` at the grid angles,
-        as :func:`cadcam.check.evaluate.cam_samples` computes them with the rootfinder (order
-        :meth:`start_order`); the wrapped lengths follow from the angles, s± from the arms,
-        and every lifted variable starts on its definition. ``pv`` is :meth:`parameters` of
-        ``problem`` if the caller has it already.
+        ``samples`` holds, per mechanism, the departure unknowns ``z`` and ``z_ref``, the port
+        displacements ``d`` and moment arms ``arm`` at the grid angles, as
+        :func:`cadcam.check.evaluate.mechanism_samples` computes them with the rootfinder
+        (order :meth:`start_order`); the wrapped lengths follow from the angles, s± from the
+        arms, and every lifted variable starts on its definition. ``pv`` is
+        :meth:`parameters` of ``problem`` if the caller has it already.
         """
         v, n = self.v, self.n
         order = self.start_order()
         w0 = np.zeros(v.size)
-        for i, cs in enumerate(samples):
-            v.put(w0, f"c{i}", design.coefficients[i] / LENGTH_SCALE)
-            v.put(w0, f"alpha{i}", cs.alpha)
-            v.put(w0, f"gamma{i}", cs.gamma)
-            v.put(w0, f"ref{i}", [cs.alpha_ref, cs.gamma_ref])
-            wrapped = length_function(design.bases[i], order).map(n)(
-                cs.alpha_ref, cs.alpha, design.coefficients[i])  # seed 003, Eq. 10
-            v.put(w0, f"len{i}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
+        for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+            s = samples[u]
+            for r, name in enumerate(mech.unknowns):
+                v.put(w0, f"z{u}_{name}", s.z[r])
+            v.put(w0, f"ref{u}", s.z_ref)
+            for k in range(sl.start, sl.stop):
+                v.put(w0, f"c{k}", design.coefficients[k] / LENGTH_SCALE)
+                r = k - sl.start
+                wrapped = length_function(design.bases[k], order).map(n)(
+                    s.z_ref[r], s.z[r], design.coefficients[k])  # Johnston2023 Eq. 10
+                v.put(w0, f"len{k}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
-        P = incidence(list(problem.springs), self.m)
+        net = problem.network()
+        d, arm = _per_joint(problem, samples, "d"), _per_joint(problem, samples, "arm")
         for i, j in self.pairs:  # s⁺ − s⁻ start on a_ij: feasible and tight
-            a = cam_term(P, j, i, samples[i].arm) / ARM_SCALE
+            a = net.term(j, i, arm[i]) / ARM_SCALE
             v.put(w0, f"sp{i}_{j}", np.maximum(a, 0))
             v.put(w0, f"sn{i}_{j}", np.maximum(-a, 0))
         for j in range(self.S):
-            cams = cams_of(P, j)
-            if len(cams) > 1:
-                shares = [cam_term(P, j, c, samples[c].d) / LENGTH_SCALE for c in cams]
+            joints = net.joints_of(j)
+            if len(joints) > 1:
+                shares = [net.term(j, c, d[c]) / LENGTH_SCALE for c in joints]
                 v.put(w0, f"hi{j}", [s.max() for s in shares])
                 v.put(w0, f"lo{j}", [s.min() for s in shares])
         pv = self.parameters(problem) if pv is None else pv
@@ -336,8 +365,9 @@ class Transcription:
 
     def design_of(self, w) -> Design:
         """The design held in an NLP vector."""
-        return Design([c.basis for c in self.problem.cams],
-                      [self.v.part(w, f"c{i}") * LENGTH_SCALE for i in range(self.m)],
+        profiles = self.problem.profiles
+        return Design([pr.basis for pr in profiles],
+                      [self.v.part(w, f"c{k}") * LENGTH_SCALE for k in range(len(profiles))],
                       self.v.part(w, "x0") * LENGTH_SCALE)
 
     def solve(self, problem: Problem, start: Design, samples) -> Solve:
@@ -347,7 +377,8 @@ class Transcription:
         w0 = self.initial_guess(problem, start, samples, pv)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
-        sol = self.solver(x0=w0, p=pv, lbx=self.lbx, ubx=self.ubx, lbg=lbg, ubg=ubg)
+        lbx, ubx = self.variable_bounds(problem)
+        sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()
         w = np.asarray(sol["x"]).ravel()
@@ -356,8 +387,17 @@ class Transcription:
             design=self.design_of(w), status=IPOPT_STATUS.get(ret, "solver_error"),
             return_status=ret, iterations=int(stats.get("iter_count", -1)),
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
-            alpha=[self.v.part(w, f"alpha{i}") for i in range(self.m)],
-            gamma=[self.v.part(w, f"gamma{i}") for i in range(self.m)])
+            z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
+               for u, mech in enumerate(problem.mechanisms)])
+
+
+def _per_joint(problem: Problem, samples, field: str) -> list[list[np.ndarray]]:
+    """Per joint, the rows of ``field`` (``d`` or ``arm``) of its mechanisms' ports in global
+    port order."""
+    out = [[] for _ in problem.joints]
+    for mech, s in zip(problem.mechanisms, samples):
+        out[mech.joint] += list(getattr(s, field))
+    return out
 
 
 def _travel(problem: Problem, j: int) -> tuple[float, float]:

@@ -3,13 +3,14 @@
 Quasi-static wire on the profile from the anchor φ = 0 to the departure angle α, per unit
 departure tension η(α) = 1 (every load here scales with η(α) = k₁x₁).
 
-Two friction models, selected by name:
+Two variants of the tangent derivative, selected by name (the wire cam's ``force`` and
+``force-as-printed`` torque models use them):
 
-``exact`` (default)
+``corrected``
     Eq. 33 with the correct derivative of the unit tangent,
     t̂′ = (r″ − r′ (r′ᵀr″)/(r′ᵀr′)) / ‖r′‖. Integrating Eq. 35 by parts (r′ × ψ = 0) gives
     τ₁,₁ = ẑ·(r_p × η(α) t̂) exactly, for every μ: on an anchored wire friction changes the
-    tension along the wrap and the anchor load, not the torque (docs: REFERENCE.md).
+    tension along the wrap and the anchor load, not the torque (docs/physics.md).
 ``as-printed``
     Eq. 33 exactly as the paper prints it, with r′(r′ᵀr′)³(r″ᵀr′); dimensionally wrong, but it
     is what reproduces the published Tables 3–5.
@@ -21,7 +22,7 @@ import casadi as ca
 from .profile import Basis, profile_function
 from .quadrature import gauss_legendre
 
-FRICTION_MODELS = ("exact", "as-printed")
+FRICTION_MODELS = ("corrected", "as-printed")
 
 
 def check_friction_model(name: str) -> str:
@@ -43,12 +44,12 @@ def curve(phi, rho, drho, ddrho):
 def tangent_derivative(r1, r2, model: str):
     """dt̂/dφ [1/rad] of the unit tangent t̂ = r′/‖r′‖, in the chosen friction model.
 
-    ``exact``: (r″ − r′ (r′ᵀr″)/(r′ᵀr′)) / ‖r′‖. ``as-printed``: the bracket of seed 003's
+    ``corrected``: (r″ − r′ (r′ᵀr″)/(r′ᵀr′)) / ‖r′‖. ``as-printed``: the bracket of seed 003's
     Eq. 33 as printed, (r″ − r′ (r′ᵀr′)³ (r″ᵀr′)) / ‖r′‖.
     """
     check_friction_model(model)
     nrm = ca.norm_2(r1)
-    if model == "exact":
+    if model == "corrected":
         return (r2 - r1 * ca.dot(r1, r2) / ca.dot(r1, r1)) / nrm
     return (r2 - r1 * ca.dot(r1, r1) ** 3 * ca.dot(r2, r1)) / nrm  # seed 003, Eq. 33 as printed
 
@@ -102,7 +103,7 @@ def wire_torque_function(basis: Basis, model: str, order: int) -> ca.Function:
     """``wire_torque(alpha, c, mu) -> τ₁,₁ / η(α)`` [m] by Gauss–Legendre quadrature.
 
     Seed 003, Eq. 35: τ₁,₁ = ẑ·(r(0) × ψ(0)) + ∫₀^α ẑ·(r(σ) × −f(σ)) dσ with −f = ψ′.
-    Under ``exact`` it equals the departure moment ẑ·(r_p × t̂) to quadrature precision.
+    Under ``corrected`` it equals the departure moment ẑ·(r_p × t̂) to quadrature precision.
     """
     alpha, mu = ca.SX.sym("alpha"), ca.SX.sym("mu")
     c = ca.SX.sym("c", basis.size)

@@ -1,16 +1,17 @@
-"""Linear springs joined into a network by ports (seed 003, Sec. 3 and 5).
+"""Linear springs joined into a network by the named ports of mechanisms (Johnston2023, Sec. 3
+and 5).
 
-Every cam offers two ports: its **wire** (the wire's length change pulls a spring riding on the
-idler platform, Eq. 14) and its **platform** (the horizontal motion of the idler centre, Eq. 16
-and 18). A spring joins ports, or a port and ground, each with a sign; its extension is its
-pre-extension plus the signed displacements of its ports (Eq. 14, 16, 17). The force k·x it
-carries acts on each of its ports: along the wire's unit tangent at a wire port (Eq. 19) and
-along the unit inward normal at a platform port (Eq. 20); the torque on a cam is the sum over
-its ports (Eq. 21, 36).
+A mechanism offers named **ports**: displacements d_p(θ) [m] of its geometry, such as the
+length change of a cable or the travel of a slider. A spring joins ports, each with a sign; its
+extension is its pre-extension plus the signed displacements of its ports,
+x_j = x₀_j + Σ_p P_jp d_p (Johnston2023 Eq. 14, 16, 17). Its energy is ½k_j x_j² + F0_j x_j
+(F0: the preload or initial tension), and the torque on joint i is
 
-The 1-DOF mechanism of seed 003 Fig. 1 is spring 1 on ``wire:1`` and spring 2 on
-``platform:1``; the 2-DOF one of Fig. 2 is springs 1 and 3 on the wires and spring 2 on
-``platform:1`` and ``platform:2``.
+    τ_i = ∂V/∂θ_i = Σ_j (k_j x_j + F0_j) a_ij,    a_ij = Σ_(p on joint i) P_jp a_p,
+
+with a_p the port's moment arm: dd_p/dθ in the energy model, or a paper's force-model arm
+(Johnston2023 Eq. 19–21, 36). Every port belongs to one joint and depends on that joint's angle
+only, which is what makes multi-joint grids separable.
 """
 from __future__ import annotations
 
@@ -19,21 +20,18 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-PORT_KINDS = ("wire", "platform")
-
 
 @dataclass(frozen=True)
 class Port:
-    """A connection of a spring to cam ``cam`` (0-based) through ``kind``, with ``sign`` ±1."""
+    """Port ``name`` of mechanism ``mechanism`` (0-based), with ``sign`` ±1."""
 
-    cam: int
-    kind: str
+    mechanism: int
+    name: str
     sign: float = 1.0
 
-    @property
-    def index(self) -> int:
-        """Position of this port in the per-network port vector [wire₀, platform₀, wire₁, …]."""
-        return 2 * self.cam + PORT_KINDS.index(self.kind)
+    def label(self) -> str:
+        """The spec form, ``"wire:1"`` or ``"-platform:2"``."""
+        return f"{'-' if self.sign < 0 else ''}{self.name}:{self.mechanism + 1}"
 
 
 @dataclass(frozen=True)
@@ -46,90 +44,123 @@ class Spring:
     rate : float
         Stiffness k [N/m].
     travel : float
-        Maximum allowed extension x_max [m]; 0 ≤ x ≤ x_max is required (seed 003, Eq. 46).
+        Maximum allowed extension x_max [m]; 0 ≤ x ≤ x_max is required (Johnston2023 Eq. 46).
     ports : tuple of Port
+    preload : float
+        Initial tension F0 [N]: the force is F0 + kx for x > 0 (Endo2010; a catalogue's
+        pretension).
+    free_length : float or None
+        Length of the unloaded spring [m]; the installed length is free_length + x.
+    preextension : float or None
+        Fixed pre-extension x₀ [m] (Ludovico2021's u₀); None makes it a design variable.
     """
 
     name: str
     rate: float
     travel: float
     ports: tuple[Port, ...]
+    preload: float = 0.0
+    free_length: float | None = None
+    preextension: float | None = None
+
+    def energy(self, x):
+        """Stored energy ½kx² + F0·x [J] at extension ``x`` [m]."""
+        return 0.5 * self.rate * x**2 + self.preload * x
+
+    def to_dict(self) -> dict:
+        """The spec form."""
+        out = {"name": self.name, "rate": self.rate, "travel": self.travel,
+               "ports": [p.label() for p in self.ports], "preload": self.preload}
+        if self.free_length is not None:
+            out["free_length"] = self.free_length
+        if self.preextension is not None:
+            out["preextension"] = self.preextension
+        return out
 
 
-def wire_displacement(length, r, gamma, gamma_ref):
-    """Change of the wire port [m]: Δl_cam + r(γ − γ₀) (seed 003, Eq. 14 without x₁₀)."""
-    return length + r * (gamma - gamma_ref)  # seed 003, Eq. 14
+class Network:
+    """The signed spring–port incidence of a problem and which joint each port turns with.
 
-
-def platform_displacement(qx, qx_ref):
-    """Change of the platform port [m]: Δq_x (seed 003, Eq. 16 and 18 without x₂₀)."""
-    return qx - qx_ref  # seed 003, Eq. 16, 18
-
-
-def incidence(springs: list[Spring], n_cams: int) -> np.ndarray:
-    """Signed spring–port incidence matrix P [S × 2m], ports ordered [wire₀, platform₀, …]."""
-    P = np.zeros((len(springs), 2 * n_cams))
-    for j, s in enumerate(springs):
-        for p in s.ports:
-            P[j, p.index] += p.sign
-    return P
-
-
-def cams_of(P: np.ndarray, j: int) -> list[int]:
-    """The cams spring ``j`` is attached to."""
-    return [c for c in range(P.shape[1] // 2) if P[j, 2 * c] or P[j, 2 * c + 1]]
-
-
-def cam_term(P: np.ndarray, j: int, c: int, ports):
-    """Σ over cam ``c``'s ports of P_jp · ports_p, for ``ports`` = [wire, platform] of cam c.
-
-    With port displacements it is cam c's share of spring j's extension, e_jc(θ_c), so that
-    x_j = x₀_j + Σ_c e_jc(θ_c) (seed 003, Eq. 14, 16, 17). With moment arms it is the arm
-    a_cj(θ_c) of spring j's force on cam c, so that τ_c = Σ_j k_j x_j a_cj (Eq. 19–21, 36) and
-    ∂τ_c/∂k_j = x_j a_cj (Eq. 43). Either way it depends on cam c's own angle only, which is
-    what makes multi-cam grids separable.
+    Parameters
+    ----------
+    springs : list of Spring
+    port_joint : list of int
+        Joint of each port, in the problem's global port order.
+    port_index : dict
+        (mechanism, port name) → global port index.
+    n_joints : int
     """
-    return P[j, 2 * c] * ports[0] + P[j, 2 * c + 1] * ports[1]
 
+    def __init__(self, springs, port_joint, port_index: dict, n_joints: int):
+        self.S, self.m = len(springs), n_joints
+        self.port_joint = np.asarray(port_joint, dtype=int)
+        self.P = np.zeros((self.S, len(port_joint)))
+        for j, s in enumerate(springs):
+            for p in s.ports:
+                self.P[j, port_index[p.mechanism, p.name]] += p.sign
+        self.joint_ports = [np.flatnonzero(self.port_joint == i) for i in range(n_joints)]
 
-def torque_terms(P: np.ndarray, i: int, k, x0, arm_i, shares: dict):
-    """Cam ``i``'s torque split by angle: τ_i = U_i(θ_i) + Σ_(j,c) V_ij(θ_i) e_jc(θ_c).
+    def joints_of(self, j: int) -> list[int]:
+        """The joints spring ``j`` is attached to."""
+        return [c for c in range(self.m) if np.any(self.P[j, self.joint_ports[c]])]
 
-    Seed 003, Eq. 19–21 and 36: τ_i = Σ_j k_j x_j a_ij(θ_i) with x_j = x₀_j + Σ_c e_jc(θ_c)
-    (Eq. 14, 16, 17). ``arm_i`` = [wire, normal] arms of cam i, ``shares`` maps (j, c) to
-    e_jc. Returns U_i and a dict (j, c) → V_ij = k_j a_ij for every other cam c that spring j
-    also touches (the 2-DOF network's spring 2 couples the cams this way only).
-    """
-    U, V = 0, {}
-    for j in range(P.shape[0]):
-        if i not in cams_of(P, j):
-            continue
-        a = cam_term(P, j, i, arm_i)
-        U = U + k[j] * a * (x0[j] + shares[j, i])
-        V.update({(j, c): k[j] * a for c in cams_of(P, j) if c != i})
-    return U, V
+    def term(self, j: int, c: int, values):
+        """Σ over joint ``c``'s ports of P_jp · values_p (``values`` in joint c's port order).
 
+        With port displacements it is joint c's share of spring j's extension, e_jc(θ_c), so
+        that x_j = x₀_j + Σ_c e_jc(θ_c) (Johnston2023 Eq. 14, 16, 17). With moment arms it is
+        the arm a_cj(θ_c) of spring j's force on joint c, so that τ_c = Σ_j (k_j x_j + F0_j)
+        a_cj and ∂τ_c/∂k_j = x_j a_cj (Eq. 36, 43). Either way it depends on joint c's angle
+        only.
+        """
+        out = 0
+        for k, p in enumerate(self.joint_ports[c]):
+            if self.P[j, p]:
+                out = out + self.P[j, p] * values[k]
+        return out
 
-def network_function(springs: list[Spring], n_cams: int) -> ca.Function:
-    """Extensions, torques and rate sensitivities of a spring network as a CasADi Function.
+    def torque_terms(self, i: int, k, preload, x0, arm_i, shares: dict):
+        """Joint ``i``'s torque split by angle: τ_i = U_i(θ_i) + Σ_(j,c) V_ij(θ_i) e_jc(θ_c).
 
-    ``network(d, arm, k, x0) -> (x, tau, dtau_dk)`` with port displacements ``d`` [m] and
-    moment arms ``arm`` [m] ordered [wire₀, platform₀, wire₁, …], rates ``k`` [N/m] and
-    pre-extensions ``x0`` [m]. ``x`` [m] are the spring extensions (Eq. 14, 16, 17), ``tau``
-    [N·m] the cam torques (Eq. 21, 36) and ``dtau_dk`` [N·m/(N/m) = m²] the m × S Jacobian
-    ∂τ_i/∂k_j by automatic differentiation (Eq. 41–43).
-    """
-    P = incidence(springs, n_cams)
-    S = len(springs)
-    d, arm = ca.SX.sym("d", 2 * n_cams), ca.SX.sym("arm", 2 * n_cams)
-    k, x0 = ca.SX.sym("k", S), ca.SX.sym("x0", S)
-    shares = {(j, c): cam_term(P, j, c, d[2 * c:2 * c + 2]) for j in range(S) for c in cams_of(P, j)}
-    x = ca.vertcat(*[x0[j] + sum(shares[j, c] for c in cams_of(P, j))
-                     for j in range(S)])  # seed 003, Eq. 14, 16, 17
-    tau = []
-    for i in range(n_cams):
-        U, V = torque_terms(P, i, k, x0, arm[2 * i:2 * i + 2], shares)
-        tau.append(U + sum(v * shares[jc] for jc, v in V.items()))  # seed 003, Eq. 21, 36
-    tau = ca.vertcat(*tau)
-    return ca.Function("network", [d, arm, k, x0], [x, tau, ca.jacobian(tau, k)],
-                       ["d", "arm", "k", "x0"], ["x", "tau", "dtau_dk"])
+        τ_i = Σ_j (k_j x_j + F0_j) a_ij(θ_i) with x_j = x₀_j + Σ_c e_jc(θ_c). ``arm_i`` are
+        joint i's port arms, ``shares`` maps (j, c) to e_jc. Returns U_i and a dict
+        (j, c) → V_ij = k_j a_ij for every other joint c that spring j also touches.
+        """
+        U, V = 0, {}
+        for j in range(self.S):
+            if i not in self.joints_of(j):
+                continue
+            a = self.term(j, i, arm_i)
+            U = U + (k[j] * (x0[j] + shares[j, i]) + preload[j]) * a
+            V.update({(j, c): k[j] * a for c in self.joints_of(j) if c != i})
+        return U, V
+
+    def shares(self, d_of_joint) -> dict:
+        """(j, c) → e_jc for every spring j and joint c it touches; ``d_of_joint[c]`` holds
+        joint c's port displacements in its port order."""
+        return {(j, c): self.term(j, c, d_of_joint[c])
+                for j in range(self.S) for c in self.joints_of(j)}
+
+    def function(self) -> ca.Function:
+        """Extensions, torques and rate sensitivities as a CasADi Function.
+
+        ``network(d, arm, k, x0, F0) -> (x, tau, dtau_dk)`` with port displacements ``d`` [m]
+        and arms ``arm`` [m] in global port order, rates ``k`` [N/m], pre-extensions ``x0`` [m]
+        and preloads ``F0`` [N]. ``x`` [m] are the extensions, ``tau`` [N·m] the joint torques
+        and ``dtau_dk`` [m²] the m × S Jacobian ∂τ_i/∂k_j by automatic differentiation
+        (Johnston2023 Eq. 41–43).
+        """
+        G = self.P.shape[1]
+        d, arm = ca.SX.sym("d", G), ca.SX.sym("arm", G)
+        k, x0, F0 = ca.SX.sym("k", self.S), ca.SX.sym("x0", self.S), ca.SX.sym("F0", self.S)
+        per_joint = lambda v: [v[idx.tolist()] if idx.size else [] for idx in self.joint_ports]  # noqa: E731
+        dj, aj = per_joint(d), per_joint(arm)
+        e = self.shares(dj)
+        x = ca.vertcat(*[x0[j] + sum(e[j, c] for c in self.joints_of(j)) for j in range(self.S)])
+        tau = []
+        for i in range(self.m):
+            U, V = self.torque_terms(i, k, F0, x0, aj[i], e)
+            tau.append(U + sum(v * e[jc] for jc, v in V.items()))
+        tau = ca.vertcat(*tau)
+        return ca.Function("network", [d, arm, k, x0, F0], [x, tau, ca.jacobian(tau, k)],
+                           ["d", "arm", "k", "x0", "F0"], ["x", "tau", "dtau_dk"])

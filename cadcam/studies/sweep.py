@@ -3,7 +3,7 @@
 One database per study (WAL journal): a ``study`` row holding the study's definition and one
 ``cases`` row per case, committed the moment the case finishes — parameters, status,
 metrics, design, iterations, times, the error of a failed case, the cadcam version and the
-friction model. Running the same study on the same database again resumes it: cases already
+torque model. Running the same study on the same database again resumes it: cases already
 recorded are skipped (the case id, a hash of its values, is the primary key), so nothing is
 repeated or duplicated, also after the whole process tree was killed.
 
@@ -36,11 +36,11 @@ CREATE TABLE IF NOT EXISTS cases (
     case_id TEXT PRIMARY KEY, idx INTEGER NOT NULL, params TEXT NOT NULL,
     status TEXT NOT NULL, message TEXT, metrics TEXT, recheck TEXT, design TEXT,
     iterations INTEGER, solve_time_s REAL, build_time_s REAL, wall_time_s REAL, error TEXT,
-    cadcam_version TEXT NOT NULL, friction_model TEXT, finished REAL NOT NULL);
+    cadcam_version TEXT NOT NULL, torque_model TEXT, finished REAL NOT NULL);
 """
 COLUMNS = ("case_id", "idx", "params", "status", "message", "metrics", "recheck", "design",
            "iterations", "solve_time_s", "build_time_s", "wall_time_s", "error",
-           "cadcam_version", "friction_model", "finished")
+           "cadcam_version", "torque_model", "finished")
 
 
 class SweepError(ValueError):
@@ -55,10 +55,11 @@ def structure_key(problem) -> str:
     """What a built NLP depends on beyond its CasADi parameters and bounds."""
     o = problem.options
     return json.dumps([
-        problem.friction_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
-        [[c.basis.name, c.basis.order, list(c.basis.domain), list(c.theta_range),
-          [w > 0 for w in c.sensitivity_weights]] for c in problem.cams],
-        [[[p.cam, p.kind, p.sign] for p in s.ports] for s in problem.springs]])
+        problem.torque_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
+        [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights]] for c in problem.joints],
+        [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
+         for m in problem.mechanisms],
+        [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs]])
 
 
 def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
@@ -72,7 +73,7 @@ def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
            "cadcam_version": __version__}
     try:
         problem = Study.from_dict(study).problem(case)
-        row["friction_model"] = problem.friction_model
+        row["torque_model"] = problem.torque_model
         key = structure_key(problem)
         tr = _TRANSCRIPTIONS.get(key)
         built = tr is None
@@ -326,7 +327,7 @@ def _flat(prefix: str, value, out: dict) -> None:
 
 
 def flat_table(study: dict, rows: list[dict]) -> list[dict]:
-    """One flat dict per case: its parameters, run facts, recorded metrics (per-cam lists as
+    """One flat dict per case: its parameters, run facts, recorded metrics (per-joint lists as
     ``rmse_1``, ``rmse_2``…) and the number of re-check violations."""
     table = []
     for r in rows:
@@ -334,7 +335,7 @@ def flat_table(study: dict, rows: list[dict]) -> list[dict]:
         for k, v in r["params"].items():
             _flat(k, v, out)
         out.update({k: r[k] for k in ("status", "iterations", "solve_time_s", "build_time_s",
-                                      "wall_time_s", "error", "friction_model", "cadcam_version")})
+                                      "wall_time_s", "error", "torque_model", "cadcam_version")})
         for name in study["record"]:
             _flat(name, (r["metrics"] or {}).get(name), out)
         out["recheck_violations"] = len(r["recheck"]["violations"]) if r["recheck"] else None

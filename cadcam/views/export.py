@@ -43,13 +43,16 @@ CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-O2"]
 #: Gauss–Legendre points of the exported wrapped length (and as-printed friction) over the
 #: whole wrap: tests check the exported torque against the 48-point evaluator to 1e-12.
 EXPORT_QUADRATURE_ORDER = 24
-_UNITS = {"theta": "rad", "c": "m", "k": "N/m", "x0": "m", "tau": "N·m", "x": "m",
-          "alpha": "rad", "gamma": "rad"}
+_UNITS = {"theta": "rad", "c": "m", "k": "N/m", "x0": "m", "F0": "N", "tau": "N·m", "x": "m",
+          "z": "SI (see z_layout)"}
 _DESCRIPTIONS = {
-    "theta": "cam angles, one per cam", "c": "ρ coefficients of every cam, stacked in cam order",
-    "k": "spring rates, one per spring", "x0": "spring pre-extensions at θ = 0",
-    "tau": "cam torques (seed 003, Eq. 21, 36)", "x": "spring extensions (Eq. 14, 16, 17)",
-    "alpha": "contact angle on each cam (Eq. 6–7)", "gamma": "contact angle on each idler (Eq. 6–7)",
+    "theta": "joint angles, one per joint",
+    "c": "ρ coefficients of every profile, stacked in profile order",
+    "k": "spring rates, one per spring", "x0": "spring pre-extensions at the reference pose",
+    "F0": "spring preloads (initial tension), one per spring",
+    "tau": "joint torques under the torque model named in the manifest",
+    "x": "spring extensions (Johnston2023 Eq. 14, 16, 17)",
+    "z": "every mechanism's departure unknowns at θ, stacked (see z_layout)",
 }
 
 
@@ -117,12 +120,14 @@ def _design_header(problem: Problem, design: Design) -> str:
 
     lines = ["/* cadcam design numbers for cadcam_torque (generated; SI units) */",
              "#ifndef CADCAM_DESIGN_H", "#define CADCAM_DESIGN_H", '#include "cadcam_model.h"',
-             f"#define CADCAM_N_CAMS {len(problem.cams)}",
+             f"#define CADCAM_N_JOINTS {len(problem.joints)}",
+             f"#define CADCAM_N_PROFILES {len(problem.profiles)}",
              f"#define CADCAM_N_SPRINGS {len(problem.springs)}",
              arr("cadcam_design_c", np.concatenate(design.coefficients),
-                 "rho coefficients of every cam, stacked, in each cam's basis [m]"),
+                 "rho coefficients of every profile, stacked, in each profile's basis [m]"),
              arr("cadcam_design_k", [s.rate for s in problem.springs], "spring rates [N/m]"),
              arr("cadcam_design_x0", design.preextension, "pre-extensions [m]"),
+             arr("cadcam_design_F0", [s.preload for s in problem.springs], "preloads [N]"),
              "#endif"]
     return "\n".join(lines) + "\n"
 
@@ -149,21 +154,25 @@ def export(problem: Problem, design: Design, what: str, formats, out) -> dict:
     else:
         functions, tr = problem_functions(problem)
         lbg, ubg = tr.bounds(problem)
+        lbx, ubx = tr.variable_bounds(problem)
         extra = {"problem_data.json": {
             "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},
             "parameters_layout": {k: {"offset": a, "size": n} for k, (a, n) in tr.p.blocks.items()},
             "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(tr, problem, design)).tolist(),
-            "lbx": tr.lbx.tolist(), "ubx": tr.ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
+            "lbx": lbx.tolist(), "ubx": ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
             "note": "lengths in the NLP vector are in mm (see cadcam.nlp.transcription); "
                     "infinite bounds are written as ±Infinity"}}
     stem = f"cadcam_{what}"
     manifest = {"cadcam_version": __version__, "casadi_version": ca.__version__, "what": what,
-                "friction_model": problem.friction_model, "problem": problem.name,
+                "torque_model": problem.torque_model, "problem": problem.name,
                 "storage": "dense inputs and outputs, column-major (CasADi order)",
                 "design": design.to_dict(), "files": [], "functions": []}
     if what == "model":
-        manifest["tangency"] = {"method": "unrolled Newton from the circle guess",
+        manifest["tangency"] = {"method": "unrolled Newton from each mechanism's closed-form guess",
                                 "steps": NEWTON_STEPS, "accuracy_rad": 1e-12}
+        manifest["z_layout"] = [{"mechanism": mech.name, "unknown": name, "unit": unit}
+                                for mech in problem.mechanisms
+                                for name, unit in zip(mech.unknowns, mech.unknown_units)]
     for f in functions:
         manifest["functions"].append({"name": f.name(), "inputs": _io(f, "in"),
                                       "outputs": _io(f, "out")})

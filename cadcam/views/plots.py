@@ -21,47 +21,50 @@ def _save(fig, path):
 
 
 def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
-    """Each cam in the world frame at a few angles, with its idler and the free wire [mm]."""
-    m = len(ev.cams)
+    """Each mechanism in the world frame at a few joint angles: its profiles (thick where the
+    cable is wrapped) and what it asks to draw (idlers) [mm]."""
+    problem = ev.problem
+    m = len(problem.mechanisms)
     fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 5.2), squeeze=False)
-    for i, (ax, cs) in enumerate(zip(axes[0], ev.cams)):
-        cam, basis = ev.problem.cams[i], ev.design.bases[i]
-        prof = profile_function(basis)
-        phi_full = np.linspace(0, cs.phi[-1], 400)
-        rho_full = np.asarray(prof.map(phi_full.size)(phi_full, ev.design.coefficients[i])[0]).ravel()
-        poses = np.unique(np.linspace(0, cs.theta.size - 1, n_poses).round().astype(int))
+    for ax, mech, unit, sl in zip(axes[0], problem.mechanisms, ev.units, problem.profile_slices()):
+        c = np.concatenate(ev.design.coefficients[sl])
+        poses = np.unique(np.linspace(0, unit.theta.size - 1, n_poses).round().astype(int))
         colors = plt.cm.viridis(np.linspace(0, 0.85, poses.size))
         for col, k in zip(colors, poses):
-            th = cs.theta[k]
-            ang = phi_full - th
-            ax.plot(MM * rho_full * np.cos(ang), MM * rho_full * np.sin(ang), color=col,
-                    label=f"θ = {np.degrees(th):.0f}°")
-            q = np.array([cs.qx[k], cam.idler_offset])
+            th = unit.theta[k]
+            for p in range(sl.start, sl.stop):
+                ps = ev.profiles[p]
+                phi = np.linspace(0, ps.phi[-1], 400)
+                rho = np.asarray(profile_function(ev.design.bases[p]).map(phi.size)(
+                    phi, ev.design.coefficients[p])[0]).ravel()
+                ang = phi + mech.profile_rotation(th)
+                ax.plot(MM * rho * np.cos(ang), MM * rho * np.sin(ang), color=col,
+                        label=f"θ = {np.degrees(th):.0f}°" if p == sl.start else None)
+                mask = phi <= ps.alpha[k]
+                ax.plot(MM * rho[mask] * np.cos(ang[mask]), MM * rho[mask] * np.sin(ang[mask]),
+                        color=col, lw=2.5, alpha=0.5)
             t = np.linspace(0, 2 * np.pi, 100)
-            ax.plot(MM * (q[0] + cam.idler_radius * np.cos(t)),
-                    MM * (q[1] + cam.idler_radius * np.sin(t)), color=col, lw=0.8, ls="--")
-            a = cs.alpha[k]
-            mask = phi_full <= a
-            ax.plot(MM * rho_full[mask] * np.cos(ang[mask]), MM * rho_full[mask] * np.sin(ang[mask]),
-                    color=col, lw=2.5, alpha=0.5)
+            for centre, radius in mech.circles(th, unit.z[:, k], c):
+                ax.plot(MM * (centre[0] + radius * np.cos(t)), MM * (centre[1] + radius * np.sin(t)),
+                        color=col, lw=0.8, ls="--")
         ax.plot(0, 0, "k+")
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-        ax.set_title(f"{cam.name}: profile (thick: wrapped wire), idler dashed")
+        ax.set_title(f"{mech.name}: profile (thick: wrapped cable), idler dashed")
         ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     _save(fig, path)
 
 
 def plot_torque(ev: Evaluation, path) -> None:
-    """Torque against target and the error [N·mm]: lines for one cam, heat maps for two."""
-    m = len(ev.cams)
+    """Torque against target and the error [N·mm]: lines for one joint, heat maps for two."""
+    m = len(ev.tau)
     if m == 1:
         th = np.degrees(ev.theta[0])
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
         a1.plot(th, MM * ev.tau_d[0], "k--", label="target τ_d")
-        a1.plot(th, MM * ev.tau[0], label=f"cam τ ({ev.problem.friction_model} friction)")
+        a1.plot(th, MM * ev.tau[0], label=f"τ ({ev.problem.torque_model} model)")
         a1.set_ylabel("torque [N·mm]")
         a1.legend()
         a2.plot(th, MM * (ev.tau[0] - ev.tau_d[0]), color="C3")
@@ -81,7 +84,7 @@ def plot_torque(ev: Evaluation, path) -> None:
             fig.colorbar(im, ax=ax, label="τ − τ_d [N·mm]")
             ax.set_xlabel("θ₂ [deg]")
             ax.set_ylabel("θ₁ [deg]")
-            ax.set_title(f"cam {i + 1}: RMSE {MM * ev.metrics['rmse'][i]:.3g} N·mm")
+            ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * ev.metrics['rmse'][i]:.3g} N·mm")
     fig.tight_layout()
     _save(fig, path)
 
@@ -92,20 +95,19 @@ def plot_springs(ev: Evaluation, path) -> None:
     A spring on one cam is a line over that cam's angle; a spring joining two cams (seed 003's
     spring 2) is a map over both angles with its travel limit drawn as a contour.
     """
-    from ..physics.springs import cams_of, incidence
-
-    springs, m, n = ev.problem.springs, len(ev.cams), ev.grid
-    P = incidence(list(springs), m)
+    springs, m, n = ev.problem.springs, len(ev.tau), ev.grid
+    net = ev.problem.network()
+    grids = [j.grid(n) for j in ev.problem.joints]
     fig, axes = plt.subplots(1, len(springs) if m > 1 else 1, figsize=(5 * max(len(springs), 1) if m > 1 else 7, 4.5),
                              squeeze=False)
     for j, s in enumerate(springs):
         ax = axes[0][j if m > 1 else 0]
-        cams = cams_of(P, j)
+        cams = net.joints_of(j)
         x = MM * ev.x[j].reshape((n,) * m)
         if len(cams) == 1:
             c = cams[0]
             line = x[tuple(slice(None) if a == c else 0 for a in range(m))]
-            ax.plot(np.degrees(ev.cams[c].theta), line, color=f"C{j}", label=s.name)
+            ax.plot(np.degrees(grids[c]), line, color=f"C{j}", label=s.name)
             ax.axhline(MM * s.travel, color=f"C{j}", ls=":", lw=1)
             ax.axhline(0, color="k", lw=0.5)
             ax.set_xlabel(f"θ{c + 1 if m > 1 else ''} [deg]")
@@ -114,12 +116,12 @@ def plot_springs(ev: Evaluation, path) -> None:
         else:
             a, b = cams[:2]
             sl = x[tuple(slice(None) if k in (a, b) else 0 for k in range(m))]
-            ext = [np.degrees(ev.cams[b].theta[0]), np.degrees(ev.cams[b].theta[-1]),
-                   np.degrees(ev.cams[a].theta[0]), np.degrees(ev.cams[a].theta[-1])]
+            ext = [np.degrees(grids[b][0]), np.degrees(grids[b][-1]),
+                   np.degrees(grids[a][0]), np.degrees(grids[a][-1])]
             im = ax.imshow(sl, origin="lower", extent=ext, aspect="auto", cmap="viridis")
             fig.colorbar(im, ax=ax, label="extension [mm]")
             if sl.max() >= 0.98 * MM * s.travel:
-                ax.contour(np.degrees(ev.cams[b].theta), np.degrees(ev.cams[a].theta), sl,
+                ax.contour(np.degrees(grids[b]), np.degrees(grids[a]), sl,
                            levels=[0.98 * MM * s.travel], colors="r", linewidths=1)
             ax.set_xlabel(f"θ{b + 1} [deg]")
             ax.set_ylabel(f"θ{a + 1} [deg]")

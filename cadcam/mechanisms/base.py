@@ -1,0 +1,287 @@
+"""The mechanism interface, its registry, and what is written once for every mechanism: the
+departure solve (unrolled Newton, rootfinder) and the energy torque (docs/mechanisms.md).
+
+A mechanism sits on one joint, owns one or more profiles and names its ports. It describes one
+pose symbolically: residuals R(θ, z) = 0 that fix its per-angle unknowns z (the first ones are
+the departure angles α_k on its profiles), a closed-form guess of z, and its port displacements
+d(θ, z). The energy torque then needs nothing else: its arms are the total derivatives
+dd/dθ = ∂d/∂θ + ∂d/∂z dz/dθ + ∂d/∂l dl/dθ, with dz/dθ = −R_z⁻¹R_θ (implicit function theorem)
+and dl_k/dθ = √(ρ_k² + ρ_k′²)(α_k) dα_k/dθ for the wrapped lengths l_k (Johnston2023 Eq. 10).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import ClassVar
+
+import casadi as ca
+import numpy as np
+
+from ..physics.profile import Basis, profile_function
+from ..physics.wrap import arc_length_density
+
+#: Torque models: ``energy`` for every mechanism; force models where a mechanism offers them.
+ENERGY = "energy"
+TORQUE_MODELS = (ENERGY, "force", "force-as-printed")
+#: Names cadcam used before the energy model (friction_model = ...), read from old files.
+LEGACY_TORQUE_MODELS = {"exact": "force", "as-printed": "force-as-printed"}
+
+_REGISTRY: dict[str, type] = {}
+
+
+def register(cls):
+    """Class decorator: make a mechanism available to specs under ``cls.kind``."""
+    if cls.kind in _REGISTRY and _REGISTRY[cls.kind] is not cls:
+        raise ValueError(f"a mechanism named {cls.kind!r} is already registered")
+    _REGISTRY[cls.kind] = cls
+    return cls
+
+
+def mechanism_class(kind: str):
+    """The registered mechanism class named ``kind``; KeyError if there is none."""
+    return _REGISTRY[kind]
+
+
+def mechanism_kinds() -> tuple[str, ...]:
+    """Names of the registered mechanisms."""
+    return tuple(sorted(_REGISTRY))
+
+
+@dataclass(frozen=True)
+class Profile:
+    """One designed profile ρ(φ) of a mechanism, with its radius limits [m]."""
+
+    name: str
+    basis: Basis
+    rho_min: float
+    rho_max: float
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """Base of every mechanism: a name, the joint it turns with (0-based) and its profiles.
+
+    Subclasses are frozen dataclasses that add their numbers as fields and define the class
+    attributes and class methods below; see docs/mechanisms.md.
+    """
+
+    name: str
+    joint: int
+    profiles: tuple[Profile, ...]
+
+    kind: ClassVar[str] = ""
+    citation: ClassVar[str] = ""
+    ports: ClassVar[tuple[str, ...]] = ()
+    unknowns: ClassVar[tuple[str, ...]] = ()
+    unknown_units: ClassVar[tuple[str, ...]] = ()
+    #: Unit of each residual row: "m" rows are scaled to millimetres in the NLP, "" rows are
+    #: dimensionless.
+    residual_units: ClassVar[tuple[str, ...]] = ()
+    parameter_names: ClassVar[tuple[str, ...]] = ()
+    force_models: ClassVar[tuple[str, ...]] = ()
+    #: Joint angle [rad] at which the port displacements are zero.
+    reference_angle: ClassVar[float] = 0.0
+
+    # -- what a subclass provides ---------------------------------------------------------------
+    def parameter_values(self) -> tuple[float, ...]:
+        """The numbers q of :attr:`parameter_names` (SI)."""
+        return tuple(float(getattr(self, n)) for n in self.parameter_names)
+
+    @classmethod
+    def residual(cls, bases, theta, z, c, q):
+        """(R, branch_error): R(z) = 0 fixes z; branch_error ≥ 0 is zero on the physical branch."""
+        raise NotImplementedError
+
+    @classmethod
+    def guess(cls, bases, theta, c, q):
+        """A closed-form start for z (a column of len(unknowns))."""
+        raise NotImplementedError
+
+    @classmethod
+    def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
+        """Port displacements d [m] from the reference pose (a column of len(ports))."""
+        raise NotImplementedError
+
+    @classmethod
+    def force_arms(cls, bases, model, theta, z, c, q, order, wire_arm):
+        """The arms of a named force model (a column of len(ports)); only for
+        :attr:`force_models`."""
+        raise NotImplementedError
+
+    @staticmethod
+    def profile_rotation(theta):
+        """World angle of the profile's polar axis at joint angle θ [rad]: −θ for a profile that
+        turns with the joint (a point at polar angle φ sits at world angle φ − θ,
+        Johnston2023 Sec. 2); a mechanism whose profile is fixed to ground returns 0."""
+        return -theta
+
+    @classmethod
+    def profile_domain(cls, theta_range) -> tuple[float, float]:
+        """Design interval [rad] of a profile's basis for a joint range ``theta_range``: every
+        departure angle α ≤ θ_max + π/2 (Johnston2023's cam; a mechanism may override)."""
+        return (0.0, theta_range[1] + np.pi / 2)
+
+    def start_radius(self, profile: Profile) -> float:
+        """Radius of a feasible circular starting profile [m]."""
+        return 1.2 * profile.rho_min
+
+    def circles(self, theta: float, z: np.ndarray, c: np.ndarray) -> list[tuple[np.ndarray, float]]:
+        """Circles (centre [m], radius [m]) to draw at the pose θ [rad] with unknowns ``z`` and
+        stacked coefficients ``c``: idlers, guide pulleys, points."""
+        return []
+
+    @classmethod
+    def from_spec(cls, reader, name: str, joint: int, profiles) -> "Mechanism":
+        """Read the mechanism's own keys from its spec table (``reader.get(key, ok, form,
+        default)``, ``reader.table_reader(key, form)``)."""
+        return cls(name=name, joint=joint, profiles=profiles)
+
+    def spec_fields(self) -> dict:
+        """The mechanism's own keys in the spec form (inverse of :meth:`from_spec`)."""
+        return {}
+
+    # -- generic -------------------------------------------------------------------------------
+    @property
+    def bases(self) -> tuple[Basis, ...]:
+        return tuple(p.basis for p in self.profiles)
+
+    def structure(self):
+        """What the symbolic functions of this mechanism depend on (its class and bases)."""
+        return type(self), self.bases
+
+    def check_torque_model(self, model: str) -> str:
+        """``model`` if this mechanism can compute it, else ValueError naming what it can."""
+        ok = (ENERGY,) + self.force_models
+        if model not in ok:
+            raise ValueError(f"torque model {model!r} is not available for mechanism "
+                             f"{self.name!r} ({self.kind}); expected one of {ok}")
+        return model
+
+
+def _symbols(cls, bases):
+    theta = ca.SX.sym("theta")
+    z = ca.SX.sym("z", len(cls.unknowns))
+    c = ca.SX.sym("c", sum(b.size for b in bases))
+    q = ca.SX.sym("q", len(cls.parameter_names))
+    return theta, z, c, q
+
+
+def split_coefficients(bases, c) -> list:
+    """The stacked coefficient vector ``c`` cut into one piece per profile."""
+    out, k = [], 0
+    for b in bases:
+        out.append(c[k:k + b.size])
+        k += b.size
+    return out
+
+
+@lru_cache(maxsize=64)
+def residual_function(structure) -> ca.Function:
+    """``residual(theta, z, c, q) -> (R, branch_error)`` of a mechanism structure."""
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    R, branch = cls.residual(bases, theta, z, c, q)
+    return ca.Function("residual", [theta, z, c, q], [R, branch],
+                       ["theta", "z", "c", "q"], ["R", "branch_error"])
+
+
+@lru_cache(maxsize=64)
+def guess_function(structure) -> ca.Function:
+    """``guess(theta, c, q) -> z``: the mechanism's closed-form start."""
+    cls, bases = structure
+    theta, _, c, q = _symbols(cls, bases)
+    return ca.Function("guess", [theta, c, q], [cls.guess(bases, theta, c, q)],
+                       ["theta", "c", "q"], ["z"])
+
+
+@lru_cache(maxsize=64)
+def newton_function(structure, steps: int = 8) -> ca.Function:
+    """``newton(theta, c, q) -> z`` by ``steps`` unrolled Newton iterations from the guess.
+
+    A closed-form expression (no callback, no loop) that code-generates and differentiates like
+    any other; Newton converges quadratically from the guess (tests check 8 steps against the
+    converged rootfinder to 1e-12).
+    """
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    R = residual_function(structure)(theta, z, c, q)[0]
+    step = ca.Function("step", [z, theta, c, q], [z - ca.solve(ca.jacobian(R, z), R)])
+    zk = guess_function(structure)(theta, c, q)
+    for _ in range(steps):
+        zk = step(zk, theta, c, q)
+    return ca.Function("newton", [theta, c, q], [zk], ["theta", "c", "q"], ["z"])
+
+
+def energy_arms(structure, theta, z, wrapped, c, q, d):
+    """dd/dθ [m/rad] of port displacements ``d`` (expressions of θ, z, the wrapped lengths and
+    c) along the solution manifold R(θ, z) = 0, by the implicit function theorem."""
+    cls, bases = structure
+    R = residual_function(structure)(theta, z, c, q)[0]
+    dz = -ca.solve(ca.jacobian(R, z), ca.jacobian(R, theta))
+    dl = []
+    for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
+        rho, drho, _, _ = profile_function(b)(z[k], ck)
+        dl.append(arc_length_density(rho, drho) * dz[k])  # Johnston2023 Eq. 10
+    return (ca.jacobian(d, theta) + ca.mtimes(ca.jacobian(d, z), dz)
+            + ca.mtimes(ca.jacobian(d, wrapped), ca.vertcat(*dl)))
+
+
+@lru_cache(maxsize=64)
+def port_function(structure, model: str, order: int, wire_arm: str = "closed-form") -> ca.Function:
+    """Per-angle port quantities of a mechanism under torque ``model``.
+
+    ``ports(theta, z, z_ref, wrapped, c, q) -> (d, arm, R, branch_error)``: port displacements
+    [m] from the reference pose, their moment arms [m] (``energy``: dd/dθ by
+    :func:`energy_arms`; otherwise the mechanism's named force model, with ``order`` and
+    ``wire_arm`` passed on), and the residuals at (θ, z). ``wrapped`` holds each profile's
+    wrapped length between α_k(θ_ref) and α_k(θ) [m] (Johnston2023 Eq. 10), an input so that
+    callers integrate it per angle (the re-check) or cumulatively along a grid (the NLP).
+    """
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    z_ref = ca.SX.sym("z_ref", z.shape[0])
+    wrapped = ca.SX.sym("wrapped", len(bases))
+    d = cls.displacements(bases, theta, z, z_ref, wrapped, c, q)
+    if model == ENERGY:
+        arm = energy_arms(structure, theta, z, wrapped, c, q, d)
+    else:
+        arm = cls.force_arms(bases, model, theta, z, c, q, order, wire_arm)
+    R, branch = residual_function(structure)(theta, z, c, q)
+    return ca.Function("ports", [theta, z, z_ref, wrapped, c, q], [d, arm, R, branch],
+                       ["theta", "z", "z_ref", "wrapped", "c", "q"], ["d", "arm", "R", "branch_error"])
+
+
+class DepartureSolver:
+    """Newton rootfinder for a mechanism's unknowns z of a fixed design at many angles."""
+
+    def __init__(self, structure, abstol: float = 1e-14, max_iter: int = 50):
+        cls, bases = structure
+        theta, z, c, q = _symbols(cls, bases)
+        self.residual = residual_function(structure)
+        self._guess = guess_function(structure)
+        g = ca.Function("g", [z, ca.vertcat(theta, c, q)], [self.residual(theta, z, c, q)[0]])
+        self._rf = ca.rootfinder("departure", "newton", g,
+                                 {"abstol": abstol, "max_iter": max_iter, "error_on_fail": False,
+                                  "show_eval_warnings": False})  # failures show in the residual
+
+    def guess(self, theta, c, q) -> np.ndarray:
+        """Initial z (rows: unknowns) at each θ in ``theta``."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        return np.asarray(self._guess.map(theta.size)(theta, c, q)).reshape(-1, theta.size)
+
+    def solve(self, theta, c, q, start=None):
+        """z (rows: unknowns) and the max |residual| at each θ; ``start`` overrides the guess."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        c, q = (np.asarray(v, dtype=float).ravel() for v in (c, q))
+        z0 = self.guess(theta, c, q) if start is None else np.asarray(start, dtype=float)
+        n = theta.size
+        p = np.vstack([theta, np.tile(c[:, None], (1, n)), np.tile(q[:, None], (1, n))])
+        z = np.asarray(self._rf.map(n)(z0, p)).reshape(-1, n)
+        R = np.asarray(self.residual.map(n)(theta, z, c, q)[0]).reshape(-1, n)
+        return z, np.abs(R).max(axis=0)
+
+
+@lru_cache(maxsize=64)
+def departure_solver(structure) -> DepartureSolver:
+    """Cached :class:`DepartureSolver` of a mechanism structure."""
+    return DepartureSolver(structure)
