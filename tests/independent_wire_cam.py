@@ -152,7 +152,8 @@ def load_design(result):
     result : dict or str or pathlib.Path
         The parsed ``result.json`` (or its path).  Used keys: ``design.cams[0].
         monomial_coefficients`` (increasing powers, [m / rad**i]; or ``..._highest_first``),
-        ``design.preextension`` [m], ``problem.cams[0].idler.radius`` and ``.offset`` [m],
+        ``design.preextension`` [m], ``problem.mechanisms[0].idler.radius`` and ``.offset``
+        [m] (``problem.cams[0]`` in the older shorthand),
         ``problem.springs[j].rate`` [N/m], optional ``.preload`` [N] (default 0) and ``.ports``.
 
     Returns
@@ -162,14 +163,15 @@ def load_design(result):
     if isinstance(result, (str, Path)):
         result = json.loads(Path(result).read_text())
     design, problem = result["design"], result["problem"]
-    if len(design["cams"]) != 1 or len(problem["cams"]) != 1:
+    holders = problem.get("mechanisms", problem.get("cams"))
+    if len(design["cams"]) != 1 or len(holders) != 1:
         raise NotImplementedError("this reference model covers 1-DOF (one cam) designs only")
     cam = design["cams"][0]
     if "monomial_coefficients" in cam:
         coeffs = cam["monomial_coefficients"]
     else:
         coeffs = list(reversed(cam["monomial_coefficients_highest_first"]))
-    idler = problem["cams"][0]["idler"]
+    idler = holders[0]["idler"]
     springs = problem["springs"]
     ports = None
     if all("ports" in s for s in springs):
