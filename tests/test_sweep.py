@@ -148,11 +148,13 @@ def test_export_csv_and_plot(tmp_path):
 
 def test_catalogue_parameters_update_the_spring_and_keep_its_ports(tmp_path):
     cat = tmp_path / "cat.csv"
-    cat.write_text("id,source,rate_N_per_m,travel_m,pretension_N,notes\nA,test,900,0.05,0,\nB,test,1500,0.06,0,\n")
+    cat.write_text("id,source,rate_N_per_m,travel_m,pretension_N,notes\nA,test,900,0.05,,\nB,test,1500,0.06,4.5,\n")
     path = tmp_path / "c.toml"
     path.write_text(f'name = "c"\nbase = "{SPEC_1DOF}"\n[[parameters]]\nkey = "springs.1"\ncatalogue = "cat.csv"\n')
     study = load_study(path)
     p = study.problem(study.cases()[1])
     assert (p.springs[0].rate, p.springs[0].travel, p.springs[0].name) == (1500.0, 0.06, "B (test)")
+    assert p.springs[0].preload == 4.5  # the pretension is read, not dropped
+    assert study.problem(study.cases()[0]).springs[0].preload == 0.0  # blank: none published
     assert p.springs[0].ports == load_study(path).problem(study.cases()[0]).springs[0].ports
     assert Study.case_id(study.cases()[0]) != Study.case_id(study.cases()[1])

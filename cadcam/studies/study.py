@@ -17,7 +17,7 @@ A parameter gives ``values = [...]`` (any spec values; a table updates the table
 ``range = [lo, hi]`` with ``num`` (linear, or logarithmic with ``log = true``), or
 ``catalogue = "file.csv"`` (a spring catalogue: header
 ``id,source,rate_N_per_m,travel_m,pretension_N,notes``; each row becomes the spring table
-``{name, rate, travel}``). ``record`` lists the metrics the exports show (all are stored).
+``{name, rate, travel, preload}``, the pretension becoming the preload). ``record`` lists the metrics the exports show (all are stored).
 
 Everything is checked before any case is solved: every key with every one of its values (or
 its range ends) must give a valid spec, and the study must have at least one case.
@@ -180,7 +180,8 @@ def _number(v) -> bool:
 
 
 def read_catalogue(path: Path) -> tuple[dict, ...]:
-    """Spring tables {name, rate [N/m], travel [m]} from a catalogue CSV (module docstring)."""
+    """Spring tables {name, rate [N/m], travel [m], preload [N]} from a catalogue CSV (module
+    docstring); an empty or missing ``pretension_N`` is no preload."""
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     need = ("id", "source", "rate_N_per_m", "travel_m")
@@ -190,9 +191,12 @@ def read_catalogue(path: Path) -> tuple[dict, ...]:
     for r in rows:
         try:
             rate, travel = float(r["rate_N_per_m"]), float(r["travel_m"])
+            preload = float((r.get("pretension_N") or "").strip() or 0.0)
         except ValueError:
-            raise ValueError(f"spring {r['id']!r}: rate_N_per_m and travel_m must be numbers") from None
-        out.append({"name": f"{r['id']} ({r['source']})", "rate": rate, "travel": travel})
+            raise ValueError(f"spring {r['id']!r}: rate_N_per_m, travel_m and pretension_N must be "
+                             "numbers") from None
+        out.append({"name": f"{r['id']} ({r['source']})", "rate": rate, "travel": travel,
+                    "preload": preload})
     return tuple(out)
 
 
