@@ -1,6 +1,6 @@
 """The papers' way of solving a design problem, for the side-by-side benchmark.
 
-Seed 003 solved Eq. 47 with MATLAB's fmincon driving finite differences over a nested
+Johnston2023 solved Eq. 47 with MATLAB's fmincon driving finite differences over a nested
 Levenberg–Marquardt solve of the tangency (Eq. 8, ``lsqnonlin``) at every angle. The faithful
 Python analogue: scipy's SLSQP with finite-difference gradients over the design variables
 (monomial β of each cam and the pre-extensions), and at every evaluation ``least_squares``
@@ -31,7 +31,7 @@ class TimeCap(Exception):
 
 
 def _eq8_function(basis: Basis) -> ca.Function:
-    """Residuals of seed 003's Eq. 8, [t̂(α) + t̂(γ); (ρ sin(α − θ) − r sin γ − a₀)/mm], from
+    """Residuals of Johnston2023's Eq. 8, [t̂(α) + t̂(γ); (ρ sin(α − θ) − r sin γ − a₀)/mm], from
     cadcam's symbolic tangency functions."""
     theta, alpha, gamma, r, a0 = (ca.SX.sym(n) for n in ("theta", "alpha", "gamma", "r", "a0"))
     c = ca.SX.sym("c", basis.size)

@@ -5,6 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .citations import cited
 from .version import __version__
 from .check.evaluate import Evaluation
 
@@ -46,6 +47,7 @@ class Result:
             "violations": fine.violations if self.status != "success" else [],
             "target_samples": target_samples(ev),
             "problem": self.problem.to_dict(),
+            "citations": citations(self.problem),
         }
         if sol is not None:
             out["solver"] = {
@@ -62,3 +64,12 @@ class Result:
 def target_samples(ev: Evaluation) -> list[list[list[float]]]:
     """Per joint, rows [θ₁ … θ_m [rad], τ_d [N·m]] on the evaluation grid."""
     return [np.column_stack([ev.theta.T, ev.tau_d[i]]).tolist() for i in range(len(ev.tau_d))]
+
+
+def citations(problem) -> list[dict]:
+    """The papers a result rests on: Johnston2023 (the objective, Eq. 46/47), each mechanism's
+    own, and Endo2010 (Eq. 3–8) for an arm's gravity torques by the transposed Jacobian."""
+    tags = ["Johnston2023"] + [m.citation for m in problem.mechanisms]
+    if any(j.target.kind == "arm" for j in problem.joints):
+        tags.append("Endo2010")
+    return cited(tags)

@@ -96,8 +96,8 @@ def serial_arm_torques(thetas, masses, lengths, com, g):
     Joint angles ``thetas`` [rad] are measured from the upward vertical, each relative to the
     previous link; link i has mass ``masses[i]`` [kg] at ``com[i]`` [m] from its joint and
     length ``lengths[i]`` [m]. With p_i the centre of mass of link i and F_i = (0, −m_i g) its
-    weight, τ = Σ_i J_i(θ)ᵀ F_i (seed 002, Eq. 3–8) is the torque a balancer must supply; for
-    the RR arm it is seed 003's Eq. 49.
+    weight, τ = Σ_i J_i(θ)ᵀ F_i (Endo2010 Eq. 3–8) is the torque a balancer must supply; for
+    the RR arm it is Johnston2023's Eq. 49.
     """
     q = ca.vertcat(*thetas)
     tau = ca.SX.zeros(q.shape[0])
@@ -106,9 +106,9 @@ def serial_arm_torques(thetas, masses, lengths, com, g):
     for i, m in enumerate(masses):
         phi = phi + q[i]
         direction = ca.vertcat(ca.sin(phi), ca.cos(phi))
-        p_i = base + com[i] * direction  # seed 002, Eq. 4: position of the point mass
-        J_i = ca.jacobian(p_i, q)  # seed 002, Eq. 5
-        tau = tau + ca.mtimes(J_i.T, ca.vertcat(0, -m * g))  # seed 002, Eq. 3, 6–8
+        p_i = base + com[i] * direction  # Endo2010 Eq. 4: position of the point mass
+        J_i = ca.jacobian(p_i, q)  # Endo2010 Eq. 5
+        tau = tau + ca.mtimes(J_i.T, ca.vertcat(0, -m * g))  # Endo2010 Eq. 3, 6–8
         base = base + lengths[i] * direction
     return [tau[i] for i in range(q.shape[0])]
 

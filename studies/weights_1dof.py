@@ -2,7 +2,7 @@
 
 Solves models/johnston2023_1dof.toml for several sensitivity weights w2 = w3 and reports the
 tracking RMSE, the largest wire torque, and the torque change (RMS over the grid) when one
-spring's rate is 5 % higher than nominal, and when all are (seed 003, Table 5's perturbation).
+spring's rate is 5 % higher than nominal, and when all are (Johnston2023, Table 5's perturbation).
 
     python studies/weights_1dof.py            # writes out/weights_1dof/report.md
 """

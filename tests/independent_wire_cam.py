@@ -1,4 +1,4 @@
-"""An independent reference model of seed 003's 1-DOF wire-wrapped cam (numpy and scipy only).
+"""An independent reference model of Johnston2023's 1-DOF wire-wrapped cam (numpy and scipy only).
 
 Johnston, Orekhov, Simaan 2023, *Design considerations and robustness to parameter uncertainty
 in wire-wrapped cam mechanisms*, JMR 15(3): Fig. 1, Eq. 10-16.  This module shares no code with

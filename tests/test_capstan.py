@@ -33,7 +33,7 @@ cams = st.tuples(st.floats(0.01, 0.05), st.floats(-0.01, 0.02), st.floats(-0.006
 @settings(max_examples=60, deadline=None)
 @given(c=cams, alpha=st.floats(0.2, 2.5), mu=st.floats(0.0, 1.0))
 def test_exact_friction_torque_is_the_departure_moment(c, alpha, mu):
-    """Eq. 35 with the correct t̂′ integrates to ẑ·(r_p × t̂) for every μ (REFERENCE.md)."""
+    """Eq. 35 with the correct t̂′ integrates to ẑ·(r_p × t̂) for every μ (docs/physics.md)."""
     c = np.array(c)
     assume(_convex_cam(c, alpha))
     assert abs(float(EXACT(alpha, c, mu)) - _departure_arm(c, alpha)) <= 1e-10 * abs(_departure_arm(c, alpha))

@@ -19,7 +19,7 @@ def test_evaluate_table3_as_printed_from_the_command_line():
     assert p.returncode == 0, p.stderr
     out = json.loads(p.stdout)
     assert out["torque_model"] == "force-as-printed"
-    # REFERENCE.md: ≈ 270 / 862 (cam 1) and ≈ 128 / 389 N·mm (cam 2)
+    # docs/physics.md (independent values): ≈ 270 / 862 (cam 1) and ≈ 128 / 389 N·mm (cam 2)
     np.testing.assert_allclose(np.array(out["metrics"]["rmse"]) * 1e3, [270, 128], rtol=0.01)
     np.testing.assert_allclose(np.array(out["metrics"]["max_abs_error"]) * 1e3, [862, 389], rtol=0.01)
     # the papers' coefficient order is printed back next to the increasing one

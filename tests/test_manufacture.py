@@ -73,7 +73,7 @@ def test_outline_is_convex_without_reflex_vertex(outline):
         assert np.all(turn > 0), f"{np.sum(turn <= 0)} reflex vertices of {len(pts)}"
     phi = np.linspace(outline.phi_end, TWO_PI, 20001)
     rho = outline.rho(phi)
-    margin = outline.margin(phi)  # seed 003, Eq. 40
+    margin = outline.margin(phi)  # Johnston2023 Eq. 40
     assert rho.min() > 0
     assert np.min(margin / rho**3) > 0  # u + u″ on the closing arc
 

@@ -26,7 +26,7 @@ def test_derivatives_and_convexity_margin_of_a_known_polynomial():
     assert rho == pytest.approx(0.02 + 0.007 - 0.003 * 0.49)
     assert d1 == pytest.approx(0.01 - 0.0042)
     assert d2 == pytest.approx(-0.006)
-    assert conv == pytest.approx(rho**2 + 2 * d1**2 - rho * d2)  # seed 003, Eq. 40
+    assert conv == pytest.approx(rho**2 + 2 * d1**2 - rho * d2)  # Johnston2023 Eq. 40
 
 
 def test_papers_highest_first_order_reads_rho0_at_the_constant():

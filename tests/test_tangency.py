@@ -59,7 +59,7 @@ def test_eq43_sensitivities_equal_the_automatic_derivative(rr_problem, table3):
 
 
 @pytest.mark.parametrize("model,expected", [
-    # REFERENCE.md: Table 3 evaluated on the uniform 46 × 46 grid [N·mm]
+    # docs/physics.md (independent values): Table 3 on the uniform 46 × 46 grid [N·mm]
     ("force-as-printed", {"rmse": (270, 128), "max": (862, 389)}),
     ("force", {"rmse": (597, 137), "max": (1645, 387)}),
 ])
@@ -67,7 +67,7 @@ def test_table3_design_reproduces_reference_values(rr_problem, table3, model, ex
     ev = evaluate(rr_problem.with_torque_model(model), table3, grid=46)
     np.testing.assert_allclose(np.array(ev.metrics["rmse"]) * 1e3, expected["rmse"], rtol=0.01)
     np.testing.assert_allclose(np.array(ev.metrics["max_abs_error"]) * 1e3, expected["max"], rtol=0.01)
-    # REFERENCE.md: spring 1 reaches 57.9 mm, spring 2 stays in [9.3, 30.1] mm
+    # docs/physics.md (independent): spring 1 reaches 57.9 mm, spring 2 stays in [9.3, 30.1] mm
     assert ev.metrics["extension_max"][0] * 1e3 == pytest.approx(57.9, abs=0.05)
     assert ev.metrics["extension_min"][1] * 1e3 == pytest.approx(9.33, abs=0.01)
     assert ev.metrics["extension_max"][1] * 1e3 == pytest.approx(30.1, abs=0.05)

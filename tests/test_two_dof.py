@@ -1,4 +1,4 @@
-"""The 2-DOF network of seed 003 (Sec. 3.2, 5, 8.2, 10): structure, targets and optima."""
+"""The 2-DOF network of Johnston2023 (Sec. 3.2, 5, 8.2, 10): structure, targets and optima."""
 import dataclasses
 import json
 

@@ -205,7 +205,7 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
 def rate_deviation(problem: Problem, design: Design, factor: float, springs=None,
                    grid: int | None = None) -> np.ndarray:
     """RMSE per joint [N·m] between the torques of ``design`` with nominal spring rates and with
-    the rates of ``springs`` (default all, as seed 003's Table 5) multiplied by ``factor``.
+    the rates of ``springs`` (default all, as Johnston2023's Table 5) multiplied by ``factor``.
 
     τ is linear in the rates, so with every rate scaled this is |factor − 1| × the RMS torque
     for any design; one spring at a time is what measures robustness.

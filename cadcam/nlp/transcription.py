@@ -38,7 +38,7 @@ FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8�
 TORQUE_SCALE = 1.0   # N·m: scale of lifted one-angle torque terms
 FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
-#: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from seed 003's
+#: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from Johnston2023's
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
 #: (and the 1-DOF and Sec. 10.4 problems converge in fewer iterations).
 OBJECTIVE_SCALE = 1000.0

@@ -1,4 +1,4 @@
-"""Capstan friction between the wire and the cam (seed 003, Sec. 4.1, Eq. 22–35).
+"""Capstan friction between the wire and the cam (Johnston2023, Sec. 4.1, Eq. 22–35).
 
 Quasi-static wire on the profile from the anchor φ = 0 to the departure angle α, per unit
 departure tension η(α) = 1 (every load here scales with η(α) = k₁x₁).
@@ -33,9 +33,9 @@ def check_friction_model(name: str) -> str:
 
 
 def curve(phi, rho, drho, ddrho):
-    """r(φ), r′(φ), r″(φ) in the cam frame [m, m/rad, m/rad²] (seed 003, Eq. 26)."""
+    """r(φ), r′(φ), r″(φ) in the cam frame [m, m/rad, m/rad²] (Johnston2023 Eq. 26)."""
     c, s = ca.cos(phi), ca.sin(phi)
-    r0 = ca.vertcat(rho * c, rho * s)  # seed 003, Eq. 26
+    r0 = ca.vertcat(rho * c, rho * s)  # Johnston2023 Eq. 26
     r1 = ca.vertcat(drho * c - rho * s, drho * s + rho * c)
     r2 = ca.vertcat(ddrho * c - 2 * drho * s - rho * c, ddrho * s + 2 * drho * c - rho * s)
     return r0, r1, r2
@@ -44,23 +44,23 @@ def curve(phi, rho, drho, ddrho):
 def tangent_derivative(r1, r2, model: str):
     """dt̂/dφ [1/rad] of the unit tangent t̂ = r′/‖r′‖, in the chosen friction model.
 
-    ``corrected``: (r″ − r′ (r′ᵀr″)/(r′ᵀr′)) / ‖r′‖. ``as-printed``: the bracket of seed 003's
+    ``corrected``: (r″ − r′ (r′ᵀr″)/(r′ᵀr′)) / ‖r′‖. ``as-printed``: the bracket of Johnston2023's
     Eq. 33 as printed, (r″ − r′ (r′ᵀr′)³ (r″ᵀr′)) / ‖r′‖.
     """
     check_friction_model(model)
     nrm = ca.norm_2(r1)
     if model == "corrected":
         return (r2 - r1 * ca.dot(r1, r2) / ca.dot(r1, r1)) / nrm
-    return (r2 - r1 * ca.dot(r1, r1) ** 3 * ca.dot(r2, r1)) / nrm  # seed 003, Eq. 33 as printed
+    return (r2 - r1 * ca.dot(r1, r1) ** 3 * ca.dot(r2, r1)) / nrm  # Johnston2023 Eq. 33 as printed
 
 
 def tension(phi, alpha, mu):
-    """Wire tension η(φ)/η(α) = e^{μ(φ−α)} [-] for φ ∈ [0, α] (seed 003, Eq. 31)."""
-    return ca.exp(mu * (phi - alpha))  # seed 003, Eq. 31
+    """Wire tension η(φ)/η(α) = e^{μ(φ−α)} [-] for φ ∈ [0, α] (Johnston2023 Eq. 31)."""
+    return ca.exp(mu * (phi - alpha))  # Johnston2023 Eq. 31
 
 
 def internal_force_derivative(phi, alpha, mu, r1, r2, model: str):
-    """ψ′(φ) per unit departure tension [1/rad] (seed 003, Eq. 32–33).
+    """ψ′(φ) per unit departure tension [1/rad] (Johnston2023 Eq. 32–33).
 
     ψ = η t̂ (Eq. 25, 32), so ψ′ = η (μ t̂ + t̂′) with η from Eq. 31.
     """
@@ -84,7 +84,7 @@ def loads_function(basis: Basis, model: str) -> ca.Function:
     rho, drho, ddrho, _ = profile_function(basis)(phi, c)
     r0, r1, r2 = curve(phi, rho, drho, ddrho)
     dpsi = internal_force_derivative(phi, alpha, mu, r1, r2, model)
-    f = -dpsi  # seed 003, Eq. 24 and 34
+    f = -dpsi  # Johnston2023 Eq. 24 and 34
     t = r1 / ca.norm_2(r1)
     n = ca.vertcat(-t[1], t[0])
     return ca.Function(
@@ -95,14 +95,14 @@ def loads_function(basis: Basis, model: str) -> ca.Function:
 
 
 def anchor_load(alpha, mu, t0):
-    """ψ(0) per unit departure tension: e^{−μα} t̂(0), the pull on the anchor (seed 003, Eq. 32)."""
+    """ψ(0) per unit departure tension: e^{−μα} t̂(0), the pull on the anchor (Johnston2023 Eq. 32)."""
     return tension(0, alpha, mu) * t0
 
 
 def wire_torque_function(basis: Basis, model: str, order: int) -> ca.Function:
     """``wire_torque(alpha, c, mu) -> τ₁,₁ / η(α)`` [m] by Gauss–Legendre quadrature.
 
-    Seed 003, Eq. 35: τ₁,₁ = ẑ·(r(0) × ψ(0)) + ∫₀^α ẑ·(r(σ) × −f(σ)) dσ with −f = ψ′.
+    Johnston2023, Eq. 35: τ₁,₁ = ẑ·(r(0) × ψ(0)) + ∫₀^α ẑ·(r(σ) × −f(σ)) dσ with −f = ψ′.
     Under ``corrected`` it equals the departure moment ẑ·(r_p × t̂) to quadrature precision.
     """
     alpha, mu = ca.SX.sym("alpha"), ca.SX.sym("mu")
@@ -114,5 +114,5 @@ def wire_torque_function(basis: Basis, model: str, order: int) -> ca.Function:
     s, w = gauss_legendre(order)
     phi = alpha * ca.DM(s).T
     moment = loads_function(basis, model).map(order)(phi, alpha, c, mu)[3]
-    total = anchor + alpha * ca.mtimes(moment, ca.DM(w))  # seed 003, Eq. 35
+    total = anchor + alpha * ca.mtimes(moment, ca.DM(w))  # Johnston2023 Eq. 35
     return ca.Function("wire_torque", [alpha, c, mu], [total], ["alpha", "c", "mu"], ["arm"])

@@ -1,4 +1,4 @@
-"""Where the wire leaves the cam for the follower idler (seed 003, Sec. 2 and 4).
+"""Where the wire leaves the cam for the follower idler (Johnston2023, Sec. 2 and 4).
 
 The idler of radius r [m] rides on a platform that slides horizontally; its centre q is at
 height a₀ [m] on the +x side of the cam. The cam is rotated by θ [rad]: the profile point at
@@ -16,16 +16,16 @@ import casadi as ca
 
 
 def cam_tangent(theta, alpha, rho, drho):
-    """Unit tangent t̂(α) of the cam in the world frame (seed 003, Eq. 3 and 5)."""
+    """Unit tangent t̂(α) of the cam in the world frame (Johnston2023 Eq. 3 and 5)."""
     w = alpha - theta
-    tx = drho * ca.cos(w) - rho * ca.sin(w)  # seed 003, Eq. 3
+    tx = drho * ca.cos(w) - rho * ca.sin(w)  # Johnston2023 Eq. 3
     ty = drho * ca.sin(w) + rho * ca.cos(w)
-    s = ca.sqrt(rho**2 + drho**2)  # seed 003, Eq. 5
+    s = ca.sqrt(rho**2 + drho**2)  # Johnston2023 Eq. 5
     return tx / s, ty / s
 
 
 def tangency_residuals(theta, alpha, gamma, rho, drho, r, a0):
-    """Residuals of the wire–cam–idler tangency (seed 003, Eq. 6 and 7).
+    """Residuals of the wire–cam–idler tangency (Johnston2023 Eq. 6 and 7).
 
     Returns
     -------
@@ -34,15 +34,15 @@ def tangency_residuals(theta, alpha, gamma, rho, drho, r, a0):
     branch : t̂(α)·t̂(γ) [-], −1 on the physical branch t̂(α) = −t̂(γ).
     """
     tx, ty = cam_tangent(theta, alpha, rho, drho)
-    gx, gy = -ca.sin(gamma), ca.cos(gamma)  # seed 003, Eq. 4–5: t̂(γ)
-    cross = tx * gy - ty * gx  # seed 003, Eq. 6 as one scalar condition
-    closure = rho * ca.sin(alpha - theta) - r * ca.sin(gamma) - a0  # seed 003, Eq. 7
+    gx, gy = -ca.sin(gamma), ca.cos(gamma)  # Johnston2023 Eq. 4–5: t̂(γ)
+    cross = tx * gy - ty * gx  # Johnston2023 Eq. 6 as one scalar condition
+    closure = rho * ca.sin(alpha - theta) - r * ca.sin(gamma) - a0  # Johnston2023 Eq. 7
     return cross, closure, tx * gx + ty * gy
 
 
 def idler_centre_x(theta, alpha, gamma, rho, r):
-    """Horizontal position q_x of the idler centre [m] (seed 003, Eq. 15)."""
-    return rho * ca.cos(alpha - theta) - r * ca.cos(gamma)  # seed 003, Eq. 15
+    """Horizontal position q_x of the idler centre [m] (Johnston2023 Eq. 15)."""
+    return rho * ca.cos(alpha - theta) - r * ca.cos(gamma)  # Johnston2023 Eq. 15
 
 
 def departure_moments(theta, alpha, rho, drho):
@@ -53,7 +53,7 @@ def departure_moments(theta, alpha, rho, drho):
     inward normal n̂ = ẑ × t̂ (Eq. 20, 21).
     """
     w = alpha - theta
-    px, py = rho * ca.cos(w), rho * ca.sin(w)  # seed 003, Eq. 2: r_p/o
+    px, py = rho * ca.cos(w), rho * ca.sin(w)  # Johnston2023 Eq. 2: r_p/o
     tx, ty = cam_tangent(theta, alpha, rho, drho)
     nx, ny = -ty, tx  # n̂ = ẑ × t̂, the unit inward normal
-    return px * ty - py * tx, px * ny - py * nx  # seed 003, Eq. 21: τ = (r_p × f)ᵀẑ
+    return px * ty - py * tx, px * ny - py * nx  # Johnston2023 Eq. 21: τ = (r_p × f)ᵀẑ

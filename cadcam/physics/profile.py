@@ -1,9 +1,9 @@
-"""Cam profile ρ(φ) in a polynomial basis (seed 003, Sec. 6).
+"""Cam profile ρ(φ) in a polynomial basis (Johnston2023, Sec. 6).
 
 A profile is the polar function ρ(φ) [m] of the cam-attached angle φ [rad], with the wire
 anchored at φ = 0. Two bases are offered:
 
-* ``monomial`` — the papers' basis, ρ(φ) = Σ β_k φ^k (seed 003, Eq. 38). Coefficients are stored
+* ``monomial`` — the papers' basis, ρ(φ) = Σ β_k φ^k (Johnston2023 Eq. 38). Coefficients are stored
   in increasing powers; the papers print them highest power first (MATLAB ``polyval`` order),
   and :func:`monomial_from_highest_first` converts.
 * ``chebyshev`` — Chebyshev polynomials of the first kind on the design interval
@@ -54,7 +54,7 @@ class Basis:
     def rho(self, phi, c):
         """ρ(φ) [m] as a CasADi expression of ``phi`` [rad] and coefficients ``c`` [m].
 
-        Monomial: Horner's rule for Eq. 38 of seed 003. Chebyshev: three-term recurrence
+        Monomial: Horner's rule for Eq. 38 of Johnston2023. Chebyshev: three-term recurrence
         T_{k+1} = 2uT_k − T_{k−1} with u the affine image of φ on [−1, 1].
         """
         if self.name == "monomial":
@@ -94,16 +94,16 @@ class Basis:
 
 
 def monomial_from_highest_first(beta) -> np.ndarray:
-    """Papers' β (highest power first, seed 003 Tables 3–4) → increasing powers."""
+    """Papers' β (highest power first, Johnston2023 Tables 3–4) → increasing powers."""
     return np.asarray(beta, dtype=float)[::-1].copy()
 
 
 def convexity_margin(rho, drho, ddrho):
-    """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] (seed 003, Eq. 40); the profile is convex where > 0.
+    """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] (Johnston2023 Eq. 40); the profile is convex where > 0.
 
     It is x′y″ − y′x″ of the polar curve (Eq. 37, 39).
     """
-    return rho**2 + 2 * drho**2 - rho * ddrho  # seed 003, Eq. 40
+    return rho**2 + 2 * drho**2 - rho * ddrho  # Johnston2023 Eq. 40
 
 
 @lru_cache(maxsize=64)

@@ -1,4 +1,4 @@
-"""Wrapped wire length by Gauss–Legendre quadrature (seed 003, Sec. 3.1)."""
+"""Wrapped wire length by Gauss–Legendre quadrature (Johnston2023, Sec. 3.1)."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -10,8 +10,8 @@ from .quadrature import gauss_legendre
 
 
 def arc_length_density(rho, drho):
-    """‖r′(φ)‖ = √(ρ² + ρ′²) [m/rad], the integrand of Eq. 10 (seed 003)."""
-    return ca.sqrt(rho**2 + drho**2)  # seed 003, Eq. 10
+    """‖r′(φ)‖ = √(ρ² + ρ′²) [m/rad], the integrand of Eq. 10 (Johnston2023)."""
+    return ca.sqrt(rho**2 + drho**2)  # Johnston2023 Eq. 10
 
 
 @lru_cache(maxsize=64)
@@ -32,7 +32,7 @@ def length_function(basis: Basis, order: int) -> ca.Function:
 
 
 def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha, c):
-    """Profile lengths of the segments [α_ref, α₀], [α₀, α₁], … [m] (Eq. 10, seed 003).
+    """Profile lengths of the segments [α_ref, α₀], [α₀, α₁], … [m] (Eq. 10, Johnston2023).
 
     ``order`` Gauss–Legendre points per segment, ``first_order`` for the first (long when the
     angle range does not start at θ = 0). Segments between neighbouring grid contacts are

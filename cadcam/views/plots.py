@@ -92,7 +92,7 @@ def plot_torque(ev: Evaluation, path) -> None:
 def plot_springs(ev: Evaluation, path) -> None:
     """Spring extensions against their travel limits [mm].
 
-    A spring on one cam is a line over that cam's angle; a spring joining two cams (seed 003's
+    A spring on one cam is a line over that cam's angle; a spring joining two cams (Johnston2023's
     spring 2) is a map over both angles with its travel limit drawn as a contour.
     """
     springs, m, n = ev.problem.springs, len(ev.tau), ev.grid

@@ -115,7 +115,7 @@ class Outline:
         return self.derivatives(phi)[0]
 
     def margin(self, phi) -> np.ndarray:
-        """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] on the full circle (seed 003, Eq. 40)."""
+        """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] on the full circle (Johnston2023 Eq. 40)."""
         return convexity_margin(*self.derivatives(phi))
 
     def xy(self, phi) -> np.ndarray:
@@ -147,7 +147,7 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
     """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], into a convex C2 outline.
 
     Method. In u = 1/ρ a polar curve is convex where u + u″ > 0: u + u″ is the Eq. 40 margin
-    divided by ρ³ (seed 003, Eq. 40), and it is linear in u. The closing arc is a polynomial
+    divided by ρ³ (Johnston2023 Eq. 40), and it is linear in u. The closing arc is a polynomial
     u(x) in x = (φ − φ_max)/(2π − φ_max): a quintic Hermite part matches u, u′, u″ of the
     designed profile at φ_max (x = 0) and at φ = 2π ≡ 0 (x = 1), so the outline is C2 at both
     joints, and ``free`` further terms x³(1 − x)³ P_j(2x − 1) (Legendre P_j) leave those
@@ -229,7 +229,7 @@ def _check_designed_arc(profile, coefficients, phi_max):
     bad = (rho <= 0) | (margin <= 0)
     if bad.any():
         raise ValueError(f"the designed profile is not positive and convex at φ = "
-                         f"{phi[bad][0]:.4f} rad (seed 003, Eq. 40 margin "
+                         f"{phi[bad][0]:.4f} rad (Johnston2023 Eq. 40 margin "
                          f"{margin[bad][0]:.3g} m²); "
                          "it cannot be closed into a convex outline")
 
@@ -259,7 +259,7 @@ def _closure_coefficients(hermite, terms, span, u_bounds) -> np.ndarray:
                      np.concatenate((np.full(x.size, np.inf), u_bounds[1] - u0)))
     if best is None or best[-1] <= 0:
         raise ValueError("no convex closure of the designed arc exists: over the remaining "
-                         "angle no u = 1/ρ keeps u + u″ > 0 (seed 003, Eq. 40), matches ρ, ρ′, ρ″ "
+                         "angle no u = 1/ρ keeps u + u″ > 0 (Johnston2023 Eq. 40), matches ρ, ρ′, ρ″ "
                          "of the designed arc at both ends and stays within rho_bounds")
     # 2. minimise ∫ ((u + u″)′)² dx subject to u + u″ ≥ t*/2
     smooth = _solve_qp(2 * v.T @ v / x.size, 2 * v.T @ v0 / x.size, np.vstack((c, u)),
@@ -322,12 +322,12 @@ def polyline(outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> np.ndarr
 def _even_chords(outline, start, stop, tolerance) -> np.ndarray:
     """Angles from ``start`` to ``stop`` [rad] spreading chords evenly in ∫ √(κ/8·tolerance) ds.
 
-    With ds/dφ = √(ρ² + ρ′²) and κ = (ρ² + 2ρ′² − ρρ″)/(ρ² + ρ′²)^(3/2) (seed 003, Eq. 40),
+    With ds/dφ = √(ρ² + ρ′²) and κ = (ρ² + 2ρ′² − ρρ″)/(ρ² + ρ′²)^(3/2) (Johnston2023 Eq. 40),
     the chord count per radian is √(margin/8·tolerance)/(ρ² + ρ′²)^(1/4).
     """
     phi = np.linspace(start, stop, 513)
     rho, drho, ddrho = outline.derivatives(phi)
-    margin = convexity_margin(rho, drho, ddrho)  # seed 003, Eq. 40
+    margin = convexity_margin(rho, drho, ddrho)  # Johnston2023 Eq. 40
     density = np.sqrt(margin / (8 * tolerance)) / (rho**2 + drho**2) ** 0.25
     count = np.concatenate(([0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(phi))))
     chords = max(1, int(np.ceil(CHORD_SPARE * count[-1])))

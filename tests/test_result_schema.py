@@ -1,0 +1,133 @@
+"""result.json against the JSON Schema that ships with the package (cadcam/result.schema.json,
+draft 2020-12): the schema is valid, real results (converged and failed) validate, broken ones do
+not, and its closed sets agree with the code."""
+import copy
+import json
+import math
+from importlib.resources import files
+
+import pytest
+from jsonschema import Draft202012Validator
+
+from cadcam.cli import main
+from cadcam.mechanisms.base import TORQUE_MODELS
+from cadcam.nlp.transcription import IPOPT_STATUS
+
+from .conftest import SPEC_1DOF
+
+SCHEMA_FILE = files("cadcam") / "result.schema.json"
+
+
+@pytest.fixture(scope="module")
+def schema():
+    return json.loads(SCHEMA_FILE.read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def validator(schema):
+    return Draft202012Validator(schema)
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    """result.json of the 1-DOF model, designed once for this module."""
+    out = tmp_path_factory.mktemp("schema_design")
+    assert main(["design", str(SPEC_1DOF), "-o", str(out)]) == 0
+    return json.loads((out / "result.json").read_text())
+
+
+def _errors(validator, instance):
+    return list(validator.iter_errors(instance))
+
+
+def test_schema_ships_inside_the_package():
+    assert SCHEMA_FILE.is_file()
+
+
+def test_schema_is_a_valid_draft_2020_12_schema(schema):
+    assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    Draft202012Validator.check_schema(schema)
+
+
+def test_a_converged_result_validates(validator, result):
+    assert result["status"] == "success"
+    validator.validate(result)
+
+
+def test_a_failed_solve_validates(validator, tmp_path):
+    spec = tmp_path / "short.toml"
+    spec.write_text(SPEC_1DOF.read_text().replace("quadrature_order = 2",
+                                                  "quadrature_order = 2\nmax_iter = 2"))
+    out = tmp_path / "o"
+    assert main(["design", str(spec), "-o", str(out)]) == 1
+    res = json.loads((out / "result.json").read_text())
+    assert res["status"] == "max_iterations"
+    validator.validate(res)
+
+
+def test_nan_metrics_validate(validator, result):
+    # what evaluate reports where a quantity is not computable: json writes NaN, json reads nan
+    res = copy.deepcopy(result)
+    res["metrics"]["rho_min"][0] = float("nan")
+    res["recheck"]["objective"] = float("nan")
+    res["recheck"]["margins"]["convexity"][0] = float("nan")
+    res["solver"]["build_time_s"] = float("nan")
+    text = json.dumps(res)
+    assert "NaN" in text
+    back = json.loads(text)
+    assert math.isnan(back["metrics"]["rho_min"][0])
+    validator.validate(back)
+
+
+def _bad_status(r):
+    r["status"] = "great"
+
+
+def _no_design(r):
+    del r["design"]
+
+
+def _string_preextension(r):
+    r["design"]["preextension"] = "0.01"
+
+
+def _success_with_violations(r):
+    r["violations"] = ["spring above its travel: spring 1 (margin -0.002)"]
+
+
+@pytest.mark.parametrize("break_it, path, keyword", [
+    (_bad_status, ["status"], "enum"),
+    (_no_design, [], "required"),
+    (_string_preextension, ["design", "preextension"], "type"),
+    (_success_with_violations, ["violations"], "maxItems"),
+], ids=["status-great", "missing-design", "string-preextension", "success-with-violations"])
+def test_broken_results_fail_for_the_right_reason(validator, result, break_it, path, keyword):
+    res = copy.deepcopy(result)
+    break_it(res)
+    errors = _errors(validator, res)
+    assert errors, "a broken result validated"
+    assert any(list(e.absolute_path) == path and e.validator == keyword for e in errors), \
+        [(list(e.absolute_path), e.validator, e.message) for e in errors]
+
+
+def test_closed_sets_agree_with_the_code(schema):
+    props = schema["properties"]
+    stopped = set(IPOPT_STATUS.values()) - {"converged"}
+    assert set(props["status"]["enum"]) == stopped | {"success", "recheck_failed", "solver_error"}
+    trial_status = schema["$defs"]["trial"]["properties"]["status"]["enum"]
+    assert set(trial_status) == set(IPOPT_STATUS.values()) | {"solver_error"}
+    assert tuple(schema["$defs"]["torque_model"]["enum"]) == TORQUE_MODELS
+
+
+def test_every_top_level_field_is_documented(schema, result):
+    # the top level stays open for newer fields, so check here that the schema names them all
+    def resolve(node):
+        while "$ref" in node and "description" not in node:
+            node = schema["$defs"][node["$ref"].rsplit("/", 1)[1]]
+        return node
+
+    props = schema["properties"]
+    assert set(result) <= set(props), set(result) - set(props)
+    assert set(schema["required"]) <= set(result)
+    for name, node in props.items():
+        assert resolve(node).get("description"), f"{name} has no description"
