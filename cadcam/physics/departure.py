@@ -51,6 +51,13 @@ def departure_moments(theta, alpha, rho, drho):
     ``arm_t`` = ẑ·(r_p × t̂) is the moment of a unit wire tension along t̂ (Eq. 19, 21) and
     ``arm_n`` = ẑ·(r_p × n̂) = ρρ′/√(ρ² + ρ′²) that of a unit idler push along the **unit**
     inward normal n̂ = ẑ × t̂ (Eq. 20, 21).
+
+    These are Johnston2023's force model, not the mechanism's torque: they equal the energy
+    model's arms dx/dθ (:func:`cadcam.mechanisms.base.energy_arms`) on a circular cam (ρ′ = 0:
+    arm_t = ρ, arm_n = 0) but not in general — Eq. 20 leaves out the wire tension's pull on the
+    idler and takes the normal as horizontal (on Table 3's cam 1 the wire arms differ by up to
+    0.89 mm, the platform arms by 0.06 mm). cadcam uses them as the named ``force`` model and
+    as a check (tests/test_tangency.py, tests/test_energy.py).
     """
     w = alpha - theta
     px, py = rho * ca.cos(w), rho * ca.sin(w)  # Johnston2023 Eq. 2: r_p/o

@@ -51,7 +51,7 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-        ax.set_title(f"{mech.name}: profile (thick: wrapped cable), idler dashed")
+        ax.set_title(f"{mech.name}: profile (thick: wrapped cable), idlers dashed")
         ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     _save(fig, path)

@@ -1,0 +1,133 @@
+"""A toy mechanism for the tests: a noncircular pulley whose cable runs to a fixed point.
+
+The pulley ρ(φ) turns with its joint (the base class's ``profile_rotation``: the profile point
+at polar angle φ sits at world angle φ − θ). The cable is anchored on the profile at φ = 0,
+wraps it in the direction of increasing φ (counter-clockwise in the pulley's own frame) up to
+the departure angle α, leaves it tangentially and runs straight to a fixed point
+A = (ax, ay) — an idler of zero radius — through which it pulls a spring fixed at A. This is
+the anchored-spring pulley of Ludovico2021 (Kim & Deshpande's pulley) and Endo2010 (spring end
+fixed at (a, b) on the base), simplified to a point idler with the spring acting along the
+cable.
+
+Sign convention. With the joint turning by +θ the pulley turns clockwise by θ; the departure
+point keeps roughly its world position, so α grows with θ and more cable is wrapped: the cable
+length from the anchor to A, and the spring's extension, *increase* with θ. For a circle of
+radius R, α − θ is the constant ψ_A − acos(R/|A|) (ψ_A the polar angle of A) and the length
+changes by exactly R·θ.
+
+Port ``cable``: the change, from the reference pose θ = 0, of the cable length from the
+profile anchor to A, i.e. the wrapped length change plus the change of the free span |A − p(α)|.
+Unknown: α. Residual: the signed angle from the profile tangent at α to the cable direction
+A − p, atan2(t × u, t · u) [rad]. Its only zero on a convex profile is the tangent on which the
+cable leaves in the winding direction; the plain cross product (the sine) would vanish on the
+other tangent from A too, and the NLP, which does not see ``branch_error``, can end there.
+``branch_error`` = 1 − cos of that angle plus max(0, −α) (a cable that would leave before its
+anchor): zero on the physical branch. No force model: the torque is the
+generic energy torque τ = (kx + F0) dd/dθ.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from cadcam.mechanisms.base import Mechanism, register
+from cadcam.physics.profile import profile_function
+
+#: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
+GUESS_SWEEPS = 6
+
+
+def _pose(cls, bases, theta, alpha, c, q):
+    """World position p(α), tangent t = dp/dφ and the vector A − p at joint angle θ [m]."""
+    rho, drho, _, _ = profile_function(bases[0])(alpha, c)
+    w = alpha + cls.profile_rotation(theta)  # world angle of the profile point α
+    cw, sw = ca.cos(w), ca.sin(w)
+    px, py = rho * cw, rho * sw
+    tx, ty = drho * cw - rho * sw, drho * sw + rho * cw  # d p / d φ (Johnston2023 Eq. 3)
+    return (px, py), (tx, ty), (q[0] - px, q[1] - py)
+
+
+@register
+@dataclass(frozen=True)
+class ToyPulley(Mechanism):
+    """A pulley turning with its joint, its cable running to the fixed point
+    (``anchor_x``, ``anchor_y``) [m] in the joint's (world) frame, through a spring there."""
+
+    anchor_x: float = 0.0
+    anchor_y: float = 0.0
+
+    kind = "toy_pulley"
+    #: one tag of cadcam.citations.PAPERS (a result lists it); Endo2010 is cited above only
+    citation = "Ludovico2021"
+    ports = ("cable",)
+    unknowns = ("alpha",)
+    unknown_units = ("rad",)
+    residual_units = ("",)  # angle between tangent and cable [rad]
+    parameter_names = ("anchor_x", "anchor_y")
+
+    @classmethod
+    def residual(cls, bases, theta, z, c, q):
+        _, (tx, ty), (ux, uy) = _pose(cls, bases, theta, z[0], c, q)
+        cross, dot = tx * uy - ty * ux, tx * ux + ty * uy
+        cosine = dot / (ca.sqrt(tx**2 + ty**2) * ca.sqrt(ux**2 + uy**2))
+        return ca.atan2(cross, dot), ca.fmax(0, 1 - cosine) + ca.fmax(0, -z[0])
+
+    @classmethod
+    def guess(cls, bases, theta, c, q):
+        """Tangent from A to the pedal circle: the tangent line at α lies at distance
+        h = ρ²/√(ρ² + ρ′²) from O, its outward normal at world angle w − δ with
+        δ = atan(ρ′/ρ); it passes through A when w − δ = ψ_A − acos(h/|A|). Iterated with ρ,
+        ρ′ at α; exact for a circle (δ = 0, h = R)."""
+        prof = profile_function(bases[0])
+        dist = ca.sqrt(q[0] ** 2 + q[1] ** 2)
+        psi = ca.atan2(q[1], q[0])
+        rot = cls.profile_rotation(theta)
+        alpha = psi - rot  # start at the anchor's direction
+        for _ in range(GUESS_SWEEPS):
+            rho, drho, _, _ = prof(alpha, c)
+            h = rho**2 / ca.sqrt(rho**2 + drho**2)
+            alpha = psi - ca.acos(ca.fmin(h / dist, 1)) + ca.atan2(drho, rho) - rot
+        return alpha
+
+    @classmethod
+    def free_span(cls, bases, theta, z, c, q):
+        """|A − p(α)| [m]: the straight cable from the departure point to A."""
+        _, _, (ux, uy) = _pose(cls, bases, theta, z[0], c, q)
+        return ca.sqrt(ux**2 + uy**2)
+
+    @classmethod
+    def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
+        return (wrapped[0] + cls.free_span(bases, theta, z, c, q)
+                - cls.free_span(bases, cls.reference_angle, z_ref, c, q))
+
+    @classmethod
+    def profile_domain(cls, theta_range):
+        """α − θ = ψ_A − acos(h/|A|) + δ stays below θ + π for anchors at polar angles up to
+        about π/2; the anchor itself is not known here (the domain is fixed before
+        ``from_spec`` reads it), so the interval is a generous (0, θ_max + π)."""
+        return (0.0, max(theta_range[1], 0.0) + np.pi)
+
+    def start_radius(self, profile):
+        """1.2 ρ_min, at most mid-range and at most half the anchor's distance (A outside)."""
+        dist = float(np.hypot(self.anchor_x, self.anchor_y))
+        r = min(1.2 * profile.rho_min, 0.5 * (profile.rho_min + profile.rho_max), 0.5 * dist)
+        return max(r, profile.rho_min * (1 + 1e-3))
+
+    def circles(self, theta, z, c):
+        """The fixed point A (a zero-radius idler)."""
+        return [(np.array([self.anchor_x, self.anchor_y]), 0.0)]
+
+    @classmethod
+    def from_spec(cls, reader, name, joint, profiles):
+        form = "[ax, ay]: the fixed point the cable runs to [m], outside rho_max"
+        anchor = reader.get("anchor", lambda v: isinstance(v, list) and len(v) == 2
+                            and all(reader.number(x) for x in v), form)
+        if not np.hypot(*anchor) > max(p.rho_max for p in profiles):
+            reader.fail(reader.key("anchor"), anchor, form)
+        return cls(name=name, joint=joint, profiles=profiles,
+                   anchor_x=float(anchor[0]), anchor_y=float(anchor[1]))
+
+    def spec_fields(self) -> dict:
+        return {"anchor": [self.anchor_x, self.anchor_y]}
