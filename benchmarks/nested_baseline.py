@@ -1,12 +1,18 @@
 """The papers' way of solving a design problem, for the side-by-side benchmark.
 
 Johnston2023 solved Eq. 47 with MATLAB's fmincon driving finite differences over a nested
-Levenberg–Marquardt solve of the tangency (Eq. 8, ``lsqnonlin``) at every angle. The faithful
-Python analogue: scipy's SLSQP with finite-difference gradients over the design variables
-(monomial β of each cam and the pre-extensions), and at every evaluation ``least_squares``
-(method ``lm``) on Eq. 8's residual at each of the n angles of each cam. Everything after the
-tangency (wrapped length, torque, springs) calls cadcam's own model functions, so the two
-approaches solve the same problem and differ only in how.
+Levenberg–Marquardt solve of the tangency (Eq. 8, ``lsqnonlin``) at every angle, with its force
+model of the torque (Eq. 19–21). The faithful Python analogue: scipy's SLSQP with
+finite-difference gradients over the design variables (monomial β of each cam and the
+pre-extensions), and at every evaluation ``least_squares`` (method ``lm``) on Eq. 8's residual
+at each of the n angles of each cam. Everything after the tangency (wrapped length, port
+displacements, the force model's arms, springs) calls cadcam's own model functions, so cadcam
+solving the same problem under the same torque model (``force``, or ``force-as-printed``)
+differs from this baseline only in how.
+
+The baseline is a force-model baseline: it refuses the ``energy`` torque model (whose arms
+need the implicit-function derivative of the departure, which the papers' way never computes)
+and problems with sensitivity terms (its objective is Eq. 47's tracking part).
 """
 from __future__ import annotations
 
@@ -16,14 +22,13 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares, minimize
 
-from cadcam.physics.departure import cam_tangent, tangency_residuals
 from cadcam.design import Design
-from cadcam.mechanisms.wire_cam import port_function
-from cadcam.physics.departure import cam_function
+from cadcam.mechanisms.base import port_function
+from cadcam.mechanisms.wire_cam import WireCam
+from cadcam.physics.departure import cam_tangent, tangency_residuals
+from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.quadrature import trapezoid_weights
 from cadcam.physics.wrap import length_function
-from cadcam.physics.profile import Basis, profile_function
-from cadcam.physics.springs import network_function
 
 
 class TimeCap(Exception):
@@ -43,24 +48,39 @@ def _eq8_function(basis: Basis) -> ca.Function:
 
 
 class NestedBaseline:
-    """SLSQP + finite differences + per-angle Levenberg–Marquardt on a cadcam problem."""
+    """SLSQP + finite differences + per-angle Levenberg–Marquardt on a cadcam problem of wire
+    cams (one profile each) under one of Johnston2023's force models.
+
+    Raises ValueError for another torque model, another mechanism or sensitivity terms.
+    """
 
     def __init__(self, problem):
+        if problem.torque_model not in WireCam.force_models:
+            raise ValueError(f"the nested baseline reimplements Johnston2023's force model; got torque "
+                             f"model {problem.torque_model!r} (use problem.with_torque_model('force'))")
+        if not all(isinstance(mech, WireCam) and len(mech.profiles) == 1 for mech in problem.mechanisms):
+            raise ValueError("the nested baseline handles wire cams with one profile each")
+        if any(w > 0 for j in problem.joints for w in j.sensitivity_weights):
+            raise ValueError("the nested baseline's objective is Eq. 47's tracking part: no sensitivity terms")
         self.problem = problem
         self.n = problem.options.grid
-        self.m = len(problem.cams)
-        self.bases = [Basis("monomial", c.basis.order, c.basis.domain) for c in problem.cams]
+        self.m = len(problem.joints)
+        self.mechs = problem.mechanisms
+        self.bases = [Basis("monomial", pr.basis.order, pr.basis.domain) for pr in problem.profiles]
         self.sizes = [b.size for b in self.bases]
         self.M = problem.options.convexity_points  # the same samples as cadcam's NLP
-        self.net = network_function(list(problem.springs), self.m).map(self.n ** self.m)
-        grids = [c.grid(self.n) for c in problem.cams]
+        self.net = problem.network().function().map(self.n ** self.m)
+        grids = [j.grid(self.n) for j in problem.joints]
         mesh = np.meshgrid(*grids, indexing="ij")
         self.theta = np.vstack([t.ravel() for t in mesh])
         self.idx = np.indices((self.n,) * self.m).reshape(self.m, -1)
         self.W = np.prod([trapezoid_weights(g)[i] for g, i in zip(grids, self.idx)], axis=0)
-        self.tau_d = np.vstack([np.asarray(c.target.function(self.m, i).map(self.theta.shape[1])(self.theta)).ravel()
-                                for i, c in enumerate(problem.cams)])
+        self.tau_d = np.vstack([np.asarray(j.target.function(self.m, i).map(self.theta.shape[1])(self.theta)).ravel()
+                                for i, j in enumerate(problem.joints)])
         self.eq8 = [_eq8_function(b) for b in self.bases]
+        # per-angle port displacements and the force model's arms, from cadcam's wire cam
+        self.ports = [port_function((type(mech), (b,)), problem.torque_model, 48, "closed-form").map(self.n)
+                      for mech, b in zip(self.mechs, self.bases)]
         self.evaluations = 0
         self.lm_solves = 0
         self._cache = (None, None)
@@ -75,11 +95,11 @@ class NestedBaseline:
 
     def tangency(self, i, theta, c, guess):
         """Eq. 8 by Levenberg–Marquardt: ‖t̂(α) + t̂(γ)‖² + (closure)² → 0."""
-        cam = self.problem.cams[i]
+        mech = self.mechs[i]
         eq8 = self.eq8[i]
         self.lm_solves += 1
-        return least_squares(lambda z: np.asarray(eq8(theta, z[0], z[1], c, cam.idler_radius,
-                                                     cam.idler_offset)).ravel(),
+        return least_squares(lambda z: np.asarray(eq8(theta, z[0], z[1], c, mech.idler_radius,
+                                                     mech.idler_offset)).ravel(),
                              guess, method="lm", xtol=1e-12, ftol=1e-12).x
 
     def model(self, z):
@@ -91,34 +111,32 @@ class NestedBaseline:
         self.evaluations += 1
         cs, x0 = self.split(z)
         D, A, prof = [], [], []
-        for i, (cam, c) in enumerate(zip(self.problem.cams, cs)):
-            th = np.concatenate([[0.0], cam.grid(self.n)])
-            sol, guess = [], np.array([np.arcsin(cam.idler_offset / (2 * cam.idler_radius)), np.pi])
+        for i, (mech, c) in enumerate(zip(self.mechs, cs)):
+            th = np.concatenate([[mech.reference_angle], self.problem.joints[mech.joint].grid(self.n)])
+            sol, guess = [], np.array([np.arcsin(mech.idler_offset / (2 * mech.idler_radius)), np.pi])
             for t in th:  # one LM solve per angle, warm-started from the previous angle
-                guess = self.tangency(i, t, c, guess + [th[1] - th[0] if t > 0 else 0, 0])
+                guess = self.tangency(i, t, c, guess + [th[1] - th[0] if t > th[0] else 0, 0])
                 sol.append(guess)
-            a, g = np.array(sol).T
+            z = np.array(sol).T  # rows α, γ; column 0 the reference pose
+            a = z[0]
             wrapped = length_function(self.bases[i], 48).map(self.n)(a[0], a[1:], c)
-            qx_ref = float(cam_function(self.bases[i])(0.0, a[0], g[0], c, cam.idler_radius,
-                                                              cam.idler_offset)[2])
-            d, arm, _, _ = port_function(self.bases[i], self.problem.friction_model, 48, "closed-form"
-                                                ).map(self.n)(th[1:], a[1:], g[1:], g[0], qx_ref, wrapped, c,
-                                                              cam.idler_radius, cam.idler_offset, cam.mu)
-            D.append(np.asarray(d)[:, self.idx[i]])
-            A.append(np.asarray(arm)[:, self.idx[i]])
+            d, arm, _, _ = self.ports[i](th[1:], z[:, 1:], z[:, 0], wrapped, c, mech.parameter_values())
+            D.append(np.asarray(d)[:, self.idx[mech.joint]])
+            A.append(np.asarray(arm)[:, self.idx[mech.joint]])
             phi = np.linspace(0, a.max(), self.M)
             rho, _, _, conv = (np.asarray(v).ravel() for v in profile_function(self.bases[i]).map(self.M)(phi, c))
             prof.append((rho, conv))
         k = np.array([s.rate for s in self.problem.springs])
-        x, tau, _ = (np.asarray(v) for v in self.net(np.vstack(D), np.vstack(A), k, x0))
+        F0 = np.array([s.preload for s in self.problem.springs])
+        x, tau, _ = (np.asarray(v) for v in self.net(np.vstack(D), np.vstack(A), k, x0, F0))
         out = (tau, x, prof)
         self._cache = (z.copy(), out)
         return out
 
     def objective(self, z):
         tau, _, _ = self.model(z)
-        return float(sum(c.tracking_weight * np.dot(self.W, (self.tau_d[i] - tau[i]) ** 2)
-                         for i, c in enumerate(self.problem.cams)))
+        return float(sum(j.tracking_weight * np.dot(self.W, (self.tau_d[i] - tau[i]) ** 2)
+                         for i, j in enumerate(self.problem.joints)))
 
     def constraints(self, z):
         """Eq. 47's constraints as g(z) ≥ 0 (mm and mm² scales), with the same margins as
@@ -128,10 +146,10 @@ class NestedBaseline:
         travel = np.array([s.travel for s in self.problem.springs])[:, None]
         out = [((1 - opt.limit_margin) * travel - x).ravel() / 1e-3,
                (x - opt.limit_margin * travel).ravel() / 1e-3]
-        for (rho, conv), cam in zip(prof, self.problem.cams):
-            out += [(conv - opt.convexity_epsilon * cam.rho_min**2) / 1e-6,
-                    (rho - (1 + opt.limit_margin) * cam.rho_min) / 1e-3,
-                    ((1 - opt.limit_margin) * cam.rho_max - rho) / 1e-3]
+        for (rho, conv), pr in zip(prof, self.problem.profiles):
+            out += [(conv - opt.convexity_epsilon * pr.rho_min**2) / 1e-6,
+                    (rho - (1 + opt.limit_margin) * pr.rho_min) / 1e-3,
+                    ((1 - opt.limit_margin) * pr.rho_max - rho) / 1e-3]
         return np.concatenate(out)
 
     def solve(self, start: Design, time_cap: float = 180.0, max_iter: int = 200):

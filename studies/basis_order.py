@@ -27,7 +27,7 @@ import numpy as np
 from numpy.polynomial import chebyshev as C
 
 from cadcam import Design
-from cadcam.check.evaluate import tangency_solver
+from cadcam.mechanisms.base import departure_solver
 from cadcam.files import atomic_path, write_json, write_text
 from cadcam.optimize import default_start, solve
 from cadcam.studies.study import Study, load_study
@@ -80,7 +80,7 @@ def table(path, study):
             "iterations": r["iterations"], "solve_time_s": r["solve_time_s"],
             "build_time_s": r["build_time_s"], "wall_time_s": r["wall_time_s"],
             "design": Design.from_dict(r["design"], s.problem(r["params"])) if r["design"] else None,
-            "domain": s.problem(r["params"]).cams[0].basis.domain}
+            "domain": s.problem(r["params"]).profiles[0].basis.domain}
     # the largest |ρ_monomial − ρ_chebyshev| over the design interval of every cam [mm]
     for order in sorted({k[1] for k in out}):
         a, b = out.get(("monomial", order)), out.get(("chebyshev", order))
@@ -109,11 +109,12 @@ def diagnose(path, res) -> None:
         problem = s.problem(r["params"])
         sol = solve(Transcription(problem), problem, default_start(problem))
         nan = 0
-        for i, cam in enumerate(problem.cams):
-            alpha, _, _ = tangency_solver(sol.design.bases[i]).solve(
-                np.concatenate([[0.0], cam.grid(problem.options.grid)]),
-                np.asarray(sol.design.coefficients[i]), cam.idler_radius, cam.idler_offset)
-            nan += int(np.isnan(alpha).sum())
+        for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+            structure = (type(mech), tuple(sol.design.bases[sl]))
+            theta = np.concatenate([[mech.reference_angle], problem.joints[mech.joint].grid(problem.options.grid)])
+            c = np.concatenate([np.asarray(v, dtype=float) for v in sol.design.coefficients[sl]])
+            z, _ = departure_solver(structure).solve(theta, c, mech.parameter_values())
+            nan += int(np.isnan(z).any(axis=0).sum())
         res[key]["ipopt"] = {"return_status": sol.return_status, "iterations": sol.iterations,
                              "objective": sol.objective, "nan_tangencies": nan}
 
@@ -224,7 +225,7 @@ def main() -> None:
         "Problems: **1-DOF** `models/johnston2023_1dof.toml` (Sec. 10.1 target, Table 2 springs, "
         "w1 = 10, w2 = w3 = 1, cam 1 varied: `cams.1.basis` × `cams.1.order`); **RR arm** "
         "`models/johnston2023_rr_arm.toml` (Sec. 10.4: w1 = w2 = 10, no sensitivity terms; both cams "
-        "varied together: `cams.*.basis` × `cams.*.order`). Exact friction, 46-point grid (46 × 46 "
+        "varied together: `cams.*.basis` × `cams.*.order`). The specs' energy torque model (τ = ∂V/∂θ), 46-point grid (46 × 46 "
         "for the arm), one start (the default circle), IPOPT max 500 iterations; every order and basis "
         "is its own NLP structure, so each case builds its NLP (build time in the tables).", ""]
     for label, sw in sweeps.items():
@@ -290,6 +291,15 @@ def main() -> None:
         same = [n for n in orders if res[("monomial", n)].get("gap_mm", np.inf) < 0.01]
         not_conv = [f"{b} n = {n} ({c['ipopt']['return_status']})" for (b, n), c in sorted(res.items(), key=lambda kv: kv[0][1])
                     if not c["ok"] and c.get("ipopt", {}).get("return_status") != "Solve_Succeeded"]
+        # order n contains every lower order, so a converged optimum above a lower order's
+        # (either basis) is a local optimum
+        local = []
+        for (b, n), c in sorted(res.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+            lower = [x["objective"] for (bb, nn), x in res.items() if x["ok"] and nn < n]
+            if c["ok"] and lower and c["objective"] > min(lower) * (1 + 1e-3):
+                local.append(f"{b} n = {n} ({c['objective']:.4g} against {min(lower):.4g})")
+        lines.append(f"- {label}: converged optima above the best of a lower order (local optima of the "
+                     f"non-convex NLP: order n contains every lower order): {', '.join(local) or 'none'}.")
         if not only["monomial"] and not only["chebyshev"] and not both:
             lines.append(f"- {label}: no failures in either basis. Both bases reach the same profile (within "
                          f"0.01 mm) at n = {', '.join(map(str, same)) or 'none'}.")
