@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 
 demo: $(STAMP)
 	$(VENV)/bin/cadcam design models/johnston2023_1dof.toml -o out/johnston2023_1dof
-	@echo "demo outputs: out/johnston2023_1dof/ (result.json, torque.csv, profile.csv, *.png)"
+	@echo "demo outputs: out/johnston2023_1dof/ (result.json, torque.csv, torque_recheck.csv, profile.csv, *.png, workshop files)"
 
 test: $(STAMP)
 	$(PY) -m pytest -q

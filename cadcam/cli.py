@@ -126,7 +126,7 @@ def cmd_design(args) -> int:
     d = result.to_dict()
     mm = [f"{1e3 * v:.4g}" for v in d["metrics"]["rmse"]]
     print(f"{result.status}: {result.message}")
-    print(f"  RMSE per cam [N·mm]: {', '.join(mm)}; iterations {d['solver']['iterations']}, "
+    print(f"  RMSE per joint [N·mm]: {', '.join(mm)}; iterations {d['solver']['iterations']}, "
           f"build {d['solver']['build_time_s']:.3f} s, solve {d['solver']['solve_time_s']:.3f} s")
     for v in d["violations"]:
         print(f"  violated: {v}")
