@@ -62,3 +62,17 @@ def test_cli_set_and_unknown_variant(tmp_path, capsys):
     assert "no variant 'nope'" in capsys.readouterr().err
     assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--grid", "5",
                  "--set", "springs.2.rate=7000.0"]) == 0
+
+
+def test_readme_general_form_spec_loads_and_matches_the_shorthand(tmp_path):
+    """The README's [[joints]]/[[mechanisms]] example is a valid spec, and it is the 1-DOF model
+    (written in the [[cams]] shorthand) with a preload on spring 2."""
+    import re
+    from pathlib import Path
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    (tmp_path / "general.toml").write_text(re.search(r"```toml\n(name = .*?)```", readme, re.S)[1])
+    general, shorthand = load_spec(tmp_path / "general.toml"), load_spec(SPEC_1DOF)
+    assert general.mechanisms[0].parameter_values() == shorthand.mechanisms[0].parameter_values()
+    assert [s.rate for s in general.springs] == [s.rate for s in shorthand.springs]
+    assert [s.preload for s in general.springs] == [0.0, 23.22]
+    assert general.joints[0].sensitivity_weights == shorthand.joints[0].sensitivity_weights
