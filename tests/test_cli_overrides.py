@@ -70,7 +70,7 @@ def test_readme_general_form_spec_loads_and_matches_the_shorthand(tmp_path):
     import re
     from pathlib import Path
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    (tmp_path / "general.toml").write_text(re.search(r"```toml\n(name = .*?)```", readme, re.S)[1])
+    (tmp_path / "general.toml").write_text(re.search(r"```toml\n(name = \"example_1dof\".*?)```", readme, re.S)[1])
     general, shorthand = load_spec(tmp_path / "general.toml"), load_spec(SPEC_1DOF)
     assert general.mechanisms[0].parameter_values() == shorthand.mechanisms[0].parameter_values()
     assert [s.rate for s in general.springs] == [s.rate for s in shorthand.springs]
