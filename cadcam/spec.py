@@ -78,8 +78,8 @@ class _Reader:
         return _Reader(self.origin, self.get(name, lambda v: isinstance(v, dict), form),
                        self.key(name))
 
-    number = staticmethod(lambda v: _number(v))
-    positive = staticmethod(lambda v: _positive(v))
+    number = staticmethod(_number)
+    positive = staticmethod(_positive)
 
     def done(self):
         extra = sorted(set(self.table) - self.seen)

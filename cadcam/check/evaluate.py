@@ -14,7 +14,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..design import Design
-from ..mechanisms.base import departure_solver, port_function
+from ..mechanisms.base import departure_solver, port_function, split_coefficients
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import length_function
@@ -137,19 +137,15 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     start = None if seed is None else np.vstack([np.interp(th, seed[0], row) for row in seed[1]])
     z, residual = departure_solver(structure).solve(th, c, q, start)
     n = theta.size
-    wrapped, k0 = [], 0
-    for k, b in enumerate(bases):
-        ck = c[k0:k0 + b.size]
-        k0 += b.size
-        wrapped.append(np.asarray(length_function(b, order).map(n)(z[k, 0], z[k, 1:], ck)).ravel())
+    pieces = split_coefficients(bases, c)
+    wrapped = [np.asarray(length_function(b, order).map(n)(z[k, 0], z[k, 1:], ck)).ravel()
+               for k, (b, ck) in enumerate(zip(bases, pieces))]
     ports = port_function(structure, problem.torque_model, order, wire_arm).map(n)
     d, arm, _, branch = (np.asarray(v) for v in ports(theta, z[:, 1:], z[:, 0], np.vstack(wrapped), c, q))
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
                        branch.ravel(), d.reshape(-1, n), arm.reshape(-1, n))
-    profiles, k0 = [], 0
-    for k, b in enumerate(bases):
-        ck = c[k0:k0 + b.size]
-        k0 += b.size
+    profiles = []
+    for k, (b, ck) in enumerate(zip(bases, pieces)):
         # the wrapped range; where the departure failed (NaN), the whole design interval
         phi_hi = float(np.max(z[k])) if np.all(np.isfinite(z[k])) else b.domain[1]
         scan = (_profile_extremes(b, ck, phi_hi, max(20 * n, 2000)) if profile

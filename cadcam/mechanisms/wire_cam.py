@@ -11,6 +11,7 @@ corrected capstan derivative (``force``) or with Eq. 33 as printed (``force-as-p
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -104,10 +105,8 @@ class WireCam(Mechanism):
 
     def circles(self, theta, z, c):
         """The idler at one pose."""
-        th, zz, cc = ca.SX.sym("theta"), ca.SX.sym("z", 2), ca.SX.sym("c", self.bases[0].size)
-        qx = ca.Function("qx", [th, zz, cc], [self.idler_x(self.bases, th, zz, cc,
-                                                             self.parameter_values())])
-        return [(np.array([float(qx(theta, z, c)), self.idler_offset]), self.idler_radius)]
+        qx = float(_idler_x_function(self.bases)(theta, z, c, self.parameter_values()))
+        return [(np.array([qx, self.idler_offset]), self.idler_radius)]
 
     @classmethod
     def from_spec(cls, reader, name, joint, profiles):
@@ -121,3 +120,10 @@ class WireCam(Mechanism):
 
     def spec_fields(self) -> dict:
         return {"mu": self.mu, "idler": {"radius": self.idler_radius, "offset": self.idler_offset}}
+
+
+@lru_cache(maxsize=64)
+def _idler_x_function(bases) -> ca.Function:
+    """``qx(theta, z, c, q)``: :meth:`WireCam.idler_x` as a Function, built once per basis."""
+    th, z, c, q = ca.SX.sym("theta"), ca.SX.sym("z", 2), ca.SX.sym("c", bases[0].size), ca.SX.sym("q", 3)
+    return ca.Function("qx", [th, z, c, q], [WireCam.idler_x(bases, th, z, c, q)])
