@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023
+.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023 check-energy
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,9 @@ study-weights_1dof: $(STAMP)
 
 reproduce-johnston2023: $(STAMP)
 	$(PY) studies/johnston2023.py
+
+check-energy: $(STAMP)
+	$(PY) benchmarks/energy_check.py
 
 STUDIES := sensitivity_pareto idler_placement basis_order spring_catalogue
 .PHONY: $(addprefix study-,$(STUDIES))
