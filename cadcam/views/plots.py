@@ -45,13 +45,16 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
                         color=col, lw=2.5, alpha=0.5)
             t = np.linspace(0, 2 * np.pi, 100)
             for centre, radius in mech.circles(th, unit.z[:, k], c):
-                ax.plot(MM * (centre[0] + radius * np.cos(t)), MM * (centre[1] + radius * np.sin(t)),
-                        color=col, lw=0.8, ls="--")
+                if radius > 0:
+                    ax.plot(MM * (centre[0] + radius * np.cos(t)), MM * (centre[1] + radius * np.sin(t)),
+                            color=col, lw=0.8, ls="--")
+                else:  # a point (zero-radius idler): mark it
+                    ax.plot(*(MM * np.asarray(centre)), "o", color=col, ms=5, mfc="none")
         ax.plot(0, 0, "k+")
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-        ax.set_title(f"{mech.name}: profile (thick: wrapped cable), idlers dashed")
+        ax.set_title(f"{mech.name}: profile (thick: wrapped cable), idlers dashed, points ○")
         ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     _save(fig, path)
