@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from .design import Design
+from .mechanisms.anchored_pulley import AnchoredPulley
+from .synthesis.kim_deshpande import closed_form, fit_profile
 from .check.evaluate import evaluate
 from .problem import Problem
 from .result import Result
@@ -27,6 +29,68 @@ def default_start(problem: Problem) -> Design:
             bases.append(prof.basis)
             coefs.append(prof.basis.from_monomial(m))
     return Design(bases, coefs, _preextensions(problem, lambda s: 0.1 * s.travel))
+
+
+def closed_form_start(problem: Problem, shares=None, samples: int = 400) -> Design:
+    """A start from Kim & Deshpande's closed form (Ludovico2021 Sec. II): each anchored-spring
+    pulley shaped for its share of its joint's torque, fitted in its basis; other profiles
+    start as in :func:`default_start`.
+
+    Parameters
+    ----------
+    problem : Problem
+        Every anchored pulley needs a spring of its own on its ``cable`` port; its fixed
+        pre-extension (else 10 % of travel) is the extension u₀ at its reference angle.
+    shares : dict, optional
+        Mechanism index → callable θ [rad] → that pulley's torque ∂V_u/∂θ [N·m] (cadcam's
+        sign); by default a pulley alone on its joint takes the joint's whole target (a target
+        of that joint's angle only).
+    samples : int
+        Joint angles at which the closed form is evaluated and fitted.
+
+    Returns
+    -------
+    Design
+        The fitted profiles; where the closed form is infeasible (a cusp, a non-regular point)
+        the fit is only a start, which the NLP then corrects.
+    """
+    start = default_start(problem)
+    coefs = list(start.coefficients)
+    slices = problem.profile_slices()
+    for u, mech in enumerate(problem.mechanisms):
+        if not isinstance(mech, AnchoredPulley):
+            continue
+        joint = problem.joints[mech.joint]
+        share = (shares or {}).get(u)
+        if share is None:
+            if sum(m.joint == mech.joint for m in problem.mechanisms) > 1:
+                raise ValueError(f"mechanism {mech.name!r} shares its joint: give its torque share")
+            target = joint.target.function(1, 0)
+            share = lambda th, f=target: np.asarray(f.map(np.size(th))(np.ravel(th))).reshape(np.shape(th))  # noqa: E731
+        (j,) = [j for j, s in enumerate(problem.springs) if [(p.mechanism, p.name) for p in s.ports] == [(u, "cable")]]
+        spring = problem.springs[j]
+        u0 = spring.preextension if spring.preextension is not None else 0.1 * spring.travel
+        ell, chi0, sigma = mech.parameter_values()[:3]
+        theta = np.linspace(*joint.theta_range, samples)
+        form = closed_form(lambda th, f=share: sigma * f(th), theta, mech.reference_angle,
+                           spring.rate, u0, ell, spring.preload, chi0)
+        k = slices[u].start
+        coefs[k] = fit_profile(problem.profiles[k].basis, *_uniform_polar(form.envelope, samples))
+    return Design(start.bases, coefs, start.preextension)
+
+
+def _uniform_polar(env, samples: int):
+    """The envelope's polar samples (φ, ρ) resampled uniformly in φ (the departure point can
+    sweep fast where the moment arm changes fast), continued linearly down to the anchor
+    φ = 0 (a convex continuation: ρ″ = 0)."""
+    order = np.argsort(env.phi_polar)
+    phi, rho = env.phi_polar[order], env.rho[order]
+    lo = max(phi[0], 0.0)
+    grid = np.linspace(lo, phi[-1], samples)
+    values = np.interp(grid, phi, rho)
+    slope = (values[1] - values[0]) / (grid[1] - grid[0])
+    head = np.linspace(0.0, lo, max(int(samples * lo / (phi[-1] - lo + 1e-12)), 2), endpoint=False)
+    return np.concatenate([head, grid]), np.concatenate([values[0] + slope * (head - lo), values])
 
 
 def _preextensions(problem: Problem, free) -> np.ndarray:

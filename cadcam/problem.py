@@ -15,6 +15,10 @@ from .physics.springs import Network, Spring
 from .targets import Target
 
 
+#: Tracking objectives of the NLP (:attr:`Options.objective`).
+OBJECTIVES = ("least_squares", "minimax")
+
+
 @dataclass(frozen=True)
 class Options:
     """Transcription and solver options.
@@ -42,6 +46,10 @@ class Options:
         IPOPT tolerance.
     recheck_factor : int
         The re-check grid is this many times finer than the design grid.
+    objective : str
+        ``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47);
+        ``minimax``: the largest |τ − τ_d| over the grid, by an epigraph variable per joint
+        (for problems whose joint torques and targets each depend on their own joint's angle).
     """
 
     grid: int = 46
@@ -54,6 +62,7 @@ class Options:
     max_iter: int = 500
     tol: float = 1e-8
     recheck_factor: int = 10
+    objective: str = "least_squares"
 
 
 @dataclass(frozen=True)
@@ -158,7 +167,10 @@ class Problem:
             mechanisms.append({
                 "kind": m.kind, "name": m.name, "joint": m.joint + 1,
                 "basis": prof.basis.name, "order": prof.basis.order,
-                "rho_min": prof.rho_min, "rho_max": prof.rho_max, **m.spec_fields()})
+                "rho_min": prof.rho_min, "rho_max": prof.rho_max,
+                **({"min_curvature_radius": prof.min_curvature_radius}
+                   if prof.min_curvature_radius > 0 else {}),
+                **m.spec_fields()})
         return {
             "name": self.name, "source": self.source, "notes": self.notes,
             "torque_model": self.torque_model,

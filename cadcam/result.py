@@ -68,8 +68,9 @@ def target_samples(ev: Evaluation) -> list[list[list[float]]]:
 
 def citations(problem) -> list[dict]:
     """The papers a result rests on: Johnston2023 (the objective, Eq. 46/47), each mechanism's
-    own, and Endo2010 (Eq. 3–8) for an arm's gravity torques by the transposed Jacobian."""
-    tags = ["Johnston2023"] + [m.citation for m in problem.mechanisms if m.citation]
-    if any(j.target.kind == "arm" for j in problem.joints):
+    own, and Endo2010 (Eq. 3–8) for an arm's (or its five-bar arm's) gravity torques by the
+    transposed Jacobian."""
+    tags = ["Johnston2023"] + [t for m in problem.mechanisms for t in m.citations()]
+    if any(j.target.kind in ("arm", "five_bar") for j in problem.joints):
         tags.append("Endo2010")
     return cited(tags)

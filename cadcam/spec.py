@@ -20,7 +20,7 @@ from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profi
                               mechanism_class, mechanism_kinds)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
-from .problem import Joint, Options, Problem
+from .problem import OBJECTIVES, Joint, Options, Problem
 from .targets import ExpressionError, Target, read_table
 
 _REQUIRED = object()
@@ -105,8 +105,25 @@ def _arm(r: _Reader, n_cams: int) -> dict:
     return arm
 
 
+def _five_bar(r: _Reader, n_cams: int) -> dict:
+    """A ``five_bar`` target (Endo2010 Sec. III): joint, six masses, upper, crank, fore, com, g."""
+    if n_cams != 2:
+        r.fail(r.key("kind"), "five_bar", f"a five_bar target only in a problem of 2 joints "
+               f"(theta1 = link 1, theta2 = crank); this one has {n_cams}")
+    return {"joint": r.get("joint", lambda v: _posint(v) and v <= 2,
+                           "1 (link 1, theta1) or 2 (crank, theta2)"),
+            "masses": [float(v) for v in r.get("masses", _list_of(_positive, 6),
+                                               "a list of 6 positive point masses m1…m6 [kg]")],
+            "upper": float(r.get("upper", _positive, "a positive upper-arm length l_u [m]")),
+            "crank": float(r.get("crank", _positive, "a positive crank length l_c [m]")),
+            "fore": float(r.get("fore", _nonneg, "a forearm length l_a ≥ 0, elbow to tip [m]")),
+            "com": [float(v) for v in r.get("com", _list_of(_nonneg, 4),
+                                            "a list [l1, l2, l3, l5] of 4 distances ≥ 0 [m]")],
+            "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
+
+
 def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
-    kinds = ("expression", "pendulum", "table", "arm")
+    kinds = ("expression", "pendulum", "table", "arm", "five_bar")
     kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
     if kind == "expression":
         data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
@@ -126,6 +143,8 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
         joint = r.get("joint", lambda v: _posint(v) and v <= len(arm["masses"]),
                       f"a joint number between 1 and {len(arm['masses'])}")
         data = {"joint": joint, **arm}
+    elif kind == "five_bar":
+        data = _five_bar(r, n_cams)
     else:
         if "samples" in r.table:
             samples = r.get("samples", lambda v: _list_of(_list_of(_number, 2))(v) and len(v) >= 4
@@ -216,6 +235,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         tol=sol.get("tol", _positive, "a positive number", 1e-8),
         recheck_factor=sol.get("recheck_factor", lambda v: _posint(v) and v >= 2,
                                "an integer ≥ 2", 10),
+        objective=sol.get("objective", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
+                          "least_squares"),
     )
     sol.done()
 
@@ -290,9 +311,12 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict]):
     rho_max = float(r.get("rho_max", _positive, "a positive maximum profile radius [m]"))
     if rho_min >= rho_max:
         r.fail(r.key("rho_max"), rho_max, f"a radius greater than rho_min = {rho_min} [m]")
-    domain = cls.profile_domain(joints[joint]["theta_range"])
-    profile = Profile(name, Basis(basis_name, order, domain), rho_min, rho_max)
-    mech = cls.from_spec(r, name=name, joint=joint, profiles=(profile,))
+    curvature = float(r.get("min_curvature_radius", _nonneg,
+                            "a minimum radius of curvature ≥ 0 of the profile [m]", 0.0))
+    theta_range = joints[joint]["theta_range"]
+    domain = cls.profile_domain(theta_range)
+    profile = Profile(name, Basis(basis_name, order, domain), rho_min, rho_max, curvature)
+    mech = cls.from_spec(r, name=name, joint=joint, profiles=(profile,), theta_range=theta_range)
     r.done()
     return mech
 

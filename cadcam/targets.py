@@ -113,6 +113,79 @@ def serial_arm_torques(thetas, masses, lengths, com, g):
     return [tau[i] for i in range(q.shape[0])]
 
 
+FIVE_BAR_LENGTHS = ("upper", "crank", "fore", "com")
+
+
+def five_bar_torques(theta1, theta2, masses, lengths, g):
+    """Gravity-balancing torques [N·m] of Endo2010's parallel five-bar arm (Sec. III, Fig. 7).
+
+    Geometry (x forwards, y up; angles [rad] from the upward vertical, positive towards +x,
+    both measured at the base O as in Endo2010 Eq. 4), with u(θ) = (sin θ, cos θ):
+
+    * link 1 (upper arm, length l_u) from O at θ1 to the elbow E = l_u u(θ1);
+    * the crank (link 2, length l_c) from O at θ2 to C = l_c u(θ2);
+    * the coupler from C parallel to link 1 to D = C + l_u u(θ1);
+    * the forearm, rigid through D and E and so parallel to the crank, carries the tip
+      T = E − l_a u(θ2) beyond the elbow (Endo2010 Eq. 4:
+      p6 = (l_u sin θ1 − l_a sin θ2, l_u cos θ1 − l_a cos θ2)).
+
+    Six point masses model the links (Endo2010 Fig. 7, "six-point-mass system"):
+    p1 = l1 u(θ1) on link 1; p2 = l2 u(θ2) on the crank; p3 = C + l3 u(θ1) on the coupler;
+    p4 = E at the elbow; p5 = E + l5 u(θ2) on the forearm's rear part (from E towards D);
+    p6 = T at the tip.
+
+    With F_k = (0, −m_k g) and J_k = ∂p_k/∂(θ1, θ2) (Endo2010 Eq. 5), τ = Σ_k J_kᵀ F_k
+    (Endo2010 Eq. 3, 6–7) is the generalised force of gravity, i.e. −∂V/∂θ with
+    V = g Σ m_k y_k, the torque a balancer must supply (the convention of
+    :func:`serial_arm_torques`). Summed, it takes the form of Endo2010 Eq. 8, each joint's
+    torque depending on its own angle only::
+
+        τ1 = g (m1 l1 + m3 l3 + (m4 + m5 + m6) l_u) sin θ1
+        τ2 = g (m2 l2 + m3 l_c + m5 l5 − m6 l_a) sin θ2
+
+    (positive coefficient: an inverted pendulum; negative: an ordinary one).
+
+    Parameters
+    ----------
+    theta1, theta2 : float or casadi.SX or casadi.MX
+        Angles of link 1 and of the crank [rad].
+    masses : sequence of 6 float
+        m1 … m6 [kg].
+    lengths : mapping
+        ``upper`` l_u, ``crank`` l_c, ``fore`` l_a [m] and ``com`` = [l1, l2, l3, l5] [m].
+    g : float
+        Gravity [m/s²].
+
+    Returns
+    -------
+    list
+        [τ1, τ2] [N·m], of the angles' CasADi type (DM for numbers).
+    """
+    m = [float(v) for v in masses]
+    if len(m) != 6:
+        raise ValueError(f"five_bar_torques needs 6 masses, got {len(m)}")
+    l_u, l_c, l_a = (float(lengths[k]) for k in ("upper", "crank", "fore"))
+    l1, l2, l3, l5 = (float(v) for v in lengths["com"])
+    q = ca.SX.sym("q", 2)
+
+    def u(t):
+        return ca.vertcat(ca.sin(t), ca.cos(t))
+
+    elbow, crank_end = l_u * u(q[0]), l_c * u(q[1])
+    points = [l1 * u(q[0]),                 # m1 on link 1
+              l2 * u(q[1]),                 # m2 on the crank
+              crank_end + l3 * u(q[0]),     # m3 on the coupler
+              elbow,                        # m4 at the elbow
+              elbow + l5 * u(q[1]),         # m5 on the forearm's rear part
+              elbow - l_a * u(q[1])]        # m6 at the tip, Endo2010 Eq. 4
+    tau = ca.SX.zeros(2)
+    for m_k, p_k in zip(m, points):
+        J_k = ca.jacobian(p_k, q)  # Endo2010 Eq. 5
+        tau = tau + ca.mtimes(J_k.T, ca.vertcat(0, -m_k * g))  # Endo2010 Eq. 3, 6–7
+    out = ca.Function("five_bar_torques", [q], [tau])(ca.vertcat(theta1, theta2))
+    return [out[0], out[1]]  # Endo2010 Eq. 8
+
+
 @dataclass
 class Target:
     """A target torque τ_d [N·m] for one cam.
@@ -122,7 +195,10 @@ class Target:
     mass, ``g`` [m/s²], ``phase`` [rad]) or ``table`` (``samples`` of (θ [rad], τ [N·m]),
     interpolated by a cubic B-spline in the cam's own angle) or ``arm`` (joint ``joint``'s
     gravity torque of a planar serial arm with ``masses`` [kg], ``lengths`` [m], ``com`` [m]
-    and ``g``, the cam angles being the joint angles; see :func:`serial_arm_torques`).
+    and ``g``, the cam angles being the joint angles; see :func:`serial_arm_torques`) or
+    ``five_bar`` (joint ``joint``'s gravity torque of Endo2010's parallel five-bar arm with
+    six ``masses`` [kg], lengths ``upper``, ``crank``, ``fore`` and ``com`` = [l1, l2, l3, l5]
+    [m] and ``g``; cam angles θ1 (link 1) and θ2 (crank); see :func:`five_bar_torques`).
     """
 
     kind: str
@@ -141,6 +217,11 @@ class Target:
             d = self.data
             joints = serial_arm_torques(thetas[:len(d["masses"])], d["masses"], d["lengths"],
                                         d["com"], d["g"])
+            return joints[d["joint"] - 1]
+        if self.kind == "five_bar":
+            d = self.data
+            joints = five_bar_torques(thetas[0], thetas[1], d["masses"],
+                                      {k: d[k] for k in FIVE_BAR_LENGTHS}, d["g"])
             return joints[d["joint"] - 1]
         if self.kind == "table":
             s = np.asarray(self.data["samples"], dtype=float)

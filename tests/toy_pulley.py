@@ -120,7 +120,7 @@ class ToyPulley(Mechanism):
         return [(np.array([self.anchor_x, self.anchor_y]), 0.0)]
 
     @classmethod
-    def from_spec(cls, reader, name, joint, profiles):
+    def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
         form = "[ax, ay]: the fixed point the cable runs to [m], outside rho_max"
         anchor = reader.get("anchor", lambda v: isinstance(v, list) and len(v) == 2
                             and all(reader.number(x) for x in v), form)

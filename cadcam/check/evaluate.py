@@ -14,7 +14,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..design import Design
-from ..mechanisms.base import departure_solver, port_function, split_coefficients
+from ..mechanisms.base import departure_solver, margin_function, port_function, split_coefficients
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import length_function
@@ -34,7 +34,8 @@ class UnitSamples:
 
     ``z`` (unknowns × n) are the departure unknowns, ``z_ref`` those at the reference pose,
     ``d`` and ``arm`` (ports × n) the port displacements [m] and moment arms [m] of the
-    problem's torque model.
+    problem's torque model, ``margins`` (the mechanism's margin_names × n) its per-pose limits
+    [m], ≥ 0 when met.
     """
 
     theta: np.ndarray
@@ -44,6 +45,7 @@ class UnitSamples:
     branch: np.ndarray
     d: np.ndarray
     arm: np.ndarray
+    margins: np.ndarray
 
 
 @dataclass
@@ -60,6 +62,7 @@ class ProfileSamples:
     convexity_min: float
     rho_lo: float
     rho_hi: float
+    curvature_radius_min: float  # smallest radius of curvature over the scan [m]
 
 
 @dataclass
@@ -99,11 +102,13 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     """Dense samples of ρ and the convexity margin on [0, phi_hi], with refined minima."""
     prof = profile_function(basis)
     phi = np.linspace(0.0, phi_hi, n)
-    rho, _, _, conv = (np.asarray(v).ravel() for v in prof.map(n)(phi, c))
+    rho, drho, _, conv = (np.asarray(v).ravel() for v in prof.map(n)(phi, c))
     conv_min = _refine_min(prof, c, phi, conv, 3)
     rho_lo = _refine_min(prof, c, phi, rho, 0)
     rho_hi = -_refine_min(prof, c, phi, -rho, 0, sign=-1.0)
-    return phi, rho, conv, conv_min, rho_lo, rho_hi
+    with np.errstate(divide="ignore", invalid="ignore"):  # 0 where not convex
+        curvature = np.where(conv > 0, (rho**2 + drho**2) ** 1.5 / conv, 0.0)
+    return phi, rho, conv, conv_min, rho_lo, rho_hi, float(np.min(curvature))
 
 
 def _refine_min(prof, c, phi, values, out_index, sign=1.0):
@@ -142,14 +147,16 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
                for k, (b, ck) in enumerate(zip(bases, pieces))]
     ports = port_function(structure, problem.torque_model, order, wire_arm).map(n)
     d, arm, _, branch = (np.asarray(v) for v in ports(theta, z[:, 1:], z[:, 0], np.vstack(wrapped), c, q))
+    margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
-                       branch.ravel(), d.reshape(-1, n), arm.reshape(-1, n))
+                       branch.ravel(), d.reshape(-1, n), arm.reshape(-1, n),
+                       margins.reshape(-1, n))
     profiles = []
     for k, (b, ck) in enumerate(zip(bases, pieces)):
         # the wrapped range; where the departure failed (NaN), the whole design interval
         phi_hi = float(np.max(z[k])) if np.all(np.isfinite(z[k])) else b.domain[1]
         scan = (_profile_extremes(b, ck, phi_hi, max(20 * n, 2000)) if profile
-                else (np.array([]), np.array([]), np.array([]), np.nan, np.nan, np.nan))
+                else (np.array([]), np.array([]), np.array([]), np.nan, np.nan, np.nan, np.nan))
         profiles.append(ProfileSamples(theta, z[k, 1:], float(z[k, 0]), *scan))
     return unit, profiles
 
@@ -227,17 +234,27 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
         "tangency": [float(RESIDUAL_TOL - u.residual.max()) for u in ev.units],
         "branch": [float(BRANCH_TOL - u.branch.max()) for u in ev.units],
         "preextension": ev.design.preextension.tolist(),
+        "curvature_radius": [c.curvature_radius_min - pc.min_curvature_radius
+                             for c, pc in zip(ev.profiles, p.profiles)],
+        "mechanism": [{name: float(row.min()) for name, row in zip(mech.margin_names, u.margins)}
+                      for mech, u in zip(p.mechanisms, ev.units)],
     }
     tol = {"travel": LENGTH_TOL, "extension_lower": LENGTH_TOL, "convexity": 0.0,
            "rho_min": LENGTH_TOL, "rho_max": LENGTH_TOL, "tangency": 0.0, "branch": 0.0,
-           "preextension": LENGTH_TOL}
+           "preextension": LENGTH_TOL, "curvature_radius": LENGTH_TOL}
     names = {"travel": "spring above its travel", "extension_lower": "spring in compression",
              "convexity": "profile not convex", "rho_min": "radius below rho_min",
              "rho_max": "radius above rho_max", "tangency": "departure not solved",
              "branch": "cable on the wrong departure branch",
-             "preextension": "negative pre-extension"}
+             "preextension": "negative pre-extension",
+             "curvature_radius": "radius of curvature below its minimum"}
     violations = []
+    for mech, own in zip(p.mechanisms, margins["mechanism"]):
+        violations += [f"{name.replace('_', ' ')} below its limit: {mech.name} (margin {v:.3g})"
+                       for name, v in own.items() if not v >= -LENGTH_TOL]
     for key, vals in margins.items():
+        if key == "mechanism":
+            continue
         owner = (p.springs if key in ("travel", "extension_lower", "preextension")
                  else p.mechanisms if key in ("tangency", "branch") else p.profiles)
         for item, v in zip(owner, vals):
@@ -252,6 +269,7 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
         "convexity_min": margins["convexity"],
         "rho_min": [c.rho_lo for c in ev.profiles],
         "rho_max": [c.rho_hi for c in ev.profiles],
+        "curvature_radius_min": [c.curvature_radius_min for c in ev.profiles],
         "alpha_max": [float(c.alpha.max()) for c in ev.profiles],
         "tangency_residual_max": float(max(u.residual.max() for u in ev.units)),
         "sensitivity_integral": sens.tolist(),

@@ -49,12 +49,14 @@ def mechanism_kinds() -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class Profile:
-    """One designed profile ρ(φ) of a mechanism, with its radius limits [m]."""
+    """One designed profile ρ(φ) of a mechanism, with its radius and curvature limits [m]."""
 
     name: str
     basis: Basis
     rho_min: float
     rho_max: float
+    #: Smallest radius of curvature allowed over the wrapped range [m] (0: convex only).
+    min_curvature_radius: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -77,6 +79,10 @@ class Mechanism:
     #: Unit of each residual row: "m" rows are scaled to millimetres in the NLP, "" rows are
     #: dimensionless.
     residual_units: ClassVar[tuple[str, ...]] = ()
+    #: Bounds (lo, hi) of each unknown in the NLP; empty: unbounded.
+    unknown_bounds: ClassVar[tuple[tuple[float, float], ...]] = ()
+    #: Names of the per-pose limits :meth:`margins` returns (each ≥ 0 when met) [m].
+    margin_names: ClassVar[tuple[str, ...]] = ()
     parameter_names: ClassVar[tuple[str, ...]] = ()
     force_models: ClassVar[tuple[str, ...]] = ()
     #: Joint angle [rad] at which the port displacements are zero.
@@ -108,6 +114,20 @@ class Mechanism:
         :attr:`force_models`."""
         raise NotImplementedError
 
+    @classmethod
+    def margins(cls, bases, theta, z, c, q, arm):
+        """Per-pose limits of the mechanism (a column of len(:attr:`margin_names`), [m]), each
+        ≥ 0 when met, given the port arms ``arm`` [m]; imposed by the NLP at every grid angle
+        and checked by the re-check."""
+        return ca.SX(0, 1)
+
+    @classmethod
+    def wrap_end(cls, first, last, q):
+        """Each profile's departure angle at the most-wound end of the joint range, from the
+        values at the ``first`` and ``last`` grid angles: convexity and ρ limits hold over
+        [0, wrap_end]. Default: the cable winds on as θ grows."""
+        return last
+
     @staticmethod
     def profile_rotation(theta):
         """World angle of the profile's polar axis at joint angle θ [rad]: −θ for a profile that
@@ -121,6 +141,16 @@ class Mechanism:
         departure angle α ≤ θ_max + π/2 (Johnston2023's cam; a mechanism may override)."""
         return (0.0, theta_range[1] + np.pi / 2)
 
+    def world_points(self, theta, phi, rho):
+        """World coordinates [m] of profile points at polar angles ``phi`` [rad] and radii
+        ``rho`` [m] at joint angle ``theta`` [rad] (for pictures and outlines)."""
+        ang = np.asarray(phi) + self.profile_rotation(theta)
+        return rho * np.cos(ang), rho * np.sin(ang)
+
+    def segments(self, theta: float, z: np.ndarray, c: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Straight cable spans (start, end) [m] to draw at the pose θ."""
+        return []
+
     def start_radius(self, profile: Profile) -> float:
         """Radius of a feasible circular starting profile [m]."""
         return 1.2 * profile.rho_min
@@ -131,9 +161,10 @@ class Mechanism:
         return []
 
     @classmethod
-    def from_spec(cls, reader, name: str, joint: int, profiles) -> "Mechanism":
+    def from_spec(cls, reader, name: str, joint: int, profiles, theta_range=(0.0, 0.0)) -> "Mechanism":
         """Read the mechanism's own keys from its spec table (``reader.get(key, ok, form,
-        default)``, ``reader.table_reader(key, form)``)."""
+        default)``, ``reader.table_reader(key, form)``); ``theta_range`` [rad] is its joint's
+        range."""
         return cls(name=name, joint=joint, profiles=profiles)
 
     def spec_fields(self) -> dict:
@@ -148,6 +179,10 @@ class Mechanism:
     def structure(self):
         """What the symbolic functions of this mechanism depend on (its class and bases)."""
         return type(self), self.bases
+
+    def citations(self) -> tuple[str, ...]:
+        """Tags of the papers this mechanism rests on (cadcam.citations.PAPERS)."""
+        return (self.citation,) if self.citation else ()
 
     def check_torque_model(self, model: str) -> str:
         """``model`` if this mechanism can compute it, else ValueError naming what it can."""
@@ -249,6 +284,16 @@ def port_function(structure, model: str, order: int, wire_arm: str = "closed-for
     R, branch = residual_function(structure)(theta, z, c, q)
     return ca.Function("ports", [theta, z, z_ref, wrapped, c, q], [d, arm, R, branch],
                        ["theta", "z", "z_ref", "wrapped", "c", "q"], ["d", "arm", "R", "branch_error"])
+
+
+@lru_cache(maxsize=64)
+def margin_function(structure) -> ca.Function:
+    """``margins(theta, z, c, q, arm) -> m``: the mechanism's per-pose limits [m]."""
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    arm = ca.SX.sym("arm", len(cls.ports))
+    return ca.Function("margins", [theta, z, c, q, arm], [cls.margins(bases, theta, z, c, q, arm)],
+                       ["theta", "z", "c", "q", "arm"], ["m"])
 
 
 class DepartureSolver:

@@ -109,7 +109,7 @@ class WireCam(Mechanism):
         return [(np.array([qx, self.idler_offset]), self.idler_radius)]
 
     @classmethod
-    def from_spec(cls, reader, name, joint, profiles):
+    def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
         idler = reader.table_reader("idler", "a table with radius and offset [m]")
         radius = float(idler.get("radius", reader.positive, "a positive idler radius [m]"))
         offset = float(idler.get("offset", reader.number, "the idler's vertical offset a0 [m]"))

@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 
 from ..design import Design
-from ..mechanisms.base import port_function, residual_function, split_coefficients
+from ..mechanisms.base import margin_function, port_function, residual_function, split_coefficients
 from ..physics.profile import profile_function
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.wrap import length_function, segment_lengths
@@ -126,6 +126,8 @@ class Transcription:
         for i in range(m):
             for name, size in (("theta", n), ("weights", 1), ("wsens", S), ("rt", n), ("td2", 1)):
                 p.add(f"{name}{i}", size)
+            if opt.objective == "minimax":
+                p.add(f"td{i}", n)
             for c in range(m):
                 if c != i:
                     p.add(f"Mt{i}_{c}", n * n)
@@ -182,17 +184,25 @@ class Transcription:
             res_ref = residual_function(structure)(mech.reference_angle, ref, c, q)[0]
             for r, unit in enumerate(mech.residual_units):  # the mechanism's R = 0 everywhere
                 constrain(ca.vertcat(res[r, :].T, res_ref[r]) / (L if unit == "m" else 1.0), zero)
-            # convexity and ρ bounds over each wrapped range [0, α(θ_max)] (Johnston2023 Eq. 40)
+            # convexity and ρ bounds over each wrapped range [0, α(most wound)] (Johnston2023
+            # Eq. 40), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
             M = opt.convexity_points
             for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
-                phi = Z[k, n - 1] * ca.DM(np.linspace(0, 1, M)).T
-                rho, _, _, conv = profile_function(b).map(M)(phi, ck)
+                phi = mech.wrap_end(Z[k, 0], Z[k, n - 1], q) * ca.DM(np.linspace(0, 1, M)).T
+                rho, drho, _, conv = profile_function(b).map(M)(phi, ck)
                 pk = sl.start + k
                 constrain(conv.T / L**2, lambda pr, pk=pk: (
                     pr.options.convexity_epsilon * (pr.profiles[pk].rho_min / L) ** 2, np.inf))
                 constrain(rho.T / L, lambda pr, pk=pk: (
                     pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
                     pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
+                if mech.profiles[k].min_curvature_radius > 0:
+                    rc = p.add(f"rc{pk}", 1)
+                    constrain(((rho**2 + drho**2) ** 1.5 - rc * conv).T / L**3,
+                              lambda pr: (0.0, np.inf))
+            if mech.margin_names:  # the mechanism's own per-pose limits (moment arm, span…)
+                marg = margin_function(structure).map(n)(theta.T, Z, c, q, au)
+                constrain(ca.vec(marg.T) / L, lambda pr: (0.0, np.inf))
             d[i] += [du[r, :].T for r in range(du.shape[0])]
             arm[i] += [au[r, :].T for r in range(au.shape[0])]
         w = [trapezoid_weights_sx(p[f"theta{i}"]).T for i in range(m)]
@@ -227,6 +237,16 @@ class Transcription:
         objective = 0
         for i in range(m):  # Johnston2023 Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
             U, V = terms[i]
+            if opt.objective == "minimax":  # max |τ_i − τ_d,i| over the grid: an epigraph t_i
+                if V:
+                    raise ValueError(f"objective 'minimax' needs joint torques that each depend "
+                                     f"on their own joint's angle; {problem.joints[i].name!r} is "
+                                     f"coupled to other joints by a spring: use 'least_squares'")
+                t = v.add(f"t{i}", 1)
+                err = (U - p[f"td{i}"]) / TORQUE_SCALE
+                constrain(ca.vertcat(t - err, t + err), lambda pr: (0.0, np.inf))
+                objective += p[f"weights{i}"] * TORQUE_SCALE * t
+                continue
             mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
             objective += p[f"weights{i}"] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
                                                            p[f"td2{i}"], lift)
@@ -292,9 +312,25 @@ class Transcription:
                     p.put(vec, f"Mt{i}_{cc}", marg.ravel(order="F"))
         for u, mech in enumerate(problem.mechanisms):
             p.put(vec, f"q{u}", mech.parameter_values())
+        for pk, prof in enumerate(problem.profiles):
+            if f"rc{pk}" in p.blocks:
+                p.put(vec, f"rc{pk}", prof.min_curvature_radius * (1 + problem.options.limit_margin))
         p.put(vec, "k", [s.rate for s in problem.springs])
         p.put(vec, "F0", [s.preload for s in problem.springs])
-        p.put(vec, "obj_scale", OBJECTIVE_SCALE / energy if energy > 0 else 1.0)
+        if problem.options.objective == "minimax":
+            scale = 0.0
+            for i, c in enumerate(problem.joints):
+                td = np.asarray(c.target.function(m, i).map(self.N)(theta)).reshape((n,) * m)
+                own = np.moveaxis(td, i, 0).reshape(n, -1)
+                if np.ptp(own, axis=1).max() > 1e-9 * (1 + np.abs(td).max()):
+                    raise ValueError(f"objective 'minimax' needs each target to depend on its own "
+                                     f"joint's angle only; {c.name!r}'s depends on the others: "
+                                     f"use 'least_squares'")
+                p.put(vec, f"td{i}", own[:, 0])
+                scale += c.tracking_weight * np.sqrt(np.mean(td**2))
+            p.put(vec, "obj_scale", OBJECTIVE_SCALE / scale if scale > 0 else 1.0)
+        else:
+            p.put(vec, "obj_scale", OBJECTIVE_SCALE / energy if energy > 0 else 1.0)
         return vec
 
     def bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
@@ -304,12 +340,18 @@ class Transcription:
         return np.concatenate(lo), np.concatenate(hi)
 
     def variable_bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
-        """Bounds of the NLP variables: x₀ ≥ 0 (Johnston2023 Eq. 46) or fixed where a spring
-        gives its pre-extension, s± ≥ 0."""
+        """Bounds of the NLP variables: the mechanisms' bounds on their unknowns, x₀ ≥ 0
+        (Johnston2023 Eq. 46) or fixed where a spring gives its pre-extension, s± ≥ 0."""
         v = self.v
         lbx, ubx = np.full(v.size, -np.inf), np.full(v.size, np.inf)
         fixed = np.array([np.nan if s.preextension is None else s.preextension / LENGTH_SCALE
                           for s in problem.springs])
+        for u, mech in enumerate(problem.mechanisms):  # the mechanisms' bounds on unknowns
+            for r, (lo, hi) in enumerate(mech.unknown_bounds):
+                v.put(lbx, f"z{u}_{mech.unknowns[r]}", lo)
+                v.put(ubx, f"z{u}_{mech.unknowns[r]}", hi)
+                a = v.blocks[f"ref{u}"][0] + r
+                lbx[a], ubx[a] = lo, hi
         v.put(lbx, "x0", np.where(np.isnan(fixed), 0.0, fixed))
         v.put(ubx, "x0", np.where(np.isnan(fixed), np.inf, fixed))
         for i, j in self.pairs:
@@ -401,9 +443,13 @@ def _per_joint(problem: Problem, samples, field: str) -> list[list[np.ndarray]]:
 
 
 def _travel(problem: Problem, j: int) -> tuple[float, float]:
-    """Bounds of spring j's extension [mm] with the limit margin kept in reserve."""
-    travel, margin = problem.springs[j].travel, problem.options.limit_margin
-    return margin * travel / LENGTH_SCALE, (1 - margin) * travel / LENGTH_SCALE
+    """Bounds of spring j's extension [mm] with the limit margin kept in reserve (below a
+    fixed pre-extension only down to it: the extension equals it at the reference pose)."""
+    spring, margin = problem.springs[j], problem.options.limit_margin
+    lo = margin * spring.travel
+    if spring.preextension is not None:
+        lo = min(lo, spring.preextension)
+    return lo / LENGTH_SCALE, (1 - margin) * spring.travel / LENGTH_SCALE
 
 
 def _squared_error(U, V, e, w, span, i, rt, mt, td2, lift):

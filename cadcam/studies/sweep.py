@@ -56,6 +56,7 @@ def structure_key(problem) -> str:
     o = problem.options
     return json.dumps([
         problem.torque_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
+        o.objective, [p.min_curvature_radius > 0 for p in problem.profiles],
         [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights]] for c in problem.joints],
         [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
          for m in problem.mechanisms],

@@ -22,7 +22,8 @@ def _save(fig, path):
 
 def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
     """Each mechanism in the world frame at a few joint angles: its profiles (thick where the
-    cable is wrapped) and what it asks to draw (idlers) [mm]."""
+    cable is wrapped, the anchor marked) and what it asks to draw (idlers, points, free cable
+    spans) [mm]."""
     problem = ev.problem
     m = len(problem.mechanisms)
     fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 5.2), squeeze=False)
@@ -37,12 +38,15 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
                 phi = np.linspace(0, ps.phi[-1], 400)
                 rho = np.asarray(profile_function(ev.design.bases[p]).map(phi.size)(
                     phi, ev.design.coefficients[p])[0]).ravel()
-                ang = phi + mech.profile_rotation(th)
-                ax.plot(MM * rho * np.cos(ang), MM * rho * np.sin(ang), color=col,
+                x, y = mech.world_points(th, phi, rho)
+                ax.plot(MM * x, MM * y, color=col,
                         label=f"θ = {np.degrees(th):.0f}°" if p == sl.start else None)
                 mask = phi <= ps.alpha[k]
-                ax.plot(MM * rho[mask] * np.cos(ang[mask]), MM * rho[mask] * np.sin(ang[mask]),
-                        color=col, lw=2.5, alpha=0.5)
+                ax.plot(MM * x[mask], MM * y[mask], color=col, lw=2.5, alpha=0.5)
+                ax.plot(*(MM * np.array(mech.world_points(th, 0.0, rho[0]))), "s", color=col, ms=4)
+            for start, end in mech.segments(th, unit.z[:, k], c):
+                ax.plot(MM * np.array([start[0], end[0]]), MM * np.array([start[1], end[1]]),
+                        color=col, lw=1.0)
             t = np.linspace(0, 2 * np.pi, 100)
             for centre, radius in mech.circles(th, unit.z[:, k], c):
                 if radius > 0:
@@ -54,7 +58,8 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-        ax.set_title(f"{mech.name}: profile (thick: wrapped cable), idlers dashed, points ○")
+        ax.set_title(f"{mech.name}: profile (thick: wrapped cable, ■ anchor), idlers dashed, "
+                     "points ○", fontsize=9)
         ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     _save(fig, path)

@@ -1,0 +1,260 @@
+"""The anchored-spring pulley: a cable anchored on a convex pulley, wound on it, leaving it
+tangentially towards the end of a spring in line with it (Ludovico2021 Sec. II after Kim &
+Deshpande; Endo2010 Sec. II).
+
+Which body turns with the joint is data:
+
+- ``turning = "pulley"`` (Endo2010 Fig. 2–3): the pulley is fixed to the arm link and turns by
+  ``sense``·θ; the spring end (Endo's P₀ at (a, b)) is fixed to the base;
+- ``turning = "spring_end"`` (Ludovico2021 Fig. 1): the pulley is fixed to ground; the spring is
+  attached to the link at R, at distance L from the joint, and turns by ``sense``·θ.
+
+The cable is anchored on the profile at φ = 0 and wound from there in the direction
+``winding`` ("ccw" or "cw", seen in the pulley's own frame); the pulley's polar axis φ = 0 lies
+at world angle ``anchor_angle`` when θ = 0. ``spring_end`` = (x, y) is the spring end's world
+position at θ = 0 [m]; the spring acts along the cable (zero-radius idler).
+
+Canonical frame. All equations are written in the pulley's frame, mirrored for a clockwise
+winding, so that the cable is always wound counter-clockwise (increasing φ). There the spring
+end sits at S(θ) = ℓ (cos χ, sin χ) with χ = χ₀ + σθ, where ℓ = |spring_end|, χ₀ = w(ψ₀ − anchor
+angle) (ψ₀ the polar angle of ``spring_end``, w = ±1 the winding) and σ = w·s·(−1 if the pulley
+turns else +1) (s = ``sense``). As σθ grows, S moves counter-clockwise around the pulley and
+winds cable on: the path from the anchor to S, and the spring's extension, grow.
+
+Port ``cable``: the change, from the reference angle θ_ref, of the path length from the anchor
+to S, i.e. the wrapped length plus the free span |S − p(α)| (a constant cable length, so the
+spring's extension changes by exactly that). Unknown: the departure angle α. Residual: the
+signed angle from the profile tangent at α to the cable S − p, atan2(t × u, t · u) — zero only on
+the tangent on which the cable leaves in its winding direction.
+
+Force model ``force``: F·r_m, the spring force times the distance from O to the cable line
+(Ludovico2021 Eq. 1, Endo2010 Eq. 1–2), the hand-derived form the energy torque is checked
+against (by virtual work they agree exactly: dd/dθ = σ r_m).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from ..physics.profile import profile_function
+from .base import Mechanism, register
+
+#: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
+GUESS_SWEEPS = 6
+#: Default wrap [rad] left on the pulley, at the least-wound pose, between the anchor and the
+#: departure point of the circular start (sets the default ``anchor_angle``).
+ANCHOR_WRAP = 0.3
+TURNING = ("pulley", "spring_end")
+WINDING = {"ccw": 1.0, "cw": -1.0}
+
+
+def _pose(bases, theta, alpha, c, q):
+    """Canonical-frame departure point p(α), tangent t = dp/dφ and u = S(θ) − p [m]."""
+    rho, drho, _, _ = profile_function(bases[0])(alpha, c)
+    ca_, sa = ca.cos(alpha), ca.sin(alpha)
+    px, py = rho * ca_, rho * sa
+    tx, ty = drho * ca_ - rho * sa, drho * sa + rho * ca_  # dp/dφ (Johnston2023 Eq. 3)
+    chi = q[1] + q[2] * theta
+    return (px, py), (tx, ty), (q[0] * ca.cos(chi) - px, q[0] * ca.sin(chi) - py)
+
+
+@register
+@dataclass(frozen=True)
+class AnchoredPulley(Mechanism):
+    """A pulley with its cable anchored on it and a spring in line with the cable.
+
+    Fields (SI): ``spring_end_x``, ``spring_end_y`` [m] the spring end's world position at θ = 0;
+    ``turning`` ("pulley" or "spring_end") the body that turns with the joint, by ``sense``·θ
+    (±1, counter-clockwise positive); ``winding`` ("ccw"/"cw") the cable's direction on the
+    pulley from its anchor; ``anchor_angle`` [rad] the world angle of the anchor direction φ = 0
+    at θ = 0; ``reference_angle`` [rad] the joint angle at which the spring's extension is its
+    pre-extension x₀; ``min_moment_arm`` [m] and ``min_free_span`` [m] lower limits of the
+    moment arm and of the straight cable between pulley and spring end; ``initial_radius`` [m]
+    the circular start's radius (0: the default of :meth:`start_radius`).
+    """
+
+    spring_end_x: float = 0.0
+    spring_end_y: float = 0.0
+    turning: str = "pulley"
+    sense: float = 1.0
+    winding: str = "ccw"
+    anchor_angle: float = 0.0
+    reference_angle: float = 0.0
+    min_moment_arm: float = 0.0
+    min_free_span: float = 0.0
+    initial_radius: float = 0.0
+
+    kind = "anchored_pulley"
+    citation = "Ludovico2021"
+    ports = ("cable",)
+    unknowns = ("alpha",)
+    unknown_units = ("rad",)
+    unknown_bounds = ((0.0, np.inf),)  # the cable never leaves before its anchor
+    residual_units = ("",)  # angle between tangent and cable [rad]
+    parameter_names = ("ell", "chi0", "sigma", "theta_ref", "min_moment_arm", "min_free_span")
+    force_models = ("force",)
+    margin_names = ("moment_arm", "free_span")
+
+    # -- derived numbers -------------------------------------------------------------------------
+    def citations(self) -> tuple[str, ...]:
+        """Ludovico2021 (Kim & Deshpande's pulley, the closed form), and Endo2010 for a pulley
+        turning with its link."""
+        return ("Ludovico2021", "Endo2010") if self.turning == "pulley" else ("Ludovico2021",)
+
+    @property
+    def sigma(self) -> float:
+        """σ = ±1: the canonical spring end turns by σθ around the pulley."""
+        turn = -1.0 if self.turning == "pulley" else 1.0
+        return WINDING[self.winding] * self.sense * turn
+
+    @property
+    def ell(self) -> float:
+        """Distance ℓ from the joint to the spring end [m]."""
+        return float(np.hypot(self.spring_end_x, self.spring_end_y))
+
+    def parameter_values(self) -> tuple[float, ...]:
+        w = WINDING[self.winding]
+        chi0 = w * (np.arctan2(self.spring_end_y, self.spring_end_x) - self.anchor_angle)
+        return (self.ell, float(chi0), self.sigma, float(self.reference_angle),
+                float(self.min_moment_arm), float(self.min_free_span))
+
+    # -- the symbolic model --------------------------------------------------------------------
+    @classmethod
+    def residual(cls, bases, theta, z, c, q):
+        _, (tx, ty), (ux, uy) = _pose(bases, theta, z[0], c, q)
+        cross, dot = tx * uy - ty * ux, tx * ux + ty * uy
+        cosine = dot / (ca.sqrt(tx**2 + ty**2) * ca.sqrt(ux**2 + uy**2))
+        return ca.atan2(cross, dot), ca.fmax(0, 1 - cosine) + ca.fmax(0, -z[0])
+
+    @classmethod
+    def guess(cls, bases, theta, c, q):
+        """Tangent from S to the pedal curve: the tangent line at α lies at distance
+        h = ρ²/√(ρ² + ρ′²) from O with outward normal at angle α − atan(ρ′/ρ); it passes through
+        S when that angle is χ − acos(h/ℓ). Iterated with ρ, ρ′ at α from α = χ − π/2 (where a
+        far spring end's tangent touches), so that a profile is never evaluated far outside
+        its wrapped range; exact for a circle."""
+        prof = profile_function(bases[0])
+        chi = q[1] + q[2] * theta
+        alpha = chi - ca.pi / 2  # the tangent point for a far spring end: inside the wrap
+        for _ in range(GUESS_SWEEPS):
+            rho, drho, _, _ = prof(alpha, c)
+            h = rho**2 / ca.sqrt(rho**2 + drho**2)
+            alpha = chi - ca.acos(ca.fmin(h / q[0], 1)) + ca.atan2(drho, rho)
+        return alpha
+
+    @classmethod
+    def free_span(cls, bases, theta, z, c, q):
+        """|S − p(α)| [m]: the straight cable from the departure point to the spring end."""
+        _, _, (ux, uy) = _pose(bases, theta, z[0], c, q)
+        return ca.sqrt(ux**2 + uy**2)
+
+    @classmethod
+    def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
+        return (wrapped[0] + cls.free_span(bases, theta, z, c, q)
+                - cls.free_span(bases, q[3], z_ref, c, q))
+
+    @classmethod
+    def moment_arm(cls, bases, theta, z, c, q):
+        """r_m = p × t̂ [m]: the distance from O to the cable line (Ludovico2021 Fig. 1)."""
+        (px, py), (tx, ty), _ = _pose(bases, theta, z[0], c, q)
+        return (px * ty - py * tx) / ca.sqrt(tx**2 + ty**2)
+
+    @classmethod
+    def force_arms(cls, bases, model, theta, z, c, q, order, wire_arm):
+        """σ·r_m: τ = F r_m (Ludovico2021 Eq. 1, Endo2010 Eq. 1–2) with the spring's sense."""
+        return q[2] * cls.moment_arm(bases, theta, z, c, q)
+
+    @classmethod
+    def margins(cls, bases, theta, z, c, q, arm):
+        """σ·arm − r_min (moment arm) and |S − p| − span_min (free span) [m], ≥ 0 when met."""
+        return ca.vertcat(q[2] * arm[0] - q[4], cls.free_span(bases, theta, z, c, q) - q[5])
+
+    @classmethod
+    def wrap_end(cls, first, last, q):
+        """The departure angle at the most-wound end of the range: the last grid angle when
+        σ = +1, the first when σ = −1."""
+        return 0.5 * (1 + q[2]) * last + 0.5 * (1 - q[2]) * first
+
+    @classmethod
+    def profile_domain(cls, theta_range) -> tuple[float, float]:
+        """α runs over about the joint's span from a small wrap at the least-wound pose."""
+        return (0.0, theta_range[1] - theta_range[0] + np.pi / 2)
+
+    # -- drawing -------------------------------------------------------------------------------
+    def world_points(self, theta, phi, rho):
+        """World coordinates [m] of profile points (φ, ρ) at joint angle θ."""
+        turn = self.sense * theta if self.turning == "pulley" else 0.0
+        ang = self.anchor_angle + turn + WINDING[self.winding] * np.asarray(phi)
+        return rho * np.cos(ang), rho * np.sin(ang)
+
+    def spring_end(self, theta) -> np.ndarray:
+        """World position of the spring end at joint angle θ [m]."""
+        turn = self.sense * theta if self.turning == "spring_end" else 0.0
+        c, s = np.cos(turn), np.sin(turn)
+        return np.array([c * self.spring_end_x - s * self.spring_end_y,
+                         s * self.spring_end_x + c * self.spring_end_y])
+
+    def circles(self, theta, z, c):
+        """The spring end (a point)."""
+        return [(self.spring_end(theta), 0.0)]
+
+    def segments(self, theta, z, c):
+        """The free cable from the departure point to the spring end."""
+        rho = float(profile_function(self.bases[0])(z[0], c)[0])
+        p = np.array(self.world_points(theta, z[0], rho), dtype=float)
+        return [(p, self.spring_end(theta))]
+
+    def start_radius(self, profile):
+        """``initial_radius`` if given, else mid-range of ρ, at most 40 % of the spring end's
+        distance."""
+        r = self.initial_radius or min(0.5 * (profile.rho_min + profile.rho_max), 0.4 * self.ell)
+        return max(r, profile.rho_min * (1 + 1e-3))
+
+    # -- spec ------------------------------------------------------------------------------------
+    @classmethod
+    def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
+        form = "[x, y]: the spring end's world position at theta = 0 [m], outside rho_max"
+        end = reader.get("spring_end", lambda v: isinstance(v, list) and len(v) == 2
+                         and all(reader.number(x) for x in v), form)
+        if not np.hypot(*end) > max(p.rho_max for p in profiles):
+            reader.fail(reader.key("spring_end"), end, form)
+        turning = reader.get("turning", lambda v: v in TURNING, f"one of {TURNING}")
+        sense = reader.get("sense", lambda v: v in (1, -1), "1 or -1 (the turning body "
+                           "rotates by sense * theta, counter-clockwise positive)", 1)
+        winding = reader.get("winding", lambda v: v in WINDING, f"one of {tuple(WINDING)}", "ccw")
+        p = profiles[0]
+        start = reader.get("initial_radius", lambda v: reader.number(v) and p.rho_min < v < p.rho_max,
+                           f"the circular start's radius in (rho_min, rho_max) = ({p.rho_min}, "
+                           f"{p.rho_max}) [m]", 0.0)
+        mech = cls(name=name, joint=joint, profiles=profiles, spring_end_x=float(end[0]),
+                   spring_end_y=float(end[1]), turning=turning, sense=float(sense),
+                   winding=winding, initial_radius=float(start))
+        least = theta_range[0] if mech.sigma > 0 else theta_range[1]
+        ref = reader.get("reference_angle", reader.number, "the joint angle [rad] at which "
+                         "the spring has its pre-extension", least)
+        default_anchor = mech._default_anchor(least, profiles[0])
+        anchor = reader.get("anchor_angle", reader.number, "the anchor's world angle at "
+                            "theta = 0 [rad]", default_anchor)
+        arm = reader.get("min_moment_arm", lambda v: reader.number(v) and v >= 0,
+                         "a moment arm ≥ 0 [m]", 0.0)
+        span = reader.get("min_free_span", lambda v: reader.number(v) and v >= 0,
+                          "a free cable span ≥ 0 [m]", 0.0)
+        return replace(mech, reference_angle=float(ref), anchor_angle=float(anchor),
+                       min_moment_arm=float(arm), min_free_span=float(span))
+
+    def _default_anchor(self, least: float, profile) -> float:
+        """The anchor angle that leaves :data:`ANCHOR_WRAP` of wrap on the circular start at
+        the least-wound joint angle ``least``: the circle's departure point is at canonical
+        angle χ(θ) − acos(r₀/ℓ)."""
+        w = WINDING[self.winding]
+        chi0 = ANCHOR_WRAP + np.arccos(self.start_radius(profile) / self.ell) - self.sigma * least
+        return float(np.arctan2(self.spring_end_y, self.spring_end_x) - w * chi0)
+
+    def spec_fields(self) -> dict:
+        return {"spring_end": [self.spring_end_x, self.spring_end_y], "turning": self.turning,
+                "sense": int(self.sense), "winding": self.winding,
+                "anchor_angle": self.anchor_angle, "reference_angle": self.reference_angle,
+                "min_moment_arm": self.min_moment_arm, "min_free_span": self.min_free_span,
+                **({"initial_radius": self.initial_radius} if self.initial_radius else {})}
