@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023 check-energy
+.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 check-energy
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,12 @@ study-weights_1dof: $(STAMP)
 
 reproduce-johnston2023: $(STAMP)
 	$(PY) studies/johnston2023.py
+
+reproduce-ludovico2021: $(STAMP)
+	$(PY) studies/ludovico2021.py
+
+reproduce-endo2010: $(STAMP)
+	$(PY) studies/endo2010.py
 
 check-energy: $(STAMP)
 	$(PY) benchmarks/energy_check.py

@@ -91,9 +91,9 @@ class AnchoredPulley(Mechanism):
     ports = ("cable",)
     unknowns = ("alpha",)
     unknown_units = ("rad",)
-    unknown_bounds = ((0.0, np.inf),)  # the cable never leaves before its anchor
     residual_units = ("",)  # angle between tangent and cable [rad]
     parameter_names = ("ell", "chi0", "sigma", "theta_ref", "min_moment_arm", "min_free_span")
+    unknown_bounds = ((0.0, np.inf),)  # the cable never leaves before its anchor
     force_models = ("force",)
     margin_names = ("moment_arm", "free_span")
 
