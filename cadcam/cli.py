@@ -93,8 +93,7 @@ def write_workshop_files(ev, out: Path, args) -> list[str]:
 
     notes = []
     for i, (cam, cs) in enumerate(zip(ev.problem.profiles, ev.profiles)):
-        outline = closed_outline(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
-                                 (cam.rho_min, cam.rho_max))
+        outline = closed_outline(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
         stem = out / f"cam{i + 1}"
         write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
         write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
