@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cadcam import evaluate, load_spec, optimize
+from cadcam import load_spec, optimize
 from cadcam.files import write_text
 from cadcam.synthesis.kim_deshpande import closed_form
 from cadcam.synthesis.ludovico_qcqp import solve_qcqp
@@ -142,7 +142,7 @@ def main() -> None:
                      f"{', '.join(f'{v:.1f}' for v in arm_min)} | "
                      f"{', '.join(f'{1e3 * lo:.1f}–{1e3 * hi:.1f}' for lo, hi in zip(m['extension_min'], m['extension_max']))} | "
                      f"{result.solve.iterations}, {result.solve.solve_time_s:.1f} |")
-        ev = evaluate(problem, result.design)
+        ev = result.evaluation  # on the design grid, the rootfinder seeded by the NLP
         plot_profiles(ev, OUT / f"{key}_pulleys.png")
         plot_torque(ev, OUT / f"{key}_torque.png")
         plot_springs(ev, OUT / f"{key}_springs.png")
