@@ -58,8 +58,8 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-        ax.set_title(f"{mech.name}: profile (thick: wrapped cable, ■ anchor), idlers dashed, "
-                     "points ○", fontsize=9)
+        ax.set_title(f"{mech.name}\nthick: wrapped cable, ■ anchor, ○ point idler, dashed: idler",
+                     fontsize=8)
         ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     _save(fig, path)
