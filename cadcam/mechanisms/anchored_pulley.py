@@ -221,7 +221,7 @@ class AnchoredPulley(Mechanism):
         if not np.hypot(*end) > max(p.rho_max for p in profiles):
             reader.fail(reader.key("spring_end"), end, form)
         turning = reader.get("turning", lambda v: v in TURNING, f"one of {TURNING}")
-        sense = reader.get("sense", lambda v: v in (1, -1), "1 or -1 (the turning body "
+        sense = reader.get("sense", lambda v: reader.number(v) and v in (1, -1), "1 or -1 (the turning body "
                            "rotates by sense * theta, counter-clockwise positive)", 1)
         winding = reader.get("winding", lambda v: v in WINDING, f"one of {tuple(WINDING)}", "ccw")
         p = profiles[0]
