@@ -12,17 +12,13 @@ cam profiles, torque error maps and spring extensions.
 from __future__ import annotations
 
 import json
-import platform
-import subprocess
 from pathlib import Path
 
-import casadi
-
-from cadcam import Design, __version__, evaluate, load_spec, optimize
+from cadcam import Design, evaluate, load_spec, optimize
 from cadcam.mechanisms.base import TORQUE_MODELS
 from cadcam.check.evaluate import rate_deviation
 from cadcam.files import write_json, write_text
-from cadcam.views.plots import plot_profiles, plot_springs, plot_torque
+from reporting import figures as shared_figures, provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "models" / "johnston2023_rr_arm.toml"
@@ -38,20 +34,7 @@ def fmt(values, digits=1):
 
 
 def figures(ev, stem):
-    plot_profiles(ev, OUT / f"{stem}_profiles.png")
-    plot_torque(ev, OUT / f"{stem}_torque_error.png")
-    plot_springs(ev, OUT / f"{stem}_springs.png")
-
-
-def provenance() -> str:
-    """Versions, commit and machine that produced the report."""
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                                text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        commit = "unknown"
-    return (f"cadcam {__version__} (commit {commit}), CasADi {casadi.__version__}, Python "
-            f"{platform.python_version()}, {platform.machine()} {platform.system()}")
+    shared_figures(ev, OUT, stem, ("profiles", "torque_error", "springs"))
 
 
 def main() -> None:

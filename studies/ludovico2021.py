@@ -23,12 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from cadcam import load_spec, optimize
-from cadcam.files import write_text
 from cadcam.synthesis.kim_deshpande import closed_form
 from cadcam.synthesis.ludovico_qcqp import solve_qcqp
-from cadcam.views.plots import plot_profiles, plot_springs, plot_torque
-
-from johnston2023 import provenance
+from reporting import figures, finish, provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "out" / "ludovico2021"
@@ -142,15 +139,10 @@ def main() -> None:
                      f"{', '.join(f'{v:.1f}' for v in arm_min)} | "
                      f"{', '.join(f'{1e3 * lo:.1f}–{1e3 * hi:.1f}' for lo, hi in zip(m['extension_min'], m['extension_max']))} | "
                      f"{result.solve.iterations}, {result.solve.solve_time_s:.1f} |")
-        ev = result.evaluation  # on the design grid, the rootfinder seeded by the NLP
-        plot_profiles(ev, OUT / f"{key}_pulleys.png")
-        plot_torque(ev, OUT / f"{key}_torque.png")
-        plot_springs(ev, OUT / f"{key}_springs.png")
+        figures(result.evaluation, OUT, key, ("pulleys", "torque", "springs"))  # NLP-seeded
     lines += ["", "Goals (issue): at degree 5, pendulum ≤ 1e-3 N·m, generic ≤ 5e-3 N·m. Figures: "
               "`*_pulleys.png` (pulleys and cables at four angles), `*_torque.png`, `*_springs.png`.", ""]
-    text = "\n".join(lines) + "\n"
-    write_text(OUT / "report.md", text)
-    print(text)
+    finish(lines, OUT)
 
 
 if __name__ == "__main__":
