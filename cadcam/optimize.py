@@ -65,10 +65,11 @@ def closed_form_start(problem: Problem, shares=None, samples: int = 400) -> Desi
         if share is None:
             if sum(m.joint == mech.joint for m in problem.mechanisms) > 1:
                 raise ValueError(f"mechanism {mech.name!r} shares its joint: give its torque share")
-            target = joint.target.function(1, 0)
-            share = lambda th, f=target: np.asarray(f.map(np.size(th))(np.ravel(th))).reshape(np.shape(th))  # noqa: E731
-        (j,) = [j for j, s in enumerate(problem.springs) if [(p.mechanism, p.name) for p in s.ports] == [(u, "cable")]]
-        spring = problem.springs[j]
+            share = _own_target(problem, mech.joint)
+        own = [s for s in problem.springs if [(p.mechanism, p.name) for p in s.ports] == [(u, "cable")]]
+        if len(own) != 1:
+            raise ValueError(f"mechanism {mech.name!r} needs one spring of its own on its cable port")
+        spring = own[0]
         u0 = spring.preextension if spring.preextension is not None else 0.1 * spring.travel
         ell, chi0, sigma = mech.parameter_values()[:3]
         theta = np.linspace(*joint.theta_range, samples)
@@ -77,6 +78,19 @@ def closed_form_start(problem: Problem, shares=None, samples: int = 400) -> Desi
         k = slices[u].start
         coefs[k] = fit_profile(problem.profiles[k].basis, *_uniform_polar(form.envelope, samples))
     return Design(start.bases, coefs, start.preextension)
+
+
+def _own_target(problem: Problem, i: int):
+    """Joint ``i``'s target as a vectorised callable of its own angle [rad] (the others at 0:
+    for targets that depend on their own joint's angle only)."""
+    f = problem.joints[i].target.function(len(problem.joints), i)
+
+    def target(theta):
+        theta = np.asarray(theta, dtype=float)
+        angles = np.zeros((len(problem.joints), theta.size))
+        angles[i] = theta.ravel()
+        return np.asarray(f.map(theta.size)(angles)).reshape(theta.shape)
+    return target
 
 
 def _uniform_polar(env, samples: int):
