@@ -41,11 +41,11 @@ def convexity_bound() -> float:
 def decoupling(problem) -> float:
     """Largest |∂τ1/∂θ2|, |∂τ2/∂θ1| [N·m/rad] of the five-bar targets over the joint ranges."""
     th = ca.SX.sym("theta", 2)
+    grid = np.array(np.meshgrid(*[np.linspace(*c.theta_range, 15) for c in problem.joints])).reshape(2, -1)
     worst = 0.0
     for i, j in ((0, 1), (1, 0)):
         tau = problem.joints[i].target.expression([th[0], th[1]], i)
         f = ca.Function("d", [th], [ca.jacobian(tau, th[j])])
-        grid = np.array(np.meshgrid(*[np.linspace(*c.theta_range, 15) for c in problem.joints])).reshape(2, -1)
         worst = max(worst, float(np.abs(np.asarray(f.map(grid.shape[1])(grid))).max()))
     return worst
 

@@ -17,13 +17,12 @@ changes by exactly R·θ.
 
 Port ``cable``: the change, from the reference pose θ = 0, of the cable length from the
 profile anchor to A, i.e. the wrapped length change plus the change of the free span |A − p(α)|.
-Unknown: α. Residual: the signed angle from the profile tangent at α to the cable direction
-A − p, atan2(t × u, t · u) [rad]. Its only zero on a convex profile is the tangent on which the
-cable leaves in the winding direction; the plain cross product (the sine) would vanish on the
-other tangent from A too, and the NLP, which does not see ``branch_error``, can end there.
-``branch_error`` = 1 − cos of that angle plus max(0, −α) (a cable that would leave before its
-anchor): zero on the physical branch. No force model: the torque is the
-generic energy torque τ = (kx + F0) dd/dθ.
+Unknown: α. The equations are the library's anchored-spring pulley's
+(:class:`cadcam.mechanisms.anchored_pulley.AnchoredPulley`), written once there: in its
+canonical frame this pulley (turning clockwise with θ, wound counter-clockwise) sees A at
+distance |A| and polar angle ψ_A + θ (ℓ = |A|, χ₀ = ψ_A, σ = +1, θ_ref = 0). This module only
+maps its own numbers (ax, ay) onto those — a plug-in with its own kind, spec keys and
+parameters. No force model: the torque is the generic energy torque τ = (kx + F0) dd/dθ.
 """
 from __future__ import annotations
 
@@ -32,21 +31,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from cadcam.mechanisms.anchored_pulley import AnchoredPulley
 from cadcam.mechanisms.base import Mechanism, register
-from cadcam.physics.profile import profile_function
 
-#: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
-GUESS_SWEEPS = 6
-
-
-def _pose(cls, bases, theta, alpha, c, q):
-    """World position p(α), tangent t = dp/dφ and the vector A − p at joint angle θ [m]."""
-    rho, drho, _, _ = profile_function(bases[0])(alpha, c)
-    w = alpha + cls.profile_rotation(theta)  # world angle of the profile point α
-    cw, sw = ca.cos(w), ca.sin(w)
-    px, py = rho * cw, rho * sw
-    tx, ty = drho * cw - rho * sw, drho * sw + rho * cw  # d p / d φ (Johnston2023 Eq. 3)
-    return (px, py), (tx, ty), (q[0] - px, q[1] - py)
+def _canonical(q):
+    """The anchored pulley's parameters (ℓ, χ₀, σ, θ_ref, no margins) of the anchor A = q."""
+    return ca.vertcat(ca.sqrt(q[0] ** 2 + q[1] ** 2), ca.atan2(q[1], q[0]), 1, 0, 0, 0)
 
 
 @register
@@ -69,38 +59,15 @@ class ToyPulley(Mechanism):
 
     @classmethod
     def residual(cls, bases, theta, z, c, q):
-        _, (tx, ty), (ux, uy) = _pose(cls, bases, theta, z[0], c, q)
-        cross, dot = tx * uy - ty * ux, tx * ux + ty * uy
-        cosine = dot / (ca.sqrt(tx**2 + ty**2) * ca.sqrt(ux**2 + uy**2))
-        return ca.atan2(cross, dot), ca.fmax(0, 1 - cosine) + ca.fmax(0, -z[0])
+        return AnchoredPulley.residual(bases, theta, z, c, _canonical(q))
 
     @classmethod
     def guess(cls, bases, theta, c, q):
-        """Tangent from A to the pedal circle: the tangent line at α lies at distance
-        h = ρ²/√(ρ² + ρ′²) from O, its outward normal at world angle w − δ with
-        δ = atan(ρ′/ρ); it passes through A when w − δ = ψ_A − acos(h/|A|). Iterated with ρ,
-        ρ′ at α; exact for a circle (δ = 0, h = R)."""
-        prof = profile_function(bases[0])
-        dist = ca.sqrt(q[0] ** 2 + q[1] ** 2)
-        psi = ca.atan2(q[1], q[0])
-        rot = cls.profile_rotation(theta)
-        alpha = psi - rot  # start at the anchor's direction
-        for _ in range(GUESS_SWEEPS):
-            rho, drho, _, _ = prof(alpha, c)
-            h = rho**2 / ca.sqrt(rho**2 + drho**2)
-            alpha = psi - ca.acos(ca.fmin(h / dist, 1)) + ca.atan2(drho, rho) - rot
-        return alpha
-
-    @classmethod
-    def free_span(cls, bases, theta, z, c, q):
-        """|A − p(α)| [m]: the straight cable from the departure point to A."""
-        _, _, (ux, uy) = _pose(cls, bases, theta, z[0], c, q)
-        return ca.sqrt(ux**2 + uy**2)
+        return AnchoredPulley.guess(bases, theta, c, _canonical(q))
 
     @classmethod
     def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
-        return (wrapped[0] + cls.free_span(bases, theta, z, c, q)
-                - cls.free_span(bases, cls.reference_angle, z_ref, c, q))
+        return AnchoredPulley.displacements(bases, theta, z, z_ref, wrapped, c, _canonical(q))
 
     @classmethod
     def profile_domain(cls, theta_range):

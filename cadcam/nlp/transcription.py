@@ -291,9 +291,11 @@ class Transcription:
         ws = [trapezoid_weights(g) for g in grids]
         mesh = np.meshgrid(*grids, indexing="ij")
         theta = np.vstack([t.ravel() for t in mesh])
-        energy = 0.0
+        energy, minimax_scale = 0.0, 0.0
         for i, c in enumerate(problem.joints):
             td = np.asarray(c.target.function(m, i).map(self.N)(theta)).reshape((n,) * m)
+            if problem.options.objective == "minimax":
+                minimax_scale += c.tracking_weight * self._own_target(vec, i, c, td)
             weighted = td
             for ax in range(m):
                 weighted = weighted * np.expand_dims(ws[ax], [a for a in range(m) if a != ax])
@@ -317,21 +319,21 @@ class Transcription:
                 p.put(vec, f"rc{pk}", prof.min_curvature_radius * (1 + problem.options.limit_margin))
         p.put(vec, "k", [s.rate for s in problem.springs])
         p.put(vec, "F0", [s.preload for s in problem.springs])
-        if problem.options.objective == "minimax":
-            scale = 0.0
-            for i, c in enumerate(problem.joints):
-                td = np.asarray(c.target.function(m, i).map(self.N)(theta)).reshape((n,) * m)
-                own = np.moveaxis(td, i, 0).reshape(n, -1)
-                if np.ptp(own, axis=1).max() > 1e-9 * (1 + np.abs(td).max()):
-                    raise ValueError(f"objective 'minimax' needs each target to depend on its own "
-                                     f"joint's angle only; {c.name!r}'s depends on the others: "
-                                     f"use 'least_squares'")
-                p.put(vec, f"td{i}", own[:, 0])
-                scale += c.tracking_weight * np.sqrt(np.mean(td**2))
-            p.put(vec, "obj_scale", OBJECTIVE_SCALE / scale if scale > 0 else 1.0)
-        else:
-            p.put(vec, "obj_scale", OBJECTIVE_SCALE / energy if energy > 0 else 1.0)
+        scale = minimax_scale if problem.options.objective == "minimax" else energy
+        p.put(vec, "obj_scale", OBJECTIVE_SCALE / scale if scale > 0 else 1.0)
         return vec
+
+    def _own_target(self, vec, i: int, joint, td: np.ndarray) -> float:
+        """Put joint i's target samples ``td`` (the tensor grid) on its own angles into ``vec``
+        for the minimax rows; ValueError if it depends on the other joints' angles. Returns its
+        RMS [N·m], the minimax objective's scale."""
+        own = np.moveaxis(td, i, 0).reshape(self.n, -1)
+        if np.ptp(own, axis=1).max() > 1e-9 * (1 + np.abs(td).max()):
+            raise ValueError(f"objective 'minimax' needs each target to depend on its own "
+                             f"joint's angle only; {joint.name!r}'s depends on the others: "
+                             f"use 'least_squares'")
+        self.p.put(vec, f"td{i}", own[:, 0])
+        return float(np.sqrt(np.mean(td**2)))
 
     def bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the constraint rows for ``problem``'s limits."""
