@@ -120,7 +120,8 @@ class NestedBaseline:
             z = np.array(sol).T  # rows α, γ; column 0 the reference pose
             a = z[0]
             wrapped = length_function(self.bases[i], 48).map(self.n)(a[0], a[1:], c)
-            d, arm, _, _ = self.ports[i](th[1:], z[:, 1:], z[:, 0], wrapped, c, mech.parameter_values())
+            d, arm, _, _ = self.ports[i](th[1:], z[:, 1:], z[:, 0], wrapped, 0, c,
+                                          mech.parameter_values())
             D.append(np.asarray(d)[:, self.idx[mech.joint]])
             A.append(np.asarray(arm)[:, self.idx[mech.joint]])
             phi = np.linspace(0, a.max(), self.M)

@@ -8,8 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from dataclasses import replace
+
+import casadi as ca
+
 from .design import Design
 from .mechanisms.anchored_pulley import AnchoredPulley
+from .mechanisms.differential_pulley import DifferentialPulley
+from .synthesis.fedorov_envelope import cable_length, differential_envelopes, fit_pulley
 from .synthesis.kim_deshpande import closed_form, fit_profile
 from .check.evaluate import evaluate
 from .problem import Problem
@@ -78,6 +84,41 @@ def closed_form_start(problem: Problem, shares=None, samples: int = 400) -> Desi
         k = slices[u].start
         coefs[k] = fit_profile(problem.profiles[k].basis, *_uniform_polar(form.envelope, samples))
     return Design(start.bases, coefs, start.preextension)
+
+
+def differential_start(problem: Problem, design: Design, samples: int = 2001):
+    """Fedorov's envelope pulleys (Fedorov2018 Sec. 2.2) as the start of every differential pair
+    without a ``cable_length``: shaped for its output law (or, without one, circles at its
+    start distance), transferring cable at its rolling radius
+    (:meth:`~cadcam.mechanisms.differential_pulley.DifferentialPulley.start_radius`).
+
+    Returns the problem with those pairs' anchor angles and cable lengths set from the start
+    (the NLP then keeps the cable length) and ``design`` with their profiles replaced.
+    """
+    mechanisms, coefs = list(problem.mechanisms), list(design.coefficients)
+    for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+        if not isinstance(mech, DifferentialPulley) or mech.cable_length > 0:
+            continue
+        theta = np.linspace(*problem.joints[mech.joint].theta_range, samples)
+        x, dx = _law(mech, theta)
+        mech, envs = differential_envelopes(mech, theta, x, dx, mech.start_radius(mech.profiles[0]))
+        fitted = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
+        k = int(np.argmin(np.abs(theta - mech.reference_angle)))
+        length = cable_length(mech, fitted, theta[k], x[k], [env.phi_polar[k] for env in envs])
+        mechanisms[u] = replace(mech, cable_length=length)
+        coefs[sl] = fitted
+    return (replace(problem, mechanisms=tuple(mechanisms)),
+            Design(design.bases, coefs, design.preextension))
+
+
+def _law(mech: DifferentialPulley, theta: np.ndarray):
+    """x(θ) [m] and dx/dθ [m/rad] of a pair's output law (constant without one)."""
+    if mech.output_target is None:
+        return np.full_like(theta, mech.slider_start()), np.zeros_like(theta)
+    t = ca.SX.sym("theta")
+    x = mech.output_target.expression([t], 0)
+    f = ca.Function("law", [t], [x, ca.jacobian(x, t)]).map(theta.size)
+    return tuple(np.asarray(v).ravel() for v in f(theta))
 
 
 def _own_target(problem: Problem, i: int):
@@ -152,17 +193,21 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     transcription : Transcription, optional
         A solver built for a problem of the same structure (reused across sweep cases).
     start : Design, optional
-        First initial guess (default :func:`default_start`); ``problem.options.multistart``
-        random starts follow, and the best converged one is kept.
+        First initial guess (default :func:`default_start`, with Fedorov's envelope pulleys for
+        differential pairs: :func:`differential_start`, which also sets their cable lengths);
+        ``problem.options.multistart`` random starts follow, and the best converged one is
+        kept.
 
     Returns
     -------
     Result
         ``status`` is ``success`` only for a converged optimum whose fine re-check passed.
     """
+    if start is None:
+        problem, start = differential_start(problem, default_start(problem))
     tr = transcription or Transcription(problem)
     rng = np.random.default_rng(problem.options.seed)
-    starts = [start or default_start(problem)]
+    starts = [start]
     starts += [random_start(problem, rng) for _ in range(problem.options.multistart)]
     solves = []
     for k, s in enumerate(starts):

@@ -50,6 +50,10 @@ class Options:
         ``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47);
         ``minimax``: the largest |τ − τ_d| over the grid, by an epigraph variable per joint
         (for problems whose joint torques and targets each depend on their own joint's angle).
+    ipopt : tuple of (str, object)
+        Further IPOPT options (name without the ``ipopt.`` prefix, value), e.g. a warm start
+        (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a start that is already
+        close to the optimum.
     """
 
     grid: int = 46
@@ -63,6 +67,7 @@ class Options:
     tol: float = 1e-8
     recheck_factor: int = 10
     objective: str = "least_squares"
+    ipopt: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -163,7 +168,7 @@ class Problem:
         """The fully resolved problem in the spec format (SI units; tables inlined)."""
         mechanisms = []
         for m in self.mechanisms:
-            (prof,) = m.profiles  # the spec form has one profile per mechanism so far
+            prof = m.profiles[0]  # the spec form gives one basis and one set of limits for all
             mechanisms.append({
                 "kind": m.kind, "name": m.name, "joint": m.joint + 1,
                 "basis": prof.basis.name, "order": prof.basis.order,
@@ -174,7 +179,7 @@ class Problem:
         return {
             "name": self.name, "source": self.source, "notes": self.notes,
             "torque_model": self.torque_model,
-            "solver": dict(vars(self.options)),
+            "solver": {**vars(self.options), "ipopt": dict(self.options.ipopt)},
             "joints": [{
                 "name": c.name,
                 "theta_range_deg": [float(np.degrees(t)) for t in c.theta_range],

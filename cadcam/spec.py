@@ -11,6 +11,7 @@ import json
 import math
 import re
 import tomllib
+from dataclasses import replace
 from itertools import product
 from pathlib import Path
 
@@ -122,12 +123,20 @@ def _five_bar(r: _Reader, n_cams: int) -> dict:
             "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
 
 
-def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
-    kinds = ("expression", "pendulum", "table", "arm", "five_bar")
+#: Target kinds of a joint's torque law and of a mechanism's output displacement law.
+TORQUE_KINDS = ("expression", "pendulum", "table", "arm", "five_bar", "none")
+OUTPUT_KINDS = ("expression", "table", "spring_balance")
+
+
+def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool = False) -> Target:
+    """A joint's torque law, or (``output``) a mechanism's output law x(θ) [m]."""
+    kinds = OUTPUT_KINDS if output else TORQUE_KINDS
+    unit, column = ("m", "x_m") if output else ("N·m", "torque_Nm")
     kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
     if kind == "expression":
+        example = "'0.15 + 0.01*cos(theta)'" if output else "'0.08*theta**2'"
         data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
-                                    "an expression of theta such as '0.08*theta**2' [N·m]"),
+                                    f"an expression of theta such as {example} [{unit}]"),
                 "parameters": r.get("parameters", lambda v: isinstance(v, dict) and all(
                     isinstance(k, str) and k.isidentifier() and _number(x) for k, x in v.items()),
                     "a table of name = number", {})}
@@ -145,16 +154,28 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
         data = {"joint": joint, **arm}
     elif kind == "five_bar":
         data = _five_bar(r, n_cams)
+    elif kind == "spring_balance":
+        data = {"mass": r.get("mass", _positive, "a positive pendulum mass [kg]"),
+                "length": r.get("length", _positive, "a positive length to the centre of mass [m]"),
+                "g": r.get("g", _positive, "a positive gravity [m/s²]", 9.81),
+                "rate": r.get("rate", _positive, "the slider spring's positive rate [N/m]"),
+                "preload": r.get("preload", _nonneg, "the slider spring's initial tension ≥ 0 [N]"),
+                "slider_zero": r.get("slider_zero", _positive, "the idler's distance from the shaft "
+                                     "where the spring's elongation is zero [m]"),
+                "phase": r.get("phase", _number, "the joint angle minus the pendulum angle from "
+                               "its stable equilibrium [rad]", 0.0)}
+    elif kind == "none":
+        data = {}
     else:
         if "samples" in r.table:
             samples = r.get("samples", lambda v: _list_of(_list_of(_number, 2))(v) and len(v) >= 4
                             and all(b[0] > a[0] for a, b in zip(v, v[1:])),
-                            "a list of at least 4 [theta_rad, torque_Nm] pairs, angles increasing")
+                            f"a list of at least 4 [theta_rad, {column}] pairs, angles increasing")
         else:
             name = r.get("file", lambda v: isinstance(v, str) and v,
-                         "a CSV file (relative to the spec) with header theta_rad,torque_Nm")
+                         f"a CSV file (relative to the spec) with header theta_rad,{column}")
             try:
-                samples = read_table(base / name)
+                samples = read_table(base / name, column)
             except (OSError, ValueError) as exc:
                 r.fail(r.key("file"), name, f"a readable target table ({exc})")
         data = {"samples": [list(map(float, s)) for s in samples]}
@@ -162,26 +183,26 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None) -> Target:
     return Target(kind, data)
 
 
-def _check_target(origin, where, target: Target, cams_ranges, cam: int):
+def _check_target(origin, where, target: Target, cams_ranges, cam: int, unit: str = "torque [N·m]"):
     """Refuse a target that is malformed or not finite over the angle ranges."""
     try:
         f = target.function(len(cams_ranges), cam)
     except ExpressionError as exc:
-        raise SpecError(f"{origin}: {where}.target.expression: {exc}") from None
+        raise SpecError(f"{origin}: {where}.expression: {exc}") from None
     if target.kind == "table":
         s = np.asarray(target.data["samples"])
         lo, hi = cams_ranges[cam]
         if s[0, 0] > lo + 1e-12 or s[-1, 0] < hi - 1e-12:
-            raise SpecError(f"{origin}: {where}.target: the table covers [{s[0, 0]:.4g}, "
+            raise SpecError(f"{origin}: {where}: the table covers [{s[0, 0]:.4g}, "
                             f"{s[-1, 0]:.4g}] rad but the cam turns over [{lo:.4g}, {hi:.4g}] rad")
     axes = [np.linspace(lo, hi, 41 if len(cams_ranges) < 3 else 9) for lo, hi in cams_ranges]
     pts = np.array(list(product(*axes))).T
     values = np.asarray(f.map(pts.shape[1])(pts)).ravel()
     if not np.all(np.isfinite(values)):
         bad = pts[:, np.argmin(np.isfinite(values))]
-        raise SpecError(f"{origin}: {where}.target is not finite at theta = "
-                        f"{np.round(np.degrees(bad), 3).tolist()} deg; expected a finite torque "
-                        f"[N·m] over the whole angle range")
+        raise SpecError(f"{origin}: {where} is not finite at theta = "
+                        f"{np.round(np.degrees(bad), 3).tolist()} deg; expected a finite {unit} "
+                        f"over the whole angle range")
 
 
 def _torque_model(top: "_Reader", data: dict) -> str:
@@ -237,6 +258,10 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                                "an integer ≥ 2", 10),
         objective=sol.get("objective", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
                           "least_squares"),
+        ipopt=tuple(sorted(sol.get("ipopt", lambda v: isinstance(v, dict) and all(
+            re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
+            for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
+            "in the IPOPT documentation, numbers or strings)", {}).items())),
     )
     sol.done()
 
@@ -273,11 +298,13 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         targets.append(_target(_Reader(origin, r.get("target", lambda v: isinstance(v, dict),
                                                      f"a [{joint_label}.target] table"), f"{where}.target"),
                                base, n_joints, arm))
+        if targets[-1].kind == "none":  # no torque goal: nothing to weigh
+            joints[-1]["tracking_weight"] = 0.0
         r.done()
 
     mechanisms = []
     for u, raw in enumerate(raw_mechs):
-        mechanisms.append(_mechanism(_Reader(origin, raw, f"{mech_label}[{u + 1}]"), u, joints))
+        mechanisms.append(_mechanism(_Reader(origin, raw, f"{mech_label}[{u + 1}]"), u, joints, base))
     on_joint = {m.joint for m in mechanisms}
     for i in range(n_joints):
         if i not in on_joint:
@@ -289,7 +316,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
 
     ranges = [c["theta_range"] for c in joints]
     for i, t in enumerate(targets):
-        _check_target(origin, f"{joint_label}[{i + 1}]", t, ranges, i)
+        _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
     try:
         return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
                        options=options, springs=tuple(springs), mechanisms=tuple(mechanisms),
@@ -298,8 +325,9 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         raise SpecError(f"{origin}: torque_model: {exc}") from None
 
 
-def _mechanism(r: "_Reader", u: int, joints: list[dict]):
-    """One [[mechanisms]] table: kind, name, joint, its profile and the mechanism's own keys."""
+def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path(".")):
+    """One [[mechanisms]] table: kind, name, joint, its profiles (one basis and one set of
+    limits for all), its output law if it has an output, and the mechanism's own keys."""
     kinds = mechanism_kinds()
     cls = mechanism_class(r.get("kind", lambda v: v in kinds, f"one of {kinds}"))
     name = r.get("name", lambda v: isinstance(v, str), "a string", f"mechanism {u + 1}")
@@ -315,8 +343,16 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict]):
                             "a minimum radius of curvature ≥ 0 of the profile [m]", 0.0))
     theta_range = joints[joint]["theta_range"]
     domain = cls.profile_domain(theta_range)
-    profile = Profile(name, Basis(basis_name, order, domain), rho_min, rho_max, curvature)
-    mech = cls.from_spec(r, name=name, joint=joint, profiles=(profile,), theta_range=theta_range)
+    names = [name] if cls.n_profiles == 1 else [f"{name} {k + 1}" for k in range(cls.n_profiles)]
+    profiles = tuple(Profile(n, Basis(basis_name, order, domain), rho_min, rho_max, curvature)
+                     for n in names)
+    mech = cls.from_spec(r, name=name, joint=joint, profiles=profiles, theta_range=theta_range)
+    if cls.output and "output_target" in r.table:
+        where = r.key("output_target")
+        target = _target(_Reader(r.origin, r.get("output_target", lambda v: isinstance(v, dict),
+                                                 "a table"), where), base, 1, None, output=True)
+        _check_target(r.origin, where, target, [theta_range], 0, f"{cls.output} [m]")
+        mech = replace(mech, output_target=target)
     r.done()
     return mech
 

@@ -186,6 +186,14 @@ def five_bar_torques(theta1, theta2, masses, lengths, g):
     return [out[0], out[1]]  # Endo2010 Eq. 8
 
 
+def spring_elongation(phi, mass, length, g, rate, preload):
+    """The elongation e(φ) [m] of a spring (rate k [N/m], initial tension F0 [N]) that balances
+    a pendulum (m g l) by energy, zero at the unstable equilibrium φ = ±π (Fedorov2018 Eq. 18):
+    m g l (1 − cos φ) + F0 e + ½ k e² = 2 m g l (Eq. 17)."""
+    mgl = mass * g * length
+    return (-preload + ca.sqrt(preload**2 + 2 * rate * mgl * (ca.cos(phi) + 1))) / rate  # Fedorov2018 Eq. 18
+
+
 @dataclass
 class Target:
     """A target torque τ_d [N·m] for one cam.
@@ -198,7 +206,14 @@ class Target:
     and ``g``, the cam angles being the joint angles; see :func:`serial_arm_torques`) or
     ``five_bar`` (joint ``joint``'s gravity torque of Endo2010's parallel five-bar arm with
     six ``masses`` [kg], lengths ``upper``, ``crank``, ``fore`` and ``com`` = [l1, l2, l3, l5]
-    [m] and ``g``; cam angles θ1 (link 1) and θ2 (crank); see :func:`five_bar_torques`).
+    [m] and ``g``; cam angles θ1 (link 1) and θ2 (crank); see :func:`five_bar_torques`) or
+    ``none`` (no torque goal: τ_d = 0 with no weight in the objective).
+
+    A mechanism's output law x(θ) [m] (:attr:`cadcam.mechanisms.base.Mechanism.output_target`)
+    is a Target too: ``expression`` or ``table`` of metres, or ``spring_balance``: the idler
+    position x = ``slider_zero`` − e(θ + ``phase``) at which a spring (``rate`` [N/m],
+    ``preload`` [N]) on the slider balances a pendulum (``mass`` [kg], ``length`` [m], ``g``)
+    by energy (:func:`spring_elongation`, Fedorov2018 Eq. 16–18).
     """
 
     kind: str
@@ -223,6 +238,12 @@ class Target:
             joints = five_bar_torques(thetas[0], thetas[1], d["masses"],
                                       {k: d[k] for k in FIVE_BAR_LENGTHS}, d["g"])
             return joints[d["joint"] - 1]
+        if self.kind == "spring_balance":
+            d = self.data
+            return d["slider_zero"] - spring_elongation(thetas[cam] + d["phase"], d["mass"], d["length"],
+                                                        d["g"], d["rate"], d["preload"])
+        if self.kind == "none":
+            return ca.SX(0)
         if self.kind == "table":
             s = np.asarray(self.data["samples"], dtype=float)
             interp = ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])
@@ -239,18 +260,19 @@ class Target:
         return {"kind": self.kind, **self.data}
 
 
-def read_table(path: Path) -> list[list[float]]:
-    """Read a CSV of target samples with header ``theta_rad,torque_Nm`` or ``theta_deg,torque_Nm``.
+def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
+    """Read a CSV of target samples with header ``theta_rad,<value>`` or ``theta_deg,<value>``
+    (``torque_Nm`` for a torque law, ``x_m`` for a displacement law).
 
-    Returns sorted [θ [rad], τ [N·m]] pairs. Raises ValueError with a reason.
+    Returns sorted [θ [rad], value] pairs. Raises ValueError with a reason.
     """
     with open(path, newline="") as fh:
         rows = list(csv.reader(fh))
     if not rows:
         raise ValueError("the table is empty")
     head = [h.strip() for h in rows[0]]
-    if head not in (["theta_rad", "torque_Nm"], ["theta_deg", "torque_Nm"]):
-        raise ValueError("the header must be 'theta_rad,torque_Nm' or 'theta_deg,torque_Nm'")
+    if head not in (["theta_rad", value], ["theta_deg", value]):
+        raise ValueError(f"the header must be 'theta_rad,{value}' or 'theta_deg,{value}'")
     try:
         data = np.array([[float(v) for v in r] for r in rows[1:] if r], dtype=float)
     except ValueError:

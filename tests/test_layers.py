@@ -8,7 +8,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parent.parent / "cadcam"
 #: Layer of each top-level module or folder of the package, lowest first.
 RANK = {"files": 0, "version": 0, "citations": 0, "physics": 1, "mechanisms": 2, "targets": 2,
-        "synthesis": 2,
+        "synthesis": 3,
         "problem": 3, "design": 4, "spec": 4, "nlp": 5, "check": 5, "result": 6, "optimize": 7,
         "views": 8, "studies": 8, "cli": 9, "__init__": 10, "__main__": 10}
 

@@ -14,7 +14,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..design import Design
-from ..mechanisms.base import departure_solver, margin_function, port_function, split_coefficients
+from ..mechanisms.base import (departure_solver, margin_function, port_function, split_coefficients,
+                               wound_lengths)
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import length_function
@@ -145,8 +146,10 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     pieces = split_coefficients(bases, c)
     wrapped = [np.asarray(length_function(b, order).map(n)(z[k, 0], z[k, 1:], ck)).ravel()
                for k, (b, ck) in enumerate(zip(bases, pieces))]
+    wound = np.asarray(wound_lengths(bases, z[:, 0], c)).ravel()[:, None] + np.vstack(wrapped)
     ports = port_function(structure, problem.torque_model, order, wire_arm).map(n)
-    d, arm, _, branch = (np.asarray(v) for v in ports(theta, z[:, 1:], z[:, 0], np.vstack(wrapped), c, q))
+    d, arm, _, branch = (np.asarray(v) for v in ports(theta, z[:, 1:], z[:, 0], np.vstack(wrapped),
+                                                      wound, c, q))
     margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
                        branch.ravel(), d.reshape(-1, n), arm.reshape(-1, n),
@@ -168,7 +171,8 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     problem's), under the problem's torque model.
 
     Returns an :class:`Evaluation` whose ``metrics`` hold, in SI units: ``rmse`` and
-    ``max_abs_error`` [N·m] per joint over the grid points; ``extension_min``/``extension_max``
+    ``max_abs_error`` [N·m] per joint over the grid points; ``output_rmse`` and
+    ``output_max_abs_error`` [m] per mechanism with an output law (None for the others); ``extension_min``/``extension_max``
     [m] per spring; ``convexity_min`` [m²], ``rho_min``/``rho_max`` [m], ``alpha_max`` [rad]
     per profile over its wrapped range [0, max α]; ``tangency_residual_max``;
     ``sensitivity_integral`` ∫|∂τ_i/∂k_j| [m²·rad^m] per joint and spring (trapezoidal);
@@ -218,6 +222,18 @@ def rate_deviation(problem: Problem, design: Design, factor: float, springs=None
     return np.sqrt(np.mean((changed.tau - nominal.tau) ** 2, axis=1))
 
 
+def output_law(mech, theta: np.ndarray) -> np.ndarray:
+    """The mechanism's output target x_d [m] at the joint angles ``theta`` [rad]."""
+    return np.asarray(mech.output_target.function(1, 0).map(theta.size)(theta)).ravel()
+
+
+def output_error(mech, unit: UnitSamples):
+    """x − x_d [m] of a mechanism's output over its samples, or None without an output law."""
+    if mech.output_target is None:
+        return None
+    return unit.z[mech.unknowns.index(mech.output)] - output_law(mech, unit.theta)
+
+
 def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
     p = ev.problem
     err = ev.tau - ev.tau_d
@@ -260,8 +276,11 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
         for item, v in zip(owner, vals):
             if not v >= -tol[key]:  # NaN (not computable) counts as violated
                 violations.append(f"{names[key]}: {item.name} (margin {v:.3g})")
+    out_err = [output_error(mech, u) for mech, u in zip(p.mechanisms, ev.units)]
     return {
         "grid": ev.grid,
+        "output_rmse": [None if e is None else float(np.sqrt(np.mean(e**2))) for e in out_err],
+        "output_max_abs_error": [None if e is None else float(np.abs(e).max()) for e in out_err],
         "rmse": np.sqrt(np.mean(err**2, axis=1)).tolist(),
         "max_abs_error": np.abs(err).max(axis=1).tolist(),
         "extension_min": ev.x.min(axis=1).tolist(),

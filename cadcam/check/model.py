@@ -15,6 +15,7 @@ from __future__ import annotations
 import casadi as ca
 
 from ..mechanisms.base import (guess_function, newton_function, port_function, residual_function,
+                               wound_lengths,
                                split_coefficients)
 from ..physics.profile import Basis
 from ..physics.wrap import length_function
@@ -72,8 +73,9 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, wire_arm: str,
         ub = structure[1]
         wrapped = ca.vertcat(*[length_function(b, order)(zr[i], zu[i], ci)  # Johnston2023 Eq. 10
                                for i, (b, ci) in enumerate(zip(ub, split_coefficients(ub, cu)))])
+        wound = wound_lengths(ub, zu, cu)
         d, arm, _, _ = port_function(structure, problem.torque_model, order, wire_arm)(
-            th, zu, zr, wrapped, cu, q)
+            th, zu, zr, wrapped, wound, cu, q)
         D.append(d)
         A.append(arm)
         Z.append(zu)

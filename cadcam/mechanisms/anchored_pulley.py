@@ -183,7 +183,7 @@ class AnchoredPulley(Mechanism):
         return (0.0, theta_range[1] - theta_range[0] + np.pi / 2)
 
     # -- drawing -------------------------------------------------------------------------------
-    def world_points(self, theta, phi, rho):
+    def world_points(self, theta, phi, rho, k: int = 0):
         """World coordinates [m] of profile points (φ, ρ) at joint angle θ."""
         turn = self.sense * theta if self.turning == "pulley" else 0.0
         ang = self.anchor_angle + turn + WINDING[self.winding] * np.asarray(phi)

@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 
 from ..physics.profile import Basis, profile_function
-from ..physics.wrap import arc_length_density
+from ..physics.wrap import arc_length_density, wound_length
 
 #: Torque models: ``energy`` for every mechanism; force models where a mechanism offers them.
 ENERGY = "energy"
@@ -87,6 +87,14 @@ class Mechanism:
     force_models: ClassVar[tuple[str, ...]] = ()
     #: Joint angle [rad] at which the port displacements are zero.
     reference_angle: ClassVar[float] = 0.0
+    #: Number of profiles the mechanism owns.
+    n_profiles: ClassVar[int] = 1
+    #: Number of :meth:`closure` rows (residual rows that need the wound lengths).
+    closure_rows: ClassVar[int] = 0
+    #: The unknown that is the mechanism's output displacement [m] ("" if none), and the law
+    #: it should follow (a :class:`cadcam.targets.Target` of the joint angle, or None).
+    output: ClassVar[str] = ""
+    output_target: ClassVar[object] = None
 
     # -- what a subclass provides ---------------------------------------------------------------
     def parameter_values(self) -> tuple[float, ...]:
@@ -97,6 +105,13 @@ class Mechanism:
     def residual(cls, bases, theta, z, c, q):
         """(R, branch_error): R(z) = 0 fixes z; branch_error ≥ 0 is zero on the physical branch."""
         raise NotImplementedError
+
+    @classmethod
+    def closure(cls, bases, theta, z, wound, c, q):
+        """Rows of R = 0 that need the wound lengths ``wound`` [m] (W_k = ∫₀^α_k √(ρ² + ρ′²) dφ
+        on each profile, from its anchor): a constant cable length (the differential pair).
+        Stacked under :meth:`residual`; :attr:`residual_units` covers both. Default: none."""
+        return ca.SX(0, 1)
 
     @classmethod
     def guess(cls, bases, theta, c, q):
@@ -141,9 +156,9 @@ class Mechanism:
         departure angle α ≤ θ_max + π/2 (Johnston2023's cam; a mechanism may override)."""
         return (0.0, theta_range[1] + np.pi / 2)
 
-    def world_points(self, theta, phi, rho):
-        """World coordinates [m] of profile points at polar angles ``phi`` [rad] and radii
-        ``rho`` [m] at joint angle ``theta`` [rad] (for pictures and outlines)."""
+    def world_points(self, theta, phi, rho, k: int = 0):
+        """World coordinates [m] of points of profile ``k`` at polar angles ``phi`` [rad] and
+        radii ``rho`` [m] at joint angle ``theta`` [rad] (for pictures and outlines)."""
         ang = np.asarray(phi) + self.profile_rotation(theta)
         return rho * np.cos(ang), rho * np.sin(ang)
 
@@ -211,11 +226,32 @@ def split_coefficients(bases, c) -> list:
 
 
 @lru_cache(maxsize=64)
-def residual_function(structure) -> ca.Function:
-    """``residual(theta, z, c, q) -> (R, branch_error)`` of a mechanism structure."""
+def pose_residual_function(structure) -> ca.Function:
+    """``pose_residual(theta, z, wound, c, q) -> (R, branch_error)``: :meth:`Mechanism.residual`
+    stacked over :meth:`Mechanism.closure`, given the wound lengths (the NLP lifts them)."""
     cls, bases = structure
     theta, z, c, q = _symbols(cls, bases)
+    wound = ca.SX.sym("wound", len(bases))
     R, branch = cls.residual(bases, theta, z, c, q)
+    R = ca.vertcat(R, cls.closure(bases, theta, z, wound, c, q))
+    return ca.Function("pose_residual", [theta, z, wound, c, q], [R, branch],
+                       ["theta", "z", "wound", "c", "q"], ["R", "branch_error"])
+
+
+def wound_lengths(bases, z, c):
+    """Each profile's wound length W_k(α_k) [m] (α_k = z[k]) by
+    :func:`cadcam.physics.wrap.wound_length`."""
+    return ca.vertcat(*[wound_length(b, z[k], ck) for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c)))])
+
+
+@lru_cache(maxsize=64)
+def residual_function(structure) -> ca.Function:
+    """``residual(theta, z, c, q) -> (R, branch_error)`` of a mechanism structure: the whole
+    system R(z) = 0, closure rows with their wound lengths by quadrature."""
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    wound = wound_lengths(bases, z, c) if cls.closure_rows else ca.DM.zeros(len(bases))
+    R, branch = pose_residual_function(structure)(theta, z, wound, c, q)
     return ca.Function("residual", [theta, z, c, q], [R, branch],
                        ["theta", "z", "c", "q"], ["R", "branch_error"])
 
@@ -247,43 +283,48 @@ def newton_function(structure, steps: int = 8) -> ca.Function:
     return ca.Function("newton", [theta, c, q], [zk], ["theta", "c", "q"], ["z"])
 
 
-def energy_arms(structure, theta, z, wrapped, c, q, d):
+def energy_arms(structure, theta, z, wound, wrapped, c, q, d):
     """dd/dθ [m/rad] of port displacements ``d`` (expressions of θ, z, the wrapped lengths and
-    c) along the solution manifold R(θ, z) = 0, by the implicit function theorem."""
+    c) along the solution manifold R(θ, z, W(z)) = 0, by the implicit function theorem
+    (dW_k/dα_k = √(ρ² + ρ′²), Johnston2023 Eq. 10)."""
     cls, bases = structure
-    R = residual_function(structure)(theta, z, c, q)[0]
-    dz = -ca.solve(ca.jacobian(R, z), ca.jacobian(R, theta))
-    dl = []
+    R = pose_residual_function(structure)(theta, z, wound, c, q)[0]
+    density = ca.SX.zeros(len(bases), z.shape[0])
     for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
         rho, drho, _, _ = profile_function(b)(z[k], ck)
-        dl.append(arc_length_density(rho, drho) * dz[k])  # Johnston2023 Eq. 10
+        density[k, k] = arc_length_density(rho, drho)  # Johnston2023 Eq. 10
+    dz = -ca.solve(ca.jacobian(R, z) + ca.mtimes(ca.jacobian(R, wound), density), ca.jacobian(R, theta))
+    dl = ca.mtimes(density, dz)
     return (ca.jacobian(d, theta) + ca.mtimes(ca.jacobian(d, z), dz)
-            + ca.mtimes(ca.jacobian(d, wrapped), ca.vertcat(*dl)))
+            + ca.mtimes(ca.jacobian(d, wrapped), dl))
 
 
 @lru_cache(maxsize=64)
 def port_function(structure, model: str, order: int, wire_arm: str = "closed-form") -> ca.Function:
     """Per-angle port quantities of a mechanism under torque ``model``.
 
-    ``ports(theta, z, z_ref, wrapped, c, q) -> (d, arm, R, branch_error)``: port displacements
-    [m] from the reference pose, their moment arms [m] (``energy``: dd/dθ by
+    ``ports(theta, z, z_ref, wrapped, wound, c, q) -> (d, arm, R, branch_error)``: port
+    displacements [m] from the reference pose, their moment arms [m] (``energy``: dd/dθ by
     :func:`energy_arms`; otherwise the mechanism's named force model, with ``order`` and
     ``wire_arm`` passed on), and the residuals at (θ, z). ``wrapped`` holds each profile's
-    wrapped length between α_k(θ_ref) and α_k(θ) [m] (Johnston2023 Eq. 10), an input so that
-    callers integrate it per angle (the re-check) or cumulatively along a grid (the NLP).
+    wrapped length between α_k(θ_ref) and α_k(θ) [m] (Johnston2023 Eq. 10) and ``wound`` the
+    length from its anchor to α_k(θ) [m] (used by closure rows only), inputs so that callers
+    integrate them per angle (the re-check) or cumulatively along a grid (the NLP).
     """
     cls, bases = structure
     theta, z, c, q = _symbols(cls, bases)
     z_ref = ca.SX.sym("z_ref", z.shape[0])
     wrapped = ca.SX.sym("wrapped", len(bases))
+    wound = ca.SX.sym("wound", len(bases))
     d = cls.displacements(bases, theta, z, z_ref, wrapped, c, q)
     if model == ENERGY:
-        arm = energy_arms(structure, theta, z, wrapped, c, q, d)
+        arm = energy_arms(structure, theta, z, wound, wrapped, c, q, d)
     else:
         arm = cls.force_arms(bases, model, theta, z, c, q, order, wire_arm)
-    R, branch = residual_function(structure)(theta, z, c, q)
-    return ca.Function("ports", [theta, z, z_ref, wrapped, c, q], [d, arm, R, branch],
-                       ["theta", "z", "z_ref", "wrapped", "c", "q"], ["d", "arm", "R", "branch_error"])
+    R, branch = pose_residual_function(structure)(theta, z, wound, c, q)
+    return ca.Function("ports", [theta, z, z_ref, wrapped, wound, c, q], [d, arm, R, branch],
+                       ["theta", "z", "z_ref", "wrapped", "wound", "c", "q"],
+                       ["d", "arm", "R", "branch_error"])
 
 
 @lru_cache(maxsize=64)
@@ -314,11 +355,33 @@ class DepartureSolver:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         return np.asarray(self._guess.map(theta.size)(theta, c, q)).reshape(-1, theta.size)
 
-    def solve(self, theta, c, q, start=None):
-        """z (rows: unknowns) and the max |residual| at each θ; ``start`` overrides the guess."""
+    def solve(self, theta, c, q, start=None, tol: float = 1e-9):
+        """z (rows: unknowns) and the max |residual| at each θ; ``start`` overrides the guess.
+
+        Angles where Newton did not reach ``tol`` from its start are solved again from a
+        converged neighbour's z (continuation along the grid), sweep after sweep.
+        """
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         c, q = (np.asarray(v, dtype=float).ravel() for v in (c, q))
         z0 = self.guess(theta, c, q) if start is None else np.asarray(start, dtype=float)
+        z, res = self._solve(theta, z0, c, q)
+        order = np.argsort(theta, kind="stable")  # neighbours in angle
+        while True:
+            good = res[order] <= tol
+            left = np.r_[False, good[:-1]] & ~good
+            right = np.r_[good[1:], False] & ~good
+            todo = left | right
+            if not todo.any():
+                return z, res
+            idx = order[todo]
+            src = order[np.where(left, np.arange(good.size) - 1, np.arange(good.size) + 1)[todo]]
+            zt, rt = self._solve(theta[idx], z[:, src], c, q)
+            better = (rt < res[idx]) | (np.isfinite(rt) & ~np.isfinite(res[idx]))
+            z[:, idx[better]], res[idx[better]] = zt[:, better], rt[better]
+            if not np.any(rt <= tol):  # no progress: what is left does not converge
+                return z, res
+
+    def _solve(self, theta, z0, c, q):
         n = theta.size
         p = np.vstack([theta, np.tile(c[:, None], (1, n)), np.tile(q[:, None], (1, n))])
         z = np.asarray(self._rf.map(n)(z0, p)).reshape(-1, n)

@@ -26,7 +26,8 @@ import casadi as ca
 import numpy as np
 
 from ..design import Design
-from ..mechanisms.base import margin_function, port_function, residual_function, split_coefficients
+from ..mechanisms.base import (margin_function, port_function, pose_residual_function,
+                               split_coefficients, wound_lengths)
 from ..physics.profile import profile_function
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.wrap import length_function, segment_lengths
@@ -133,6 +134,9 @@ class Transcription:
                     p.add(f"Mt{i}_{c}", n * n)
         for u, mech in enumerate(problem.mechanisms):
             p.add(f"q{u}", len(mech.parameter_names))
+            if mech.output_target is not None:  # the output law's samples and scale
+                p.add(f"xd{u}", n)
+                p.add(f"xs{u}", 1)
         p.add("k", S)
         p.add("F0", S)
         p.add("obj_scale", 1)
@@ -158,6 +162,7 @@ class Transcription:
         # -- per mechanism and per angle: O(n) --------------------------------------------------
         d = [[] for _ in range(m)]
         arm = [[] for _ in range(m)]
+        outputs = []  # (mechanism, its joint, the output unknown on the grid)
         for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
             i = mech.joint
             joint = problem.joints[i]
@@ -166,6 +171,8 @@ class Transcription:
             c = ca.vertcat(*[L * v.add(f"c{k}", b.size) for k, b in zip(range(sl.start, sl.stop), bases)])
             Z = ca.vertcat(*[v.add(f"z{u}_{name}", n).T for name in mech.unknowns])
             ref = v.add(f"ref{u}", len(mech.unknowns))
+            if mech.output_target is not None:
+                outputs.append((u, i, Z[mech.unknowns.index(mech.output), :].T))
             theta, q = p[f"theta{i}"], p[f"q{u}"]
             h = (joint.theta_range[1] - joint.theta_range[0]) / (n - 1)
             first = opt.quadrature_order * int(np.ceil(max(
@@ -178,10 +185,15 @@ class Transcription:
                 seg = segment_lengths(b, opt.quadrature_order, first, ref[k], Z[k, :].T, ck)
                 constrain((lk - ca.vertcat(0, lk[:n - 1]) - seg) / L, zero)
                 wrapped.append(lk.T)
+            wrapped = ca.vertcat(*wrapped)
+            # lengths wound from each anchor, for closure rows (a constant cable length): the
+            # wound length at the reference pose plus the lifted wrapped lengths
+            wound_ref = (lift(f"wound{u}", wound_lengths(bases, ref, c), L) if mech.closure_rows
+                         else ca.SX.zeros(len(bases)))
             ports = port_function(structure, problem.torque_model,
                                   FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
-            du, au, res, _ = ports(theta.T, Z, ref, ca.vertcat(*wrapped), c, q)
-            res_ref = residual_function(structure)(mech.reference_angle, ref, c, q)[0]
+            du, au, res, _ = ports(theta.T, Z, ref, wrapped, ca.repmat(wound_ref, 1, n) + wrapped, c, q)
+            res_ref = pose_residual_function(structure)(mech.reference_angle, ref, wound_ref, c, q)[0]
             for r, unit in enumerate(mech.residual_units):  # the mechanism's R = 0 everywhere
                 constrain(ca.vertcat(res[r, :].T, res_ref[r]) / (L if unit == "m" else 1.0), zero)
             # convexity and ρ bounds over each wrapped range [0, α(most wound)] (Johnston2023
@@ -238,6 +250,8 @@ class Transcription:
         for i in range(m):  # Johnston2023 Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
             U, V = terms[i]
             if opt.objective == "minimax":  # max |τ_i − τ_d,i| over the grid: an epigraph t_i
+                if problem.joints[i].tracking_weight == 0:
+                    continue  # no torque goal on this joint (an output law may drive it)
                 if V:
                     raise ValueError(f"objective 'minimax' needs joint torques that each depend "
                                      f"on their own joint's angle; {problem.joints[i].name!r} is "
@@ -265,15 +279,30 @@ class Transcription:
                 integral = integral * span[c]
             objective += p[f"wsens{i}"][j] * integral  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
 
+        torque_objective = objective
+        # a mechanism's output law x_d(θ): ∫(x − x_d)² or max |x − x_d| (mm in the NLP), scaled
+        # by its own parameter so that it weighs as much as a torque term whatever the units
+        scaled = 0
+        for u, i, xu in outputs:
+            err = (xu - p[f"xd{u}"]) / L
+            if opt.objective == "minimax":
+                t = v.add(f"to{u}", 1)
+                constrain(ca.vertcat(t - err, t + err), lambda pr: (0.0, np.inf))
+                objective += L * t
+                scaled += p[f"xs{u}"] * t
+            else:
+                sq = ca.dot(w[i], err * err)
+                objective += L**2 * sq
+                scaled += p[f"xs{u}"] * sq
         x, P = v.vector(), p.vector()
         self.objective = ca.Function("objective", [x, P], [objective])
         self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
                            for name, expr in self._lifted]
-        nlp = {"x": x, "p": P, "f": objective * p["obj_scale"], "g": ca.vertcat(*g)}
+        nlp = {"x": x, "p": P, "f": torque_objective * p["obj_scale"] + scaled, "g": ca.vertcat(*g)}
         self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
             "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
             "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-            "ipopt.mu_strategy": "adaptive",
+            "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt},
         })
         self.build_time_s = time.perf_counter() - t0
 
@@ -314,6 +343,13 @@ class Transcription:
                     p.put(vec, f"Mt{i}_{cc}", marg.ravel(order="F"))
         for u, mech in enumerate(problem.mechanisms):
             p.put(vec, f"q{u}", mech.parameter_values())
+            if mech.output_target is not None:
+                xd = np.asarray(mech.output_target.function(1, 0).map(n)(grids[mech.joint])).ravel()
+                p.put(vec, f"xd{u}", xd)
+                spread = (xd - xd.mean()) / LENGTH_SCALE  # mm
+                size = (np.sqrt(np.mean(spread**2)) if problem.options.objective == "minimax"
+                        else float(np.dot(ws[mech.joint], spread**2)))
+                p.put(vec, f"xs{u}", OBJECTIVE_SCALE / size if size > 0 else OBJECTIVE_SCALE)
         for pk, prof in enumerate(problem.profiles):
             if f"rc{pk}" in p.blocks:
                 p.put(vec, f"rc{pk}", prof.min_curvature_radius * (1 + problem.options.limit_margin))

@@ -4,6 +4,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import casadi as ca
+import numpy as np
 
 from .profile import Basis, profile_function
 from .quadrature import gauss_legendre
@@ -43,3 +44,15 @@ def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha
     first = length_function(basis, first_order)(alpha_ref, alpha[0], c)
     rest = length_function(basis, order).map(n - 1)(alpha[:n - 1].T, alpha[1:].T, c).T
     return ca.vertcat(first, rest)
+
+
+#: Gauss–Legendre points per radian of a basis's design interval for :func:`wound_length`.
+WOUND_POINTS_PER_RAD = 8
+
+
+def wound_length(basis: Basis, alpha, c):
+    """W(α) = ∫₀^α √(ρ² + ρ′²) dφ [m]: the cable wound from the anchor φ = 0 to α
+    (Johnston2023 Eq. 10; Fedorov2018 Eq. 6a), by one Gauss–Legendre rule whose order grows
+    with the design interval (at least 32 points; tests check it against adaptive quadrature)."""
+    order = max(32, int(np.ceil(WOUND_POINTS_PER_RAD * basis.domain[1])))
+    return length_function(basis, order)(0, alpha, c)

@@ -38,12 +38,13 @@ def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
                 phi = np.linspace(0, ps.phi[-1], 400)
                 rho = np.asarray(profile_function(ev.design.bases[p]).map(phi.size)(
                     phi, ev.design.coefficients[p])[0]).ravel()
-                x, y = mech.world_points(th, phi, rho)
+                x, y = mech.world_points(th, phi, rho, p - sl.start)
                 ax.plot(MM * x, MM * y, color=col,
                         label=f"θ = {np.degrees(th):.0f}°" if p == sl.start else None)
                 mask = phi <= ps.alpha[k]
                 ax.plot(MM * x[mask], MM * y[mask], color=col, lw=2.5, alpha=0.5)
-                ax.plot(*(MM * np.array(mech.world_points(th, 0.0, rho[0]))), "s", color=col, ms=4)
+                ax.plot(*(MM * np.array(mech.world_points(th, 0.0, rho[0], p - sl.start))), "s",
+                        color=col, ms=4)
             for start, end in mech.segments(th, unit.z[:, k], c):
                 ax.plot(MM * np.array([start[0], end[0]]), MM * np.array([start[1], end[1]]),
                         color=col, lw=1.0)
