@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 check-energy
+.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,6 +37,9 @@ reproduce-ludovico2021: $(STAMP)
 
 reproduce-endo2010: $(STAMP)
 	$(PY) studies/endo2010.py
+
+reproduce-fedorov2018: $(STAMP)
+	$(PY) studies/fedorov2018.py
 
 check-energy: $(STAMP)
 	$(PY) benchmarks/energy_check.py

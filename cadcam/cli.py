@@ -70,9 +70,11 @@ def _write_torque_csv(path: Path, ev) -> None:
 
 def write_outputs(result, out: Path) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
-    grid), ``profile.csv`` and the PNG figures in ``out``."""
+    grid), ``profile.csv``, the PNG figures and, for mechanisms with an output law (a
+    differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
+    from .check.evaluate import output_law
     from .files import write_csv, write_json
-    from .views.plots import plot_profiles, plot_springs, plot_torque
+    from .views.plots import plot_outputs, plot_profiles, plot_springs, plot_torque
 
     ev = result.evaluation
     write_json(out / "result.json", result.to_dict())
@@ -84,16 +86,29 @@ def write_outputs(result, out: Path) -> None:
     plot_profiles(ev, out / "profile.png")
     plot_torque(ev, out / "torque.png")
     plot_springs(ev, out / "springs.png")
+    outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
+    if outputs:  # x(θ) of mechanisms with an output law, against it
+        header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
+        for u, mech in outputs:
+            x = ev.units[u].z[mech.unknowns.index(mech.output)]
+            xd = output_law(mech, ev.units[u].theta)
+            header += [f"{mech.output}{u + 1}_m", f"{mech.output}{u + 1}_d_m", f"error{u + 1}_m"]
+            cols += [x, xd, x - xd]
+        write_csv(out / "output.csv", header, np.column_stack(cols))
+        plot_outputs(ev, out / "output.png")
 
 
 def write_workshop_files(ev, out: Path, args) -> list[str]:
     """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request."""
     from .views.drawing import draw_sheet
-    from .views.workshop import closed_outline, polyline, write_csv, write_dxf, write_stl, write_svg
+    from .views.workshop import (chord_outline, closed_outline, polyline, write_csv, write_dxf, write_stl,
+                                 write_svg)
 
     notes = []
-    for i, (cam, cs) in enumerate(zip(ev.problem.profiles, ev.profiles)):
-        outline = closed_outline(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
+    owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
+    for i, (cam, cs, mech) in enumerate(zip(ev.problem.profiles, ev.profiles, owners)):
+        close = chord_outline if mech.outline_closure == "chord" else closed_outline
+        outline = close(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
         stem = out / f"cam{i + 1}"
         write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
         write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
@@ -128,6 +143,9 @@ def cmd_design(args) -> int:
     print(f"{result.status}: {result.message}")
     print(f"  RMSE per joint [N·mm]: {', '.join(mm)}; iterations {d['solver']['iterations']}, "
           f"build {d['solver']['build_time_s']:.3f} s, solve {d['solver']['solve_time_s']:.3f} s")
+    outs = [f"{1e3 * v:.3g}" for v in d["recheck"]["output_max_abs_error"] if v is not None]
+    if outs:
+        print(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)} (output.csv, output.png)")
     for v in d["violations"]:
         print(f"  violated: {v}")
     print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv profile.png "

@@ -91,6 +91,9 @@ class Mechanism:
     n_profiles: ClassVar[int] = 1
     #: Number of :meth:`closure` rows (residual rows that need the wound lengths).
     closure_rows: ClassVar[int] = 0
+    #: How workshop outlines close a profile's wrapped arc: "convex" (a smooth C2 arc) or
+    #: "chord" (a straight chord to the anchor, for wraps of nearly a whole turn).
+    outline_closure: ClassVar[str] = "convex"
     #: The unknown that is the mechanism's output displacement [m] ("" if none), and the law
     #: it should follow (a :class:`cadcam.targets.Target` of the joint angle, or None).
     output: ClassVar[str] = ""

@@ -95,6 +95,7 @@ class DifferentialPulley(Mechanism):
     citation = "Fedorov2018"
     n_profiles: ClassVar[int] = 2
     closure_rows: ClassVar[int] = 1
+    outline_closure: ClassVar[str] = "chord"  # a wrap of nearly a turn leaves no room to round
     ports = ("slider",)
     unknowns = ("alpha1", "alpha2", "x", "rho1", "drho1", "rho2", "drho2")
     unknown_units = ("rad", "rad", "m", "m", "m/rad", "m", "m/rad")

@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..check.evaluate import Evaluation  # noqa: E402
+from ..check.evaluate import Evaluation, output_law  # noqa: E402
 from ..physics.profile import profile_function  # noqa: E402
 from ..files import atomic_path  # noqa: E402
 
@@ -94,6 +94,29 @@ def plot_torque(ev: Evaluation, path) -> None:
             ax.set_xlabel("θ₂ [deg]")
             ax.set_ylabel("θ₁ [deg]")
             ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * ev.metrics['rmse'][i]:.3g} N·mm")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_outputs(ev: Evaluation, path) -> None:
+    """Each mechanism's output x(θ) against its law x_d(θ) and the error [mm]."""
+    rows = [(mech, unit) for mech, unit in zip(ev.problem.mechanisms, ev.units)
+            if mech.output_target is not None]
+    fig, axes = plt.subplots(2, len(rows), figsize=(6.5 * len(rows), 6), sharex="col", squeeze=False)
+    for k, (mech, unit) in enumerate(rows):
+        th = np.degrees(unit.theta)
+        x = unit.z[mech.unknowns.index(mech.output)]
+        xd = output_law(mech, unit.theta)
+        a1, a2 = axes[0][k], axes[1][k]
+        a1.plot(th, MM * xd, "k--", label=f"target {mech.output}_d")
+        a1.plot(th, MM * x, label=f"{mech.output} (rootfinder)")
+        a1.set_ylabel(f"{mech.output} [mm]")
+        a1.legend(fontsize=8)
+        a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| "
+                     f"{MM * np.abs(x - xd).max():.3g} mm", fontsize=9)
+        a2.plot(th, 1e6 * (x - xd), color="C3")
+        a2.set_ylabel(f"{mech.output} − {mech.output}_d [µm]")
+        a2.set_xlabel("θ [deg]")
     fig.tight_layout()
     _save(fig, path)
 

@@ -207,6 +207,36 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
     return outline
 
 
+def chord_outline(basis: Basis, coefficients, phi_max: float) -> Outline:
+    """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], by the straight chord from its end
+    back to its anchor at φ = 0 ≡ 2π.
+
+    For a pulley whose cable wraps nearly a whole turn (a differential pair over 360°) no
+    smooth convex closure fits in the gap. The chord leaves two corners, at the anchor and at
+    φ_max — a notch where ρ(φ_max) > ρ(0) — where the cable never lies: it is anchored at φ = 0
+    and leaves the profile after it. In u = 1/ρ a straight line is u = a cos φ + b sin φ; it is stored as a
+    polynomial of x = (φ − φ_max)/(2π − φ_max) fitted to it (exact to rounding over the gap).
+
+    Raises
+    ------
+    ValueError
+        If ``phi_max`` is outside (0, 2π) or the designed arc is not positive and convex.
+    """
+    if not 0 < phi_max < TWO_PI:
+        raise ValueError(f"phi_max = {phi_max!r} rad must lie in (0, 2π)")
+    profile = profile_function(basis)
+    _check_designed_arc(profile, coefficients, phi_max)
+    (r1,), (r0,) = (designed_values(profile, coefficients, phi)[:1, 0] for phi in (phi_max, 0.0))
+    p1, p0 = r1 * np.array([np.cos(phi_max), np.sin(phi_max)]), np.array([r0, 0.0])
+    normal = np.array([p0[1] - p1[1], p1[0] - p0[0]])  # the chord's line: normal · p = c
+    level = float(normal @ p0)
+    x = np.linspace(0.0, 1.0, 64)
+    phi = phi_max + x * (TWO_PI - phi_max)
+    u = (normal[0] * np.cos(phi) + normal[1] * np.sin(phi)) / level
+    closing = Polynomial.fit(x, u, 9, domain=[0, 1], window=[0, 1])
+    return Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
+
+
 #: Relative margin by which ρ bounds are tightened on the closure's grid, so that the curve
 #: between grid points stays inside them.
 RHO_BOUND_MARGIN = 1e-5
@@ -328,9 +358,12 @@ def _even_chords(outline, start, stop, tolerance) -> np.ndarray:
     phi = np.linspace(start, stop, 513)
     rho, drho, ddrho = outline.derivatives(phi)
     margin = convexity_margin(rho, drho, ddrho)  # Johnston2023 Eq. 40
-    density = np.sqrt(margin / (8 * tolerance)) / (rho**2 + drho**2) ** 0.25
+    # a straight chord (margin 0, rounding either side) needs no vertices of its own
+    density = np.sqrt(np.maximum(margin, 0) / (8 * tolerance)) / (rho**2 + drho**2) ** 0.25
     count = np.concatenate(([0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(phi))))
     chords = max(1, int(np.ceil(CHORD_SPARE * count[-1])))
+    if count[-1] == 0:
+        return np.array([start, stop])
     return np.interp(np.linspace(0.0, count[-1], chords + 1), count, phi)
 
 
@@ -362,11 +395,18 @@ def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
     """Centre [m] of the wire's anchor hole.
 
     On the inward normal of the outline at the anchor point φ = 0, deep enough to leave
-    MIN_WALL of material between the hole and the profile.
+    MIN_WALL of material between the hole and the profile (deeper where a corner of the
+    outline, such as a chord closure's, comes near).
     """
     rho, drho, _ = outline.derivatives(0.0)[:, 0]
     outward = np.array([rho, -drho]) / np.hypot(rho, drho)  # tangent (ρ′, ρ) turned by −90°
-    return np.array([rho, 0.0]) - (anchor_diameter / 2 + MIN_WALL) * outward
+    radius = anchor_diameter / 2
+    depths = radius + MIN_WALL + np.linspace(0.0, max(rho - radius - MIN_WALL, 0.0), 200)
+    for depth in depths:  # the first depth that leaves the wall to the whole outline
+        centre = np.array([rho, 0.0]) - depth * outward
+        if np.min(np.hypot(*(outline.points - centre).T)) - radius >= MIN_WALL - 1e-9:
+            return centre
+    return np.array([rho, 0.0]) - depths[0] * outward  # none: holes() names the shortfall
 
 
 def holes(outline: Outline, bore_diameter: float,
