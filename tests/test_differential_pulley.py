@@ -231,3 +231,21 @@ def test_malformed_differential_specs_get_one_line_errors(key, value, message):
         parse_spec(data, "balancer.toml")
     assert message in str(err.value)
     assert "\n" not in str(err.value)
+
+
+def test_balancer_outlines_close_with_a_chord_at_the_anchor(balancer):
+    """Wraps of nearly a turn leave no room for a rounded closure: the outline closes with the
+    straight chord from the wrap's end to the anchor, and the holes still fit."""
+    from cadcam.views.workshop import chord_outline, closed_outline, holes, polyline
+    for basis, c, prof in zip(balancer.design.bases, balancer.design.coefficients, balancer.recheck.profiles):
+        end = float(prof.alpha.max())
+        with pytest.raises(ValueError):
+            closed_outline(basis, c, end)
+        outline = chord_outline(basis, c, end)
+        pts = polyline(outline, 1e-5)
+        ends = [np.array(outline.points[0]), np.array(outline.points[-1])]
+        rho0, rho_end = (float(profile_function(basis)(p, c)[0]) for p in (0.0, end))
+        assert np.hypot(*ends[0]) == pytest.approx(rho0, rel=1e-9)
+        assert len(pts) > 50
+        holes(outline, 0.006, 0.0025)  # raises if a hole leaves less than the minimum wall
+        assert rho_end != pytest.approx(rho0, rel=1e-3)  # a real step: the chord is needed
