@@ -72,7 +72,7 @@ def write_outputs(result, out: Path) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
     grid), ``profile.csv``, the PNG figures and, for mechanisms with an output law (a
     differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
-    from .check.evaluate import output_law
+    from .check.evaluate import output_error, output_law
     from .files import write_csv, write_json
     from .views.plots import plot_outputs, plot_profiles, plot_springs, plot_torque
 
@@ -90,10 +90,9 @@ def write_outputs(result, out: Path) -> None:
     if outputs:  # x(θ) of mechanisms with an output law, against it
         header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
         for u, mech in outputs:
-            x = ev.units[u].z[mech.unknowns.index(mech.output)]
             xd = output_law(mech, ev.units[u].theta)
             header += [f"{mech.output}{u + 1}_m", f"{mech.output}{u + 1}_d_m", f"error{u + 1}_m"]
-            cols += [x, xd, x - xd]
+            cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
         write_csv(out / "output.csv", header, np.column_stack(cols))
         plot_outputs(ev, out / "output.png")
 

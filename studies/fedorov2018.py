@@ -16,12 +16,14 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 from cadcam import load_spec, optimize  # noqa: E402
 from cadcam.check.evaluate import evaluate  # noqa: E402
 from cadcam.files import atomic_path, write_json  # noqa: E402
 from cadcam.optimize import default_start, differential_start  # noqa: E402
+from cadcam.targets import spring_elongation  # noqa: E402
 from cadcam.views.plots import plot_outputs  # noqa: E402
 from cadcam.views.workshop import chord_outline, write_csv  # noqa: E402
 from reporting import figures, finish, provenance  # noqa: E402
@@ -32,9 +34,9 @@ MASS, LENGTH, G = 0.17, 0.10, 9.81
 
 
 def elongation(phi, rate, preload):
-    """Fedorov2018 Eq. 18 [m] (numpy, for the report's table and figure)."""
-    mgl = MASS * G * LENGTH
-    return (-preload + np.sqrt(preload**2 + 2 * rate * mgl * (np.cos(phi) + 1))) / rate
+    """Fedorov2018 Eq. 18 [m] at the angles ``phi`` for the report's pendulum
+    (:func:`cadcam.targets.spring_elongation`)."""
+    return np.asarray(spring_elongation(ca.DM(phi), MASS, LENGTH, G, rate, preload)).ravel()
 
 
 def plot_elongation(ev, path) -> None:

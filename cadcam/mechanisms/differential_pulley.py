@@ -161,15 +161,11 @@ class DifferentialPulley(Mechanism):
 
     @staticmethod
     def _idler_wrap(halves, q):
+        """ω: the angle the cable turns on the idler [rad], in (0, 2π) (Fedorov2018 Eq. 6c for
+        both halves)."""
         (_, t1, _), (_, t2, _) = halves
         delta = q[0] + q[1] - ca.atan2(t1[1], t1[0]) - ca.atan2(t2[1], t2[0])
         return ca.pi + ca.atan2(ca.sin(delta), ca.cos(delta))
-
-    @classmethod
-    def idler_wrap(cls, bases, theta, z, c, q):
-        """ω: the angle the cable turns on the idler [rad], in (0, 2π) (Fedorov2018 Eq. 6c for
-        both halves)."""
-        return cls._idler_wrap(cls._halves(theta, z, q), q)
 
     @classmethod
     def cable_path(cls, bases, theta, z, wound, c, q):

@@ -54,7 +54,8 @@ class Envelope:
     @property
     def convex(self) -> bool:
         """True if the envelope is a convex curve traversed in one direction."""
-        return bool(np.all(self.curvature_radius > 0) and np.all(np.diff(self.psi) * np.sign(self.psi[-1] - self.psi[0]) > 0))
+        turning = np.diff(self.psi) * np.sign(self.psi[-1] - self.psi[0])
+        return bool(np.all(self.curvature_radius > 0) and np.all(turning > 0))
 
 
 def envelope(theta, x, dx, dl, chi0: float, sigma: float, q: float) -> Envelope:

@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..check.evaluate import Evaluation, output_law  # noqa: E402
+from ..check.evaluate import Evaluation, output_error, output_law  # noqa: E402
 from ..physics.profile import profile_function  # noqa: E402
 from ..files import atomic_path  # noqa: E402
 
@@ -106,15 +106,15 @@ def plot_outputs(ev: Evaluation, path) -> None:
     for k, (mech, unit) in enumerate(rows):
         th = np.degrees(unit.theta)
         x = unit.z[mech.unknowns.index(mech.output)]
-        xd = output_law(mech, unit.theta)
+        xd, err = output_law(mech, unit.theta), output_error(mech, unit)
         a1, a2 = axes[0][k], axes[1][k]
         a1.plot(th, MM * xd, "k--", label=f"target {mech.output}_d")
         a1.plot(th, MM * x, label=f"{mech.output} (rootfinder)")
         a1.set_ylabel(f"{mech.output} [mm]")
         a1.legend(fontsize=8)
         a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| "
-                     f"{MM * np.abs(x - xd).max():.3g} mm", fontsize=9)
-        a2.plot(th, 1e6 * (x - xd), color="C3")
+                     f"{MM * np.abs(err).max():.3g} mm", fontsize=9)
+        a2.plot(th, 1e6 * err, color="C3")
         a2.set_ylabel(f"{mech.output} − {mech.output}_d [µm]")
         a2.set_xlabel("θ [deg]")
     fig.tight_layout()
