@@ -123,13 +123,38 @@ def _five_bar(r: _Reader, n_cams: int) -> dict:
             "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
 
 
+def _cable_robot(r: _Reader, theta_range) -> dict:
+    """A ``cable_robot`` output law (Fedorov2018 Sec. 4.1): this cable's frame anchor, the
+    pick-and-place path, the amplification and the idler's position at the shortest cable."""
+    point = _list_of(_number, 2)
+    data = {"anchor": r.get("anchor", point, "[x, y]: this cable's attachment on the frame [m]"),
+            "start": r.get("start", point, "[x, y]: the path's pick point [m]"),
+            "lift": r.get("lift", _positive, "the height of the vertical moves [m]"),
+            "span": r.get("span", _number, "the horizontal move [m], signed"),
+            "lift_share": r.get("lift_share", lambda v: _number(v) and 0 < v < 0.5,
+                                "the share of the input rotation each vertical move takes, in (0, 0.5)"),
+            "amplification": r.get("amplification", _positive, "the ratio G of cable to idler "
+                                   "travel of the amplification stage (6 for 6:1)"),
+            "slider_at_shortest": r.get("slider_at_shortest", _positive, "the idler's distance "
+                                        "from the shaft where the cable is shortest [m]")}
+    data["overlap"] = r.get("overlap", lambda v: _number(v) and 0 <= v < data["lift_share"],
+                            "the share of the input during which the horizontal move overlaps a "
+                            "vertical one, in [0, lift_share)", 0.0)
+    data["theta_range"] = r.get("theta_range", lambda v: point(v) and v[1] > v[0], "[start, end]: "
+                                "the joint angles over which the path runs [rad], end > start",
+                                list(theta_range))
+    return {k: ([float(x) for x in v] if isinstance(v, list) else float(v)) for k, v in data.items()}
+
+
 #: Target kinds of a joint's torque law and of a mechanism's output displacement law.
 TORQUE_KINDS = ("expression", "pendulum", "table", "arm", "five_bar", "none")
-OUTPUT_KINDS = ("expression", "table", "spring_balance")
+OUTPUT_KINDS = ("expression", "table", "spring_balance", "cable_robot")
 
 
-def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool = False) -> Target:
-    """A joint's torque law, or (``output``) a mechanism's output law x(θ) [m]."""
+def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool = False,
+            theta_range=None) -> Target:
+    """A joint's torque law, or (``output``) a mechanism's output law x(θ) [m] over its
+    joint's ``theta_range`` [rad]."""
     kinds = OUTPUT_KINDS if output else TORQUE_KINDS
     unit, column = ("m", "x_m") if output else ("N·m", "torque_Nm")
     kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
@@ -164,6 +189,8 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool 
                                      "where the spring's elongation is zero [m]"),
                 "phase": r.get("phase", _number, "the joint angle minus the pendulum angle from "
                                "its stable equilibrium [rad]", 0.0)}
+    elif kind == "cable_robot":
+        data = _cable_robot(r, theta_range)
     elif kind == "none":
         data = {}
     else:
@@ -275,8 +302,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                          "a non-empty array of [[joints]] tables")
     raw_mechs = top.get("mechanisms", lambda v: isinstance(v, list) and v,
                         "a non-empty array of [[mechanisms]] tables")
-    raw_springs = top.get("springs", lambda v: isinstance(v, list) and v,
-                          "a non-empty array of [[springs]] tables")
+    raw_springs = top.get("springs", lambda v: isinstance(v, list), "an array of [[springs]] tables", [])
     top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
     top.done()
     n_springs = len(raw_springs)
@@ -313,6 +339,9 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
 
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
                for j, raw in enumerate(raw_springs)]
+    if not springs and any(c["tracking_weight"] > 0 for c in joints):
+        raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
+                        "tables (or kind = \"none\" on every joint's target, for output laws only)")
 
     ranges = [c["theta_range"] for c in joints]
     for i, t in enumerate(targets):
@@ -325,6 +354,11 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         raise SpecError(f"{origin}: torque_model: {exc}") from None
 
 
+#: Highest polynomial degree per basis: monomials are ill-conditioned beyond 15; Chebyshev
+#: polynomials stay well-conditioned, and a multi-turn spiral needs the degree.
+MAX_ORDER = {"monomial": 15, "chebyshev": 40}
+
+
 def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path(".")):
     """One [[mechanisms]] table: kind, name, joint, its profiles (one basis and one set of
     limits for all), its output law if it has an output, and the mechanism's own keys."""
@@ -334,7 +368,9 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
     joint = r.get("joint", lambda v: _posint(v) and v <= len(joints),
                   f"a joint number between 1 and {len(joints)}") - 1
     basis_name = r.get("basis", lambda v: v in BASES, f"one of {BASES}", "chebyshev")
-    order = r.get("order", lambda v: _posint(v) and v <= 15, "an integer 1…15", 3)
+    cap = MAX_ORDER[basis_name]
+    order = r.get("order", lambda v: _posint(v) and v <= cap, f"an integer 1…{cap} (the cap of "
+                  f"the {basis_name} basis; {MAX_ORDER})", 3)
     rho_min = float(r.get("rho_min", _positive, "a positive minimum profile radius [m]"))
     rho_max = float(r.get("rho_max", _positive, "a positive maximum profile radius [m]"))
     if rho_min >= rho_max:
@@ -350,7 +386,8 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
     if cls.output and "output_target" in r.table:
         where = r.key("output_target")
         target = _target(_Reader(r.origin, r.get("output_target", lambda v: isinstance(v, dict),
-                                                 "a table"), where), base, 1, None, output=True)
+                                                 "a table"), where), base, 1, None, output=True,
+                         theta_range=theta_range)
         _check_target(r.origin, where, target, [theta_range], 0, f"{cls.output} [m]")
         mech = replace(mech, output_target=target)
     r.done()

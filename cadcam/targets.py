@@ -13,6 +13,9 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from scipy.optimize import minimize_scalar
+
+from .physics.cable_robot import cable_length, pick_and_place
 
 FUNCTIONS = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
@@ -194,6 +197,49 @@ def spring_elongation(phi, mass, length, g, rate, preload):
     return (-preload + ca.sqrt(preload**2 + 2 * rate * mgl * (ca.cos(phi) + 1))) / rate  # Fedorov2018 Eq. 18
 
 
+#: The path keys of a ``cable_robot`` target (:func:`cadcam.physics.cable_robot.pick_and_place`).
+PATH_KEYS = ("start", "lift", "span", "lift_share", "overlap")
+#: Input shares at which the shortest cable of a path is sought.
+PATH_SAMPLES = 20001
+
+
+def robot_cable(theta, d: dict):
+    """The cable length [m] from anchor ``d["anchor"]`` to the end effector at joint angle θ:
+    the path's input share is τ = (θ − θ₀)/(θ₁ − θ₀) over ``d["theta_range"]`` [rad]
+    (Fedorov2018 Sec. 4.1)."""
+    lo, hi = d["theta_range"]
+    x, y = pick_and_place((theta - lo) / (hi - lo), *(d[k] for k in PATH_KEYS))
+    return cable_length(x, y, d["anchor"])
+
+
+def shortest_cable(d: dict) -> float:
+    """ℓ_min [m]: the least :func:`robot_cable` along the path, sampled at
+    :data:`PATH_SAMPLES` angles and refined between the best sample's neighbours."""
+    theta = np.linspace(*d["theta_range"], PATH_SAMPLES)
+    k = int(np.argmin(robot_cable(theta, d)))
+    bracket = (theta[max(k - 1, 0)], theta[min(k + 1, theta.size - 1)])
+    best = minimize_scalar(lambda t: robot_cable(t, d), bounds=bracket, method="bounded",
+                           options={"xatol": 1e-12})
+    return float(min(best.fun, robot_cable(theta[k], d)))
+
+
+def cable_robot_slider(theta, d: dict):
+    """The idler position x(θ) [m] of one cable of Fedorov2018's cable robot (Sec. 4.1).
+
+    The amplification stage (two coaxial pulleys of diameter ratio G = ``amplification``)
+    turns the idler's travel into G times as much cable to the end effector, so that
+    x = ``slider_at_shortest`` + (ℓ(θ) − ℓ_min)/G with ℓ(θ) :func:`robot_cable` and ℓ_min
+    :func:`shortest_cable`: the idler moves away from the shaft as the cable pays out.
+    """
+    return d["slider_at_shortest"] + (robot_cable(theta, d) - shortest_cable(d)) / d["amplification"]
+
+
+def slider_cable(x, d: dict):
+    """The inverse of :func:`cable_robot_slider`: the cable length [m] to the end effector
+    that an idler at ``x`` [m] gives, ℓ = ℓ_min + G (x − ``slider_at_shortest``)."""
+    return shortest_cable(d) + d["amplification"] * (x - d["slider_at_shortest"])
+
+
 @dataclass
 class Target:
     """A target torque τ_d [N·m] for one cam.
@@ -213,7 +259,9 @@ class Target:
     is a Target too: ``expression`` or ``table`` of metres, or ``spring_balance``: the idler
     position x = ``slider_zero`` − e(θ + ``phase``) at which a spring (``rate`` [N/m],
     ``preload`` [N]) on the slider balances a pendulum (``mass`` [kg], ``length`` [m], ``g``)
-    by energy (:func:`spring_elongation`, Fedorov2018 Eq. 16–18).
+    by energy (:func:`spring_elongation`, Fedorov2018 Eq. 16–18), or ``cable_robot``: the
+    idler position that gives a cable robot's cable the length to its end effector on a
+    pick-and-place path (:func:`cable_robot_slider`, Fedorov2018 Sec. 4.1).
     """
 
     kind: str
@@ -242,6 +290,8 @@ class Target:
             d = self.data
             return d["slider_zero"] - spring_elongation(thetas[cam] + d["phase"], d["mass"], d["length"],
                                                         d["g"], d["rate"], d["preload"])
+        if self.kind == "cable_robot":
+            return cable_robot_slider(thetas[cam], self.data)
         if self.kind == "none":
             return ca.SX(0)
         if self.kind == "table":

@@ -126,15 +126,20 @@ def _rotate(points, angle):
 
 def fit_pulley(basis, env: Envelope, samples: int = 600) -> np.ndarray:
     """Coefficients of ``basis`` for an envelope's polar samples, resampled uniformly in φ and
-    continued linearly down to the anchor φ = 0."""
+    continued along their end tangents over the rest of the basis's domain (down to the anchor
+    φ = 0 and up to the domain's end), so that the fit's slope holds to the data's ends."""
     order = np.argsort(env.phi_polar)
     phi, rho = env.phi_polar[order], env.rho[order]
+    lo, hi = min(0.0, basis.domain[0]), basis.domain[1]
+    step = (phi[-1] - phi[0]) / (samples - 1)
     grid = np.linspace(phi[0], phi[-1], samples)
     values = np.interp(grid, phi, rho)
-    slope = (values[1] - values[0]) / (grid[1] - grid[0])
-    head = np.linspace(0.0, phi[0], 8, endpoint=False)
-    return fit_profile(basis, np.concatenate([head, grid]),
-                       np.concatenate([values[0] + slope * (head - phi[0]), values]))
+    head = np.arange(phi[0] - step, lo - step, -step)[::-1]
+    tail = np.arange(phi[-1] + step, hi + step, step)
+    slopes = np.gradient(values, grid, edge_order=2)[[0, -1]]
+    return fit_profile(basis, np.concatenate([head, grid, tail]),
+                       np.concatenate([values[0] + slopes[0] * (head - phi[0]), values,
+                                       values[-1] + slopes[1] * (tail - phi[-1])]))
 
 
 def cable_length(mech: DifferentialPulley, coefficients, theta: float, x: float, alpha0) -> float:
@@ -148,7 +153,7 @@ def cable_length(mech: DifferentialPulley, coefficients, theta: float, x: float,
     c, q = p[2:2 + nc], p[2 + nc:]
     z = ca.vertcat(a[:2], p[1], a[2:])
     R = residual_function(structure)(p[0], z, c, q)[0][:6]
-    rf = ca.rootfinder("tangency", "newton", ca.Function("g", [a, p], [R]), {"abstol": 1e-14})
+    rf = ca.rootfinder("tangency", "newton", ca.Function("g", [a, p], [R]), {"abstol": 1e-12})
     c_num = np.concatenate([np.asarray(v, dtype=float) for v in coefficients])
     q_num = np.asarray(mech.parameter_values(), dtype=float)
     pieces = split_coefficients(bases, c_num)

@@ -500,6 +500,29 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
         '<g fill="none" stroke="black" stroke-width="0.05">', *shapes, "</g>", "</svg>", ""]))
 
 
+def helical_groove(basis: Basis, coefficients, phi_max: float, pitch: float,
+                   step: float = np.radians(1.0)) -> np.ndarray:
+    """The centre line of a helical groove (a drum whose cable wraps more than one turn,
+    Fedorov2018 Sec. 4.1): the designed spiral ρ(φ), φ ∈ [0, ``phi_max``], climbing the drum's
+    axis by ``pitch`` [m] per turn.
+
+    Returns
+    -------
+    ndarray (n, 5)
+        φ [rad], ρ [m] and the points x, y, z [m] (z along the shaft from the anchor's turn);
+        the planar design model is the projection on z = 0.
+    """
+    phi = np.linspace(0.0, phi_max, int(np.ceil(phi_max / step)) + 1)
+    rho = designed_values(profile_function(basis), coefficients, phi)[0]
+    return np.column_stack([phi, rho, rho * np.cos(phi), rho * np.sin(phi), pitch * phi / TWO_PI])
+
+
+def write_groove_csv(path, groove: np.ndarray) -> None:
+    """Write :func:`helical_groove` as CSV ``phi_rad,rho_mm,x_mm,y_mm,z_mm``, atomically."""
+    write_table(path, ["phi_rad", "rho_mm", "x_mm", "y_mm", "z_mm"],
+                np.column_stack([groove[:, 0], groove[:, 1:] * MM]))
+
+
 def write_csv(path, outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> None:
     """Write the vertices of :func:`polyline` as CSV ``x_mm,y_mm``, atomically."""
     write_table(path, ["x_mm", "y_mm"], polyline(outline, tolerance) * MM)

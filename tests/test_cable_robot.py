@@ -1,0 +1,122 @@
+"""Fedorov2018's one-motor cable robot (Sec. 4.1): the pick-and-place path, the two-cable
+kinematics, the idler law through the amplification stage, a helical groove's multi-turn wrap
+and the envelope pulleys' end-effector path."""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cadcam.check.cable_robot import robot_path
+from cadcam.check.evaluate import evaluate
+from cadcam.mechanisms.base import Profile, departure_solver
+from cadcam.mechanisms.differential_pulley import DifferentialPulley
+from cadcam.optimize import default_start, differential_start
+from cadcam.physics.cable_robot import cable_length, end_effector, pick_and_place
+from cadcam.physics.profile import Basis
+from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
+from cadcam.synthesis.fedorov_envelope import cable_length as pair_cable_length
+from cadcam.targets import cable_robot_slider, robot_cable, slider_cable
+
+ROBOT = "models/fedorov2018_cable_robot.toml"
+PATH = dict(start=(0.125, 0.0), lift=0.5, span=0.75, lift_share=0.45, overlap=0.2)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_spec(ROBOT)
+
+
+def test_path_is_750_by_500_mm_up_across_down():
+    tau = np.linspace(0, 1, 20001)
+    x, y = pick_and_place(tau, **PATH)
+    assert (x[0], y[0]) == pytest.approx((0.125, 0.0), abs=1e-15)
+    assert (x[-1], y[-1]) == pytest.approx((0.875, 0.0), abs=1e-15)
+    assert np.ptp(x) == pytest.approx(0.75, abs=1e-12) and np.ptp(y) == pytest.approx(0.5, abs=1e-12)
+    rising, falling = tau < PATH["lift_share"] - PATH["overlap"], tau > 1 - PATH["lift_share"] + PATH["overlap"]
+    assert np.all(x[rising] == 0.125) and np.all(x[falling] == 0.875)  # straight vertical moves
+    assert np.all(np.diff(y[rising]) >= 0) and np.all(np.diff(y[falling]) <= 0)
+    # smooth: the speed is continuous and starts and ends at rest
+    speed = np.hypot(np.diff(x), np.diff(y)) / np.diff(tau)
+    assert speed[0] < 1e-6 and speed[-1] < 1e-6
+    assert np.abs(np.diff(speed)).max() < 1e-3 * speed.max()
+
+
+def test_end_effector_inverts_the_cable_lengths():
+    rng = np.random.default_rng(3)
+    pts = rng.uniform((0.05, 0.0), (0.95, 0.9), size=(200, 2)).T
+    a1, a2 = (0.0, 1.0), (1.0, 1.0)
+    for first, second in ((a1, a2), (a2, a1)):  # either cable first
+        x, y = end_effector(cable_length(*pts, first), cable_length(*pts, second), first, second)
+        assert np.abs(x - pts[0]).max() < 1e-12 and np.abs(y - pts[1]).max() < 1e-12
+
+
+def test_idler_law_amplifies_the_cable_six_to_one(robot):
+    theta = np.linspace(*robot.joints[0].theta_range, 901)
+    for mech in robot.mechanisms:
+        d = mech.output_target.data
+        x = np.asarray([float(cable_robot_slider(t, d)) for t in theta])
+        ell = robot_cable(theta, d)
+        assert slider_cable(x, d) == pytest.approx(ell, abs=1e-12)
+        assert x.min() >= d["slider_at_shortest"] - 1e-15
+        assert x.min() < d["slider_at_shortest"] + 1e-6  # the grid's best sample
+        assert np.ptp(x) == pytest.approx(np.ptp(ell) / 6, rel=1e-12)
+    # the paper: cables from 560 to 1330 mm, about 130 mm of idler travel
+    ell = robot_cable(theta, robot.mechanisms[0].output_target.data)
+    assert 0.54 < ell.min() < 0.57 and ell.max() == pytest.approx(1.33, abs=2e-3)
+
+
+def test_helical_circles_wound_oppositely_keep_the_idler_still_over_two_and_a_half_turns():
+    rng_ = (0.0, np.radians(900))
+    basis = Basis("chebyshev", 4, DifferentialPulley.profile_domain(rng_))
+    mech = DifferentialPulley(name="p", joint=0, profiles=(Profile("p 1", basis, 0.01, 0.09),
+                                                           Profile("p 2", basis, 0.01, 0.09)),
+                              idler_radius=0.01, slider_range=(0.1, 0.4), groove="helical")
+    coefs = [basis.from_monomial([0.04, 0, 0, 0, 0])] * 2
+    # anchors 0.1 rad before each departure point's least-wound pose
+    chi0 = [0.1 + np.arccos((0.04 - 0.01) / 0.2) - s * (0 if s > 0 else rng_[1]) for s in mech.sigmas]
+    mech = replace(mech, anchor_angles=tuple(-w * c for w, c in zip(mech.windings, chi0)))
+    solver = departure_solver(mech.structure())
+    alpha0 = solver.guess(0.0, np.concatenate(coefs), mech.parameter_values())[:2, 0]
+    mech = replace(mech, cable_length=pair_cable_length(mech, coefs, 0.0, 0.2, alpha0))
+    z, res = solver.solve(np.linspace(*rng_, 91), np.concatenate(coefs), mech.parameter_values())
+    assert res.max() < 1e-10
+    assert np.ptp(z[2]) < 1e-12 and z[2, 0] == pytest.approx(0.2, abs=1e-12)
+    assert z[:2].max() > 2 * np.pi + 5  # the departure points run more than two turns
+    assert np.ptp(z[0]) == pytest.approx(np.radians(900), abs=1e-9)
+
+
+def test_envelope_pulleys_trace_the_path_within_a_millimetre(robot):
+    """Fedorov's envelope pulleys (the baseline) fitted at the spec's degree, re-checked by the
+    rootfinder: convex, every limit met, and the end effector within 1 mm of its path."""
+    problem, design = differential_start(robot, default_start(robot))
+    ev = evaluate(problem, design, grid=301)
+    assert ev.violations == []
+    path = robot_path(ev)
+    assert path.error.max() < 1e-3
+    assert min(ev.metrics["alpha_max"]) > 4 * np.pi  # helical: more than two turns each
+    # the path is symmetric about the frame's middle: the right cable's pulleys are the left's
+    left, right = design.coefficients[:2], design.coefficients[2:]
+    assert np.abs(left[0] - right[1]).max() < 1e-9 and np.abs(left[1] - right[0]).max() < 1e-9
+
+
+@pytest.mark.parametrize("key,value,message", [
+    ("lift_share", 0.6, "in (0, 0.5)"),
+    ("overlap", 0.5, "in [0, lift_share)"),
+    ("anchor", [0.0], "[x, y]"),
+    ("amplification", -6.0, "ratio G"),
+])
+def test_malformed_cable_robot_specs_get_one_line_errors(key, value, message):
+    data = read_spec_data(ROBOT)
+    data["mechanisms"][0]["output_target"][key] = value
+    with pytest.raises(SpecError) as err:
+        parse_spec(data, ROBOT)
+    assert message in str(err.value) and "\n" not in str(err.value)
+    assert f"output_target.{key}" in str(err.value)
+
+
+def test_a_torque_goal_without_springs_is_refused():
+    data = read_spec_data(ROBOT)
+    data["joints"][0]["target"] = {"kind": "pendulum", "mass": 0.1, "length": 0.1}
+    data["joints"][0]["tracking_weight"] = 1.0
+    with pytest.raises(SpecError, match="needs \\[\\[springs\\]\\]"):
+        parse_spec(data, ROBOT)
