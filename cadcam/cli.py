@@ -70,7 +70,8 @@ def _write_torque_csv(path: Path, ev) -> None:
 
 def write_outputs(result, out: Path) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
-    grid), ``profile.csv``, the PNG figures and, for mechanisms with an output law (a
+    grid), ``profile.csv``, the PNG figures (torque and springs only if there are springs) and,
+    for mechanisms with an output law (a
     differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
     from .check.evaluate import output_error, output_law
     from .files import write_csv, write_json
@@ -84,8 +85,9 @@ def write_outputs(result, out: Path) -> None:
             for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
     write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
     plot_profiles(ev, out / "profile.png")
-    plot_torque(ev, out / "torque.png")
-    plot_springs(ev, out / "springs.png")
+    if ev.problem.springs:  # without springs there is no torque and nothing to plot
+        plot_torque(ev, out / "torque.png")
+        plot_springs(ev, out / "springs.png")
     outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
     if outputs:  # x(θ) of mechanisms with an output law, against it
         header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
@@ -98,14 +100,23 @@ def write_outputs(result, out: Path) -> None:
 
 
 def write_workshop_files(ev, out: Path, args) -> list[str]:
-    """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request."""
+    """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request. A
+    profile whose cable wraps a turn or more (a helical groove) gets the groove's centre line
+    ``cam{i}_groove.csv`` instead: no planar outline holds it."""
     from .views.drawing import draw_sheet
-    from .views.workshop import (chord_outline, closed_outline, polyline, write_csv, write_dxf, write_stl,
-                                 write_svg)
+    from .views.workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_csv,
+                                 write_dxf, write_groove_csv, write_stl, write_svg)
 
     notes = []
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
     for i, (cam, cs, mech) in enumerate(zip(ev.problem.profiles, ev.profiles, owners)):
+        if cs.alpha.max() >= TWO_PI:
+            groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
+                                    args.groove_pitch)
+            write_groove_csv(out / f"cam{i + 1}_groove.csv", groove)
+            notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
+                         f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
+            continue
         close = chord_outline if mech.outline_closure == "chord" else closed_outline
         outline = close(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
         stem = out / f"cam{i + 1}"
@@ -125,6 +136,7 @@ def write_workshop_files(ev, out: Path, args) -> list[str]:
 
 
 def cmd_design(args) -> int:
+    from .check.cable_robot import robot_path
     from .optimize import optimize
 
     problem = _problem(args)
@@ -145,11 +157,15 @@ def cmd_design(args) -> int:
     outs = [f"{1e3 * v:.3g}" for v in d["recheck"]["output_max_abs_error"] if v is not None]
     if outs:
         print(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)} (output.csv, output.png)")
+    path = robot_path(result.recheck)
+    if path is not None:
+        print(f"  cable robot: the end effector deviates from its path by {1e3 * path.error.mean():.3g} mm "
+              f"on average, {1e3 * path.error.max():.3g} mm at most (re-check grid)")
     for v in d["violations"]:
         print(f"  violated: {v}")
-    print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv profile.png "
-          "torque.png springs.png")
-    print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png"
+    print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv profile.png"
+          f"{' torque.png springs.png' if problem.springs else ''}")
+    print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png or cam*_groove.csv"
           f"{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
 
@@ -162,6 +178,8 @@ def _check_workshop_args(args) -> None:
         raise InputError("--stl THICKNESS must be positive [m]")
     if args.groove_depth < 0 or args.groove_width < 0:
         raise InputError("--groove-depth and --groove-width must be ≥ 0 [m]")
+    if not args.groove_pitch > 0:
+        raise InputError("--groove-pitch must be positive [m]")
 
 
 def cmd_evaluate(args) -> int:
@@ -262,6 +280,8 @@ def main(argv=None) -> int:
     w.add_argument("--stl", type=float, metavar="THICKNESS", help="also write cam*.stl of this thickness")
     w.add_argument("--groove-depth", type=float, default=0.0, help="cable groove depth in the STL")
     w.add_argument("--groove-width", type=float, default=0.0, help="cable groove width in the STL")
+    w.add_argument("--groove-pitch", type=float, default=0.004,
+                   help="rise per turn of a helical groove's centre line (default 0.004)")
     p.set_defaults(run=cmd_design)
     p = sub.add_parser("evaluate", help="metrics of a given design, as JSON")
     common(p)

@@ -6,6 +6,8 @@ every constraint satisfied (status ``success``); otherwise the status says what 
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from dataclasses import replace
@@ -20,7 +22,7 @@ from .synthesis.kim_deshpande import closed_form, fit_profile
 from .check.evaluate import evaluate
 from .problem import Problem
 from .result import Result
-from .nlp.transcription import Transcription
+from .nlp.transcription import Solve, Transcription
 
 
 def default_start(problem: Problem) -> Design:
@@ -183,6 +185,31 @@ def solve(tr: Transcription, problem: Problem, start: Design):
     return tr.solve(problem, start, start_samples(tr, problem, start))
 
 
+def _trial(s: Solve) -> dict:
+    """One start's line in ``result.json``'s ``solver.trials``."""
+    return {"start": s.start, "status": s.status, "objective": s.objective, "iterations": s.iterations,
+            "solve_time_s": s.solve_time_s}
+
+
+def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Result:
+    """The start design re-checked as the answer (``method = "envelope"``): its evaluation on
+    the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
+    objective is the largest output error on the design grid [m]."""
+    on_grid = evaluate(problem, design)
+    fine = evaluate(problem, design, grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
+    errors = [e for e in on_grid.metrics["output_max_abs_error"] if e is not None]
+    solve = Solve(design=design, status="converged", return_status="Fedorov2018 envelope synthesis (no NLP)",
+                  iterations=0, solve_time_s=seconds, objective=max(errors),
+                  z=[u.z for u in on_grid.units])
+    solve.trials = [_trial(solve)]
+    if fine.violations:
+        status, message = "recheck_failed", "the envelope design violates constraints on the fine re-check grid"
+    else:
+        status, message = "success", "envelope design; every constraint holds on the fine re-check grid"
+    return Result(status=status, message=message, problem=problem, design=design,
+                  evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0)
+
+
 def optimize(problem: Problem, transcription: Transcription | None = None,
              start: Design | None = None) -> Result:
     """Solve ``problem`` and re-check the optimum.
@@ -202,9 +229,14 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     -------
     Result
         ``status`` is ``success`` only for a converged optimum whose fine re-check passed.
+        With ``problem.options.method == "envelope"`` the start design is the answer: no NLP
+        is built, and ``success`` means that it passed the fine re-check.
     """
+    t0 = time.perf_counter()
     if start is None:
         problem, start = differential_start(problem, default_start(problem))
+    if problem.options.method == "envelope":
+        return _synthesis_result(problem, start, time.perf_counter() - t0)
     tr = transcription or Transcription(problem)
     rng = np.random.default_rng(problem.options.seed)
     starts = [start]
@@ -216,8 +248,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         solves.append(sol)
     converged = [s for s in solves if s.status == "converged"]
     best = min(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
-    best.trials = [{"start": s.start, "status": s.status, "objective": s.objective,
-                    "iterations": s.iterations, "solve_time_s": s.solve_time_s} for s in solves]
+    best.trials = [_trial(s) for s in solves]
     # the NLP's tangency angles start the independent rootfinder (the roots it converges to
     # are checked by their residuals either way)
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])

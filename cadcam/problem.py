@@ -54,6 +54,10 @@ class Options:
         Further IPOPT options (name without the ``ipopt.`` prefix, value), e.g. a warm start
         (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a start that is already
         close to the optimum.
+    method : str
+        ``nlp``: cadcam's NLP from the start design; ``envelope``: the start design itself,
+        Fedorov's envelope synthesis (Fedorov2018 Sec. 2.2) of every differential pair for its
+        output law, re-checked like an optimum (no NLP is built).
     """
 
     grid: int = 46
@@ -68,6 +72,7 @@ class Options:
     recheck_factor: int = 10
     objective: str = "least_squares"
     ipopt: tuple = ()
+    method: str = "nlp"
 
 
 @dataclass(frozen=True)

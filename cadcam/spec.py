@@ -22,7 +22,7 @@ from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profi
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .problem import OBJECTIVES, Joint, Options, Problem
-from .targets import ExpressionError, Target, read_table
+from .targets import PATH_KEYS, ExpressionError, Target, read_table
 
 _REQUIRED = object()
 _PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
@@ -289,6 +289,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
             re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
             for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
             "in the IPOPT documentation, numbers or strings)", {}).items())),
+        method=sol.get("method", lambda v: v in METHODS, f"one of {METHODS}", "nlp"),
     )
     sol.done()
 
@@ -339,6 +340,16 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
 
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
                for j, raw in enumerate(raw_springs)]
+    robot = [m for m in mechanisms if m.output_target is not None and m.output_target.kind == "cable_robot"]
+    for key in PATH_KEYS + ("theta_range",):
+        if len({repr(m.output_target.data[key]) for m in robot}) > 1:
+            raise SpecError(f"{origin}: mechanisms' output_target.{key}: the cables of one cable robot "
+                            f"follow one path; give every cable_robot law the same {key}")
+    if options.method == "envelope" and not all(
+            m.kind == "differential_pulley" and m.output_target is not None for m in mechanisms):
+        raise SpecError(f"{origin}: solver.method: 'envelope' designs differential pairs for their "
+                        "output laws only: give every mechanism kind = \"differential_pulley\" and "
+                        "an [mechanisms.output_target], or use method = \"nlp\"")
     if not springs and any(c["tracking_weight"] > 0 for c in joints):
         raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
                         "tables (or kind = \"none\" on every joint's target, for output laws only)")
@@ -354,6 +365,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         raise SpecError(f"{origin}: torque_model: {exc}") from None
 
 
+#: Design methods: cadcam's NLP, or Fedorov's envelope synthesis alone (differential pairs).
+METHODS = ("nlp", "envelope")
 #: Highest polynomial degree per basis: monomials are ill-conditioned beyond 15; Chebyshev
 #: polynomials stay well-conditioned, and a multi-turn spiral needs the degree.
 MAX_ORDER = {"monomial": 15, "chebyshev": 40}

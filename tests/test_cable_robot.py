@@ -1,10 +1,13 @@
 """Fedorov2018's one-motor cable robot (Sec. 4.1): the pick-and-place path, the two-cable
 kinematics, the idler law through the amplification stage, a helical groove's multi-turn wrap
 and the envelope pulleys' end-effector path."""
+import json
 from dataclasses import replace
+from importlib.resources import files
 
 import numpy as np
 import pytest
+from jsonschema import Draft202012Validator
 
 from cadcam.check.cable_robot import robot_path
 from cadcam.check.evaluate import evaluate
@@ -120,3 +123,34 @@ def test_a_torque_goal_without_springs_is_refused():
     data["joints"][0]["tracking_weight"] = 1.0
     with pytest.raises(SpecError, match="needs \\[\\[springs\\]\\]"):
         parse_spec(data, ROBOT)
+
+
+def test_the_two_cables_must_follow_one_path():
+    data = read_spec_data(ROBOT)
+    data["mechanisms"][1]["output_target"]["span"] = 0.7
+    with pytest.raises(SpecError, match="output_target.span: the cables of one cable robot follow one path"):
+        parse_spec(data, ROBOT)
+
+
+def test_envelope_method_is_only_for_differential_pairs_with_output_laws():
+    data = read_spec_data("models/ludovico2021_pendulum.toml")
+    data.setdefault("solver", {})["method"] = "envelope"
+    with pytest.raises(SpecError, match="solver.method: 'envelope' designs differential pairs"):
+        parse_spec(data, "x.toml")
+
+
+def test_design_command_writes_the_envelope_design_and_groove_centre_lines(tmp_path, capsys):
+    from cadcam.cli import main
+    assert main(["design", ROBOT, "-o", str(tmp_path / "out"), "--groove-pitch", "0.005"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("success: envelope design")
+    assert "cable robot: the end effector deviates" in printed
+    groove = np.loadtxt(tmp_path / "out" / "cam1_groove.csv", delimiter=",", skiprows=1)
+    turns = groove[-1, 0] / (2 * np.pi)
+    assert turns > 2.4 and groove[-1, 4] == pytest.approx(5.0 * turns, rel=1e-12)  # z in mm
+    assert np.hypot(groove[:, 2], groove[:, 3]) == pytest.approx(groove[:, 1], rel=1e-12)
+    assert not (tmp_path / "out" / "springs.png").exists()
+    result = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert result["status"] == "success" and result["solver"]["iterations"] == 0
+    Draft202012Validator(json.loads((files("cadcam") / "result.schema.json").read_text())).validate(result)
+
