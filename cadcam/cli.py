@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -15,6 +16,8 @@ import numpy as np
 
 from .mechanisms.base import TORQUE_MODELS
 from .design import Design, DesignError
+from .files import InputFileError, read_input
+from .problem import size_error
 from .spec import SpecError, load_spec, parse_value
 from .studies.study import StudyError
 from .studies.sweep import SweepError
@@ -42,15 +45,22 @@ def _problem(args):
     changes = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
     if changes.get("grid", 3) < 3:
         raise InputError("--grid must be at least 3")
-    return problem.with_options(**changes) if changes else problem
+    if changes.get("multistart", 0) < 0:
+        raise InputError("--multistart must be ≥ 0 (extra random starts)")
+    problem = problem.with_options(**changes) if changes else problem
+    too_big = size_error(problem.options, len(problem.joints))
+    if too_big:
+        flag = f"--{too_big[0]}" if too_big[0] in changes else f"solver.{too_big[0]}"
+        raise InputError(f"{flag}: {too_big[1]}")
+    return problem
 
 
 def _problem_and_design(args):
     problem = _problem(args)
     try:
-        data = json.loads(Path(args.design).read_text())
-    except OSError as exc:
-        raise InputError(f"{args.design}: cannot read the design ({exc.strerror})") from None
+        data = json.loads(read_input(args.design))
+    except InputFileError as exc:
+        raise InputError(f"{args.design}: the design: {exc}") from None
     except ValueError:
         raise InputError(f"{args.design}: not valid JSON") from None
     return problem, Design.from_dict(data, problem, args.design)
@@ -141,6 +151,7 @@ def cmd_design(args) -> int:
 
     problem = _problem(args)
     out = Path(args.output)
+    _check_output_dir(out)
     _check_workshop_args(args)
     result = optimize(problem)
     write_outputs(result, out)
@@ -150,7 +161,8 @@ def cmd_design(args) -> int:
         print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
         return 1
     d = result.to_dict()
-    mm = [f"{1e3 * v:.4g}" for v in d["metrics"]["rmse"]]
+    mm = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS)" if r is not None else "")
+          for v, r in zip(d["metrics"]["rmse"], d["metrics"]["relative_rmse"])]
     print(f"{result.status}: {result.message}")
     print(f"  RMSE per joint [N·mm]: {', '.join(mm)}; iterations {d['solver']['iterations']}, "
           f"build {d['solver']['build_time_s']:.3f} s, solve {d['solver']['solve_time_s']:.3f} s")
@@ -168,6 +180,18 @@ def cmd_design(args) -> int:
     print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png or cam*_groove.csv"
           f"{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
+
+
+def _check_output_dir(path: Path) -> None:
+    """Refuse, before any work, an output folder that is a file, lies under a file or cannot
+    be written."""
+    for parent in [path, *path.parents]:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"-o {path}: {parent} is a file, not a folder; give a folder")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise InputError(f"-o {path}: {parent} is not writable; give a folder you can write to")
+            return
 
 
 def _check_workshop_args(args) -> None:
@@ -323,6 +347,14 @@ def main(argv=None) -> int:
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader of our output went away (``| head``): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as exc:  # the environment failed after work began: disk full, permissions…
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left; free "
+              "space or fix the permissions and run again)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -11,6 +11,10 @@ from .problem import Problem
 from .physics.profile import Basis, monomial_from_highest_first
 
 
+#: Most coefficients a design's profile may have (Chebyshev degree 40; the spec's cap).
+MAX_COEFFICIENTS = 41
+
+
 class DesignError(ValueError):
     """A design that does not fit its problem; the message is one line."""
 
@@ -68,10 +72,14 @@ class Design:
         bases, coefs = [], []
         for i, cam in enumerate(data["cams"]):
             where = f"{origin}: design.cams[{i + 1}]"
+            if not isinstance(cam, dict):
+                raise DesignError(f"{where}: expected a JSON object with basis and coefficients")
             try:
                 if "coefficients" in cam and cam.get("basis") in ("monomial", "chebyshev"):
                     c = np.asarray(cam["coefficients"], dtype=float)
                     dom = tuple(cam.get("domain", profiles[i].basis.domain))
+                    if len(dom) != 2 or not float(dom[1]) > float(dom[0]):
+                        raise DesignError(f"{where}: domain must be [lo, hi] with hi > lo [rad]")
                     b = Basis(cam["basis"], c.size - 1, (float(dom[0]), float(dom[1])))
                 elif "monomial_coefficients" in cam:
                     c = np.asarray(cam["monomial_coefficients"], dtype=float)
@@ -88,6 +96,9 @@ class Design:
                 raise DesignError(f"{where}: coefficients must be a list of numbers [m]") from None
             if c.ndim != 1 or c.size < 1 or not np.all(np.isfinite(c)):
                 raise DesignError(f"{where}: coefficients must be a non-empty list of finite numbers [m]")
+            if c.size > MAX_COEFFICIENTS:
+                raise DesignError(f"{where}: {c.size} coefficients; the cap is {MAX_COEFFICIENTS} "
+                                  "(degree 40, cadcam.design.MAX_COEFFICIENTS)")
             bases.append(b)
             coefs.append(c)
         try:

@@ -1,11 +1,46 @@
-"""Atomic file output: write to a temporary file in the same folder, then rename."""
+"""File input and output: inputs read only from regular files of bounded size as UTF-8 text,
+outputs written atomically (a temporary file in the same folder, then a rename)."""
 from __future__ import annotations
 
 import contextlib
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
+
+#: Largest input file read [bytes] (specs, target tables, studies, designs, catalogues); raise
+#: it deliberately with the environment variable CADCAM_CAP_INPUT_BYTES.
+MAX_INPUT_BYTES = 10_000_000
+
+
+class InputFileError(ValueError):
+    """An input file that cannot be read as asked: the message is one line, without the path."""
+
+
+def read_input(path) -> str:
+    """The text of the regular file ``path``, refused (:class:`InputFileError`) if it is
+    missing, not a regular file (a folder, a device such as /dev/zero, a FIFO), larger than
+    :data:`MAX_INPUT_BYTES` or not UTF-8."""
+    text = os.environ.get("CADCAM_CAP_INPUT_BYTES", "")
+    limit = int(text) if text.isdigit() and int(text) > 0 else MAX_INPUT_BYTES
+    try:
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise InputFileError("not a regular file (a folder, device or pipe); give a file")
+        if st.st_size > limit:
+            raise InputFileError(f"{st.st_size} bytes, over the cap of {limit} (raise it deliberately "
+                                 "with CADCAM_CAP_INPUT_BYTES)")
+        with open(path, "rb") as fh:
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise InputFileError(f"cannot read it ({exc.strerror or exc})") from None
+    if len(data) > limit:
+        raise InputFileError(f"over the cap of {limit} bytes (raise it deliberately with CADCAM_CAP_INPUT_BYTES)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputFileError(f"not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
 
 
 @contextlib.contextmanager

@@ -185,6 +185,35 @@ def solve(tr: Transcription, problem: Problem, start: Design):
     return tr.solve(problem, start, start_samples(tr, problem, start))
 
 
+#: The statuses :func:`verdict` gives a design whose solve converged.
+VERDICTS = ("success", "not_finite", "recheck_failed", "target_missed")
+
+
+def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
+    """Status and message of a design from its solve and its fine re-check ``fine``.
+
+    ``success`` only if the solve converged, every number of the re-check is finite, no
+    constraint is violated and every joint's ``acceptance`` limits hold; else the first that
+    fails: the solver's status, ``not_finite``, ``recheck_failed`` or ``target_missed``.
+    """
+    m = fine.metrics
+    if solve.status != "converged":
+        return solve.status, f"IPOPT stopped: {solve.return_status}"
+    numbers = [m[k] for k in ("rmse", "max_abs_error", "extension_min", "extension_max", "rho_min",
+                              "rho_max", "curvature_radius_min", "alpha_max")]
+    numbers += [v for v in m["output_max_abs_error"] if v is not None]
+    if not np.all(np.isfinite(np.concatenate([np.ravel(v) for v in numbers] + [[m["objective"]]]))):
+        return "not_finite", "the re-check has NaN or infinite values: the design cannot be trusted"
+    if fine.violations:
+        return "recheck_failed", f"{what}, but it violates constraints on the fine re-check grid"
+    missed = [f"{joint.name!r}: {key.replace('_', ' ')} {m[key][i]:.4g} N·m > {limit:.4g}"
+              for i, joint in enumerate(problem.joints) for key, limit in joint.acceptance
+              if not m[key][i] <= limit]
+    if missed:
+        return "target_missed", f"{what}, but the target is missed on the fine re-check: {'; '.join(missed)}"
+    return "success", f"{what}; every constraint holds on the fine re-check grid"
+
+
 def _trial(s: Solve) -> dict:
     """One start's line in ``result.json``'s ``solver.trials``."""
     return {"start": s.start, "status": s.status, "objective": s.objective, "iterations": s.iterations,
@@ -202,10 +231,7 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
                   iterations=0, solve_time_s=seconds, objective=max(errors),
                   z=[u.z for u in on_grid.units])
     solve.trials = [_trial(solve)]
-    if fine.violations:
-        status, message = "recheck_failed", "the envelope design violates constraints on the fine re-check grid"
-    else:
-        status, message = "success", "envelope design; every constraint holds on the fine re-check grid"
+    status, message = verdict(problem, solve, fine, "envelope design")
     return Result(status=status, message=message, problem=problem, design=design,
                   evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0)
 
@@ -256,14 +282,6 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     on_grid = evaluate(problem, best.design, seeds=seeds)
     fine = evaluate(problem, best.design, seeds=seeds,
                     grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
-    if best.status != "converged":
-        status = best.status
-        message = f"IPOPT stopped: {best.return_status}"
-    elif fine.violations:
-        status = "recheck_failed"
-        message = "the optimum violates constraints on the fine re-check grid"
-    else:
-        status = "success"
-        message = "converged; every constraint holds on the fine re-check grid"
+    status, message = verdict(problem, best, fine, "converged")
     return Result(status=status, message=message, problem=problem, design=best.design,
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s)

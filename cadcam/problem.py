@@ -6,6 +6,7 @@ problem it solved and can be re-evaluated without the original file.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -17,6 +18,36 @@ from .targets import Target
 
 #: Tracking objectives of the NLP (:attr:`Options.objective`).
 OBJECTIVES = ("least_squares", "minimax")
+
+
+#: Caps on every size a spec, study or flag controls, checked before any work. Raise one
+#: deliberately with the environment variable ``CADCAM_CAP_<NAME>`` (e.g. ``CADCAM_CAP_GRID=4000``).
+CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multistart": 100,
+        "recheck_factor": 100, "max_iter": 100_000, "recheck_points": 20_000_000}
+
+
+def cap(name: str) -> int:
+    """The cap ``name`` of :data:`CAPS`, or its ``CADCAM_CAP_<NAME>`` override (a positive
+    integer)."""
+    text = os.environ.get(f"CADCAM_CAP_{name.upper()}", "")
+    return int(text) if text.isdigit() and int(text) > 0 else CAPS[name]
+
+
+def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
+    """(option name, one-line reason) for the first size of ``options`` beyond its cap, counting
+    the fine re-check's tensor grid ((grid − 1)·recheck_factor + 1)^n_joints; None if all fit."""
+    for name in ("grid", "quadrature_order", "convexity_points", "multistart", "recheck_factor", "max_iter"):
+        value = getattr(options, name)
+        if value > cap(name):
+            return name, (f"{value} exceeds the cap {cap(name)} (raise it deliberately with the "
+                          f"environment variable CADCAM_CAP_{name.upper()})")
+    points = ((options.grid - 1) * options.recheck_factor + 1) ** n_joints
+    if points > cap("recheck_points"):
+        return "grid", (f"the fine re-check would evaluate {points:.3g} points "
+                        f"(((grid − 1)·recheck_factor + 1)^{n_joints}), beyond the cap "
+                        f"{cap('recheck_points'):.3g}: lower grid or recheck_factor, or raise the cap "
+                        "deliberately with CADCAM_CAP_RECHECK_POINTS")
+    return None
 
 
 @dataclass(frozen=True)
@@ -81,7 +112,9 @@ class Joint:
 
     ``theta_range`` [rad] is the range to balance; ``tracking_weight`` is w₁ and
     ``sensitivity_weights`` the w of ∫|∂τ/∂k_j| for each spring j (Johnston2023 Eq. 46, 47).
-    The torque on a joint is the sum over the mechanisms on it.
+    The torque on a joint is the sum over the mechanisms on it. ``acceptance``: pairs
+    (``max_abs_error`` or ``rmse``, limit [N·m]) the fine re-check must meet for the design to
+    count as a success (status ``target_missed`` otherwise).
     """
 
     name: str
@@ -89,6 +122,7 @@ class Joint:
     target: Target
     tracking_weight: float
     sensitivity_weights: tuple[float, ...]
+    acceptance: tuple = ()
 
     def grid(self, n: int) -> np.ndarray:
         """Uniform grid of ``n`` joint angles [rad] over ``theta_range``."""
@@ -191,6 +225,7 @@ class Problem:
                 "tracking_weight": c.tracking_weight,
                 "sensitivity_weights": list(c.sensitivity_weights),
                 "target": c.target.to_dict(),
+                **({"acceptance": dict(c.acceptance)} if c.acceptance else {}),
             } for c in self.joints],
             "mechanisms": mechanisms,
             "springs": [s.to_dict() for s in self.springs],

@@ -21,7 +21,8 @@ from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profi
                               mechanism_class, mechanism_kinds)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
-from .problem import OBJECTIVES, Joint, Options, Problem
+from .files import InputFileError, read_input
+from .problem import OBJECTIVES, Joint, Options, Problem, size_error
 from .targets import PATH_KEYS, ExpressionError, Target, read_table
 
 _REQUIRED = object()
@@ -146,6 +147,22 @@ def _cable_robot(r: _Reader, theta_range) -> dict:
     return {k: ([float(x) for x in v] if isinstance(v, list) else float(v)) for k, v in data.items()}
 
 
+ACCEPTANCE = ("max_abs_error", "rmse")
+
+
+def _acceptance(r: _Reader) -> tuple:
+    """A joint's optional [joints.acceptance]: the largest |τ − τ_d| and/or RMSE [N·m] its
+    design may keep on the fine re-check."""
+    table = r.get("acceptance", lambda v: isinstance(v, dict) and v, "a table with max_abs_error "
+                  "and/or rmse [N·m]", {})
+    a = _Reader(r.origin, table, r.key("acceptance"))
+    out = tuple((k, float(a.get(k, _positive, f"a positive {k.replace('_', ' ')} [N·m]")))
+                for k in ACCEPTANCE if k in table)
+    a.seen.update(ACCEPTANCE)
+    a.done()
+    return out
+
+
 #: Target kinds of a joint's torque law and of a mechanism's output displacement law.
 TORQUE_KINDS = ("expression", "pendulum", "table", "arm", "five_bar", "none")
 OUTPUT_KINDS = ("expression", "table", "spring_balance", "cable_robot")
@@ -210,6 +227,11 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool 
     return Target(kind, data)
 
 
+#: Samples per angle at which a target expression's poles, domains and jumps are checked, by
+#: number of joints (a tensor grid: 3 and more joints share the last entry).
+GUARD_SAMPLES = {1: 4001, 2: 201, 3: 41}
+
+
 def _check_target(origin, where, target: Target, cams_ranges, cam: int, unit: str = "torque [N·m]"):
     """Refuse a target that is malformed or not finite over the angle ranges."""
     try:
@@ -222,6 +244,11 @@ def _check_target(origin, where, target: Target, cams_ranges, cam: int, unit: st
         if s[0, 0] > lo + 1e-12 or s[-1, 0] < hi - 1e-12:
             raise SpecError(f"{origin}: {where}: the table covers [{s[0, 0]:.4g}, "
                             f"{s[-1, 0]:.4g}] rad but the cam turns over [{lo:.4g}, {hi:.4g}] rad")
+    fine = GUARD_SAMPLES.get(len(cams_ranges), GUARD_SAMPLES[3])
+    failure = target.guard_failure([np.linspace(lo, hi, fine) for lo, hi in cams_ranges], cam)
+    if failure:
+        raise SpecError(f"{origin}: {where}.expression: {failure}; expected a {unit} that is finite "
+                        "and continuous over the whole angle range (change the expression or the range)")
     axes = [np.linspace(lo, hi, 41 if len(cams_ranges) < 3 else 9) for lo, hi in cams_ranges]
     pts = np.array(list(product(*axes))).T
     values = np.asarray(f.map(pts.shape[1])(pts)).ravel()
@@ -276,7 +303,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         convexity_epsilon=sol.get("convexity_epsilon", _nonneg, "a number ≥ 0", 1e-3),
         limit_margin=sol.get("limit_margin", lambda v: _nonneg(v) and v < 0.1,
                               "a fraction in [0, 0.1)", 1e-4),
-        multistart=sol.get("multistart", lambda v: isinstance(v, int) and v >= 0,
+        multistart=sol.get("multistart", lambda v: type(v) is int and v >= 0,
                            "an integer ≥ 0", 0),
         seed=sol.get("seed", lambda v: isinstance(v, int), "an integer", 0),
         max_iter=sol.get("max_iter", _posint, "a positive integer", 500),
@@ -294,6 +321,9 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     sol.done()
 
     n_joints = len(data["joints"]) if isinstance(data.get("joints"), list) else 0
+    too_big = size_error(options, max(n_joints, 1))
+    if too_big:
+        raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
     arm = None
     if "arm" in data:
         ra = _Reader(origin, top.get("arm", lambda v: isinstance(v, dict), "an [arm] table"), "arm")
@@ -321,7 +351,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
             name=r.get("name", lambda v: isinstance(v, str), "a string", f"joint {i + 1}"),
             theta_range=(math.radians(rng[0]), math.radians(rng[1])),
             tracking_weight=float(r.get("tracking_weight", _nonneg, "a weight ≥ 0", 1.0)),
-            sensitivity_weights=tuple(float(w) for w in sens)))
+            sensitivity_weights=tuple(float(w) for w in sens),
+            acceptance=_acceptance(r)))
         targets.append(_target(_Reader(origin, r.get("target", lambda v: isinstance(v, dict),
                                                      f"a [{joint_label}.target] table"), f"{where}.target"),
                                base, n_joints, arm))
@@ -450,7 +481,8 @@ def legacy_cams(data: dict) -> dict:
     if "joints" in data or "mechanisms" in data:
         return data  # parse_spec then names 'cams' as an unknown key
     out = {k: v for k, v in data.items() if k != "cams"}
-    joint_keys = ("name", "theta_range_deg", "tracking_weight", "sensitivity_weights", "target")
+    joint_keys = ("name", "theta_range_deg", "tracking_weight", "sensitivity_weights", "target",
+                  "acceptance")
     out["joints"], out["mechanisms"] = [], []
     for i, cam in enumerate(data["cams"]):
         if not isinstance(cam, dict):
@@ -525,9 +557,9 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
     validated: :func:`parse_spec` does that)."""
     path = Path(path)
     try:
-        text = path.read_text()
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read the spec ({exc.strerror})") from None
+        text = read_input(path)
+    except InputFileError as exc:
+        raise SpecError(f"{path}: the spec: {exc}") from None
     if path.suffix == ".json":
         try:
             data = json.loads(text)["problem"]

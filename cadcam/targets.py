@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ast
 import csv
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -15,6 +16,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .files import read_input
 from .physics.cable_robot import cable_length, pick_and_place
 
 FUNCTIONS = {
@@ -28,13 +30,26 @@ _BINARY = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b,
            ast.Pow: lambda a, b: a**b}
 _UNARY = {ast.USub: lambda a: -a, ast.UAdd: lambda a: a}
 MAX_EXPRESSION_LENGTH = 2000
+#: Deepest nesting of an expression's syntax tree (a long chain of unary minus signs is deep).
+MAX_EXPRESSION_DEPTH = 100
 
 
 class ExpressionError(ValueError):
     """An expression uses something outside the whitelist, or is not an expression."""
 
 
-def parse_expression(text: str, names: dict[str, object]):
+#: What each guard of :func:`parse_expression` asks of its sub-expression(s) over the range.
+GUARDS = {
+    "denominator": "a divisor that is zero or changes sign (a pole)",
+    "log": "log of a number ≤ 0",
+    "sqrt": "sqrt of a negative number",
+    "asin": "asin or acos outside [-1, 1]",
+    "power": "a negative number to a fractional power, or zero to a negative one",
+    "atan2": "atan2(y, x) crossing its branch cut (y changes sign where x < 0: a jump of 2π)",
+}
+
+
+def parse_expression(text: str, names: dict[str, object], guards: list | None = None):
     """Turn ``text`` into a CasADi expression using only whitelisted constructs.
 
     Parameters
@@ -44,6 +59,12 @@ def parse_expression(text: str, names: dict[str, object]):
         of :data:`FUNCTIONS`, the constants ``pi`` and ``e`` and the given ``names``.
     names : dict
         Variable name → CasADi symbol or number.
+    guards : list, optional
+        If given, receives a ``(kind, operands)`` pair for every operation that is undefined,
+        infinite or discontinuous somewhere (:data:`GUARDS`): each divisor (``tan`` counts as
+        division by ``cos``), each argument of ``log``, ``sqrt``, ``asin`` and ``acos``, each
+        power's base and exponent and each ``atan2``'s (y, x). :func:`check_guards` checks them
+        over a range: a target with a pole or a jump is refused before any work.
 
     Raises
     ------
@@ -56,21 +77,35 @@ def parse_expression(text: str, names: dict[str, object]):
         raise ExpressionError(f"expression longer than {MAX_EXPRESSION_LENGTH} characters")
     try:
         tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError as exc:
-        raise ExpressionError(f"not a valid expression ({exc.msg})") from None
+    except (SyntaxError, RecursionError, MemoryError, ValueError) as exc:
+        raise ExpressionError(f"not a valid expression ({getattr(exc, 'msg', 'too deeply nested')})") from None
+    if _depth(tree) > MAX_EXPRESSION_DEPTH:
+        raise ExpressionError(f"expression nested deeper than {MAX_EXPRESSION_DEPTH} levels")
     scope = {**CONSTANTS, **names}
+    guard = guards.append if guards is not None else (lambda item: None)
 
     def walk(node):
         if isinstance(node, ast.Expression):
             return walk(node.body)
         if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-            return float(node.value)
+            try:
+                value = float(node.value)
+            except OverflowError:
+                value = np.inf
+            if not np.isfinite(value):
+                raise ExpressionError(f"the number {ast.unparse(node)[:20]}… is too large for a float")
+            return value
         if isinstance(node, ast.Name):
             if node.id in scope:
                 return scope[node.id]
             raise ExpressionError(f"unknown name {node.id!r}; allowed: {sorted(scope)}")
         if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-            return _BINARY[type(node.op)](ca.SX(walk(node.left)), walk(node.right))
+            left, right = ca.SX(walk(node.left)), walk(node.right)
+            if isinstance(node.op, ast.Div):
+                guard(("denominator", (right,)))
+            if isinstance(node.op, ast.Pow):
+                guard(("power", (left, right)))
+            return _BINARY[type(node.op)](left, right)
         if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
             return _UNARY[type(node.op)](ca.SX(walk(node.operand)))
         if isinstance(node, ast.Call):
@@ -80,10 +115,74 @@ def parse_expression(text: str, names: dict[str, object]):
             arity = 2 if node.func.id == "atan2" else 1
             if node.keywords or len(node.args) != arity:
                 raise ExpressionError(f"{node.func.id}() takes {arity} positional argument(s)")
-            return FUNCTIONS[node.func.id](*[ca.SX(walk(a)) for a in node.args])
+            args = [ca.SX(walk(a)) for a in node.args]
+            kind = {"tan": "denominator", "log": "log", "sqrt": "sqrt", "asin": "asin",
+                    "acos": "asin", "atan2": "atan2"}.get(node.func.id)
+            if kind:
+                guard((kind, (ca.cos(args[0]),) if node.func.id == "tan" else tuple(args)))
+            return FUNCTIONS[node.func.id](*args)
         raise ExpressionError(f"{type(node).__name__} {ast.unparse(node)!r} is not allowed")
 
     return ca.SX(walk(tree))
+
+
+def _depth(tree) -> int:
+    """The depth of an :mod:`ast` tree, without recursion."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        stack.extend((child, d + 1) for child in ast.iter_child_nodes(node))
+    return deepest
+
+
+def check_guards(guards, symbols, axes) -> str | None:
+    """The first guard of :func:`parse_expression` that fails on the tensor grid of the angle
+    ``axes`` (one increasing array per symbol in ``symbols``): its description and where, or
+    None if all hold.
+
+    A divisor fails where it is zero or changes sign between neighbouring samples along any
+    angle (a pole lies between them); ``atan2`` where y changes sign between neighbours with
+    x < 0 at both.
+    """
+    mesh = np.meshgrid(*axes, indexing="ij")
+    points = np.array([m.ravel() for m in mesh])
+    shape = mesh[0].shape
+
+    def crossing(v, also=None):
+        """Sign changes between neighbours along any axis, flagged at the first of the pair."""
+        out = np.zeros(shape, dtype=bool)
+        for a in range(len(shape)):
+            lo = [slice(None)] * len(shape)
+            hi = [slice(None)] * len(shape)
+            lo[a], hi[a] = slice(None, -1), slice(1, None)
+            flip = np.sign(v[tuple(lo)]) * np.sign(v[tuple(hi)]) < 0
+            if also is not None:
+                flip &= also[tuple(lo)] & also[tuple(hi)]
+            out[tuple(lo)] |= flip
+        return out
+
+    for kind, operands in guards:
+        f = ca.Function("guard", [ca.vertcat(*symbols)], list(operands))
+        vals = [np.asarray(v).reshape(shape) for v in f.map(points.shape[1]).call([points])]
+        v = vals[0]
+        if kind == "denominator":
+            bad = (v == 0) | crossing(v)
+        elif kind == "log":
+            bad = v <= 0
+        elif kind == "sqrt":
+            bad = v < 0
+        elif kind == "asin":
+            bad = np.abs(v) > 1
+        elif kind == "power":
+            base, exponent = vals
+            bad = ((base < 0) & (exponent != np.round(exponent))) | ((base == 0) & (exponent < 0))
+        else:  # atan2(y, x)
+            bad = crossing(v, vals[1] < 0)
+        if np.any(bad):
+            where = np.degrees(points[:, int(np.argmax(bad.ravel()))])
+            return f"{GUARDS[kind]} near theta = {np.round(where, 3).tolist()} deg"
+    return None
 
 
 def angle_names(thetas, cam: int) -> dict:
@@ -300,6 +399,19 @@ class Target:
             return interp(thetas[cam])
         raise ValueError(f"unknown target kind {self.kind!r}")
 
+    def guard_failure(self, axes, cam: int) -> str | None:
+        """For an ``expression``: where it has a pole, leaves its functions' domains or jumps
+        on the tensor grid of the angle ``axes`` [rad] (:func:`check_guards`); else None."""
+        if self.kind != "expression":
+            return None
+        th = ca.SX.sym("theta", len(axes))
+        thetas = [th[i] for i in range(len(axes))]
+        names = {**{k: float(v) for k, v in self.data.get("parameters", {}).items()},
+                 **angle_names(thetas, cam)}
+        guards = []
+        parse_expression(self.data["expression"], names, guards)
+        return check_guards(guards, thetas, axes)
+
     def function(self, n_cams: int, cam: int) -> ca.Function:
         """``target(theta[n_cams]) -> tau_d`` [N·m]."""
         th = ca.SX.sym("theta", n_cams)
@@ -316,8 +428,10 @@ def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
 
     Returns sorted [θ [rad], value] pairs. Raises ValueError with a reason.
     """
-    with open(path, newline="") as fh:
-        rows = list(csv.reader(fh))
+    try:
+        rows = list(csv.reader(io.StringIO(read_input(path), newline="")))
+    except csv.Error as exc:
+        raise ValueError(f"not a readable CSV ({exc})") from None
     if not rows:
         raise ValueError("the table is empty")
     head = [h.strip() for h in rows[0]]

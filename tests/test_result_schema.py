@@ -12,6 +12,7 @@ from jsonschema import Draft202012Validator
 from cadcam.cli import main
 from cadcam.mechanisms.base import TORQUE_MODELS
 from cadcam.nlp.transcription import IPOPT_STATUS
+from cadcam.optimize import VERDICTS
 
 from .conftest import SPEC_1DOF
 
@@ -113,7 +114,7 @@ def test_broken_results_fail_for_the_right_reason(validator, result, break_it, p
 def test_closed_sets_agree_with_the_code(schema):
     props = schema["properties"]
     stopped = set(IPOPT_STATUS.values()) - {"converged"}
-    assert set(props["status"]["enum"]) == stopped | {"success", "recheck_failed", "solver_error"}
+    assert set(props["status"]["enum"]) == stopped | set(VERDICTS) | {"solver_error"}
     trial_status = schema["$defs"]["trial"]["properties"]["status"]["enum"]
     assert set(trial_status) == set(IPOPT_STATUS.values()) | {"solver_error"}
     assert tuple(schema["$defs"]["torque_model"]["enum"]) == TORQUE_MODELS

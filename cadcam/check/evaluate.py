@@ -222,6 +222,12 @@ def rate_deviation(problem: Problem, design: Design, factor: float, springs=None
     return np.sqrt(np.mean((changed.tau - nominal.tau) ** 2, axis=1))
 
 
+def _relative(errors, sizes) -> list:
+    """errors / sizes per joint (the RMSE against the target's RMS), None where the target is
+    zero everywhere."""
+    return [float(e / s) if s > 0 else None for e, s in zip(errors, sizes)]
+
+
 def output_law(mech, theta: np.ndarray) -> np.ndarray:
     """The mechanism's output target x_d [m] at the joint angles ``theta`` [rad]."""
     return np.asarray(mech.output_target.function(1, 0).map(theta.size)(theta)).ravel()
@@ -282,6 +288,7 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
         "output_rmse": [None if e is None else float(np.sqrt(np.mean(e**2))) for e in out_err],
         "output_max_abs_error": [None if e is None else float(np.abs(e).max()) for e in out_err],
         "rmse": np.sqrt(np.mean(err**2, axis=1)).tolist(),
+        "relative_rmse": _relative(np.sqrt(np.mean(err**2, axis=1)), np.sqrt(np.mean(ev.tau_d**2, axis=1))),
         "max_abs_error": np.abs(err).max(axis=1).tolist(),
         "extension_min": ev.x.min(axis=1).tolist(),
         "extension_max": ev.x.max(axis=1).tolist(),

@@ -27,6 +27,7 @@ from __future__ import annotations
 import copy
 import csv
 import hashlib
+import io
 import itertools
 import json
 import math
@@ -37,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import qmc
 
+from ..files import InputFileError, read_input
 from ..problem import Problem
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data
 
@@ -182,8 +184,10 @@ def _number(v) -> bool:
 def read_catalogue(path: Path) -> tuple[dict, ...]:
     """Spring tables {name, rate [N/m], travel [m], preload [N]} from a catalogue CSV (module
     docstring); an empty or missing ``pretension_N`` is no preload."""
-    with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
+    try:
+        rows = list(csv.DictReader(io.StringIO(read_input(path), newline="")))
+    except csv.Error as exc:
+        raise ValueError(f"not a readable CSV ({exc})") from None
     need = ("id", "source", "rate_N_per_m", "travel_m")
     if not rows or any(k not in rows[0] for k in need):
         raise ValueError(f"the header must include {','.join(need)}")
@@ -205,9 +209,9 @@ def load_study(path) -> Study:
     path = Path(path)
     origin = str(path)
     try:
-        raw = tomllib.loads(path.read_text())
-    except OSError as exc:
-        raise StudyError(f"{origin}: cannot read the study ({exc.strerror})") from None
+        raw = tomllib.loads(read_input(path))
+    except InputFileError as exc:
+        raise StudyError(f"{origin}: the study: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise StudyError(f"{origin}: not valid TOML ({exc})") from None
     allowed = {"name", "base", "variant", "design", "samples", "seed", "record", "warm_start",
