@@ -194,16 +194,20 @@ def _check_output_dir(path: Path) -> None:
             return
 
 
+#: Workshop lengths [m] a flag may set: (smallest, largest); a chordal tolerance below 0.1 µm
+#: would make polygons of unbounded size.
+WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "tolerance": (1e-7, 1e-3),
+                   "stl": (1e-4, 1.0), "groove_depth": (0.0, 0.1), "groove_width": (0.0, 0.1),
+                   "groove_pitch": (1e-4, 0.1)}
+
+
 def _check_workshop_args(args) -> None:
-    for name in ("bore_diameter", "anchor_diameter", "tolerance"):
-        if not getattr(args, name) > 0:
-            raise InputError(f"--{name.replace('_', '-')} must be positive [m]")
-    if args.stl is not None and not args.stl > 0:
-        raise InputError("--stl THICKNESS must be positive [m]")
-    if args.groove_depth < 0 or args.groove_width < 0:
-        raise InputError("--groove-depth and --groove-width must be ≥ 0 [m]")
-    if not args.groove_pitch > 0:
-        raise InputError("--groove-pitch must be positive [m]")
+    """Every workshop length within :data:`WORKSHOP_LIMITS`, before any work."""
+    for name, (lo, hi) in WORKSHOP_LIMITS.items():
+        value = getattr(args, name)
+        if value is not None and not lo <= value <= hi:
+            raise InputError(f"--{name.replace('_', '-')} {value!r}: expected a length from {lo:g} to "
+                             f"{hi:g} m")
 
 
 def cmd_evaluate(args) -> int:

@@ -563,8 +563,11 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
     if path.suffix == ".json":
         try:
             data = json.loads(text)["problem"]
-        except (ValueError, KeyError, TypeError):
+        except (ValueError, KeyError, TypeError, RecursionError):
             raise SpecError(f"{path}: expected a cadcam result JSON with a 'problem' member") from None
+        if not isinstance(data, dict):
+            raise SpecError(f"{path}: the result's 'problem' must be a JSON object (a spec), "
+                            f"not {type(data).__name__}")
     else:
         try:
             data = tomllib.loads(text)
@@ -572,6 +575,8 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
             raise SpecError(f"{path}: not valid TOML ({exc})") from None
     if variant is not None:
         variants = data.get("variants", {})
+        if not isinstance(variants, dict) or not isinstance(variants.get(variant, {}), dict):
+            raise SpecError(f"{path}: variants.{variant}: expected a table of overrides")
         if variant not in variants:
             raise SpecError(f"{path}: no variant {variant!r}; the spec defines "
                             f"{sorted(variants) or 'none'}")

@@ -189,3 +189,19 @@ def test_nan_anywhere_in_the_recheck_is_never_success(demo):
         broken = copy.deepcopy(fine)
         broken.metrics[key][0] = math.nan
         assert verdict(demo.problem, demo.solve, broken, "converged")[0] == "not_finite"
+
+
+@pytest.mark.parametrize("flag,value", [("--tolerance", "inf"), ("--tolerance", "1e-300"),
+                                        ("--groove-depth", "nan"), ("--bore-diameter", "-1"),
+                                        ("--stl", "0"), ("--groove-pitch", "1e9")])
+def test_workshop_flags_are_checked_before_the_solve(tmp_path, capsys, flag, value):
+    code, err = _cli(capsys, "design", str(SPEC_1DOF), "-o", str(tmp_path / "o"), flag, value)
+    assert code == 2 and f"{flag} " in err and "expected a length from" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("problem", ["[1, 2]", "\"x\"", "3"])
+def test_a_result_whose_problem_is_not_an_object_is_one_line(tmp_path, capsys, problem):
+    (tmp_path / "r.json").write_text(f'{{"problem": {problem}}}')
+    code, err = _cli(capsys, "design", str(tmp_path / "r.json"), "-o", str(tmp_path / "o"))
+    assert code == 2 and "'problem' must be a JSON object" in err
