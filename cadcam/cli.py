@@ -17,7 +17,7 @@ import numpy as np
 from .mechanisms.base import TORQUE_MODELS
 from .design import Design, DesignError
 from .files import InputFileError, read_input
-from .problem import size_error
+from .problem import cap, size_error
 from .spec import SpecError, load_spec, parse_value
 from .studies.study import StudyError
 from .studies.sweep import SweepError
@@ -238,6 +238,8 @@ def cmd_sweep(args) -> int:
     from .studies.sweep import run_sweep
 
     study = load_study(args.study)
+    if args.workers is not None and not 0 <= args.workers <= cap("workers"):
+        raise InputError(f"--workers {args.workers}: expected 0 (serial) to {cap('workers')} worker processes")
     summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
     print(f"{study.name}: {summary['cases']} cases, {summary['ran']} run now, {summary['skipped']} "
           f"already recorded; {summary['cases_per_min']:.1f} cases/min; statuses {summary['statuses']}; "

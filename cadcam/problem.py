@@ -23,7 +23,8 @@ OBJECTIVES = ("least_squares", "minimax")
 #: Caps on every size a spec, study or flag controls, checked before any work. Raise one
 #: deliberately with the environment variable ``CADCAM_CAP_<NAME>`` (e.g. ``CADCAM_CAP_GRID=4000``).
 CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multistart": 100,
-        "recheck_factor": 100, "max_iter": 100_000, "recheck_points": 20_000_000}
+        "recheck_factor": 100, "max_iter": 100_000, "recheck_points": 20_000_000, "cases": 10_000,
+        "workers": 256}
 
 
 def cap(name: str) -> int:

@@ -121,6 +121,12 @@ def test_a_case_that_raises_is_recorded_and_the_others_complete(tmp_path, monkey
      "springs.1.rate = -5.0"),
     ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.rate"\nvalues = []\n', "non-empty list"),
     ('name = "x"\nbase = "{spec}"\ncolour = 2\n', "unknown key 'colour'"),
+    ('name = "x"\nbase = "{spec}"\n[[parameters]]\nkey = "springs.1.rate"\nrange = [1.0, 2.0]\nnum = 10000000\n',
+     "10000000 cases, over the cap of 10000"),
+    ('name = "x"\nbase = "{spec}"\ndesign = "latin_hypercube"\nsamples = 1000000000\n[[parameters]]\n'
+     'key = "springs.1.rate"\nrange = [1.0, 2.0]\n', "1000000000 cases, over the cap"),
+    ('name = "x"\nbase = "{spec}"\ndesign = "latin_hypercube"\nsamples = 3\nseed = -1\n[[parameters]]\n'
+     'key = "springs.1.rate"\nrange = [1.0, 2.0]\n', "seed = -1"),
 ])
 def test_bad_study_files_are_refused_before_any_case_runs(tmp_path, body, message, capsys):
     from cadcam.cli import main
@@ -158,3 +164,23 @@ def test_catalogue_parameters_update_the_spring_and_keep_its_ports(tmp_path):
     assert study.problem(study.cases()[0]).springs[0].preload == 0.0  # blank: none published
     assert p.springs[0].ports == load_study(path).problem(study.cases()[0]).springs[0].ports
     assert Study.case_id(study.cases()[0]) != Study.case_id(study.cases()[1])
+
+
+@pytest.mark.parametrize("make,message", [
+    (lambda tmp: tmp, "not a file"),
+    (lambda tmp: ((tmp / "t.db").write_text("not sqlite at all " * 100), tmp / "t.db")[1], "not a study database"),
+])
+def test_a_database_path_that_is_a_folder_or_not_sqlite_is_one_line(tmp_path, capsys, make, message):
+    from cadcam.cli import main
+    _study(tmp_path)
+    assert main(["sweep", str(tmp_path / "study.toml"), "-o", str(make(tmp_path))]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_a_negative_worker_count_is_refused(tmp_path, capsys):
+    from cadcam.cli import main
+    _study(tmp_path)
+    assert main(["sweep", str(tmp_path / "study.toml"), "-o", str(tmp_path / "w.db"), "--workers", "-1"]) == 2
+    assert "--workers -1: expected 0" in capsys.readouterr().err
+    assert not (tmp_path / "w.db").exists()

@@ -39,7 +39,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from ..files import InputFileError, read_input
-from ..problem import Problem
+from ..problem import Problem, cap
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data
 
 DESIGNS = ("factorial", "zip", "latin_hypercube")
@@ -102,6 +102,13 @@ class Study:
     _base_data: dict = field(default=None, init=False, repr=False, compare=False)
 
     # -- cases ------------------------------------------------------------------------------
+    def n_cases(self) -> int:
+        """How many cases :meth:`cases` makes, counted without making them."""
+        sizes = [len(p.values) if p.values else p.num for p in self.parameters]
+        if self.design == "factorial":
+            return math.prod(sizes)
+        return min(sizes) if self.design == "zip" else self.samples
+
     def cases(self) -> list[dict]:
         """The ordered list of cases, each a dict key → value."""
         keys = [p.key for p in self.parameters]
@@ -267,11 +274,15 @@ def load_study(path) -> Study:
         variant=need("variant", lambda v: isinstance(v, str), "a variant name", "") or None,
         design=need("design", lambda v: v in DESIGNS, f"one of {DESIGNS}", "factorial"),
         samples=need("samples", lambda v: isinstance(v, int) and v >= 1, "an integer ≥ 1", 0),
-        seed=need("seed", lambda v: isinstance(v, int), "an integer", 0),
+        seed=need("seed", lambda v: type(v) is int and 0 <= v < 2**32, "an integer from 0 to 2**32 − 1", 0),
         record=tuple(need("record", lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
                           "a list of metric names", list(DEFAULT_RECORD))),
         warm_start=need("warm_start", lambda v: isinstance(v, bool), "true or false", False),
         parameters=params, origin=origin)
     if study.design == "latin_hypercube" and study.samples < 1:
         raise StudyError(f"{origin}: samples: a latin_hypercube design needs samples ≥ 1")
+    if study.n_cases() > cap("cases"):
+        raise StudyError(f"{origin}: the study has {study.n_cases()} cases, over the cap of {cap('cases')} "
+                         "(fewer values, a smaller num or fewer samples; or raise the cap deliberately "
+                         "with the environment variable CADCAM_CAP_CASES)")
     return study

@@ -99,10 +99,16 @@ def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
 # -- database ---------------------------------------------------------------------------------
 def open_db(path, study: Study) -> sqlite3.Connection:
     """Open (or create) the study database; refuse one that holds a different study."""
-    db = sqlite3.connect(str(path))
-    db.execute("PRAGMA journal_mode=WAL")
-    db.execute("PRAGMA synchronous=FULL")
-    db.executescript(SCHEMA)
+    if Path(path).exists() and not Path(path).is_file():
+        raise SweepError(f"{path}: not a file; give the path of a study database (SQLite)")
+    try:
+        db = sqlite3.connect(str(path))
+        db.execute("PRAGMA journal_mode=WAL")
+        db.execute("PRAGMA synchronous=FULL")
+        db.executescript(SCHEMA)
+    except sqlite3.Error as exc:
+        raise SweepError(f"{path}: not a study database ({exc}); give a new path or a database "
+                         "this study wrote") from None
     definition = json.dumps(study.to_dict(), sort_keys=True)
     row = db.execute("SELECT definition FROM study WHERE id = 1").fetchone()
     if row is None:
