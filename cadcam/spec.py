@@ -380,7 +380,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
             m.kind == "differential_pulley" and m.output_target is not None for m in mechanisms):
         raise SpecError(f"{origin}: solver.method: 'envelope' designs differential pairs for their "
                         "output laws only: give every mechanism kind = \"differential_pulley\" and "
-                        "an [mechanisms.output_target], or use method = \"nlp\"")
+                        "a [mechanisms.output_target], or use method = \"nlp\"")
     if not springs and any(c["tracking_weight"] > 0 for c in joints):
         raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
                         "tables (or kind = \"none\" on every joint's target, for output laws only)")
