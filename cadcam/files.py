@@ -18,12 +18,18 @@ class InputFileError(ValueError):
     """An input file that cannot be read as asked: the message is one line, without the path."""
 
 
+def env_cap(name: str, default: int) -> int:
+    """A cap on work: the environment variable ``CADCAM_CAP_<NAME>`` if it is a positive
+    integer, else ``default``."""
+    text = os.environ.get(f"CADCAM_CAP_{name.upper()}", "")
+    return int(text) if text.isdigit() and int(text) > 0 else default
+
+
 def read_input(path) -> str:
     """The text of the regular file ``path``, refused (:class:`InputFileError`) if it is
     missing, not a regular file (a folder, a device such as /dev/zero, a FIFO), larger than
     :data:`MAX_INPUT_BYTES` or not UTF-8."""
-    text = os.environ.get("CADCAM_CAP_INPUT_BYTES", "")
-    limit = int(text) if text.isdigit() and int(text) > 0 else MAX_INPUT_BYTES
+    limit = env_cap("input_bytes", MAX_INPUT_BYTES)
     try:
         st = os.stat(path)
         if not stat.S_ISREG(st.st_mode):

@@ -6,11 +6,11 @@ problem it solved and can be re-evaluated without the original file.
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .files import env_cap
 from .mechanisms.base import ENERGY, Mechanism, Profile
 from .physics.springs import Network, Spring
 from .targets import Target
@@ -30,8 +30,7 @@ CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multist
 def cap(name: str) -> int:
     """The cap ``name`` of :data:`CAPS`, or its ``CADCAM_CAP_<NAME>`` override (a positive
     integer)."""
-    text = os.environ.get(f"CADCAM_CAP_{name.upper()}", "")
-    return int(text) if text.isdigit() and int(text) > 0 else CAPS[name]
+    return env_cap(name, CAPS[name])
 
 
 def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:

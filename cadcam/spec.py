@@ -23,7 +23,7 @@ from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, read_input
 from .problem import OBJECTIVES, Joint, Options, Problem, size_error
-from .targets import PATH_KEYS, ExpressionError, Target, read_table
+from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table
 
 _REQUIRED = object()
 _PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
@@ -372,7 +372,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
                for j, raw in enumerate(raw_springs)]
     robot = [m for m in mechanisms if m.output_target is not None and m.output_target.kind == "cable_robot"]
-    for key in PATH_KEYS + ("theta_range",):
+    for key in SHARED_PATH_KEYS:
         if len({repr(m.output_target.data[key]) for m in robot}) > 1:
             raise SpecError(f"{origin}: mechanisms' output_target.{key}: the cables of one cable robot "
                             f"follow one path; give every cable_robot law the same {key}")

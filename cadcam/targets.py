@@ -298,17 +298,23 @@ def spring_elongation(phi, mass, length, g, rate, preload):
 
 #: The path keys of a ``cable_robot`` target (:func:`cadcam.physics.cable_robot.pick_and_place`).
 PATH_KEYS = ("start", "lift", "span", "lift_share", "overlap")
+#: The keys both cables of one robot share: its path and the input range it runs over.
+SHARED_PATH_KEYS = PATH_KEYS + ("theta_range",)
 #: Input shares at which the shortest cable of a path is sought.
 PATH_SAMPLES = 20001
 
 
-def robot_cable(theta, d: dict):
-    """The cable length [m] from anchor ``d["anchor"]`` to the end effector at joint angle θ:
-    the path's input share is τ = (θ − θ₀)/(θ₁ − θ₀) over ``d["theta_range"]`` [rad]
-    (Fedorov2018 Sec. 4.1)."""
+def robot_position(theta, d: dict):
+    """The end effector's target position (x, y) [m] at joint angle θ: the path's input share
+    is τ = (θ − θ₀)/(θ₁ − θ₀) over ``d["theta_range"]`` [rad] (Fedorov2018 Sec. 4.1)."""
     lo, hi = d["theta_range"]
-    x, y = pick_and_place((theta - lo) / (hi - lo), *(d[k] for k in PATH_KEYS))
-    return cable_length(x, y, d["anchor"])
+    return pick_and_place((theta - lo) / (hi - lo), *(d[k] for k in PATH_KEYS))
+
+
+def robot_cable(theta, d: dict):
+    """The cable length [m] from anchor ``d["anchor"]`` to the end effector's target position
+    at joint angle θ (:func:`robot_position`)."""
+    return cable_length(*robot_position(theta, d), d["anchor"])
 
 
 def shortest_cable(d: dict) -> float:
@@ -369,9 +375,7 @@ class Target:
     def expression(self, thetas, cam: int):
         """τ_d as a CasADi expression of the cam angles ``thetas`` (a list of SX)."""
         if self.kind == "expression":
-            names = {**{k: float(v) for k, v in self.data.get("parameters", {}).items()},
-                     **angle_names(thetas, cam)}
-            return parse_expression(self.data["expression"], names)
+            return parse_expression(self.data["expression"], self._names(thetas, cam))
         if self.kind == "pendulum":
             d = self.data
             return d["mass"] * d["g"] * d["length"] * ca.sin(thetas[cam] + d["phase"])
@@ -399,6 +403,11 @@ class Target:
             return interp(thetas[cam])
         raise ValueError(f"unknown target kind {self.kind!r}")
 
+    def _names(self, thetas, cam: int) -> dict:
+        """An ``expression``'s names: its numeric ``parameters`` and the angles."""
+        return {**{k: float(v) for k, v in self.data.get("parameters", {}).items()},
+                **angle_names(thetas, cam)}
+
     def guard_failure(self, axes, cam: int) -> str | None:
         """For an ``expression``: where it has a pole, leaves its functions' domains or jumps
         on the tensor grid of the angle ``axes`` [rad] (:func:`check_guards`); else None."""
@@ -406,10 +415,8 @@ class Target:
             return None
         th = ca.SX.sym("theta", len(axes))
         thetas = [th[i] for i in range(len(axes))]
-        names = {**{k: float(v) for k, v in self.data.get("parameters", {}).items()},
-                 **angle_names(thetas, cam)}
         guards = []
-        parse_expression(self.data["expression"], names, guards)
+        parse_expression(self.data["expression"], self._names(thetas, cam), guards)
         return check_guards(guards, thetas, axes)
 
     def function(self, n_cams: int, cam: int) -> ca.Function:

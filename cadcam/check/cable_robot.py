@@ -6,11 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.cable_robot import end_effector, pick_and_place
-from ..targets import PATH_KEYS, slider_cable
-
-#: Path keys that both cables of one robot must share.
-SHARED_KEYS = PATH_KEYS + ("theta_range",)
+from ..physics.cable_robot import end_effector
+from ..targets import SHARED_PATH_KEYS, robot_position, slider_cable
 
 
 @dataclass
@@ -49,13 +46,11 @@ def robot_path(evaluation) -> RobotPath | None:
     if len(units) != 2 or len({p.mechanisms[u].joint for u in units}) != 1:
         return None
     laws = [p.mechanisms[u].output_target.data for u in units]
-    if any(laws[0][k] != laws[1][k] for k in SHARED_KEYS):
+    if any(laws[0][k] != laws[1][k] for k in SHARED_PATH_KEYS):
         raise ValueError("the two cable_robot laws describe different paths: give both the same "
-                         f"{', '.join(SHARED_KEYS)}")
+                         f"{', '.join(SHARED_PATH_KEYS)}")
     theta = evaluation.units[units[0]].theta
     lengths = [slider_cable(evaluation.units[u].z[p.mechanisms[u].unknowns.index("x")], d)
                for u, d in zip(units, laws)]
     designed = np.array(end_effector(*lengths, laws[0]["anchor"], laws[1]["anchor"]))
-    lo, hi = laws[0]["theta_range"]
-    target = np.array(pick_and_place((theta - lo) / (hi - lo), *(laws[0][k] for k in PATH_KEYS)))
-    return RobotPath(theta, target, designed)
+    return RobotPath(theta, np.array(robot_position(theta, laws[0])), designed)
