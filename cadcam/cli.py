@@ -9,14 +9,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
 
 from .mechanisms.base import TORQUE_MODELS
 from .design import Design, DesignError
-from .files import InputFileError, read_input
+from .files import InputFileError, read_input, staged_folder
 from .problem import cap, size_error
 from .spec import SpecError, load_spec, parse_value
 from .studies.study import StudyError
@@ -154,11 +156,14 @@ def cmd_design(args) -> int:
     _check_output_dir(out)
     _check_workshop_args(args)
     result = optimize(problem)
-    write_outputs(result, out)
-    try:
-        workshop = write_workshop_files(result.evaluation, out, args)
-    except ValueError as exc:
-        print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
+    with staged_folder(out, last=("result.json",)) as stage:  # result.json last: a set is complete
+        write_outputs(result, stage)
+        try:
+            workshop = write_workshop_files(result.evaluation, stage, args)
+        except ValueError as exc:
+            workshop = None
+            print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
+    if workshop is None:
         return 1
     d = result.to_dict()
     mm = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS)" if r is not None else "")
@@ -182,16 +187,26 @@ def cmd_design(args) -> int:
     return 0 if result.success else 1
 
 
-def _check_output_dir(path: Path) -> None:
+def _check_output_dir(path: Path, flag: str = "-o") -> None:
     """Refuse, before any work, an output folder that is a file, lies under a file or cannot
     be written."""
     for parent in [path, *path.parents]:
         if parent.exists():
             if not parent.is_dir():
-                raise InputError(f"-o {path}: {parent} is a file, not a folder; give a folder")
+                raise InputError(f"{flag} {path}: {parent} is a file, not a folder; give a folder")
             if not os.access(parent, os.W_OK | os.X_OK):
-                raise InputError(f"-o {path}: {parent} is not writable; give a folder you can write to")
+                raise InputError(f"{flag} {path}: {parent} is not writable; give a folder you can write to")
             return
+
+
+def _check_output_file(path: Path, flag: str) -> None:
+    """Refuse, before any work, an output file that is a folder or whose folder could not be
+    made or written."""
+    if path.is_dir():
+        raise InputError(f"{flag} {path}: is a folder; give a file name")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise InputError(f"{flag} {path}: is not writable; give a file you can write to")
+    _check_output_dir(path.parent, flag)
 
 
 #: Workshop lengths [m] a flag may set: (smallest, largest); a chordal tolerance below 0.1 µm
@@ -224,6 +239,7 @@ def cmd_export(args) -> int:
     from .views.export import ExportError, export
 
     problem, design = _problem_and_design(args)
+    _check_output_dir(Path(args.output))
     try:
         manifest = export(problem, design, args.what, args.format.split(","), args.output)
     except ExportError as exc:
@@ -238,6 +254,7 @@ def cmd_sweep(args) -> int:
     from .studies.sweep import run_sweep
 
     study = load_study(args.study)
+    _check_output_file(Path(args.output), "-o")
     if args.workers is not None and not 0 <= args.workers <= cap("workers"):
         raise InputError(f"--workers {args.workers}: expected 0 (serial) to {cap('workers')} worker processes")
     summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
@@ -255,6 +272,7 @@ def cmd_sweep_export(args) -> int:
     from .files import write_text
     from .studies.sweep import flat_table, read_rows
 
+    _check_output_file(Path(args.csv), "--csv")
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)
     header = list(dict.fromkeys(k for row in table for k in row))
@@ -271,6 +289,7 @@ def cmd_plot_study(args) -> int:
     from .views.plots import plot_study
     from .studies.sweep import flat_table, read_rows
 
+    _check_output_file(Path(args.output), "-o")
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)
     missing = [k for k in (args.x, args.y, args.color) if k and not any(k in r for r in table)]
@@ -280,6 +299,11 @@ def cmd_plot_study(args) -> int:
     plot_study(table, args.x, args.y, args.color, args.pareto, args.output, study["name"])
     print(f"plot written to {args.output}")
     return 0
+
+
+def _terminated(signum, frame):
+    """SIGTERM unwinds like Ctrl-C, so that temporary files and staging folders are removed."""
+    raise KeyboardInterrupt
 
 
 def main(argv=None) -> int:
@@ -348,8 +372,13 @@ def main(argv=None) -> int:
     p.set_defaults(run=cmd_plot_study)
 
     args = parser.parse_args(argv)
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
     try:
         return args.run(args)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: temporary files are gone, no partial set is left
+        print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
+        return 130
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
         return 2
@@ -361,6 +390,9 @@ def main(argv=None) -> int:
         print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left; free "
               "space or fix the permissions and run again)", file=sys.stderr)
         return 1
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

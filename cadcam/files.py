@@ -1,13 +1,24 @@
 """File input and output: inputs read only from regular files of bounded size as UTF-8 text,
-outputs written atomically (a temporary file in the same folder, then a rename)."""
+outputs written atomically (a temporary file in the same folder, then a rename), and folders of
+outputs staged so that a run that fails or is killed never leaves a final-looking set.
+
+Temporary files and staging folders are hidden and named ``.cadcam-<pid>-…``; one whose process
+is gone (a run killed with SIGKILL) is removed by the next write into the same folder.
+"""
 from __future__ import annotations
 
 import contextlib
 import json
 import os
+import re
+import shutil
 import stat
 import tempfile
 from pathlib import Path
+
+#: Start of every temporary file's and staging folder's name (followed by the writer's pid).
+TEMP_PREFIX = ".cadcam-"
+_TEMP_NAME = re.compile(re.escape(TEMP_PREFIX) + r"(\d+)-")
 
 #: Largest input file read [bytes] (specs, target tables, studies, designs, catalogues); raise
 #: it deliberately with the environment variable CADCAM_CAP_INPUT_BYTES.
@@ -49,6 +60,34 @@ def read_input(path) -> str:
         raise InputFileError(f"not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process (EPERM): alive
+        return True
+    return True
+
+
+def remove_leftovers(folder) -> list[str]:
+    """Remove the temporary files and staging folders in ``folder`` whose writing process is
+    gone (see the module docstring); return their names."""
+    removed = []
+    with contextlib.suppress(FileNotFoundError, NotADirectoryError):
+        for name in os.listdir(folder):
+            match = _TEMP_NAME.match(name)
+            if match and int(match[1]) != os.getpid() and not _alive(int(match[1])):
+                path = Path(folder) / name
+                shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
+                removed.append(name)
+    return removed
+
+
+def _temp_prefix(name: str = "") -> str:
+    return f"{TEMP_PREFIX}{os.getpid()}-{name}"
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; on success rename it onto ``path``.
@@ -58,7 +97,8 @@ def atomic_path(path):
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    remove_leftovers(path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(f"{path.name}."), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     umask = os.umask(0)
     os.umask(umask)
@@ -66,9 +106,51 @@ def atomic_path(path):
     try:
         yield Path(tmp)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and exc.filename == tmp:
+            exc.filename = str(path)  # name the file the user knows, not the temporary one
+        raise
+
+
+@contextlib.contextmanager
+def staged_folder(folder, last: tuple[str, ...] = ()):
+    """Yield a hidden staging folder inside ``folder`` to write a set of outputs into; on
+    success move each file into ``folder``, the names in ``last`` after the others.
+
+    Before the move the old copies of ``last`` are removed, so a run killed while moving
+    leaves no final-looking file (such as ``result.json``) beside a partial set. On an
+    exception the staging folder, and the folders this call created, are removed and
+    ``folder``'s previous content is left as it was.
+    """
+    folder = Path(folder)
+    created = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        remove_leftovers(folder)
+        stage = Path(tempfile.mkdtemp(prefix=_temp_prefix("stage-"), dir=folder))
+        try:
+            yield stage
+            for name in last:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(folder / name)
+            for name in sorted(os.listdir(stage), key=lambda n: n in last):
+                target = folder / name
+                if target.is_dir() and not target.is_symlink():
+                    shutil.rmtree(target)
+                os.replace(stage / name, target)
+            stage.rmdir()
+        except OSError as exc:  # name the file the user knows, not its staged copy
+            if isinstance(exc.filename, str) and exc.filename.startswith(str(stage)):
+                exc.filename = str(folder) + exc.filename[len(str(stage)):]
+            raise
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+    except BaseException:
+        for p in created:  # innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
         raise
 
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..version import __version__
 from ..design import Design
-from ..files import atomic_path, write_json, write_text
+from ..files import atomic_path, staged_folder, write_json, write_text
 from ..check.model import NEWTON_STEPS, torque_function, torque_jacobian_function
 from ..optimize import start_samples
 from ..problem import Problem
@@ -147,8 +147,12 @@ def export(problem: Problem, design: Design, what: str, formats, out) -> dict:
     bad = [f for f in formats if f not in FORMATS]
     if bad or not formats:
         raise ExportError(f"--format {','.join(bad) or '(none)'}: expected some of {FORMATS}")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    with staged_folder(out, last=("manifest.json",)) as stage:  # the manifest last: the set is complete
+        return _write(problem, design, what, formats, stage)
+
+
+def _write(problem: Problem, design: Design, what: str, formats: list[str], out: Path) -> dict:
+    """The files of :func:`export` written into ``out`` (a staging folder); the manifest."""
     if what == "model":
         functions, extra = model_functions(problem, design), {}
     else:

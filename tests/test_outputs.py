@@ -1,0 +1,138 @@
+"""Outputs are all or nothing: a design's files are staged in a hidden folder and moved into
+place with result.json last, so a run that fails or is interrupted leaves the previous set as it
+was and never a final-looking result.json beside a partial set; temporary files of a killed run
+are recognised and removed by the next; output paths are checked before any work."""
+import errno
+import os
+import subprocess
+import sys
+
+import importlib
+
+import pytest
+
+import cadcam.views.plots
+from cadcam.cli import main
+from cadcam.files import TEMP_PREFIX, staged_folder, write_text
+from cadcam.optimize import optimize
+from cadcam.spec import load_spec
+
+from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return optimize(load_spec(SPEC_1DOF))
+
+
+@pytest.fixture
+def design(monkeypatch, demo, capsys):
+    """``cadcam design`` of the 1-DOF spec with the solve replaced by a finished one."""
+    module = importlib.import_module("cadcam.optimize")  # the package exports a function of that name
+    monkeypatch.setattr(module, "optimize", lambda problem: demo)
+
+    def run(out):
+        code = main(["design", str(SPEC_1DOF), "-o", str(out)])
+        return code, capsys.readouterr().err
+    return run
+
+
+def _snapshot(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+def _fail_at_torque_png(monkeypatch, exc):
+    real = cadcam.views.plots.plot_torque
+
+    def broken(ev, path):
+        real(ev, path)  # the figure is half-way through the set when the environment fails
+        raise exc
+    monkeypatch.setattr(cadcam.views.plots, "plot_torque", broken)
+
+
+def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):
+    code, _ = design(tmp_path / "o")
+    names = sorted(os.listdir(tmp_path / "o"))
+    assert code == 0 and "result.json" in names and "torque.png" in names
+    assert not [n for n in names if n.startswith(".")]
+
+
+def test_a_disk_full_midway_leaves_no_folder_and_one_line(tmp_path, design, monkeypatch):
+    _fail_at_torque_png(monkeypatch, OSError(errno.ENOSPC, "No space left on device",
+                                             str(tmp_path / "o" / "torque.png")))
+    code, err = design(tmp_path / "new" / "o")
+    assert code == 1 and err.count("\n") == 1 and "No space left on device" in err
+    assert not (tmp_path / "new").exists()  # the folders this run created are gone too
+
+
+def test_a_failure_midway_keeps_the_previous_set_byte_for_byte(tmp_path, design, monkeypatch):
+    assert design(tmp_path / "o")[0] == 0
+    before = _snapshot(tmp_path / "o")
+    _fail_at_torque_png(monkeypatch, PermissionError(errno.EACCES, "Permission denied"))
+    code, err = design(tmp_path / "o")
+    assert code == 1 and "Permission denied" in err
+    assert _snapshot(tmp_path / "o") == before
+
+
+def test_an_interrupt_midway_exits_130_and_leaves_nothing(tmp_path, design, monkeypatch):
+    _fail_at_torque_png(monkeypatch, KeyboardInterrupt())
+    code, err = design(tmp_path / "o")
+    assert code == 130 and "interrupted" in err and not (tmp_path / "o").exists()
+
+
+def test_a_move_that_fails_leaves_no_final_looking_result(tmp_path, monkeypatch):
+    (tmp_path / "result.json").write_text("old")
+    (tmp_path / "a.csv").write_text("old")
+    real, moved = os.replace, []
+
+    def replace(src, dst):
+        if moved:  # the second move fails: the set is half old, half new
+            raise OSError(errno.EIO, "Input/output error")
+        moved.append(os.path.basename(dst))
+        real(src, dst)
+    with pytest.raises(OSError):
+        with staged_folder(tmp_path, last=("result.json",)) as stage:
+            (stage / "result.json").write_text("new")
+            (stage / "a.csv").write_text("new")
+            (stage / "b.csv").write_text("new")
+            monkeypatch.setattr(os, "replace", replace)
+    assert moved == ["a.csv"]  # result.json is never moved before the others
+    assert not (tmp_path / "result.json").exists()  # and the old one is gone: the set is visibly incomplete
+    assert sorted(os.listdir(tmp_path)) == ["a.csv"]
+
+
+def _dead_pid():
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_leftovers_of_a_killed_run_are_removed_and_a_live_writers_kept(tmp_path):
+    dead, live = _dead_pid(), os.getppid()
+    (tmp_path / f"{TEMP_PREFIX}{dead}-stage-x1y2").mkdir()
+    (tmp_path / f"{TEMP_PREFIX}{dead}-stage-x1y2" / "torque.csv").write_text("partial")
+    (tmp_path / f"{TEMP_PREFIX}{dead}-result.json.abc.json").write_text("partial")
+    (tmp_path / f"{TEMP_PREFIX}{live}-result.json.def.json").write_text("being written")
+    (tmp_path / ".keep").write_text("the user's own")
+    write_text(tmp_path / "note.txt", "x")
+    assert sorted(os.listdir(tmp_path)) == sorted([".keep", "note.txt", f"{TEMP_PREFIX}{live}-result.json.def.json"])
+
+
+@pytest.mark.parametrize("argv", [
+    ["export", str(SPEC_RR), "--design", str(TABLE3), "-o", "{file}"],
+    ["export", str(SPEC_RR), "--design", str(TABLE3), "-o", "{file}/sub"],
+    ["sweep", str(ROOT / "studies" / "basis_order.toml"), "-o", "{folder}"],
+    ["sweep", str(ROOT / "studies" / "basis_order.toml"), "-o", "{file}/x.db"],
+    ["sweep-export", "{file}", "--csv", "{folder}"],
+    ["plot-study", "{file}", "--x", "a", "--y", "b", "-o", "{folder}"],
+    ["plot-study", "{file}", "--x", "a", "--y", "b", "-o", "{file}/x.png"],
+])
+def test_output_paths_are_checked_before_any_work(tmp_path, capsys, argv):
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "folder").mkdir()
+    names = {"file": str(tmp_path / "file"),
+             "folder": str(tmp_path / "folder")}
+    code = main([a.format(**names) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and ("is a folder" in err or "is a file" in err)
+    assert sorted(os.listdir(tmp_path)) == ["file", "folder"] and not os.listdir(tmp_path / "folder")
