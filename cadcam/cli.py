@@ -258,9 +258,11 @@ def cmd_sweep(args) -> int:
     if args.workers is not None and not 0 <= args.workers <= cap("workers"):
         raise InputError(f"--workers {args.workers}: expected 0 (serial) to {cap('workers')} worker processes")
     summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
+    elsewhere = (f", {summary['elsewhere']} still running in another sweep on this database"
+                 if summary["elsewhere"] else "")
     print(f"{study.name}: {summary['cases']} cases, {summary['ran']} run now, {summary['skipped']} "
-          f"already recorded; {summary['cases_per_min']:.1f} cases/min; statuses {summary['statuses']}; "
-          f"results in {args.output}")
+          f"already recorded{elsewhere}; {summary['cases_per_min']:.1f} cases/min; statuses "
+          f"{summary['statuses']}; results in {args.output}")
     failed = sum(n for k, n in summary["statuses"].items() if k != "success")
     return 0 if failed == 0 else 1
 

@@ -60,7 +60,8 @@ def read_input(path) -> str:
         raise InputFileError(f"not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
 
 
-def _alive(pid: int) -> bool:
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs on this machine (another user's process counts as running)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -77,7 +78,7 @@ def remove_leftovers(folder) -> list[str]:
     with contextlib.suppress(FileNotFoundError, NotADirectoryError):
         for name in os.listdir(folder):
             match = _TEMP_NAME.match(name)
-            if match and int(match[1]) != os.getpid() and not _alive(int(match[1])):
+            if match and int(match[1]) != os.getpid() and not process_alive(int(match[1])):
                 path = Path(folder) / name
                 shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
                 removed.append(name)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from cadcam.studies.study import Study, StudyError, load_study
-from cadcam.studies.sweep import read_rows, run_sweep
+from cadcam.studies.sweep import read_rows, run_sweep, runner
 
 from .conftest import SPEC_1DOF
 
@@ -167,7 +167,7 @@ def test_catalogue_parameters_update_the_spring_and_keep_its_ports(tmp_path):
 
 
 @pytest.mark.parametrize("make,message", [
-    (lambda tmp: tmp, "not a file"),
+    (lambda tmp: tmp, "is a folder; give a file name"),
     (lambda tmp: ((tmp / "t.db").write_text("not sqlite at all " * 100), tmp / "t.db")[1], "not a study database"),
 ])
 def test_a_database_path_that_is_a_folder_or_not_sqlite_is_one_line(tmp_path, capsys, make, message):
@@ -184,3 +184,41 @@ def test_a_negative_worker_count_is_refused(tmp_path, capsys):
     assert main(["sweep", str(tmp_path / "study.toml"), "-o", str(tmp_path / "w.db"), "--workers", "-1"]) == 2
     assert "--workers -1: expected 0" in capsys.readouterr().err
     assert not (tmp_path / "w.db").exists()
+
+
+def test_a_second_runner_skips_cases_another_holds_and_takes_over_a_dead_runners(tmp_path):
+    study = _study(tmp_path)
+    run_sweep(study, tmp_path / "reference.db", workers=0, progress=False)
+    db_path = tmp_path / "shared.db"
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+    try:
+        run_sweep(study, db_path, workers=0, progress=False)  # creates the database, runs all 4
+        with sqlite3.connect(db_path) as con:  # forget two cases and let the other runner hold them
+            held = [r[0] for r in con.execute("SELECT case_id FROM cases ORDER BY idx LIMIT 2 OFFSET 1")]
+            con.executemany("DELETE FROM cases WHERE case_id = ?", [(c,) for c in held])
+            con.executemany("INSERT INTO claims VALUES (?, ?, ?, ?)",
+                            [(c, runner()[0], other.pid, time.time()) for c in held])
+        summary = run_sweep(study, db_path, workers=0, progress=False)
+        assert (summary["ran"], summary["skipped"], summary["elsewhere"]) == (0, 2, 2)
+    finally:
+        other.kill()
+        other.wait()  # reaped: its process is gone, and so are its claims' owner
+    summary = run_sweep(study, db_path, workers=0, progress=False)
+    assert (summary["ran"], summary["elsewhere"]) == (2, 0)
+    assert _values(db_path) == _values(tmp_path / "reference.db")
+    with sqlite3.connect(db_path) as con:
+        assert con.execute("SELECT COUNT(*) FROM claims").fetchone()[0] == 0
+
+
+def test_two_runners_on_one_database_finish_the_study_once_between_them(tmp_path):
+    _study(tmp_path, num=4)
+    db_path = tmp_path / "shared.db"
+    cmd = [sys.executable, "-m", "cadcam", "sweep", str(tmp_path / "study.toml"), "-o", str(db_path),
+           "--workers", "0"]
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True) for _ in range(2)]
+    outs = [p.communicate(timeout=300)[0] for p in procs]
+    assert [p.returncode for p in procs] == [0, 0]
+    ran = [int(out.split(" run now")[0].rsplit(" ", 1)[1]) for out in outs]
+    assert sum(ran) == 8  # no case solved twice, none left out
+    _, rows = read_rows(db_path)
+    assert len({r["case_id"] for r in rows}) == len(rows) == 8 and {r["status"] for r in rows} == {"success"}

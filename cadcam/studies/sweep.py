@@ -7,6 +7,13 @@ torque model. Running the same study on the same database again resumes it: case
 recorded are skipped (the case id, a hash of its values, is the primary key), so nothing is
 repeated or duplicated, also after the whole process tree was killed.
 
+Sweeps that share a database share the work: a runner claims each case (a ``claims`` row
+naming its host and process) before it submits it, and skips cases recorded or claimed by
+another runner, so two runners started on one study finish it once between them. A claim is
+released when its case is recorded; the claims of a runner that was killed are recognised
+and taken over by the next run — at once on the same host (its process is gone), after
+:data:`CLAIM_LEASE_S` without a recorded case for a runner on another host.
+
 Workers keep one :class:`~cadcam.nlp.transcription.Transcription` per problem structure and
 reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
 NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
@@ -18,6 +25,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import socket
 import sqlite3
 import sys
 import time
@@ -37,7 +45,12 @@ CREATE TABLE IF NOT EXISTS cases (
     status TEXT NOT NULL, message TEXT, metrics TEXT, recheck TEXT, design TEXT,
     iterations INTEGER, solve_time_s REAL, build_time_s REAL, wall_time_s REAL, error TEXT,
     cadcam_version TEXT NOT NULL, torque_model TEXT, finished REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS claims (
+    case_id TEXT PRIMARY KEY, host TEXT NOT NULL, pid INTEGER NOT NULL, claimed REAL NOT NULL);
 """
+#: A claim of a runner on another host whose process cannot be checked is taken over when that
+#: runner has recorded no case for this long [s].
+CLAIM_LEASE_S = 3600.0
 COLUMNS = ("case_id", "idx", "params", "status", "message", "metrics", "recheck", "design",
            "iterations", "solve_time_s", "build_time_s", "wall_time_s", "error",
            "cadcam_version", "torque_model", "finished")
@@ -102,7 +115,7 @@ def open_db(path, study: Study) -> sqlite3.Connection:
     if Path(path).exists() and not Path(path).is_file():
         raise SweepError(f"{path}: not a file; give the path of a study database (SQLite)")
     try:
-        db = sqlite3.connect(str(path))
+        db = sqlite3.connect(str(path), timeout=60)  # runners sharing the database wait their turn
         db.execute("PRAGMA journal_mode=WAL")
         db.execute("PRAGMA synchronous=FULL")
         db.executescript(SCHEMA)
@@ -121,11 +134,41 @@ def open_db(path, study: Study) -> sqlite3.Connection:
 
 
 def record(db: sqlite3.Connection, row: dict) -> None:
-    """Commit one case's row (a repeated case id is ignored, never duplicated)."""
+    """Commit one case's row (a repeated case id is ignored, never duplicated) and release its
+    claim."""
     row = {**row, "finished": time.time()}
     with db:
         db.execute(f"INSERT OR IGNORE INTO cases ({','.join(COLUMNS)}) VALUES ({','.join('?' * len(COLUMNS))})",
                    [row.get(c) for c in COLUMNS])
+        db.execute("DELETE FROM claims WHERE case_id = ?", (row["case_id"],))
+        db.execute("UPDATE claims SET claimed = ? WHERE host = ? AND pid = ?", (row["finished"], *runner()))
+
+
+def runner() -> tuple[str, int]:
+    """This runner, as its claims name it: (host, process id)."""
+    return socket.gethostname(), os.getpid()
+
+
+def release_stale_claims(db: sqlite3.Connection) -> int:
+    """Delete the claims of runners that are gone (see the module docstring); return how many."""
+    from ..files import process_alive
+
+    host, pid = runner()
+    stale = [(h, p) for h, p, last in db.execute("SELECT host, pid, MAX(claimed) FROM claims GROUP BY host, pid")
+             if (h == host and p != pid and not process_alive(p))
+             or (h != host and time.time() - last > CLAIM_LEASE_S)]
+    with db:
+        return sum(db.execute("DELETE FROM claims WHERE host = ? AND pid = ?", hp).rowcount for hp in stale)
+
+
+def claim(db: sqlite3.Connection, case_id: str) -> bool:
+    """Claim a case for this runner: ``False`` if it is recorded or another runner holds it.
+    One INSERT statement, so two runners never both claim a case."""
+    with db:
+        return db.execute(
+            "INSERT OR IGNORE INTO claims (case_id, host, pid, claimed) SELECT ?, ?, ?, ? "
+            "WHERE NOT EXISTS (SELECT 1 FROM cases WHERE case_id = ?)",
+            (case_id, *runner(), time.time(), case_id)).rowcount == 1
 
 
 def read_rows(path) -> tuple[dict, list[dict]]:
@@ -262,7 +305,11 @@ def _reporter(total: int, done: int):
 
 def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | None = None,
               progress: bool = True) -> dict:
-    """Run every case of ``study`` not yet in ``db_path``; return counts and timing.
+    """Run every case of ``study`` not yet recorded in ``db_path`` nor claimed by another
+    runner; return counts and timing: ``cases`` in the study, ``ran`` by this call,
+    ``skipped`` (recorded before it started), ``elsewhere`` (held by another runner still
+    working when this one finished), ``statuses`` of every recorded case, ``wall_time_s`` and
+    ``cases_per_min``.
 
     ``workers`` defaults to the machine's cores (0: run serially in this process); ``dask``
     is ``None`` (local process pool), ``"local"`` (a Dask LocalCluster on loopback) or a
@@ -272,46 +319,55 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
     workers = (os.cpu_count() or 1) if workers is None else workers
     db = open_db(db_path, study)
     try:
+        release_stale_claims(db)
         done_ids = {r[0] for r in db.execute("SELECT case_id FROM cases")}
         todo = [(i, c) for i, c in enumerate(cases) if Study.case_id(c) not in done_ids]
         numeric = {k: [c[k] for c in cases if isinstance(c[k], (int, float))] for k in cases[0]}
         scales = {k: (max(v) - min(v)) or 1.0 if v else 1.0 for k, v in numeric.items()}
-        solved = []
-        if study.warm_start:
-            for r in db.execute("SELECT params, design FROM cases WHERE status = 'success'"):
-                solved.append((json.loads(r[0]), json.loads(r[1])))
-        if not todo:
-            return {"cases": len(cases), "ran": 0, "skipped": len(cases), "wall_time_s": 0.0,
-                    "statuses": dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall()),
-                    "cases_per_min": float("nan")}
-        executor = _Dask(dask, max(workers, 1)) if dask else _Local(workers) if workers else _Serial()
-        report, finish = _reporter(len(cases), len(cases) - len(todo)) if progress else (lambda r: None, lambda: None)
-        definition = study.to_dict()
-        t0 = time.perf_counter()
-        pending, queue = {}, list(todo)
-        try:
-            while queue or pending:
-                while queue and len(pending) < 2 * max(workers, 1):
-                    idx, case = queue.pop(0)
-                    start = _nearest(case, solved, scales) if study.warm_start else None
-                    pending[executor.submit(definition, case, start)] = idx
-                for fut in executor.wait(list(pending)):
-                    idx = pending.pop(fut)
-                    row = {**fut.result(), "idx": idx}
-                    record(db, row)
-                    if study.warm_start and row["status"] == "success":
-                        solved.append((json.loads(row["params"]), json.loads(row["design"])))
-                    report(row)
-        finally:
-            finish()
-            executor.close()
-        elapsed = time.perf_counter() - t0
+        solved, seen = [], 0  # warm starts: successful cases, by any runner, up to rowid ``seen``
+
+        def learn():
+            nonlocal seen
+            for rowid, params, design in db.execute(
+                    "SELECT rowid, params, design FROM cases WHERE status = 'success' AND rowid > ?", (seen,)):
+                solved.append((json.loads(params), json.loads(design)))
+                seen = max(seen, rowid)
+        ran, elapsed = 0, 0.0
+        if todo:
+            executor = _Dask(dask, max(workers, 1)) if dask else _Local(workers) if workers else _Serial()
+            report, finish = (_reporter(len(cases), len(cases) - len(todo)) if progress
+                              else (lambda r: None, lambda: None))
+            definition = study.to_dict()
+            t0 = time.perf_counter()
+            pending, queue = {}, list(todo)
+            try:
+                while queue or pending:
+                    while queue and len(pending) < 2 * max(workers, 1):
+                        idx, case = queue.pop(0)
+                        if not claim(db, Study.case_id(case)):  # recorded or held by another runner
+                            continue
+                        if study.warm_start:
+                            learn()
+                        start = _nearest(case, solved, scales) if study.warm_start else None
+                        pending[executor.submit(definition, case, start)] = idx
+                    for fut in executor.wait(list(pending)):
+                        row = {**fut.result(), "idx": pending.pop(fut)}
+                        record(db, row)
+                        ran += 1
+                        report(row)
+            finally:
+                finish()
+                executor.close()
+                with db:  # cases this runner claimed but did not finish (an interrupt) are free again
+                    db.execute("DELETE FROM claims WHERE host = ? AND pid = ?", runner())
+            elapsed = time.perf_counter() - t0
         statuses = dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall())
+        elsewhere = db.execute("SELECT COUNT(*) FROM claims").fetchone()[0]
     finally:
         db.close()
-    return {"cases": len(cases), "ran": len(todo), "skipped": len(cases) - len(todo),
+    return {"cases": len(cases), "ran": ran, "skipped": len(cases) - len(todo), "elsewhere": elsewhere,
             "wall_time_s": elapsed, "statuses": statuses,
-            "cases_per_min": 60 * len(todo) / elapsed if todo and elapsed > 0 else float("nan")}
+            "cases_per_min": 60 * ran / elapsed if ran and elapsed > 0 else float("nan")}
 
 
 def sweep_and_read(study: Study, db_path, workers: int | None = None) -> tuple[dict, list[dict]]:
