@@ -51,7 +51,8 @@ class Result:
         }
         if sol is not None:
             out["solver"] = {
-                "name": "ipopt", "return_status": sol.return_status,
+                "name": "envelope" if self.problem.options.method == "envelope" else "ipopt",
+                "return_status": sol.return_status,
                 "iterations": sol.iterations, "solve_time_s": sol.solve_time_s,
                 "build_time_s": self.build_time_s, "objective": sol.objective,
                 "start": sol.start, "trials": sol.trials,

@@ -23,7 +23,7 @@ from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, read_input
 from .problem import OBJECTIVES, Joint, Options, Problem, size_error
-from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table
+from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table, reserved_name
 
 _REQUIRED = object()
 _PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
@@ -150,6 +150,10 @@ def _cable_robot(r: _Reader, theta_range) -> dict:
 ACCEPTANCE = ("max_abs_error", "rmse")
 
 
+#: Largest span of a joint's angle range [deg]: cables may wrap helical grooves, but not without end.
+MAX_JOINT_SPAN_DEG = 3600.0
+
+
 def _acceptance(r: _Reader) -> tuple:
     """A joint's optional [joints.acceptance]: the largest |τ − τ_d| and/or RMSE [N·m] its
     design may keep on the fine re-check."""
@@ -180,8 +184,10 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool 
         data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
                                     f"an expression of theta such as {example} [{unit}]"),
                 "parameters": r.get("parameters", lambda v: isinstance(v, dict) and all(
-                    isinstance(k, str) and k.isidentifier() and _number(x) for k, x in v.items()),
-                    "a table of name = number", {})}
+                    isinstance(k, str) and k.isidentifier() and not reserved_name(k) and _number(x)
+                    for k, x in v.items()),
+                    "a table of name = number, the names other than functions, pi, e and "
+                    "theta, theta1, theta2…", {})}
     elif kind == "pendulum":
         data = {"mass": r.get("mass", _positive, "a positive mass [kg]"),
                 "length": r.get("length", _positive, "a positive length to the centre of mass [m]"),
@@ -343,8 +349,9 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         where = f"{joint_label}[{i + 1}]"
         r = _Reader(origin, raw, where)
         rng = r.get("theta_range_deg", _list_of(_number, 2), "[min, max] joint angles [deg]")
-        if not rng[1] > rng[0]:
-            r.fail(r.key("theta_range_deg"), rng, "[min, max] with max > min (a non-empty range)")
+        if not 0 < rng[1] - rng[0] <= MAX_JOINT_SPAN_DEG:
+            r.fail(r.key("theta_range_deg"), rng, f"[min, max], a non-empty range with max − min ≤ "
+                   f"{MAX_JOINT_SPAN_DEG:g}° (ten turns of a helical groove)")
         sens = r.get("sensitivity_weights", _list_of(_nonneg, n_springs),
                      f"a list of {n_springs} weights ≥ 0, one per spring", [0.0] * n_springs)
         joints.append(dict(

@@ -9,6 +9,7 @@ from __future__ import annotations
 import ast
 import csv
 import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -183,6 +184,12 @@ def check_guards(guards, symbols, axes) -> str | None:
             where = np.degrees(points[:, int(np.argmax(bad.ravel()))])
             return f"{GUARDS[kind]} near theta = {np.round(where, 3).tolist()} deg"
     return None
+
+
+def reserved_name(name: str) -> bool:
+    """Whether an expression parameter may not take ``name``: a function of
+    :data:`FUNCTIONS`, a constant or an angle name of :func:`angle_names`."""
+    return name in FUNCTIONS or name in CONSTANTS or re.fullmatch(r"theta\d*", name) is not None
 
 
 def angle_names(thetas, cam: int) -> dict:

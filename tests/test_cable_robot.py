@@ -152,5 +152,6 @@ def test_design_command_writes_the_envelope_design_and_groove_centre_lines(tmp_p
     assert not (tmp_path / "out" / "springs.png").exists()
     result = json.loads((tmp_path / "out" / "result.json").read_text())
     assert result["status"] == "success" and result["solver"]["iterations"] == 0
+    assert result["solver"]["name"] == "envelope"  # no NLP solver made it
     Draft202012Validator(json.loads((files("cadcam") / "result.schema.json").read_text())).validate(result)
 

@@ -205,3 +205,31 @@ def test_a_result_whose_problem_is_not_an_object_is_one_line(tmp_path, capsys, p
     (tmp_path / "r.json").write_text(f'{{"problem": {problem}}}')
     code, err = _cli(capsys, "design", str(tmp_path / "r.json"), "-o", str(tmp_path / "o"))
     assert code == 2 and "'problem' must be a JSON object" in err
+
+
+@pytest.mark.parametrize("parameters", [{"sin": 0.08}, {"theta": 3.0}, {"theta2": 1.0}, {"pi": 4.0}])
+def test_expression_parameters_may_not_shadow_functions_constants_or_angles(parameters):
+    data = _one_dof(kind="expression", expression="0.08*theta**2", parameters=parameters)
+    with pytest.raises(SpecError, match="the names other than functions, pi, e and theta"):
+        parse_spec(data, "x.toml")
+
+
+def test_a_joint_range_of_more_than_ten_turns_is_refused_before_work():
+    data = _one_dof(kind="expression", expression="0.08*theta**2")
+    (data["joints"] if "joints" in data else data["cams"])[0]["theta_range_deg"] = [0.0, 1e9]
+    with pytest.raises(SpecError, match=r"a non-empty range with max − min ≤ 3600°"):
+        parse_spec(data, "x.toml")
+
+
+def test_a_study_recording_an_unknown_metric_is_refused(tmp_path):
+    from cadcam.studies.study import StudyError, load_study
+    path = tmp_path / "s.toml"
+    path.write_text(f'name = "s"\nbase = "{SPEC_1DOF}"\nrecord = ["rmse", "rmse_typo"]\n'
+                    '[[parameters]]\nkey = "springs.1.rate"\nvalues = [1000.0]\n')
+    with pytest.raises(StudyError, match="record = .*expected a list of metric names from grid"):
+        load_study(path)
+
+
+def test_the_recordable_metric_names_are_exactly_an_evaluations_metrics(demo):
+    from cadcam.check.evaluate import METRIC_NAMES
+    assert sorted(METRIC_NAMES) == sorted(demo.recheck.metrics)

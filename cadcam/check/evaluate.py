@@ -240,6 +240,14 @@ def output_error(mech, unit: UnitSamples):
     return unit.z[mech.unknowns.index(mech.output)] - output_law(mech, unit.theta)
 
 
+#: The names of an evaluation's metrics (the keys of :attr:`Evaluation.metrics`), which a
+#: study may ``record``.
+METRIC_NAMES = ("grid", "output_rmse", "output_max_abs_error", "rmse", "relative_rmse", "max_abs_error",
+                "extension_min", "extension_max", "convexity_min", "rho_min", "rho_max",
+                "curvature_radius_min", "alpha_max", "tangency_residual_max", "sensitivity_integral",
+                "objective", "margins", "violations")
+
+
 def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
     p = ev.problem
     err = ev.tau - ev.tau_d

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import qmc
 
+from ..check.evaluate import METRIC_NAMES
 from ..files import InputFileError, read_input
 from ..problem import Problem, cap
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data
@@ -275,8 +276,8 @@ def load_study(path) -> Study:
         design=need("design", lambda v: v in DESIGNS, f"one of {DESIGNS}", "factorial"),
         samples=need("samples", lambda v: isinstance(v, int) and v >= 1, "an integer ≥ 1", 0),
         seed=need("seed", lambda v: type(v) is int and 0 <= v < 2**32, "an integer from 0 to 2**32 − 1", 0),
-        record=tuple(need("record", lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
-                          "a list of metric names", list(DEFAULT_RECORD))),
+        record=tuple(need("record", lambda v: isinstance(v, list) and all(x in METRIC_NAMES for x in v),
+                          f"a list of metric names from {', '.join(METRIC_NAMES)}", list(DEFAULT_RECORD))),
         warm_start=need("warm_start", lambda v: isinstance(v, bool), "true or false", False),
         parameters=params, origin=origin)
     if study.design == "latin_hypercube" and study.samples < 1:
