@@ -1,6 +1,6 @@
 """Build and solve times of the design NLPs, and cadcam against the papers' nested approach.
 
-``make bench`` (``python benchmarks/bench_design.py [--runs 7] [--baseline-cap 300]``). Measured,
+``make bench`` (``python benchmarks/bench_design.py [--runs 7] [--baseline-cap 180]``). Measured,
 not asserted: run on the machine at hand and read the tables. Issue targets on a 2-core
 machine: 1-DOF solve ≤ 0.1 s and build ≤ 0.5 s (issue 2); 2-DOF Sec. 10.4 at 46 × 46 build +
 solve ≤ 2 s and ≥ 100× faster than the nested baseline with an objective no worse (issue 3).
@@ -34,6 +34,8 @@ CASES = [("johnston2023_1dof", MODELS / "johnston2023_1dof.toml", None),
          ("johnston2023_rr_arm (Sec. 10.5)", MODELS / "johnston2023_rr_arm.toml", "sec10_5")]
 #: The torque model of the comparison with the nested baseline (Johnston2023 Eq. 19–21).
 BASELINE_MODEL = "force"
+#: A speed ratio is claimed only if the baseline's objective is within this fraction of cadcam's.
+EQUAL_OBJECTIVE = 0.01
 
 
 def bench(problem, runs: int) -> dict:
@@ -58,7 +60,7 @@ def bench(problem, runs: int) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=7)
-    ap.add_argument("--baseline-cap", type=float, default=300.0,
+    ap.add_argument("--baseline-cap", type=float, default=180.0,
                     help="wall-time budget of the nested baseline [s]")
     args = ap.parse_args()
     print(f"cadcam design NLPs as their specs state them (torque model in the second column), "
@@ -75,23 +77,32 @@ def main() -> None:
     problem = load_spec(path, variant).with_torque_model(BASELINE_MODEL)
     ours = bench(problem, args.runs)
     baseline = NestedBaseline(problem)
-    design, _, nit, elapsed, finished = baseline.solve(default_start(problem), time_cap=args.baseline_cap)
+    design, _, nit, elapsed, finished, message = baseline.solve(default_start(problem), time_cap=args.baseline_cap)
     ev = evaluate(problem, design)
-    cad = ours["build"] + ours["solve"]
     fine = evaluate(problem, design, grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
+    cad = ours["build"] + ours["solve"]
+    gap = ev.metrics["objective"] / ours["objective"] - 1
     print(f"\nSec. 10.4 (cubic cams, 46 × 46 grid) under the `{BASELINE_MODEL}` torque model for both: same "
           "start, same limits, same objective (Eq. 47, evaluated by cadcam's re-check for both designs):\n")
-    print("| approach | time [s] | iterations | model evaluations | LM tangency solves | objective | feasible on the re-check |")
-    print("|---|---|---|---|---|---|---|")
-    print(f"| cadcam (build + solve, median of {args.runs}) | {cad:.2f} | {ours['iterations']:.0f} | – | 0 | "
-          f"{ours['objective']:.4f} | "
+    print("| approach | time [s] | iterations | model evaluations | LM tangency solves | objective | status | feasible on the fine re-check |")
+    print("|---|---|---|---|---|---|---|---|")
+    print(f"| cadcam (build + solve, median of {args.runs}) | {cad:.3f} | {ours['iterations']:.0f} | – | 0 | "
+          f"{ours['objective']:.4f} | {ours['status']} | "
           f"{'yes' if ours['feasible'] else 'no: ' + '; '.join(ours['violations'][:2])} |")
-    print(f"| nested SLSQP + FD + LM{'' if finished else f' (capped at {args.baseline_cap:.0f} s)'} | "
-          f"{elapsed:.1f} | {nit} | {baseline.evaluations} | {baseline.lm_solves} | "
-          f"{ev.metrics['objective']:.4f} | {'yes' if not fine.violations else 'no: ' + '; '.join(fine.violations[:2])} |")
-    print(f"\ntime ratio, baseline / cadcam: {'≥ ' if not finished else ''}{elapsed / cad:.0f} "
-          f"({'the baseline did not finish within its cap: a lower bound' if not finished else 'both finished'}). "
-          "The paper reports 8.60 min for this problem (MATLAB fmincon, i7-7700, its Eq. 33 as printed).")
+    print(f"| nested SLSQP + FD + LM (one run) | {elapsed:.1f} | {nit} | {baseline.evaluations} | "
+          f"{baseline.lm_solves} | {ev.metrics['objective']:.4f} | {message} | "
+          f"{'yes' if not fine.violations else 'no: ' + '; '.join(fine.violations[:2])} |")
+    ratio = elapsed / cad
+    if not finished:
+        verdict = (f"≥ {ratio:.0f}×, a lower bound: the baseline hit its {args.baseline_cap:g} s cap at an "
+                   f"objective {100 * gap:+.1f} % from cadcam's")
+    elif abs(gap) <= EQUAL_OBJECTIVE:
+        verdict = f"{ratio:.0f}× at equal objective (the baseline's is {100 * gap:+.2f} % from cadcam's)"
+    else:
+        verdict = (f"no ratio claimed: the baseline stopped at an objective {100 * gap:+.1f} % from cadcam's "
+                   f"(beyond {100 * EQUAL_OBJECTIVE:g} %)")
+    print(f"\nspeed-up, baseline / cadcam: {verdict}. The paper reports 8.60 min for this problem (MATLAB "
+          "fmincon, i7-7700, its Eq. 33 as printed).")
 
 
 if __name__ == "__main__":
