@@ -15,7 +15,6 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .files import read_input
 from .physics.cable_robot import cable_length, pick_and_place
@@ -330,6 +329,8 @@ def shortest_cable(d: dict) -> float:
     theta = np.linspace(*d["theta_range"], PATH_SAMPLES)
     k = int(np.argmin(robot_cable(theta, d)))
     bracket = (theta[max(k - 1, 0)], theta[min(k + 1, theta.size - 1)])
+    from scipy.optimize import minimize_scalar  # imported here: scipy.optimize is slow to import
+
     best = minimize_scalar(lambda t: robot_cable(t, d), bounds=bracket, method="bounded",
                            options={"xatol": 1e-12})
     return float(min(best.fun, robot_cable(theta[k], d)))
@@ -442,8 +443,8 @@ def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
 
     Returns sorted [θ [rad], value] pairs. Raises ValueError with a reason.
     """
-    try:
-        rows = list(csv.reader(io.StringIO(read_input(path), newline="")))
+    try:  # a byte order mark (spreadsheets write one) is not part of the header
+        rows = list(csv.reader(io.StringIO(read_input(path).removeprefix("\ufeff"), newline="")))
     except csv.Error as exc:
         raise ValueError(f"not a readable CSV ({exc})") from None
     if not rows:
@@ -457,6 +458,9 @@ def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
         raise ValueError("every row must hold two numbers") from None
     if data.ndim != 2 or data.shape[1] != 2 or data.shape[0] < 4:
         raise ValueError("need at least 4 rows of two numbers")
+    if not np.all(np.isfinite(data)):
+        raise ValueError(f"data row {1 + int(np.argmin(np.all(np.isfinite(data), axis=1)))} holds nan or inf; "
+                         "every number must be finite")
     if head[0] == "theta_deg":
         data[:, 0] = np.radians(data[:, 0])
     data = data[np.argsort(data[:, 0])]

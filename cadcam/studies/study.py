@@ -36,7 +36,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import qmc
 
 from ..check.evaluate import METRIC_NAMES
 from ..files import InputFileError, read_input
@@ -118,6 +117,8 @@ class Study:
         elif self.design == "zip":
             rows = zip(*[p.levels() for p in self.parameters])
         else:
+            from scipy.stats import qmc  # imported here: scipy.stats takes a second to import
+
             u = qmc.LatinHypercube(d=len(self.parameters), seed=self.seed).random(self.samples)
             rows = ([p.at(x) for p, x in zip(self.parameters, row)] for row in u)
         return [dict(zip(keys, row)) for row in rows]
