@@ -340,9 +340,12 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
             definition = study.to_dict()
             t0 = time.perf_counter()
             pending, queue = {}, list(todo)
+            # two cases per worker keep a pool busy; serially a case is solved when submitted,
+            # so one at a time lets the next warm-start from it
+            room = 2 * max(workers, 1) if dask or workers else 1
             try:
                 while queue or pending:
-                    while queue and len(pending) < 2 * max(workers, 1):
+                    while queue and len(pending) < room:
                         idx, case = queue.pop(0)
                         if not claim(db, Study.case_id(case)):  # recorded or held by another runner
                             continue
