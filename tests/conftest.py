@@ -36,3 +36,52 @@ def circle_design(problem, radius, x0):
     m = np.zeros(b.size)
     m[0] = radius
     return Design([b], [b.from_monomial(m)], np.asarray(x0, dtype=float))
+
+
+def check_output_file(path):
+    """Check that an output file holds what its type promises, not just some bytes: a PNG
+    image with a drawing on it, a one-page-or-more PDF, an SVG with a path, a DXF with
+    entities, a CSV of finite numbers, a closed binary STL of positive volume. Returns the
+    STL's volume [file units³] or ``None``."""
+    import xml.etree.ElementTree as ET
+
+    path = Path(path)
+    data = path.read_bytes()
+    kind = path.suffix
+    if kind == ".png":
+        import matplotlib.image
+        img = matplotlib.image.imread(path)
+        assert img.ndim == 3 and min(img.shape[:2]) >= 200, (path, img.shape)
+        background = img[0, 0]
+        drawn = np.any(np.abs(img - background) > 0.1, axis=2).mean()
+        assert drawn > 0.002, f"{path}: an empty picture ({drawn:.2%} of pixels drawn)"
+    elif kind == ".pdf":
+        assert data.startswith(b"%PDF-") and b"/Type /Page" in data and data.rstrip().endswith(b"%%EOF"), path
+    elif kind == ".svg":
+        root = ET.fromstring(data)
+        assert root.tag.endswith("svg") and any(e.tag.endswith(("path", "polyline", "polygon")) for e in root.iter())
+    elif kind == ".dxf":
+        import ezdxf
+        assert len(ezdxf.readfile(path).modelspace()) > 0, path
+    elif kind == ".csv":
+        rows = data.decode().splitlines()
+        assert len(rows) >= 3 and "," in rows[0]
+        values = np.array([[float(v) for v in r.split(",")] for r in rows[1:]])
+        assert values.shape[1] == rows[0].count(",") + 1 and np.isfinite(values).all(), path
+    elif kind == ".stl":
+        n = int(np.frombuffer(data[80:84], "<u4")[0])
+        assert n > 0 and len(data) == 84 + 50 * n, path
+        tri = np.frombuffer(data[84:], np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]))["v"]
+        tri = tri.astype(float)
+        edges = {}
+        for t in np.round(tri, 6):  # closed: every edge is shared by exactly two triangles
+            for a, b in ((0, 1), (1, 2), (2, 0)):
+                key = tuple(sorted((tuple(t[a]), tuple(t[b]))))
+                edges[key] = edges.get(key, 0) + 1
+        assert set(edges.values()) == {2}, f"{path}: not a closed surface"
+        volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+        assert volume > 0, path
+        return float(volume)
+    else:
+        raise AssertionError(f"no check for {path}")
+    return None

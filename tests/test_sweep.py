@@ -12,7 +12,7 @@ import pytest
 from cadcam.studies.study import Study, StudyError, load_study
 from cadcam.studies.sweep import read_rows, run_sweep, runner
 
-from .conftest import SPEC_1DOF
+from .conftest import SPEC_1DOF, check_output_file
 
 STUDY = f'''
 name = "small"
@@ -149,7 +149,7 @@ def test_export_csv_and_plot(tmp_path):
     assert len(lines) == 5 and "cams.1.idler.offset" in lines[0] and "rmse_1" in lines[0]
     assert main(["plot-study", str(tmp_path / "s.db"), "--x", "cams.1.idler.offset", "--y", "rmse_1",
                  "--color", "springs.1.rate", "--pareto", "-o", str(tmp_path / "p.png")]) == 0
-    assert (tmp_path / "p.png").stat().st_size > 0
+    check_output_file(tmp_path / "p.png")
 
 
 def test_catalogue_parameters_update_the_spring_and_keep_its_ports(tmp_path):

@@ -14,6 +14,7 @@ from cadcam.check.model import torque_function
 from cadcam.mechanisms.base import departure_solver
 
 from . import toy_pulley  # noqa: F401  (registers "toy_pulley")
+from .conftest import check_output_file
 
 ANCHOR = (0.0, 0.10)   # m: A straight above the joint
 RATE, PRELOAD, TRAVEL = 1000.0, 2.0, 0.08  # N/m, N, m
@@ -210,7 +211,7 @@ def test_cli_design(design_spec, tmp_path):
     assert data["problem"]["mechanisms"][0]["kind"] == "toy_pulley"
     for name in ("torque.csv", "profile.png", "cam1.dxf", "cam1.svg", "cam1_points.csv",
                  "cam1_sheet.pdf"):
-        assert (out / name).stat().st_size > 0, name
+        check_output_file(out / name)
     # the written result is a spec again, and its design evaluates to its metrics
     again = cadcam.load_spec(out / "result.json")
     assert again.mechanisms[0].parameter_values() == ANCHOR
