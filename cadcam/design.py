@@ -3,6 +3,8 @@ Eq. 46–47). In JSON the profiles are ``cams`` (the name cadcam has always used
 the problem's mechanisms."""
 from __future__ import annotations
 
+import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,6 +15,9 @@ from .physics.profile import Basis, monomial_from_highest_first
 
 #: Most coefficients a design's profile may have (Chebyshev degree 40; the spec's cap).
 MAX_COEFFICIENTS = 41
+#: Largest |end| of a profile's design interval [rad]: a spec's joint angles lie within ten turns
+#: (:data:`cadcam.spec.MAX_JOINT_SPAN_DEG`) and a profile's interval reaches a quarter turn beyond.
+MAX_DOMAIN = 20.5 * math.pi
 
 
 class DesignError(ValueError):
@@ -74,39 +79,49 @@ class Design:
             where = f"{origin}: design.cams[{i + 1}]"
             if not isinstance(cam, dict):
                 raise DesignError(f"{where}: expected a JSON object with basis and coefficients")
-            try:
-                if "coefficients" in cam and cam.get("basis") in ("monomial", "chebyshev"):
-                    c = np.asarray(cam["coefficients"], dtype=float)
-                    dom = tuple(cam.get("domain", profiles[i].basis.domain))
-                    if len(dom) != 2 or not float(dom[1]) > float(dom[0]):
-                        raise DesignError(f"{where}: domain must be [lo, hi] with hi > lo [rad]")
-                    b = Basis(cam["basis"], c.size - 1, (float(dom[0]), float(dom[1])))
-                elif "monomial_coefficients" in cam:
-                    c = np.asarray(cam["monomial_coefficients"], dtype=float)
-                    b = Basis("monomial", c.size - 1, profiles[i].basis.domain)
-                elif "monomial_coefficients_highest_first" in cam:
-                    c = monomial_from_highest_first(cam["monomial_coefficients_highest_first"])
-                    b = Basis("monomial", c.size - 1, profiles[i].basis.domain)
-                else:
-                    raise DesignError(f"{where}: give basis + coefficients, "
-                                      "monomial_coefficients or monomial_coefficients_highest_first")
-            except (TypeError, ValueError) as exc:
-                if isinstance(exc, DesignError):
-                    raise
-                raise DesignError(f"{where}: coefficients must be a list of numbers [m]") from None
-            if c.ndim != 1 or c.size < 1 or not np.all(np.isfinite(c)):
-                raise DesignError(f"{where}: coefficients must be a non-empty list of finite numbers [m]")
+            if "coefficients" in cam and cam.get("basis") in ("monomial", "chebyshev"):
+                c = _numbers(cam["coefficients"], f"{where}: coefficients", "[m]")
+                dom = cam.get("domain", list(profiles[i].basis.domain))
+                if not (isinstance(dom, (list, tuple)) and len(dom) == 2 and all(map(_is_number, dom))
+                        and -MAX_DOMAIN <= float(dom[0]) < float(dom[1]) <= MAX_DOMAIN):
+                    raise DesignError(f"{where}: domain must be [lo, hi] with hi > lo [rad], both within "
+                                      f"±{MAX_DOMAIN:.4g} rad (ten turns and a quarter); got {_short(dom)}")
+                b = Basis(cam["basis"], c.size - 1, (float(dom[0]), float(dom[1])))
+            elif "monomial_coefficients" in cam:
+                c = _numbers(cam["monomial_coefficients"], f"{where}: monomial_coefficients", "[m·rad⁻ᵏ]")
+                b = Basis("monomial", c.size - 1, profiles[i].basis.domain)
+            elif "monomial_coefficients_highest_first" in cam:
+                c = monomial_from_highest_first(_numbers(
+                    cam["monomial_coefficients_highest_first"],
+                    f"{where}: monomial_coefficients_highest_first", "[m·rad⁻ᵏ]"))
+                b = Basis("monomial", c.size - 1, profiles[i].basis.domain)
+            else:
+                raise DesignError(f"{where}: give basis + coefficients, "
+                                  "monomial_coefficients or monomial_coefficients_highest_first")
             if c.size > MAX_COEFFICIENTS:
                 raise DesignError(f"{where}: {c.size} coefficients; the cap is {MAX_COEFFICIENTS} "
                                   "(degree 40, cadcam.design.MAX_COEFFICIENTS)")
             bases.append(b)
             coefs.append(c)
-        try:
-            x0 = np.asarray(data["preextension"], dtype=float)
-        except (KeyError, TypeError, ValueError):
-            raise DesignError(f"{origin}: design.preextension must be a list of numbers [m], "
-                              "one per spring") from None
-        if x0.shape != (len(problem.springs),) or not np.all(np.isfinite(x0)):
-            raise DesignError(f"{origin}: design.preextension must hold {len(problem.springs)} "
-                              "finite numbers [m], one per spring")
-        return cls(bases, coefs, x0)
+        x0 = data.get("preextension")
+        if not (isinstance(x0, list) and len(x0) == len(problem.springs) and all(map(_is_number, x0))):
+            raise DesignError(f"{origin}: design.preextension must hold {len(problem.springs)} finite "
+                              f"numbers [m], one per spring; got {_short(x0)}")
+        return cls(bases, coefs, np.asarray(x0, dtype=float))
+
+
+def _is_number(v) -> bool:
+    """A finite JSON number that fits a float (not a boolean, not a string of digits)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= sys.float_info.max
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "…"
+
+
+def _numbers(value, where: str, unit: str) -> np.ndarray:
+    """``value`` as an array if it is a non-empty list of finite numbers; else one line."""
+    if not (isinstance(value, list) and value and all(map(_is_number, value))):
+        raise DesignError(f"{where} must be a non-empty list of finite numbers {unit}; got {_short(value)}")
+    return np.asarray(value, dtype=float)

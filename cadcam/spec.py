@@ -7,14 +7,18 @@ fully resolved spec.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import os
 import re
+import sys
 import tomllib
 from dataclasses import replace
 from itertools import product
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 
 from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profile,
@@ -265,6 +269,48 @@ def _check_target(origin, where, target: Target, cams_ranges, cam: int, unit: st
                         f"over the whole angle range")
 
 
+#: IPOPT options cadcam sets from [solver] (under its caps) or that read or write files.
+IPOPT_REFUSED = {"max_iter": "solver.max_iter", "tol": "solver.tol", "output_file": None,
+                 "option_file_name": None}
+
+
+def _ipopt_options(sol: "_Reader", options: dict) -> tuple:
+    """[solver.ipopt] as sorted (name, value) pairs, each tried on IPOPT itself so that an unknown
+    name or a value out of its range is one line now, not a failure after the build."""
+    key = sol.key("ipopt")
+    x = ca.SX.sym("x")
+    for name, value in sorted(options.items()):
+        if name in IPOPT_REFUSED:
+            instead = IPOPT_REFUSED[name]
+            sol.fail(f"{key}.{name}", value, f"nothing: give {instead} instead (it has a cap)" if instead
+                     else "nothing: cadcam reads and writes no IPOPT files")
+        try:
+            with _quiet_stdout():  # IPOPT prints its option documentation for a bad value
+                ca.nlpsol("probe", "ipopt", {"x": x, "f": x**2},
+                          {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", f"ipopt.{name}": value})
+        except RuntimeError as exc:
+            lines = str(exc).strip().splitlines()
+            reason = "no such IPOPT option" if "No such IPOPT option" in str(exc) else (
+                "a value of another type" if "type mismatch" in lines[-1] else "a value IPOPT refuses")
+            sol.fail(f"{key}.{name}", value, f"an IPOPT option with a valid value ({reason}; see the "
+                     "IPOPT documentation of options)")
+    return tuple(sorted(options.items()))
+
+
+@contextlib.contextmanager
+def _quiet_stdout():
+    """Standard output (file descriptor 1, where C libraries print) sent to /dev/null."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _torque_model(top: "_Reader", data: dict) -> str:
     """``torque_model`` (default ``energy``), or a legacy ``friction_model`` of cadcam ≤ 0.1
     (``exact`` was the force model with the corrected capstan: now ``force``)."""
@@ -292,6 +338,15 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         Folder against which table files are resolved.
     """
     shorthand = isinstance(data, dict) and "cams" in data and "joints" not in data
+    if shorthand:  # name the user's own [[cams]], not the general form
+        if "mechanisms" in data:
+            raise SpecError(f"{origin}: unknown key 'mechanisms' beside 'cams'; expected either [[cams]] "
+                            "tables or [[joints]] and [[mechanisms]] tables")
+        if not isinstance(data["cams"], list) or not data["cams"]:
+            raise SpecError(f"{origin}: cams = {data['cams']!r}: expected a non-empty array of [[cams]] tables")
+        for i, cam in enumerate(data["cams"]):
+            if not isinstance(cam, dict):
+                raise SpecError(f"{origin}: cams[{i + 1}] = {cam!r}: expected a [[cams]] table")
     data = legacy_cams(data)
     # errors in the [[cams]] shorthand name the user's own tables
     joint_label, mech_label = ("cams", "cams") if shorthand else ("joints", "mechanisms")
@@ -311,17 +366,18 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                               "a fraction in [0, 0.1)", 1e-4),
         multistart=sol.get("multistart", lambda v: type(v) is int and v >= 0,
                            "an integer ≥ 0", 0),
-        seed=sol.get("seed", lambda v: isinstance(v, int), "an integer", 0),
+        seed=sol.get("seed", lambda v: type(v) is int and 0 <= v < 2**32,
+                     "an integer from 0 to 2**32 − 1 (the multistart generator's seed)", 0),
         max_iter=sol.get("max_iter", _posint, "a positive integer", 500),
         tol=sol.get("tol", _positive, "a positive number", 1e-8),
         recheck_factor=sol.get("recheck_factor", lambda v: _posint(v) and v >= 2,
                                "an integer ≥ 2", 10),
         objective=sol.get("objective", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
                           "least_squares"),
-        ipopt=tuple(sorted(sol.get("ipopt", lambda v: isinstance(v, dict) and all(
+        ipopt=_ipopt_options(sol, sol.get("ipopt", lambda v: isinstance(v, dict) and all(
             re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
             for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
-            "in the IPOPT documentation, numbers or strings)", {}).items())),
+            "in the IPOPT documentation, numbers or strings)", {})),
         method=sol.get("method", lambda v: v in METHODS, f"one of {METHODS}", "nlp"),
     )
     sol.done()
@@ -336,7 +392,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         arm = _arm(ra, max(n_joints, 1))
         ra.done()
     raw_joints = top.get("joints", lambda v: isinstance(v, list) and v,
-                         "a non-empty array of [[joints]] tables")
+                         "a non-empty array of [[joints]] tables (or of [[cams]], the wire cams' shorthand)")
     raw_mechs = top.get("mechanisms", lambda v: isinstance(v, list) and v,
                         "a non-empty array of [[mechanisms]] tables")
     raw_springs = top.get("springs", lambda v: isinstance(v, list), "an array of [[springs]] tables", [])
@@ -352,6 +408,9 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         if not 0 < rng[1] - rng[0] <= MAX_JOINT_SPAN_DEG:
             r.fail(r.key("theta_range_deg"), rng, f"[min, max], a non-empty range with max − min ≤ "
                    f"{MAX_JOINT_SPAN_DEG:g}° (ten turns of a helical groove)")
+        if not max(abs(rng[0]), abs(rng[1])) <= MAX_JOINT_SPAN_DEG:
+            r.fail(r.key("theta_range_deg"), rng, f"[min, max] joint angles within ±{MAX_JOINT_SPAN_DEG:g}° "
+                   "(ten turns either way from the reference pose)")
         sens = r.get("sensitivity_weights", _list_of(_nonneg, n_springs),
                      f"a list of {n_springs} weights ≥ 0, one per spring", [0.0] * n_springs)
         joints.append(dict(
@@ -430,6 +489,11 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
                             "a minimum radius of curvature ≥ 0 of the profile [m]", 0.0))
     theta_range = joints[joint]["theta_range"]
     domain = cls.profile_domain(theta_range)
+    if not domain[1] > domain[0]:
+        raise SpecError(f"{r.origin}: {r.where}: its joint's theta_range_deg = [{math.degrees(theta_range[0]):g}, "
+                        f"{math.degrees(theta_range[1]):g}] leaves its profiles an empty design interval "
+                        f"[{domain[0]:.4g}, {domain[1]:.4g}] rad; expected a range over which a {cls.kind} wraps "
+                        "its cable")
     names = [name] if cls.n_profiles == 1 else [f"{name} {k + 1}" for k in range(cls.n_profiles)]
     profiles = tuple(Profile(n, Basis(basis_name, order, domain), rho_min, rho_max, curvature)
                      for n in names)
@@ -563,8 +627,8 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
     """The spec at ``path`` as data, with ``variant`` and ``overrides`` applied (not yet
     validated: :func:`parse_spec` does that)."""
     path = Path(path)
-    try:
-        text = read_input(path)
+    try:  # a byte order mark (some editors write one) is not part of the spec
+        text = read_input(path).removeprefix("\ufeff")
     except InputFileError as exc:
         raise SpecError(f"{path}: the spec: {exc}") from None
     if path.suffix == ".json":
