@@ -30,6 +30,14 @@ class InputError(ValueError):
     """Bad command-line input."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line and exit code 2, like every other input
+    error (argparse's own print a usage block)."""
+
+    def error(self, message):
+        raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
 def _override(text: str):
     key, sep, value = text.partition("=")
     if not sep:
@@ -63,8 +71,8 @@ def _problem_and_design(args):
         data = json.loads(read_input(args.design))
     except InputFileError as exc:
         raise InputError(f"{args.design}: the design: {exc}") from None
-    except ValueError:
-        raise InputError(f"{args.design}: not valid JSON") from None
+    except (ValueError, RecursionError):
+        raise InputError(f"{args.design}: not valid JSON (or nested too deeply)") from None
     return problem, Design.from_dict(data, problem, args.design)
 
 
@@ -152,8 +160,8 @@ def cmd_design(args) -> int:
     from .optimize import optimize
 
     problem = _problem(args)
+    _check_output_dir(args.output)
     out = Path(args.output)
-    _check_output_dir(out)
     _check_workshop_args(args)
     result = optimize(problem)
     with staged_folder(out, last=("result.json",)) as stage:  # result.json last: a set is complete
@@ -187,9 +195,12 @@ def cmd_design(args) -> int:
     return 0 if result.success else 1
 
 
-def _check_output_dir(path: Path, flag: str = "-o") -> None:
-    """Refuse, before any work, an output folder that is a file, lies under a file or cannot
-    be written."""
+def _check_output_dir(text: str, flag: str = "-o") -> None:
+    """Refuse, before any work, an output folder that is empty (an unset shell variable), a
+    file, lies under a file or cannot be written."""
+    if not text.strip():
+        raise InputError(f"{flag} {text!r}: an empty path; give an output folder")
+    path = Path(text)
     for parent in [path, *path.parents]:
         if parent.exists():
             if not parent.is_dir():
@@ -199,14 +210,17 @@ def _check_output_dir(path: Path, flag: str = "-o") -> None:
             return
 
 
-def _check_output_file(path: Path, flag: str) -> None:
-    """Refuse, before any work, an output file that is a folder or whose folder could not be
-    made or written."""
+def _check_output_file(text: str, flag: str) -> None:
+    """Refuse, before any work, an output file that is empty, a folder or whose folder could
+    not be made or written."""
+    if not text.strip():
+        raise InputError(f"{flag} {text!r}: an empty path; give a file name")
+    path = Path(text)
     if path.is_dir():
         raise InputError(f"{flag} {path}: is a folder; give a file name")
     if path.exists() and not os.access(path, os.W_OK):
         raise InputError(f"{flag} {path}: is not writable; give a file you can write to")
-    _check_output_dir(path.parent, flag)
+    _check_output_dir(str(path.parent), flag)
 
 
 #: Workshop lengths [m] a flag may set: (smallest, largest); a chordal tolerance below 0.1 µm
@@ -239,7 +253,7 @@ def cmd_export(args) -> int:
     from .views.export import ExportError, export
 
     problem, design = _problem_and_design(args)
-    _check_output_dir(Path(args.output))
+    _check_output_dir(args.output)
     try:
         manifest = export(problem, design, args.what, args.format.split(","), args.output)
     except ExportError as exc:
@@ -254,7 +268,7 @@ def cmd_sweep(args) -> int:
     from .studies.sweep import run_sweep
 
     study = load_study(args.study)
-    _check_output_file(Path(args.output), "-o")
+    _check_output_file(args.output, "-o")
     if args.workers is not None and not 0 <= args.workers <= cap("workers"):
         raise InputError(f"--workers {args.workers}: expected 0 (serial) to {cap('workers')} worker processes")
     summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
@@ -274,7 +288,7 @@ def cmd_sweep_export(args) -> int:
     from .files import write_text
     from .studies.sweep import flat_table, read_rows
 
-    _check_output_file(Path(args.csv), "--csv")
+    _check_output_file(args.csv, "--csv")
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)
     header = list(dict.fromkeys(k for row in table for k in row))
@@ -291,13 +305,13 @@ def cmd_plot_study(args) -> int:
     from .views.plots import plot_study
     from .studies.sweep import flat_table, read_rows
 
-    _check_output_file(Path(args.output), "-o")
+    _check_output_file(args.output, "-o")
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)
-    missing = [k for k in (args.x, args.y, args.color) if k and not any(k in r for r in table)]
-    if missing:
-        keys = sorted({k for r in table for k in r})
-        raise InputError(f"{args.database}: no column {missing[0]!r}; columns: {', '.join(keys)}")
+    for flag, name in (("--x", args.x), ("--y", args.y), ("--color", args.color)):
+        if name is not None and not any(name in r for r in table):
+            keys = sorted({k for r in table for k in r})
+            raise InputError(f"{flag} {name!r}: no such column in {args.database}; columns: {', '.join(keys)}")
     plot_study(table, args.x, args.y, args.color, args.pareto, args.output, study["name"])
     print(f"plot written to {args.output}")
     return 0
@@ -309,7 +323,7 @@ def _terminated(signum, frame):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="cadcam", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="cadcam", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
     def common(p):
@@ -373,10 +387,10 @@ def main(argv=None) -> int:
     p.add_argument("-o", "--output", required=True, help="PNG file")
     p.set_defaults(run=cmd_plot_study)
 
-    args = parser.parse_args(argv)
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
     try:
+        args = parser.parse_args(argv)
         return args.run(args)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: temporary files are gone, no partial set is left
         print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .files import short_repr
 from .problem import Problem
 from .physics.profile import Basis, monomial_from_highest_first
 
@@ -85,7 +86,7 @@ class Design:
                 if not (isinstance(dom, (list, tuple)) and len(dom) == 2 and all(map(_is_number, dom))
                         and -MAX_DOMAIN <= float(dom[0]) < float(dom[1]) <= MAX_DOMAIN):
                     raise DesignError(f"{where}: domain must be [lo, hi] with hi > lo [rad], both within "
-                                      f"±{MAX_DOMAIN:.4g} rad (ten turns and a quarter); got {_short(dom)}")
+                                      f"±{MAX_DOMAIN:.4g} rad (ten turns and a quarter); got {short_repr(dom)}")
                 b = Basis(cam["basis"], c.size - 1, (float(dom[0]), float(dom[1])))
             elif "monomial_coefficients" in cam:
                 c = _numbers(cam["monomial_coefficients"], f"{where}: monomial_coefficients", "[m·rad⁻ᵏ]")
@@ -106,7 +107,7 @@ class Design:
         x0 = data.get("preextension")
         if not (isinstance(x0, list) and len(x0) == len(problem.springs) and all(map(_is_number, x0))):
             raise DesignError(f"{origin}: design.preextension must hold {len(problem.springs)} finite "
-                              f"numbers [m], one per spring; got {_short(x0)}")
+                              f"numbers [m], one per spring; got {short_repr(x0)}")
         return cls(bases, coefs, np.asarray(x0, dtype=float))
 
 
@@ -115,13 +116,8 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= sys.float_info.max
 
 
-def _short(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "…"
-
-
 def _numbers(value, where: str, unit: str) -> np.ndarray:
     """``value`` as an array if it is a non-empty list of finite numbers; else one line."""
     if not (isinstance(value, list) and value and all(map(_is_number, value))):
-        raise DesignError(f"{where} must be a non-empty list of finite numbers {unit}; got {_short(value)}")
+        raise DesignError(f"{where} must be a non-empty list of finite numbers {unit}; got {short_repr(value)}")
     return np.asarray(value, dtype=float)

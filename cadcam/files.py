@@ -14,6 +14,7 @@ import re
 import shutil
 import stat
 import tempfile
+import tomllib
 from pathlib import Path
 
 #: Start of every temporary file's and staging folder's name (followed by the writer's pid).
@@ -27,6 +28,12 @@ MAX_INPUT_BYTES = 10_000_000
 
 class InputFileError(ValueError):
     """An input file that cannot be read as asked: the message is one line, without the path."""
+
+
+def short_repr(value, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters, for one-line messages about input."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 1] + "…"
 
 
 def env_cap(name: str, default: int) -> int:
@@ -87,6 +94,15 @@ def remove_leftovers(folder) -> list[str]:
 
 def _temp_prefix(name: str = "") -> str:
     return f"{TEMP_PREFIX}{os.getpid()}-{name}"
+
+
+def loads_toml(text: str) -> dict:
+    """``tomllib.loads``, with a document nested too deeply for the parser reported as a
+    ``tomllib.TOMLDecodeError`` like any other malformed TOML."""
+    try:
+        return tomllib.loads(text)
+    except RecursionError:
+        raise tomllib.TOMLDecodeError("nested too deeply") from None
 
 
 @contextlib.contextmanager

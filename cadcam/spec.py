@@ -25,7 +25,7 @@ from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profi
                               mechanism_class, mechanism_kinds)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
-from .files import InputFileError, read_input
+from .files import InputFileError, loads_toml, read_input, short_repr
 from .problem import OBJECTIVES, Joint, Options, Problem, size_error
 from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table, reserved_name
 
@@ -63,7 +63,7 @@ class _Reader:
         self.table, self.seen = table, set()
 
     def fail(self, key, value, form):
-        raise SpecError(f"{self.origin}: {key} = {value!r}: expected {form}")
+        raise SpecError(f"{self.origin}: {key} = {short_repr(value)}: expected {form}")
 
     def key(self, name: str) -> str:
         return f"{self.where}.{name}" if self.where else name
@@ -568,10 +568,10 @@ def legacy_cams(data: dict) -> dict:
 def parse_value(text: str, origin: str = "--set"):
     """A TOML value written on the command line (``1.5``, ``[1, 2]``, ``"exact"``)."""
     try:
-        return tomllib.loads(f"v = {text}")["v"]
+        return loads_toml(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         try:  # a bare word is a string
-            return tomllib.loads(f'v = "{text}"')["v"]
+            return loads_toml(f'v = "{text}"')["v"]
         except tomllib.TOMLDecodeError:
             raise SpecError(f"{origin}: {text!r} is not a TOML value") from None
 
@@ -641,7 +641,7 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
                             f"not {type(data).__name__}")
     else:
         try:
-            data = tomllib.loads(text)
+            data = loads_toml(text)
         except tomllib.TOMLDecodeError as exc:
             raise SpecError(f"{path}: not valid TOML ({exc})") from None
     if variant is not None:

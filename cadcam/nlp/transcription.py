@@ -36,6 +36,10 @@ from ..problem import Problem
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
 ARM_SCALE = 1e-2     # m: scale of the moment arms in the sensitivity terms
 FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8× the points
+#: Gauss–Legendre points of the segment from the reference pose to the grid's first angle, at
+#: most: the rule grows with that segment's length in grid steps, which a narrow range far from
+#: the reference pose would make unbounded (the re-check's own quadrature judges the accuracy).
+FIRST_SEGMENT_MAX_ORDER = 256
 TORQUE_SCALE = 1.0   # N·m: scale of lifted one-angle torque terms
 FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
@@ -175,8 +179,8 @@ class Transcription:
                 outputs.append((u, i, Z[mech.unknowns.index(mech.output), :].T))
             theta, q = p[f"theta{i}"], p[f"q{u}"]
             h = (joint.theta_range[1] - joint.theta_range[0]) / (n - 1)
-            first = opt.quadrature_order * int(np.ceil(max(
-                abs(joint.theta_range[0] - mech.reference_angle) / h, 1)))
+            first = min(FIRST_SEGMENT_MAX_ORDER, opt.quadrature_order * int(np.ceil(max(
+                abs(joint.theta_range[0] - mech.reference_angle) / h, 1))))
             # wrapped lengths are lifted to variables, tied segment by segment (Johnston2023
             # Eq. 10, 14), which keeps the Lagrangian Hessian banded instead of dense
             wrapped = []

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..check.evaluate import METRIC_NAMES
-from ..files import InputFileError, read_input
+from ..files import InputFileError, loads_toml, read_input
 from ..problem import Problem, cap
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data
 
@@ -218,7 +218,7 @@ def load_study(path) -> Study:
     path = Path(path)
     origin = str(path)
     try:
-        raw = tomllib.loads(read_input(path))
+        raw = loads_toml(read_input(path))
     except InputFileError as exc:
         raise StudyError(f"{origin}: the study: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
@@ -253,6 +253,9 @@ def load_study(path) -> Study:
                 raise StudyError(f"{origin}: {where}.values: expected a non-empty list")
             values = tuple(p["values"])
         elif "catalogue" in p:
+            if not isinstance(p["catalogue"], str) or not p["catalogue"]:
+                raise StudyError(f"{origin}: {where}.catalogue = {p['catalogue']!r}: expected the path of a "
+                                 "spring catalogue (CSV) relative to the study")
             try:
                 values = read_catalogue(path.parent / p["catalogue"])
             except (OSError, ValueError) as exc:

@@ -173,21 +173,28 @@ def claim(db: sqlite3.Connection, case_id: str) -> bool:
 
 def read_rows(path) -> tuple[dict, list[dict]]:
     """The study definition and every recorded case (parsed JSON), ordered by case index."""
-    if not Path(path).exists():
-        raise SweepError(f"{path}: no such study database")
-    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    if not Path(path).is_file():
+        raise SweepError(f"{path}: no such study database (a file that `cadcam sweep` wrote)")
     try:
-        study = json.loads(db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0])
-        rows = []
-        for r in db.execute(f"SELECT {','.join(COLUMNS)} FROM cases ORDER BY idx"):
-            row = dict(zip(COLUMNS, r))
-            for k in ("params", "metrics", "recheck", "design"):
-                row[k] = json.loads(row[k]) if row[k] else None
-            rows.append(row)
-    except (sqlite3.DatabaseError, TypeError):
-        raise SweepError(f"{path}: not a cadcam study database") from None
-    finally:
-        db.close()
+        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        try:
+            study = json.loads(db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0])
+            if not (isinstance(study, dict) and isinstance(study.get("name"), str)
+                    and isinstance(study.get("record"), list)):
+                raise TypeError("not a study definition")
+            rows = []
+            for r in db.execute(f"SELECT {','.join(COLUMNS)} FROM cases ORDER BY idx"):
+                row = dict(zip(COLUMNS, r))
+                for k in ("params", "metrics", "recheck", "design"):
+                    row[k] = json.loads(row[k]) if row[k] else None
+                if not isinstance(row["params"], dict) or not all(
+                        isinstance(row[k], (dict, type(None))) for k in ("metrics", "recheck")):
+                    raise TypeError("a case without parameters or with malformed metrics")
+                rows.append(row)
+        finally:
+            db.close()
+    except (sqlite3.Error, ValueError, TypeError, RecursionError):
+        raise SweepError(f"{path}: not a cadcam study database (give a file that `cadcam sweep` wrote)") from None
     return study, rows
 
 
