@@ -392,15 +392,32 @@ def test_a_failed_warm_start_falls_back_to_the_default_start(solved_cases):
     _same_row(row, s["fresh"])
 
 
+def test_a_warm_start_that_ends_much_worse_than_its_start_case_is_compared_with_a_cold_one(solved_cases):
+    """The guard against a worse basin: a warm start whose objective is more than WARM_GUARD
+    above its start case's is solved again from the default start and the better one kept."""
+    s = solved_cases
+    cold = s["fresh"]
+    objective = json.loads(cold["metrics"])["objective"]
+    design = json.loads(cold["design"])
+    quiet = sweep.run_case(s["study"], s["case"], design, start_objective=objective)  # no worse: no second solve
+    assert quiet["message"] == cold["message"]
+    guarded = sweep.run_case(s["study"], s["case"], design,
+                             start_objective=objective / (1 + 2 * sweep.WARM_GUARD))
+    assert guarded["status"] == "success"
+    assert "(warm start kept: the default start did no better)" in guarded["message"] or \
+        "(from the default start: the warm start's objective" in guarded["message"]
+    assert json.loads(guarded["metrics"])["objective"] <= json.loads(quiet["metrics"])["objective"]
+
+
 @pytest.fixture(scope="module")
 def warm_sweep(tmp_path_factory):
     """A serial warm-started sweep of three cases (rates 1000, 1100, 1300 N/m), with the start
     every case was given."""
     real, calls = sweep.run_case, []
 
-    def spy(study, case, start=None):
+    def spy(study, case, start=None, start_objective=None):
         calls.append((case["springs.1.rate"], start))
-        return real(study, case, start)
+        return real(study, case, start, start_objective)
 
     db = tmp_path_factory.mktemp("warm") / "w.db"
     with pytest.MonkeyPatch.context() as mp:

@@ -17,8 +17,10 @@ and taken over by the next run — at once on the same host (its process is gone
 Workers keep one :class:`~cadcam.nlp.transcription.Transcription` per problem structure and
 reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
 NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
-already solved (in normalised parameter space) instead of the default start; which case that
-is depends on the order cases finish, so warm-started sweeps are reproducible only serially.
+already solved (in normalised parameter space) instead of the default start, and is solved
+again from the default start when it ends much worse than that case (:data:`WARM_GUARD`);
+which case it starts from depends on the order cases finish, so warm-started sweeps are
+reproducible only serially.
 """
 from __future__ import annotations
 
@@ -76,8 +78,19 @@ def structure_key(problem) -> str:
         [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs]])
 
 
-def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
-    """Solve one case and return its database row; never raises (a failure is a row)."""
+#: A warm-started case whose objective is worse than its start case's by more than this
+#: fraction is solved again from the default start, and the better of the two kept: a warm
+#: start can lead IPOPT into a worse basin (measured on the 1-DOF bench sweep: up to +79 %).
+WARM_GUARD = 0.10
+
+
+def run_case(study: dict, case: dict, start: dict | None = None,
+             start_objective: float | None = None) -> dict:
+    """Solve one case and return its database row; never raises (a failure is a row).
+
+    ``start`` is the design of the solved case to warm-start from, ``start_objective`` that
+    case's objective (see :data:`WARM_GUARD`).
+    """
     from ..design import Design
     from ..optimize import optimize
     from ..nlp.transcription import Transcription
@@ -98,6 +111,16 @@ def run_case(study: dict, case: dict, start: dict | None = None) -> dict:
         if start and not result.success:  # a warm start that did not help: start afresh
             result = optimize(problem, transcription=tr)
             result.message += " (from the default start, after a failed warm start)"
+        elif start and start_objective is not None and \
+                result.evaluation.metrics["objective"] > (1 + WARM_GUARD) * start_objective:
+            cold = optimize(problem, transcription=tr)  # a worse basin? compare with a cold start
+            warm_objective = result.evaluation.metrics["objective"]
+            if cold.success and cold.evaluation.metrics["objective"] < warm_objective:
+                result = cold
+                result.message += (f" (from the default start: the warm start's objective "
+                                   f"{warm_objective:.6g} was worse)")
+            else:
+                result.message += " (warm start kept: the default start did no better)"
         d = result.to_dict()
         row.update(status=result.status, message=result.message, metrics=json.dumps(d["metrics"]),
                    recheck=json.dumps(d["recheck"]), design=json.dumps(d["design"]),
@@ -279,8 +302,9 @@ class _Dask:
             self.cluster.close()
 
 
-def _nearest(case: dict, solved: list[tuple[dict, dict]], scales: dict):
-    """Design of the solved case nearest to ``case`` in normalised numeric parameters."""
+def _nearest(case: dict, solved: list[tuple[dict, dict, float]], scales: dict):
+    """(design, objective) of the solved case nearest to ``case`` in normalised numeric
+    parameters; (None, None) if none is solved."""
     def dist(other):
         total = 0.0
         for k, v in case.items():
@@ -290,7 +314,7 @@ def _nearest(case: dict, solved: list[tuple[dict, dict]], scales: dict):
             elif v != w:
                 total += 1.0
         return total
-    return min(solved, key=lambda s: dist(s[0]))[1] if solved else None
+    return min(solved, key=lambda s: dist(s[0]))[1:] if solved else (None, None)
 
 
 def _reporter(total: int, done: int):
@@ -335,9 +359,10 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
 
         def learn():
             nonlocal seen
-            for rowid, params, design in db.execute(
-                    "SELECT rowid, params, design FROM cases WHERE status = 'success' AND rowid > ?", (seen,)):
-                solved.append((json.loads(params), json.loads(design)))
+            for rowid, params, design, metrics in db.execute(
+                    "SELECT rowid, params, design, metrics FROM cases WHERE status = 'success' AND rowid > ?",
+                    (seen,)):
+                solved.append((json.loads(params), json.loads(design), json.loads(metrics)["objective"]))
                 seen = max(seen, rowid)
         ran, elapsed = 0, 0.0
         if todo:
@@ -358,8 +383,8 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
                             continue
                         if study.warm_start:
                             learn()
-                        start = _nearest(case, solved, scales) if study.warm_start else None
-                        pending[executor.submit(definition, case, start)] = idx
+                        start = _nearest(case, solved, scales) if study.warm_start else (None, None)
+                        pending[executor.submit(definition, case, *start)] = idx
                     for fut in executor.wait(list(pending)):
                         row = {**fut.result(), "idx": pending.pop(fut)}
                         record(db, row)
