@@ -399,12 +399,11 @@ def test_a_warm_start_that_ends_much_worse_than_its_start_case_is_compared_with_
     cold = s["fresh"]
     objective = json.loads(cold["metrics"])["objective"]
     design = json.loads(cold["design"])
-    quiet = sweep.run_case(s["study"], s["case"], design, start_objective=objective)  # no worse: no second solve
-    assert quiet["message"] == cold["message"]
-    guarded = sweep.run_case(s["study"], s["case"], design,
-                             start_objective=objective / (1 + 2 * sweep.WARM_GUARD))
+    quiet = sweep.run_case(s["study"], s["case"], design, objective, "c0")  # no worse: no second solve
+    assert quiet["message"] == cold["message"] + " (warm start from case c0)"
+    guarded = sweep.run_case(s["study"], s["case"], design, objective / (1 + 2 * sweep.WARM_GUARD), "c0")
     assert guarded["status"] == "success"
-    assert "(warm start kept: the default start did no better)" in guarded["message"] or \
+    assert "(warm start from case c0 kept: the default start did no better)" in guarded["message"] or \
         "(from the default start: the warm start's objective" in guarded["message"]
     assert json.loads(guarded["metrics"])["objective"] <= json.loads(quiet["metrics"])["objective"]
 
@@ -415,9 +414,9 @@ def warm_sweep(tmp_path_factory):
     every case was given."""
     real, calls = sweep.run_case, []
 
-    def spy(study, case, start=None, start_objective=None):
-        calls.append((case["springs.1.rate"], start))
-        return real(study, case, start, start_objective)
+    def spy(study, case, *warm):
+        calls.append((case["springs.1.rate"], warm[0] if warm else None))
+        return real(study, case, *warm)
 
     db = tmp_path_factory.mktemp("warm") / "w.db"
     with pytest.MonkeyPatch.context() as mp:

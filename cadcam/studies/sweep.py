@@ -18,9 +18,9 @@ Workers keep one :class:`~cadcam.nlp.transcription.Transcription` per problem st
 reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
 NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
 already solved (in normalised parameter space) instead of the default start, and is solved
-again from the default start when it ends much worse than that case (:data:`WARM_GUARD`);
-which case it starts from depends on the order cases finish, so warm-started sweeps are
-reproducible only serially.
+again from the default start when it ends much worse than that case (:data:`WARM_GUARD`); its
+row's message names the case it started from. Which case that is depends on the order cases
+finish, so warm-started sweeps are reproducible only serially.
 """
 from __future__ import annotations
 
@@ -85,11 +85,12 @@ WARM_GUARD = 0.10
 
 
 def run_case(study: dict, case: dict, start: dict | None = None,
-             start_objective: float | None = None) -> dict:
+             start_objective: float | None = None, start_case: str | None = None) -> dict:
     """Solve one case and return its database row; never raises (a failure is a row).
 
-    ``start`` is the design of the solved case to warm-start from, ``start_objective`` that
-    case's objective (see :data:`WARM_GUARD`).
+    ``start`` is the design of the solved case ``start_case`` (its id) to warm-start from,
+    ``start_objective`` that case's objective (see :data:`WARM_GUARD`). A warm-started row's
+    message names the case it started from, or says that the default start's answer was kept.
     """
     from ..design import Design
     from ..optimize import optimize
@@ -120,7 +121,9 @@ def run_case(study: dict, case: dict, start: dict | None = None,
                 result.message += (f" (from the default start: the warm start's objective "
                                    f"{warm_objective:.6g} was worse)")
             else:
-                result.message += " (warm start kept: the default start did no better)"
+                result.message += f" (warm start from case {start_case} kept: the default start did no better)"
+        elif start:
+            result.message += f" (warm start from case {start_case})"
         d = result.to_dict()
         row.update(status=result.status, message=result.message, metrics=json.dumps(d["metrics"]),
                    recheck=json.dumps(d["recheck"]), design=json.dumps(d["design"]),
@@ -302,9 +305,9 @@ class _Dask:
             self.cluster.close()
 
 
-def _nearest(case: dict, solved: list[tuple[dict, dict, float]], scales: dict):
-    """(design, objective) of the solved case nearest to ``case`` in normalised numeric
-    parameters; (None, None) if none is solved."""
+def _nearest(case: dict, solved: list[tuple[dict, dict, float, str]], scales: dict):
+    """(design, objective, case id) of the solved case nearest to ``case`` in normalised
+    numeric parameters; three Nones if none is solved."""
     def dist(other):
         total = 0.0
         for k, v in case.items():
@@ -314,7 +317,7 @@ def _nearest(case: dict, solved: list[tuple[dict, dict, float]], scales: dict):
             elif v != w:
                 total += 1.0
         return total
-    return min(solved, key=lambda s: dist(s[0]))[1:] if solved else (None, None)
+    return min(solved, key=lambda s: dist(s[0]))[1:] if solved else (None, None, None)
 
 
 def _reporter(total: int, done: int):
@@ -362,7 +365,9 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
             for rowid, params, design, metrics in db.execute(
                     "SELECT rowid, params, design, metrics FROM cases WHERE status = 'success' AND rowid > ?",
                     (seen,)):
-                solved.append((json.loads(params), json.loads(design), json.loads(metrics)["objective"]))
+                params = json.loads(params)
+                solved.append((params, json.loads(design), json.loads(metrics)["objective"],
+                               Study.case_id(params)))
                 seen = max(seen, rowid)
         ran, elapsed = 0, 0.0
         if todo:
@@ -383,7 +388,7 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
                             continue
                         if study.warm_start:
                             learn()
-                        start = _nearest(case, solved, scales) if study.warm_start else (None, None)
+                        start = _nearest(case, solved, scales) if study.warm_start else (None,) * 3
                         pending[executor.submit(definition, case, *start)] = idx
                     for fut in executor.wait(list(pending)):
                         row = {**fut.result(), "idx": pending.pop(fut)}
