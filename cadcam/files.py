@@ -87,7 +87,10 @@ def remove_leftovers(folder) -> list[str]:
             match = _TEMP_NAME.match(name)
             if match and int(match[1]) != os.getpid() and not process_alive(int(match[1])):
                 path = Path(folder) / name
-                shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path)
+                else:
+                    path.unlink()
                 removed.append(name)
     return removed
 

@@ -404,7 +404,7 @@ def test_a_warm_start_that_ends_much_worse_than_its_start_case_is_compared_with_
     guarded = sweep.run_case(s["study"], s["case"], design, objective / (1 + 2 * sweep.WARM_GUARD), "c0")
     assert guarded["status"] == "success"
     assert "(warm start from case c0 kept: the default start did no better)" in guarded["message"] or \
-        "(from the default start: the warm start's objective" in guarded["message"]
+        "(from the default start: the warm start from case c0 reached a worse objective" in guarded["message"]
     assert json.loads(guarded["metrics"])["objective"] <= json.loads(quiet["metrics"])["objective"]
 
 

@@ -118,8 +118,8 @@ def run_case(study: dict, case: dict, start: dict | None = None,
             warm_objective = result.evaluation.metrics["objective"]
             if cold.success and cold.evaluation.metrics["objective"] < warm_objective:
                 result = cold
-                result.message += (f" (from the default start: the warm start's objective "
-                                   f"{warm_objective:.6g} was worse)")
+                result.message += (f" (from the default start: the warm start from case {start_case} "
+                                   f"reached a worse objective, {warm_objective:.6g})")
             else:
                 result.message += f" (warm start from case {start_case} kept: the default start did no better)"
         elif start:
