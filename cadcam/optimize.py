@@ -7,12 +7,10 @@ every constraint satisfied (status ``success``); otherwise the status says what 
 from __future__ import annotations
 
 import time
-
-import numpy as np
-
 from dataclasses import replace
 
 import casadi as ca
+import numpy as np
 
 from .design import Design
 from .mechanisms.anchored_pulley import AnchoredPulley
@@ -225,7 +223,7 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
     objective is the largest output error on the design grid [m]."""
     on_grid = evaluate(problem, design)
-    fine = evaluate(problem, design, grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
+    fine = evaluate(problem, design, grid=problem.options.recheck_grid)
     errors = [e for e in on_grid.metrics["output_max_abs_error"] if e is not None]
     solve = Solve(design=design, status="converged", return_status="Fedorov2018 envelope synthesis (no NLP)",
                   iterations=0, solve_time_s=seconds, objective=max(errors),
@@ -281,7 +279,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
              for u, mech in enumerate(problem.mechanisms)]
     on_grid = evaluate(problem, best.design, seeds=seeds)
     fine = evaluate(problem, best.design, seeds=seeds,
-                    grid=problem.options.recheck_factor * (problem.options.grid - 1) + 1)
+                    grid=problem.options.recheck_grid)
     status, message = verdict(problem, best, fine, "converged")
     return Result(status=status, message=message, problem=problem, design=best.design,
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s)

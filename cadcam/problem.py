@@ -41,7 +41,7 @@ def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
         if value > cap(name):
             return name, (f"{value} exceeds the cap {cap(name)} (raise it deliberately with the "
                           f"environment variable CADCAM_CAP_{name.upper()})")
-    points = ((options.grid - 1) * options.recheck_factor + 1) ** n_joints
+    points = options.recheck_grid ** n_joints
     if points > cap("recheck_points"):
         return "grid", (f"the fine re-check would evaluate {points:.3g} points "
                         f"(((grid − 1)·recheck_factor + 1)^{n_joints}), beyond the cap "
@@ -104,6 +104,11 @@ class Options:
     objective: str = "least_squares"
     ipopt: tuple = ()
     method: str = "nlp"
+
+    @property
+    def recheck_grid(self) -> int:
+        """Angles per joint of the fine re-check grid: (grid − 1)·recheck_factor + 1."""
+        return (self.grid - 1) * self.recheck_factor + 1
 
 
 @dataclass(frozen=True)

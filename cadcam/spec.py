@@ -8,6 +8,7 @@ fully resolved spec.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import math
 import os
@@ -278,23 +279,32 @@ def _ipopt_options(sol: "_Reader", options: dict) -> tuple:
     """[solver.ipopt] as sorted (name, value) pairs, each tried on IPOPT itself so that an unknown
     name or a value out of its range is one line now, not a failure after the build."""
     key = sol.key("ipopt")
-    x = ca.SX.sym("x")
     for name, value in sorted(options.items()):
         if name in IPOPT_REFUSED:
             instead = IPOPT_REFUSED[name]
             sol.fail(f"{key}.{name}", value, f"nothing: give {instead} instead (it has a cap)" if instead
                      else "nothing: cadcam reads and writes no IPOPT files")
-        try:
-            with _quiet_stdout():  # IPOPT prints its option documentation for a bad value
-                ca.nlpsol("probe", "ipopt", {"x": x, "f": x**2},
-                          {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", f"ipopt.{name}": value})
-        except RuntimeError as exc:
-            lines = str(exc).strip().splitlines()
-            reason = "no such IPOPT option" if "No such IPOPT option" in str(exc) else (
-                "a value of another type" if "type mismatch" in lines[-1] else "a value IPOPT refuses")
+        reason = _ipopt_refusal(name, value)
+        if reason:
             sol.fail(f"{key}.{name}", value, f"an IPOPT option with a valid value ({reason}; see the "
                      "IPOPT documentation of options)")
     return tuple(sorted(options.items()))
+
+
+@functools.lru_cache(maxsize=256)
+def _ipopt_refusal(name: str, value) -> str | None:
+    """Why IPOPT refuses option ``name`` = ``value``, or None: asked once per pair (a study
+    parses its spec for every case)."""
+    x = ca.SX.sym("x")
+    try:
+        with _quiet_stdout():  # IPOPT prints its option documentation for a bad value
+            ca.nlpsol("probe", "ipopt", {"x": x, "f": x**2},
+                      {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", f"ipopt.{name}": value})
+    except RuntimeError as exc:
+        lines = str(exc).strip().splitlines()
+        return "no such IPOPT option" if "No such IPOPT option" in str(exc) else (
+            "a value of another type" if "type mismatch" in lines[-1] else "a value IPOPT refuses")
+    return None
 
 
 @contextlib.contextmanager

@@ -78,7 +78,7 @@ def balancer() -> list[str]:
     """Sec. 4.2: the report's lines; writes the balancer's figures, outlines and JSON."""
     problem = load_spec(ROOT / "models" / "fedorov2018_balancer.toml")
     spring = problem.springs[0]
-    fine = problem.options.recheck_factor * (problem.options.grid - 1) + 1
+    fine = problem.options.recheck_grid
     phi = np.linspace(-np.pi, np.pi, 100001)
     start_problem, start = differential_start(problem, default_start(problem))
     baseline = evaluate(start_problem, start, grid=fine)

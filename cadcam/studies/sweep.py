@@ -35,6 +35,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from multiprocessing import get_context
 from pathlib import Path
 
+from ..files import process_alive
 from ..version import __version__
 from .study import Study
 
@@ -177,8 +178,6 @@ def runner() -> tuple[str, int]:
 
 def release_stale_claims(db: sqlite3.Connection) -> int:
     """Delete the claims of runners that are gone (see the module docstring); return how many."""
-    from ..files import process_alive
-
     host, pid = runner()
     stale = [(h, p) for h, p, last in db.execute("SELECT host, pid, MAX(claimed) FROM claims GROUP BY host, pid")
              if (h == host and p != pid and not process_alive(p))
