@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares, minimize
 
-from cadcam.design import Design
+from cadcam.designs import Design
 from cadcam.mechanisms.base import port_function
 from cadcam.mechanisms.wire_cam import WireCam
 from cadcam.physics.departure import cam_tangent, tangency_residuals

@@ -7,7 +7,7 @@ Quick start::
     result.status, result.evaluation.metrics["rmse"]
 """
 
-from .design import Design, DesignError  # noqa: E402
+from .designs import Design, DesignError  # noqa: E402
 from .check.evaluate import evaluate  # noqa: E402
 from .optimize import optimize  # noqa: E402
 from .problem import Joint, Options, Problem  # noqa: E402

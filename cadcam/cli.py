@@ -14,10 +14,8 @@ import sys
 import threading
 from pathlib import Path
 
-import numpy as np
-
 from .mechanisms.base import TORQUE_MODELS
-from .design import Design, DesignError
+from .designs import Design, DesignError
 from .files import InputFileError, read_input, staged_folder
 from .problem import cap, size_error
 from .spec import SpecError, load_spec, parse_value
@@ -76,88 +74,10 @@ def _problem_and_design(args):
     return problem, Design.from_dict(data, problem, args.design)
 
 
-def _write_torque_csv(path: Path, ev) -> None:
-    """θ, τ, τ_d, error per joint and the spring extensions at every grid point."""
-    from .files import write_csv
-
-    m, S = len(ev.tau), len(ev.problem.springs)
-    header = ([f"theta{i + 1}_rad" for i in range(m)]
-              + [f"{k}{i + 1}_Nm" for i in range(m) for k in ("tau", "tau_d", "error")]
-              + [f"x{j + 1}_m" for j in range(S)])
-    cols = [*ev.theta] + [v for i in range(m) for v in (ev.tau[i], ev.tau_d[i], ev.tau[i] - ev.tau_d[i])]
-    write_csv(path, header, np.column_stack(cols + [*ev.x]))
-
-
-def write_outputs(result, out: Path) -> None:
-    """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
-    grid), ``profile.csv``, the PNG figures (torque and springs only if there are springs) and,
-    for mechanisms with an output law (a
-    differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
-    from .check.evaluate import output_error, output_law
-    from .files import write_csv, write_json
-    from .views.plots import plot_outputs, plot_profiles, plot_springs, plot_torque
-
-    ev = result.evaluation
-    write_json(out / "result.json", result.to_dict())
-    _write_torque_csv(out / "torque.csv", ev)
-    _write_torque_csv(out / "torque_recheck.csv", result.recheck)
-    rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
-            for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
-    write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
-    plot_profiles(ev, out / "profile.png")
-    if ev.problem.springs:  # without springs there is no torque and nothing to plot
-        plot_torque(ev, out / "torque.png")
-        plot_springs(ev, out / "springs.png")
-    outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
-    if outputs:  # x(θ) of mechanisms with an output law, against it
-        header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
-        for u, mech in outputs:
-            xd = output_law(mech, ev.units[u].theta)
-            header += [f"{mech.output}{u + 1}_m", f"{mech.output}{u + 1}_d_m", f"error{u + 1}_m"]
-            cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
-        write_csv(out / "output.csv", header, np.column_stack(cols))
-        plot_outputs(ev, out / "output.png")
-
-
-def write_workshop_files(ev, out: Path, args) -> list[str]:
-    """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request. A
-    profile whose cable wraps a turn or more (a helical groove) gets the groove's centre line
-    ``cam{i}_groove.csv`` instead: no planar outline holds it."""
-    from .views.drawing import draw_sheet
-    from .views.workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_csv,
-                                 write_dxf, write_groove_csv, write_stl, write_svg)
-
-    notes = []
-    owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
-    for i, (cam, cs, mech) in enumerate(zip(ev.problem.profiles, ev.profiles, owners)):
-        if cs.alpha.max() >= TWO_PI:
-            groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
-                                    args.groove_pitch)
-            write_groove_csv(out / f"cam{i + 1}_groove.csv", groove)
-            notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
-                         f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
-            continue
-        close = chord_outline if mech.outline_closure == "chord" else closed_outline
-        outline = close(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
-        stem = out / f"cam{i + 1}"
-        write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
-        write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
-        write_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
-        for suffix in (".pdf", ".png"):
-            draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
-                       args.anchor_diameter, cam.rho_min, cam.rho_max, f"{ev.problem.name}: {cam.name}")
-        note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
-        if args.stl is not None:
-            volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
-                               args.groove_depth, args.groove_width, args.tolerance)
-            note += f", STL {volume * 1e9:.0f} mm³"
-        notes.append(note)
-    return notes
-
-
 def cmd_design(args) -> int:
     from .check.cable_robot import robot_path
     from .optimize import optimize
+    from .views.outputs import write_outputs, write_workshop_files
 
     problem = _problem(args)
     _check_output_dir(args.output)

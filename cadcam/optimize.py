@@ -12,12 +12,12 @@ from dataclasses import replace
 import casadi as ca
 import numpy as np
 
-from .design import Design
+from .designs import Design
 from .mechanisms.anchored_pulley import AnchoredPulley
 from .mechanisms.differential_pulley import DifferentialPulley
 from .synthesis.fedorov_envelope import cable_length, differential_envelopes, fit_pulley
 from .synthesis.kim_deshpande import closed_form, fit_profile
-from .check.evaluate import evaluate
+from .check.evaluate import evaluate, start_samples
 from .problem import Problem
 from .result import Result
 from .nlp.transcription import Solve, Transcription
@@ -169,18 +169,9 @@ def random_start(problem: Problem, rng: np.random.Generator) -> Design:
     return Design(bases, coefs, _preextensions(problem, lambda s: rng.uniform(0, 0.9 * s.travel)))
 
 
-def start_samples(tr: Transcription, problem: Problem, design: Design) -> list:
-    """Per-mechanism samples of ``design`` on ``tr``'s grid for
-    :meth:`Transcription.initial_guess`: departure by the rootfinder, port quantities in closed
-    form."""
-    ev = evaluate(problem, design, grid=tr.n, order=tr.start_order(), wire_arm="closed-form",
-                  profile=False)
-    return ev.units
-
-
 def solve(tr: Transcription, problem: Problem, start: Design):
     """One IPOPT run of ``tr`` from ``start``; see :meth:`Transcription.solve`."""
-    return tr.solve(problem, start, start_samples(tr, problem, start))
+    return tr.solve(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
 
 
 #: The statuses :func:`verdict` gives a design whose solve converged.

@@ -30,7 +30,7 @@ from cadcam.optimize import default_start, differential_start  # noqa: E402
 from cadcam.targets import spring_elongation  # noqa: E402
 from cadcam.views.plots import plot_outputs, plot_profiles  # noqa: E402
 from cadcam.targets import robot_cable  # noqa: E402
-from cadcam.views.workshop import chord_outline, helical_groove, write_csv, write_groove_csv  # noqa: E402
+from cadcam.views.workshop import chord_outline, helical_groove, write_points_csv, write_groove_csv  # noqa: E402
 from reporting import figures, finish, provenance  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -122,7 +122,7 @@ def balancer() -> list[str]:
     plot_outputs(ev, OUT / "balancer_x.png")
     plot_elongation(ev, OUT / "balancer_elongation.png")
     for k, (basis, c, prof) in enumerate(zip(result.design.bases, result.design.coefficients, ev.profiles)):
-        write_csv(OUT / f"pulley{k + 1}_points.csv", chord_outline(basis, c, float(prof.alpha.max())))
+        write_points_csv(OUT / f"pulley{k + 1}_points.csv", chord_outline(basis, c, float(prof.alpha.max())))
     write_json(OUT / "balancer_result.json", result.to_dict())
     return lines
 

@@ -205,7 +205,7 @@ def test_balancer_result_recomputes_from_its_json(balancer, tmp_path):
     import json
 
     from cadcam.check.evaluate import evaluate
-    from cadcam.design import Design
+    from cadcam.designs import Design
     data = json.loads(json.dumps(balancer.to_dict()))
     problem = parse_spec(data["problem"])
     design = Design.from_dict(data, problem, "result.json")

@@ -1,5 +1,5 @@
 """The package's folders are layers: no module imports from a layer above its own, and sibling
-layers of equal rank (the NLP and the re-check; views and studies) do not import each other."""
+layers of equal rank (the NLP and the re-check) do not import each other."""
 import ast
 from pathlib import Path
 
@@ -9,8 +9,8 @@ PACKAGE = Path(__file__).resolve().parent.parent / "cadcam"
 #: Layer of each top-level module or folder of the package, lowest first.
 RANK = {"files": 0, "version": 0, "citations": 0, "physics": 1, "mechanisms": 2, "targets": 2,
         "synthesis": 3,
-        "problem": 3, "design": 4, "spec": 4, "nlp": 5, "check": 5, "result": 6, "optimize": 7,
-        "views": 8, "studies": 8, "cli": 9, "__init__": 10, "__main__": 10}
+        "problem": 3, "designs": 4, "spec": 4, "nlp": 5, "check": 5, "views": 6, "result": 7,
+        "optimize": 8, "studies": 9, "api": 10, "cli": 10, "__init__": 11, "__main__": 11}
 
 
 def _layer(parts: tuple[str, ...]) -> str:

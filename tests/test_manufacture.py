@@ -10,7 +10,7 @@ from matplotlib.image import imread
 from cadcam import evaluate, optimize
 from cadcam.views.drawing import draw_sheet
 from cadcam.views.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
-                                polyline, segment_distance, write_csv, write_dxf, write_stl,
+                                polyline, segment_distance, write_points_csv, write_dxf, write_stl,
                                 write_svg)
 from cadcam.physics.profile import Basis
 
@@ -205,7 +205,7 @@ def test_svg_is_true_scale_in_millimetres(tmp_path, outline):
 
 def test_csv_lists_the_polyline_in_millimetres(tmp_path, cam_1dof):
     path = tmp_path / "cam.csv"
-    write_csv(path, cam_1dof)
+    write_points_csv(path, cam_1dof)
     lines = path.read_text().splitlines()
     assert lines[0] == "x_mm,y_mm"
     np.testing.assert_array_equal(np.loadtxt(lines[1:], delimiter=","), polyline(cam_1dof) * 1e3)
@@ -262,7 +262,7 @@ def test_bad_sizes_raise_naming_the_parameter(tmp_path, cam_1dof):
         ("groove_width", lambda: write_stl(path, cam_1dof, THICKNESS, BORE, 1e-3, 0.0)),
         ("thickness", lambda: write_stl(path, cam_1dof, 0.0, BORE)),
         ("anchor_diameter", lambda: write_svg(path, cam_1dof, BORE, 6e-3)),
-        ("tolerance", lambda: write_csv(path, cam_1dof, tolerance=0.0)),
+        ("tolerance", lambda: write_points_csv(path, cam_1dof, tolerance=0.0)),
     ]
     for name, call in cases:
         with pytest.raises(ValueError, match=name):

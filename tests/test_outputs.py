@@ -11,7 +11,7 @@ import importlib
 
 import pytest
 
-import cadcam.views.plots
+import cadcam.views.outputs
 from cadcam.cli import main
 from cadcam.files import TEMP_PREFIX, staged_folder, write_text
 from cadcam.optimize import optimize
@@ -42,12 +42,12 @@ def _snapshot(folder):
 
 
 def _fail_at_torque_png(monkeypatch, exc):
-    real = cadcam.views.plots.plot_torque
+    real = cadcam.views.outputs.plot_torque
 
     def broken(ev, path):
         real(ev, path)  # the figure is half-way through the set when the environment fails
         raise exc
-    monkeypatch.setattr(cadcam.views.plots, "plot_torque", broken)
+    monkeypatch.setattr(cadcam.views.outputs, "plot_torque", broken)
 
 
 def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..design import Design
+from ..designs import Design
 from ..mechanisms.base import (departure_solver, margin_function, port_function, split_coefficients,
                                wound_lengths)
 from ..physics.profile import Basis, profile_function
@@ -162,6 +162,13 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
                 else (np.array([]), np.array([]), np.array([]), np.nan, np.nan, np.nan, np.nan))
         profiles.append(ProfileSamples(theta, z[k, 1:], float(z[k, 0]), *scan))
     return unit, profiles
+
+
+def start_samples(problem: Problem, design: Design, grid: int, order: int) -> list:
+    """Per-mechanism samples of ``design`` on a ``grid``-angle grid with quadrature ``order``, for
+    :meth:`cadcam.nlp.transcription.Transcription.initial_guess`: departure by the rootfinder,
+    port quantities in closed form."""
+    return evaluate(problem, design, grid=grid, order=order, wire_arm="closed-form", profile=False).units
 
 
 def evaluate(problem: Problem, design: Design, grid: int | None = None,

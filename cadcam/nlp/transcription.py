@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..design import Design
+from ..designs import Design
 from ..mechanisms.base import (margin_function, port_function, pose_residual_function,
                                split_coefficients, wound_lengths)
 from ..physics.profile import profile_function

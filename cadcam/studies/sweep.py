@@ -93,7 +93,7 @@ def run_case(study: dict, case: dict, start: dict | None = None,
     ``start_objective`` that case's objective (see :data:`WARM_GUARD`). A warm-started row's
     message names the case it started from, or says that the default start's answer was kept.
     """
-    from ..design import Design
+    from ..designs import Design
     from ..optimize import optimize
     from ..nlp.transcription import Transcription
 

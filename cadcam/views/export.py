@@ -31,10 +31,10 @@ import casadi as ca
 import numpy as np
 
 from ..version import __version__
-from ..design import Design
+from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
+from ..check.evaluate import start_samples
 from ..check.model import NEWTON_STEPS, torque_function, torque_jacobian_function
-from ..optimize import start_samples
 from ..problem import Problem
 
 WHATS = ("model", "problem")
@@ -162,7 +162,7 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
         extra = {"problem_data.json": {
             "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},
             "parameters_layout": {k: {"offset": a, "size": n} for k, (a, n) in tr.p.blocks.items()},
-            "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(tr, problem, design)).tolist(),
+            "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(problem, design, tr.n, tr.start_order())).tolist(),
             "lbx": lbx.tolist(), "ubx": ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
             "note": "lengths in the NLP vector are in mm (see cadcam.nlp.transcription); "
                     "infinite bounds are written as ±Infinity"}}

@@ -523,7 +523,7 @@ def write_groove_csv(path, groove: np.ndarray) -> None:
                 np.column_stack([groove[:, 0], groove[:, 1:] * MM]))
 
 
-def write_csv(path, outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> None:
+def write_points_csv(path, outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> None:
     """Write the vertices of :func:`polyline` as CSV ``x_mm,y_mm``, atomically."""
     write_table(path, ["x_mm", "y_mm"], polyline(outline, tolerance) * MM)
 

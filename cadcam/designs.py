@@ -101,7 +101,7 @@ class Design:
                                   "monomial_coefficients or monomial_coefficients_highest_first")
             if c.size > MAX_COEFFICIENTS:
                 raise DesignError(f"{where}: {c.size} coefficients; the cap is {MAX_COEFFICIENTS} "
-                                  "(degree 40, cadcam.design.MAX_COEFFICIENTS)")
+                                  "(degree 40, cadcam.designs.MAX_COEFFICIENTS)")
             bases.append(b)
             coefs.append(c)
         x0 = data.get("preextension")

@@ -1,0 +1,98 @@
+"""The files of a design run: ``result.json``, the torque, profile and output tables, the
+figures and the workshop files, as ``cadcam design`` (and :meth:`cadcam.result.Result.save`)
+write them into a folder."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..check.evaluate import output_error, output_law
+from ..files import write_csv, write_json
+from .drawing import draw_sheet
+from .plots import plot_outputs, plot_profiles, plot_springs, plot_torque
+from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf, write_points_csv,
+                       write_groove_csv, write_stl, write_svg)
+
+
+@dataclass(frozen=True)
+class WorkshopOptions:
+    """Sizes of the workshop files [m] (the ``cadcam design`` flags of the same names)."""
+
+    bore_diameter: float = 0.006
+    anchor_diameter: float = 0.0025
+    tolerance: float = 1e-5
+    stl: float | None = None
+    groove_depth: float = 0.0
+    groove_width: float = 0.0
+    groove_pitch: float = 0.004
+
+
+def write_torque_csv(path: Path, ev) -> None:
+    """θ, τ, τ_d, error per joint and the spring extensions at every grid point."""
+    m, S = len(ev.tau), len(ev.problem.springs)
+    header = ([f"theta{i + 1}_rad" for i in range(m)]
+              + [f"{k}{i + 1}_Nm" for i in range(m) for k in ("tau", "tau_d", "error")]
+              + [f"x{j + 1}_m" for j in range(S)])
+    cols = [*ev.theta] + [v for i in range(m) for v in (ev.tau[i], ev.tau_d[i], ev.tau[i] - ev.tau_d[i])]
+    write_csv(path, header, np.column_stack(cols + [*ev.x]))
+
+
+def write_outputs(result, out: Path) -> None:
+    """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
+    grid), ``profile.csv``, the PNG figures (torque and springs only if there are springs) and,
+    for mechanisms with an output law (a
+    differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
+    ev = result.evaluation
+    write_json(out / "result.json", result.to_dict())
+    write_torque_csv(out / "torque.csv", ev)
+    write_torque_csv(out / "torque_recheck.csv", result.recheck)
+    rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
+            for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
+    write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
+    plot_profiles(ev, out / "profile.png")
+    if ev.problem.springs:  # without springs there is no torque and nothing to plot
+        plot_torque(ev, out / "torque.png")
+        plot_springs(ev, out / "springs.png")
+    outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
+    if outputs:  # x(θ) of mechanisms with an output law, against it
+        header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
+        for u, mech in outputs:
+            xd = output_law(mech, ev.units[u].theta)
+            header += [f"{mech.output}{u + 1}_m", f"{mech.output}{u + 1}_d_m", f"error{u + 1}_m"]
+            cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
+        write_csv(out / "output.csv", header, np.column_stack(cols))
+        plot_outputs(ev, out / "output.png")
+
+
+def write_workshop_files(ev, out: Path, args: WorkshopOptions) -> list[str]:
+    """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request. A
+    profile whose cable wraps a turn or more (a helical groove) gets the groove's centre line
+    ``cam{i}_groove.csv`` instead: no planar outline holds it."""
+    notes = []
+    owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
+    for i, (cam, cs, mech) in enumerate(zip(ev.problem.profiles, ev.profiles, owners)):
+        if cs.alpha.max() >= TWO_PI:
+            groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
+                                    args.groove_pitch)
+            write_groove_csv(out / f"cam{i + 1}_groove.csv", groove)
+            notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
+                         f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
+            continue
+        close = chord_outline if mech.outline_closure == "chord" else closed_outline
+        outline = close(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
+        stem = out / f"cam{i + 1}"
+        write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
+        write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
+        write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
+        for suffix in (".pdf", ".png"):
+            draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
+                       args.anchor_diameter, cam.rho_min, cam.rho_max, f"{ev.problem.name}: {cam.name}")
+        note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
+        if args.stl is not None:
+            volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
+                               args.groove_depth, args.groove_width, args.tolerance)
+            note += f", STL {volume * 1e9:.0f} mm³"
+        notes.append(note)
+    return notes
