@@ -1,15 +1,19 @@
-# cadcam — the two commands a fresh machine needs are `make demo` and `make test`.
+# cadcam — the two commands a fresh machine needs are `make demo` and `make test`
+# (`make lint` for ruff and mypy; .ci/run runs both).
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
+.PHONY: demo test lint bench clean study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
+# cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
+# tqdm — and the extras dev (pytest, hypothesis, jsonschema, dask[distributed], cvxpy,
+# setuptools) and lint (ruff, mypy)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet -e '.[dev,lint]'
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -18,6 +22,11 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# ruff (the rules in pyproject.toml: defects, not style) and mypy on the public API; both
+# report before the target fails
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .; ruff=$$?; $(VENV)/bin/mypy && exit $$ruff
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_design.py

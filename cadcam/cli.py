@@ -1,8 +1,8 @@
-"""Command line: ``cadcam design``, ``evaluate``, ``export``, ``sweep``, ``sweep-export`` and
-``plot-study``.
+"""Command line: cadcam design, evaluate, check, export, sweep, sweep-export and plot-study.
 
 Exit codes: 0 success; 1 a solve that failed or did not pass its re-check (the result is still
-written); 2 bad input (one line on stderr naming what is wrong).
+written), a derivative check beyond its tolerance, or the environment failed after work began;
+2 bad input (one line on stderr naming what is wrong); 130 interrupted.
 """
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ import threading
 from pathlib import Path
 
 from .mechanisms.base import TORQUE_MODELS
-from .designs import Design, DesignError
-from .files import InputFileError, read_input, staged_folder
+from .designs import DesignError
+from .version import __version__
 from .problem import cap, size_error
-from .spec import SpecError, load_spec, parse_value
+from .spec import SpecError, parse_value
 from .studies.study import StudyError
 from .studies.sweep import SweepError
 from .targets import ExpressionError
@@ -43,8 +43,33 @@ def _override(text: str):
     return key.strip(), parse_value(value.strip(), f"--set {key.strip()}")
 
 
+def _ipopt(text: str) -> tuple:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip():
+        raise InputError(f"--ipopt {text!r}: expected NAME=VALUE such as mu_strategy=monotone")
+    return name.strip(), parse_value(value.strip(), f"--ipopt {name.strip()}")
+
+
+def _spec_path(args) -> str:
+    """The spec file: SPEC, or the installed example ``--example NAME``."""
+    from . import examples
+
+    if (args.spec is None) == (args.example is None):
+        raise InputError("give a spec file or --example NAME (one of them), e.g. --example johnston2023_1dof")
+    if args.example is None:
+        return args.spec
+    try:
+        return str(examples.path(args.example))
+    except examples.UnknownExample as exc:
+        raise InputError(f"--example: {exc}") from None
+
+
 def _problem(args):
-    problem = load_spec(args.spec, args.variant, [_override(t) for t in args.set or ()])
+    from .api import load_problem
+
+    ipopt = dict(_ipopt(t) for t in getattr(args, "ipopt", None) or ())
+    problem = load_problem(_spec_path(args), variant=args.variant, overrides=[_override(t) for t in args.set or ()],
+                           ipopt=ipopt or None)
     if getattr(args, "torque_model", None):
         try:
             problem = problem.with_torque_model(args.torque_model)
@@ -63,56 +88,57 @@ def _problem(args):
     return problem
 
 
+def _design(args, problem):
+    from .api import load_design
+
+    return load_design(args.design, problem)
+
+
 def _problem_and_design(args):
     problem = _problem(args)
-    try:
-        data = json.loads(read_input(args.design))
-    except InputFileError as exc:
-        raise InputError(f"{args.design}: the design: {exc}") from None
-    except (ValueError, RecursionError):
-        raise InputError(f"{args.design}: not valid JSON (or nested too deeply)") from None
-    return problem, Design.from_dict(data, problem, args.design)
+    return problem, _design(args, problem)
 
 
 def cmd_design(args) -> int:
-    from .check.cable_robot import robot_path
     from .optimize import optimize
-    from .views.outputs import write_outputs, write_workshop_files
+    from .views.outputs import WorkshopOptions
 
     problem = _problem(args)
     _check_output_dir(args.output)
     out = Path(args.output)
     _check_workshop_args(args)
     result = optimize(problem)
-    with staged_folder(out, last=("result.json",)) as stage:  # result.json last: a set is complete
-        write_outputs(result, stage)
-        try:
-            workshop = write_workshop_files(result.evaluation, stage, args)
-        except ValueError as exc:
-            workshop = None
-            print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
-    if workshop is None:
+    try:
+        workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}))
+    except ValueError as exc:
+        print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
         return 1
-    d = result.to_dict()
-    mm = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS)" if r is not None else "")
-          for v, r in zip(d["metrics"]["rmse"], d["metrics"]["relative_rmse"])]
-    print(f"{result.status}: {result.message}")
-    print(f"  RMSE per joint [N·mm]: {', '.join(mm)}; iterations {d['solver']['iterations']}, "
-          f"build {d['solver']['build_time_s']:.3f} s, solve {d['solver']['solve_time_s']:.3f} s")
-    outs = [f"{1e3 * v:.3g}" for v in d["recheck"]["output_max_abs_error"] if v is not None]
-    if outs:
-        print(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)} (output.csv, output.png)")
-    path = robot_path(result.recheck)
-    if path is not None:
-        print(f"  cable robot: the end effector deviates from its path by {1e3 * path.error.mean():.3g} mm "
-              f"on average, {1e3 * path.error.max():.3g} mm at most (re-check grid)")
-    for v in d["violations"]:
-        print(f"  violated: {v}")
+    print(result.summary())
+    extra = " output.csv output.png" if any(m.output_target is not None for m in problem.mechanisms) else ""
     print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv profile.png"
-          f"{' torque.png springs.png' if problem.springs else ''}")
+          f"{' torque.png springs.png' if problem.springs else ''} convergence.png{extra}")
     print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png or cam*_groove.csv"
           f"{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
+
+
+#: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.views.outputs.WorkshopOptions`).
+WORKSHOP_FLAGS = ("bore_diameter", "anchor_diameter", "tolerance", "stl", "groove_depth", "groove_width",
+                  "groove_pitch")
+
+
+def cmd_check(args) -> int:
+    from .api import check_derivatives
+
+    problem = _problem(args)
+    design = _design(args, problem) if args.design else None
+    if not 1 <= args.points <= 20:
+        raise InputError(f"--points {args.points}: give 1 … 20 poses")
+    if not 0 < args.tol < 1:
+        raise InputError(f"--tol {args.tol}: give a relative error between 0 and 1")
+    report = check_derivatives(problem, design, points=args.points, tol=args.tol, nlp=not args.no_nlp)
+    print(json.dumps(report.to_dict(), indent=2) if args.json else repr(report))
+    return 0 if report.passed else 1
 
 
 def _check_output_dir(text: str, flag: str = "-o") -> None:
@@ -243,11 +269,20 @@ def _terminated(signum, frame):
 
 
 def main(argv=None) -> int:
-    parser = _Parser(prog="cadcam", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    from . import examples
+
+    parser = _Parser(prog="cadcam", description="Design wire-wrapped cams and noncircular pulleys with "
+                     "CasADi and IPOPT, re-check them, export them for a controller or a workshop.",
+                     epilog="Exit codes: 0 success; 1 a failed solve, re-check or derivative check, or the "
+                     "environment failed after work began; 2 bad input (one line on stderr); 130 interrupted. "
+                     "Run 'cadcam COMMAND --help' for a command's options.")
+    parser.add_argument("--version", action="version", version=f"cadcam {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def common(p):
-        p.add_argument("spec", help="problem spec (TOML) or a cadcam result.json")
+        p.add_argument("spec", nargs="?", help="problem spec (TOML) or a cadcam result.json")
+        p.add_argument("--example", metavar="NAME", help="use an example spec installed with cadcam instead "
+                       "of SPEC: " + ", ".join(examples.names()))
         p.add_argument("--torque-model", choices=TORQUE_MODELS,
                        help="override the spec's torque model (energy: ∂V/∂θ, the default; "
                             "force, force-as-printed: Johnston2023 Eq. 19–21 for wire cams)")
@@ -256,6 +291,9 @@ def main(argv=None) -> int:
         p.add_argument("--set", action="append", metavar="KEY=VALUE",
                        help="override a spec value by dotted key, e.g. springs.1.rate=1200.0 "
                             "or 'cams.*.sensitivity_weights=[0, 0]' (repeatable)")
+        p.add_argument("--ipopt", action="append", metavar="NAME=VALUE",
+                       help="an IPOPT option, e.g. mu_strategy=monotone or print_level=5 (repeatable; "
+                            "merged into the spec's [solver.ipopt])")
 
     p = sub.add_parser("design", help="optimise a cam system and re-check it")
     common(p)
@@ -277,6 +315,14 @@ def main(argv=None) -> int:
     common(p)
     p.add_argument("--design", required=True, help="design or result JSON")
     p.set_defaults(run=cmd_evaluate)
+    p = sub.add_parser("check", help="automatic derivatives against finite differences, as a table")
+    common(p)
+    p.add_argument("--design", help="design or result JSON to check at (default: cadcam's start design)")
+    p.add_argument("--points", type=int, default=3, help="random poses of the torque model (default 3)")
+    p.add_argument("--tol", type=float, default=1e-6, help="largest relative error accepted (default 1e-6)")
+    p.add_argument("--no-nlp", action="store_true", help="check only the torque model (do not build the NLP)")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
+    p.set_defaults(run=cmd_check)
     p = sub.add_parser("export", help="the model or the NLP as C, a shared library, .casadi")
     common(p)
     p.add_argument("--design", required=True, help="design or result JSON")

@@ -22,9 +22,13 @@ OBJECTIVES = ("least_squares", "minimax")
 
 #: Caps on every size a spec, study or flag controls, checked before any work. Raise one
 #: deliberately with the environment variable ``CADCAM_CAP_<NAME>`` (e.g. ``CADCAM_CAP_GRID=4000``).
+#: ``grid_points`` caps the design grid's tensor grid grid^joints, whose values are held in
+#: memory (the NLP's target marginals, torque.csv, the plots, result.json); ``recheck_points``
+#: caps the fine re-check's tensor grid, which is streamed in bounded memory
+#: (:mod:`cadcam.check.evaluate`) but whose time still grows with its size.
 CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multistart": 100,
-        "recheck_factor": 100, "max_iter": 100_000, "recheck_points": 20_000_000, "cases": 10_000,
-        "workers": 256}
+        "recheck_factor": 100, "max_iter": 100_000, "grid_points": 20_000_000,
+        "recheck_points": 1_000_000_000, "cases": 10_000, "workers": 256}
 
 
 def cap(name: str) -> int:
@@ -35,16 +39,22 @@ def cap(name: str) -> int:
 
 def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
     """(option name, one-line reason) for the first size of ``options`` beyond its cap, counting
-    the fine re-check's tensor grid ((grid − 1)·recheck_factor + 1)^n_joints; None if all fit."""
+    the design grid's tensor grid grid^n_joints (held in memory) and the fine re-check's
+    ((grid − 1)·recheck_factor + 1)^n_joints (streamed: a cap on time); None if all fit."""
     for name in ("grid", "quadrature_order", "convexity_points", "multistart", "recheck_factor", "max_iter"):
         value = getattr(options, name)
         if value > cap(name):
             return name, (f"{value} exceeds the cap {cap(name)} (raise it deliberately with the "
                           f"environment variable CADCAM_CAP_{name.upper()})")
+    points = options.grid ** n_joints
+    if points > cap("grid_points"):
+        return "grid", (f"the design grid would hold {points:.3g} points (grid^{n_joints}) in memory, "
+                        f"beyond the cap {cap('grid_points'):.3g}: lower grid, or raise the cap "
+                        "deliberately with CADCAM_CAP_GRID_POINTS")
     points = options.recheck_grid ** n_joints
     if points > cap("recheck_points"):
         return "grid", (f"the fine re-check would evaluate {points:.3g} points "
-                        f"(((grid − 1)·recheck_factor + 1)^{n_joints}), beyond the cap "
+                        f"(((grid − 1)·recheck_factor + 1)^{n_joints}, streamed), beyond the cap "
                         f"{cap('recheck_points'):.3g}: lower grid or recheck_factor, or raise the cap "
                         "deliberately with CADCAM_CAP_RECHECK_POINTS")
     return None

@@ -2,35 +2,171 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .citations import cited
-from .version import __version__
+from .check.binding import binding_constraints
+from .check.cable_robot import robot_path
 from .check.evaluate import Evaluation
+from .files import staged_folder
+from .version import __version__
+from .views.outputs import WorkshopOptions, write_outputs, write_workshop_files
+
+if TYPE_CHECKING:
+    from .designs import Design
+    from .nlp.transcription import Solve
+    from .problem import Problem
 
 
-@dataclass
+@dataclass(repr=False)
 class Result:
-    """What :func:`cadcam.optimize.optimize` returns; see :meth:`to_dict` for the JSON.
+    """What :func:`cadcam.design` (and :func:`cadcam.optimize.optimize`) returns; see
+    :meth:`to_dict` for the JSON.
 
     ``status`` is ``success`` for a converged optimum that passed the fine re-check, else one
     word (``infeasible``, ``max_iterations``, ``recheck_failed``, …); ``message`` says it in
-    words a person can act on.
+    words a person can act on. Like scipy's ``OptimizeResult`` it has ``success``, ``nit``,
+    ``fun`` and ``x`` (``status`` is a word here, not a number). Its repr is
+    :meth:`summary`.
+
+    Attributes
+    ----------
+    problem : Problem
+        The problem that was solved (fully resolved).
+    design : Design
+        The profiles' coefficients [m] and the springs' pre-extensions [m].
+    evaluation, recheck : Evaluation
+        The design on the design grid, and on the grid ``recheck_factor`` times finer by the
+        rootfinder and independent quadrature (what ``success`` is judged on).
+    solve : Solve
+        What IPOPT did for the kept start (``history``: its iterates).
+    build_time_s : float
+        Wall time to build the NLP [s].
     """
 
     status: str
     message: str
-    problem: object
-    design: object
+    problem: Problem
+    design: Design
     evaluation: Evaluation
     recheck: Evaluation
-    solve: object = None
+    solve: Solve | None = None
     build_time_s: float = float("nan")
 
     @property
     def success(self) -> bool:
+        """True only for a converged optimum that passed the fine re-check and met every
+        acceptance limit."""
         return self.status == "success"
+
+    @property
+    def nit(self) -> int:
+        """IPOPT iterations of the kept start (0 without an NLP)."""
+        return self.solve.iterations if self.solve is not None else 0
+
+    @property
+    def fun(self) -> float:
+        """The objective reached: Johnston2023 Eq. 46/47 on the design grid (SI units)."""
+        return self.solve.objective if self.solve is not None else float("nan")
+
+    @property
+    def x(self) -> np.ndarray:
+        """The design as one vector: every profile's coefficients in its basis [m], in
+        mechanism order, then one pre-extension per spring [m]."""
+        return np.concatenate([*self.design.coefficients, self.design.preextension])
+
+    @property
+    def history(self) -> dict:
+        """IPOPT's iterates of the kept start (see :func:`cadcam.nlp.transcription.iteration_history`)."""
+        return self.solve.history if self.solve is not None else {}
+
+    @property
+    def binding(self) -> list[str]:
+        """Constraints that bind on the fine re-check, one sentence each
+        (:func:`cadcam.check.binding.binding_constraints`)."""
+        return binding_constraints(self.recheck.metrics, self.problem)
+
+    def summary(self) -> str:
+        """A few lines: status and message, RMSE per joint, iterations and times, output and
+        path errors, violated and binding constraints."""
+        metrics, fine = self.evaluation.metrics, self.recheck.metrics
+        rmse = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS)" if r is not None else "")
+                for v, r in zip(metrics["rmse"], metrics["relative_rmse"])]
+        lines = [f"{self.status}: {self.message}",
+                 f"  {self.problem.name}: RMSE per joint [N·mm]: {', '.join(rmse) or 'none (no torque goal)'}; "
+                 f"iterations {self.nit}, build {self.build_time_s:.3f} s, "
+                 f"solve {self.solve.solve_time_s if self.solve is not None else float('nan'):.3f} s"]
+        outs = [f"{1e3 * v:.3g}" for v in fine["output_max_abs_error"] if v is not None]
+        if outs:
+            lines.append(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)}")
+        path = robot_path(self.recheck)
+        if path is not None:
+            lines.append(f"  cable robot: the end effector deviates from its path by {1e3 * path.error.mean():.3g} mm "
+                         f"on average, {1e3 * path.error.max():.3g} mm at most (re-check grid)")
+        lines += [f"  violated: {v}" for v in (self.recheck.violations if not self.success else [])]
+        lines += [f"  binding: {b}" for b in self.binding]
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return self.summary()
+
+    def plot(self, which: str | None = None):
+        """The figures of this design as matplotlib Figures (no backend is chosen: show them,
+        or save them with ``fig.savefig``).
+
+        Parameters
+        ----------
+        which : str, optional
+            One of ``profile``, ``torque``, ``springs`` (with springs), ``output`` (with an
+            output law) or ``convergence``; default all of them.
+
+        Returns
+        -------
+        dict of str to matplotlib.figure.Figure, or one Figure if ``which`` is given.
+        """
+        from .views.plots import figures
+        figs = figures(self.evaluation, self.history or None)
+        if which is None:
+            return figs
+        if which not in figs:
+            raise ValueError(f"which = {which!r}: this result has the figures {sorted(figs)}")
+        return figs[which]
+
+    def save(self, directory, workshop: WorkshopOptions | None = WorkshopOptions()) -> list[str]:
+        """Write what ``cadcam design`` writes into ``directory``, all or nothing
+        (``result.json`` last; see :func:`cadcam.files.staged_folder`).
+
+        Parameters
+        ----------
+        directory : str or Path
+        workshop : WorkshopOptions or None
+            Sizes of the workshop files [m]; None writes no workshop files.
+
+        Returns
+        -------
+        list of str
+            One line per workshop file set.
+
+        Raises
+        ------
+        ValueError
+            The workshop files cannot be made (a hole leaves too little material); every other
+            file is written.
+        """
+        notes, failure = [], None
+        with staged_folder(Path(directory), last=("result.json",)) as stage:
+            write_outputs(self, stage)
+            if workshop is not None:
+                try:
+                    notes = write_workshop_files(self.evaluation, stage, workshop)
+                except ValueError as exc:
+                    failure = exc
+        if failure is not None:
+            raise failure
+        return notes
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary (SI units throughout)."""
@@ -55,7 +191,7 @@ class Result:
                 "return_status": sol.return_status,
                 "iterations": sol.iterations, "solve_time_s": sol.solve_time_s,
                 "build_time_s": self.build_time_s, "objective": sol.objective,
-                "start": sol.start, "trials": sol.trials,
+                "start": sol.start, "trials": sol.trials, "history": sol.history,
                 "tangency_nlp_vs_rootfinder_max": float(max(
                     np.abs(sol.z[u] - unit.z).max() for u, unit in enumerate(ev.units))),
             }

@@ -61,7 +61,7 @@ class _Reader:
         self.origin, self.where = origin, where
         if not isinstance(table, dict):
             self.fail(where or "spec", table, "a table")
-        self.table, self.seen = table, set()
+        self.table, self.seen = table, set[str]()
 
     def fail(self, key, value, form):
         raise SpecError(f"{self.origin}: {key} = {short_repr(value)}: expected {form}")
@@ -526,7 +526,9 @@ def _spring(r: "_Reader", j: int, mechanisms) -> Spring:
         isinstance(x, str) and _PORT.match(x) for x in v),
         "a non-empty list of ports such as 'wire:1' or '-platform:2' (port:mechanism number)")
     for p in raw:
-        sign, port, number = _PORT.match(p).groups()
+        match = _PORT.match(p)
+        assert match is not None  # checked by r.get above
+        sign, port, number = match.groups()
         u = int(number) - 1
         if u >= len(mechanisms):
             r.fail(r.key("ports"), p, f"a mechanism number between 1 and {len(mechanisms)}")
@@ -608,7 +610,7 @@ def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
         last = i == len(parts) - 1
         if isinstance(node, list):
             if part == "*":
-                targets = range(len(node))
+                targets = list(range(len(node)))
             elif part.isdigit() and 1 <= int(part) <= len(node):
                 targets = [int(part) - 1]
             else:
@@ -654,17 +656,25 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
             data = loads_toml(text)
         except tomllib.TOMLDecodeError as exc:
             raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    return with_overrides(data, str(path), variant, overrides)
+
+
+def with_overrides(data: dict, origin: str, variant: str | None = None, overrides=()) -> dict:
+    """Spec ``data`` with the dotted-key overrides of its ``[variants.NAME]`` table ``variant``
+    and then ``overrides`` ((key, value) pairs) applied in place, without its variants."""
+    if not isinstance(data, dict):
+        raise SpecError(f"{origin}: a spec must be a table (a dict), not {type(data).__name__}")
     if variant is not None:
         variants = data.get("variants", {})
         if not isinstance(variants, dict) or not isinstance(variants.get(variant, {}), dict):
-            raise SpecError(f"{path}: variants.{variant}: expected a table of overrides")
+            raise SpecError(f"{origin}: variants.{variant}: expected a table of overrides")
         if variant not in variants:
-            raise SpecError(f"{path}: no variant {variant!r}; the spec defines "
+            raise SpecError(f"{origin}: no variant {variant!r}; the spec defines "
                             f"{sorted(variants) or 'none'}")
         for key, value in variants[variant].items():
-            apply_override(data, key, value, f"{path}: variants.{variant}")
+            apply_override(data, key, value, f"{origin}: variants.{variant}")
     for key, value in overrides:
-        apply_override(data, key, value, str(path))
+        apply_override(data, key, value, origin)
     data.pop("variants", None)
     return data
 

@@ -109,7 +109,7 @@ def diagnose(path, res) -> None:
         problem = s.problem(r["params"])
         sol = solve(Transcription(problem), problem, default_start(problem))
         nan = 0
-        for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+        for mech, sl in zip(problem.mechanisms, problem.profile_slices()):
             structure = (type(mech), tuple(sol.design.bases[sl]))
             theta = np.concatenate([[mech.reference_angle], problem.joints[mech.joint].grid(problem.options.grid)])
             c = np.concatenate([np.asarray(v, dtype=float) for v in sol.design.coefficients[sl]])

@@ -20,17 +20,21 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from numpy.polynomial import Polynomial
 
 from cadcam import load_spec, optimize
+from cadcam.check.binding import RTOL, limit_state
 from cadcam.synthesis.kim_deshpande import closed_form
 from cadcam.synthesis.ludovico_qcqp import solve_qcqp
-from reporting import figures, finish, provenance
+from reporting import figures, finish, limit_lines, provenance, provenance_info
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "out" / "ludovico2021"
 K, U0, L = 30e3, 0.015, 0.25        # Table I/III: N/m, m, m
 THETA = (np.pi / 6, 5 * np.pi / 6)  # rad
 LAMBDA = 0.5
+TRAVEL = 0.107                      # the elongation limit of Table V (the specs' spring travel) [m]
+EPS = 1e-6                          # solve_qcqp's margin ε on Eq. 11–12 and 35
 #: (key, Ludovico's τ_d [N·m] (the springs' torque on the link), d_off [N·m], published
 #: max errors: closed form, convex [N·m])
 CASES = [
@@ -62,11 +66,50 @@ def polygon_torque(form, tau):
     return float(np.max(np.abs(torque[inner] - tau(th[inner]))))
 
 
-def closed_form_rows(key, tau_d, d_off):
+def verdict(value, limit, scale, lower=False) -> str:
+    """"within", "AT the limit" or "BEYOND the limit" for ``value`` against an upper (or
+    ``lower``) ``limit``, with cadcam's binding tolerance RTOL relative to ``scale``."""
+    margin = (value - limit) if lower else (limit - value)
+    return {None: "within", "at": "AT the limit", "beyond": "**BEYOND the limit**"}[limit_state(margin, scale)]
+
+
+def closed_form_limits(key, p, form) -> list[str]:
+    """The closed-form pulley against the paper's own limits: the elongation of Table V, the
+    moment arm inside (0, L), convexity (no curvature zero) and regularity."""
+    u, r_m = form.state.u, form.state.r_m
+    zeros, nonregular = len(form.curvature_zeros), len(form.nonregular_points)
+    return [f"- {key}, closed form, pulley {p}: elongation up to {1e3 * u.max():.2f} mm of "
+            f"{1e3 * TRAVEL:.2f} mm ({verdict(u.max(), TRAVEL, TRAVEL)}); moment arm {1e3 * r_m.min():.2f}–"
+            f"{1e3 * r_m.max():.2f} mm in (0, {1e3 * L:.0f}) mm ({verdict(r_m.min(), 0.0, L, lower=True)}"
+            f"{', ' + verdict(r_m.max(), L, L) if r_m.max() > 0.5 * L else ''}); "
+            + ("**not convex** (curvature zeros: " + str(zeros) + ")" if zeros else "convex")
+            + ("; **non-regular points: " + str(nonregular) + "**" if nonregular else "; regular")]
+
+
+def qcqp_limits(key, p, r, theta0) -> list[str]:
+    """The QCQP's moment arm against its own constraints between its grid points (4001
+    angles): ε ≤ r_m ≤ L − ε (Eq. 11–12), r_m² + r_m′² ≤ L² (Eq. 15), r_m″ + r_m/4 ≥ ε
+    (Eq. 35), and the spring's elongation against Table V's."""
+    th = np.linspace(*THETA, 4001)
+    poly = Polynomial(r.beta)
+    arm, slope, curve = poly(th), poly.deriv(1)(th), poly.deriv(2)(th)
+    u = U0 + np.abs(poly.integ()(th) - poly.integ()(theta0))
+    reach = np.sqrt(arm**2 + slope**2).max()
+    regular = (curve + arm / 4).min()
+    return [f"- {key}, QCQP, pulley {p}: elongation up to {1e3 * u.max():.2f} mm of {1e3 * TRAVEL:.2f} mm "
+            f"({verdict(u.max(), TRAVEL, TRAVEL)}); moment arm {1e3 * arm.min():.2f}–{1e3 * arm.max():.2f} mm "
+            f"(Eq. 11–12: {verdict(arm.min(), 0.0, L, lower=True)}, {verdict(arm.max(), L, L)}); "
+            f"max √(r_m² + r_m′²) {1e3 * reach:.2f} mm of L = {1e3 * L:.0f} mm (Eq. 15: {verdict(reach, L, L)}); "
+            f"min r_m″ + r_m/4 = {1e3 * regular:.3g} mm/rad² (Eq. 35, > 0: "
+            f"{verdict(regular, 0.0, arm.max() / 4, lower=True)})"]
+
+
+def closed_form_rows(key, tau_d, d_off, checks):
     rows = []
     theta = np.linspace(*THETA, 4001)
     for p, (tau, theta0) in enumerate(shares(tau_d, d_off), start=1):
         form = closed_form(tau, theta, theta0, K, U0, L)
+        checks += closed_form_limits(key, p, form)
         cz = ", ".join(f"{t:.3f} rad" + (f" (π − θ = {np.pi - t:.3f})" if p == 1 else "")
                        for t in form.curvature_zeros) or "none"
         nr = ", ".join(f"{t:.3f} rad" for t in form.nonregular_points) or "none"
@@ -76,11 +119,12 @@ def closed_form_rows(key, tau_d, d_off):
     return rows
 
 
-def qcqp_rows(key, tau_d, d_off):
+def qcqp_rows(key, tau_d, d_off, checks):
     rows = []
-    results = [solve_qcqp(tau, *THETA, theta0, K, U0, L, order=5, n=250)
-               for tau, theta0 in shares(tau_d, d_off)]
-    for p, r in enumerate(results, start=1):
+    split = shares(tau_d, d_off)
+    results = [solve_qcqp(tau, *THETA, theta0, K, U0, L, order=5, n=250, eps=EPS) for tau, theta0 in split]
+    for p, (r, (_, theta0)) in enumerate(zip(results, split), start=1):
+        checks += qcqp_limits(key, p, r, theta0)
         rows.append(f"| {key} | pulley {p} | {r.status} ({r.solver}) | "
                     f"{np.abs(r.error_paper).max():.2f} | {np.abs(r.torque - (r.v * r.r_m - r.error_paper)).max():.2f} |")
     theta = results[0].theta
@@ -91,8 +135,10 @@ def qcqp_rows(key, tau_d, d_off):
 
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
+    info = provenance_info()
     lines = ["# Reproduction of Ludovico et al. 2021 (Ludovico2021)", "",
-             f"Generated by `make reproduce-ludovico2021` (`studies/ludovico2021.py`) with {provenance()}.",
+             f"Generated by `make reproduce-ludovico2021` (`studies/ludovico2021.py`) with {provenance(info)} "
+             "(provenance at the end).",
              "Every number below comes from this run. Springs k = 30 kN/m, u0 = 15 mm, L = 0.25 m, "
              "θ ∈ [π/6, 5π/6] (Tables I, III); split λ = 0.5 with the paper's d_off.", ""]
     summary = []
@@ -105,9 +151,10 @@ def main() -> None:
               "|---|---|---|---|---|---|---|---|"]
     qrows = ["| case | pulley | status (solver) | max paper error [N·m] | true − paper torque, max [N·m] |",
              "|---|---|---|---|---|"]
+    checks = []
     for key, tau_d, d_off, published in CASES:
-        lines += closed_form_rows(key, tau_d, d_off)
-        rows, net_paper, net_true = qcqp_rows(key, tau_d, d_off)
+        lines += closed_form_rows(key, tau_d, d_off, checks)
+        rows, net_paper, net_true = qcqp_rows(key, tau_d, d_off, checks)
         qrows += rows
         summary.append((key, published, net_paper, net_true))
     lines += ["", "Published: the pendulum's closed form is feasible, moment arm about 45 mm, "
@@ -117,10 +164,16 @@ def main() -> None:
               "Order 5, 250 angles, Eq. 17 with L² (REFERENCE correction). The paper measures the "
               "error as diag(v)Hβ − τ (Eq. 9), with v the force the *target* would need; the torque the "
               "springs really give is k·u·r_m with u = u0 + ∫r_m.", ""] + qrows + [""]
+    lines += ["### The paper's designs against their own limits", "",
+              f"Elongation against Table V's {1e3 * TRAVEL:.0f} mm (the specs' spring travel), the moment "
+              "arm against (0, L), and the closed form's convexity and regularity; the QCQP's "
+              "constraints (Eq. 11–12, 15, 35; solved with a margin ε = 1e-6, checked against 0) re-checked between its 250 grid points "
+              f"on 4001 angles. \"AT the limit\": within {100 * RTOL:g} % of it (of r_m/4 for Eq. 35).", ""] + checks + [""]
 
     lines += ["## 3. cadcam (models/ludovico2021_*.toml)", "",
               "| case | published max error: closed form / convex [N·m] | QCQP net, paper's measure / true [N·m] | cadcam status | cadcam max error [N·m] (fine re-check) | RMSE [N·m] | min radius of curvature [mm] | min moment arm [mm] | elongation [mm] | iterations, solve [s] |",
               "|---|---|---|---|---|---|---|---|---|---|"]
+    optimum_checks = []
     for key, published, net_paper, net_true in summary:
         problem = load_spec(ROOT / "models" / f"ludovico2021_{key}.toml")
         result = optimize(problem)
@@ -135,9 +188,11 @@ def main() -> None:
                      f"{', '.join(f'{1e3 * lo:.1f}–{1e3 * hi:.1f}' for lo, hi in zip(m['extension_min'], m['extension_max']))} | "
                      f"{result.solve.iterations}, {result.solve.solve_time_s:.1f} |")
         figures(result.evaluation, OUT, key, ("pulleys", "torque", "springs"))  # NLP-seeded
+        optimum_checks += limit_lines(f"cadcam, {key}, fine re-check", result.recheck)
     lines += ["", "Goals (issue): at degree 5, pendulum ≤ 1e-3 N·m, generic ≤ 5e-3 N·m. Figures: "
-              "`*_pulleys.png` (pulleys and cables at four angles), `*_torque.png`, `*_springs.png`.", ""]
-    finish(lines, OUT)
+              "`*_pulleys.png` (pulleys and cables at three angles), `*_torque.png`, `*_springs.png`.", "",
+              "cadcam's designs against their limits:", ""] + optimum_checks + [""]
+    finish(lines, OUT, info)
 
 
 if __name__ == "__main__":

@@ -150,3 +150,87 @@ def test_problem_export_compiles_and_matches_the_solver(tmp_path):
     # the start is the design's feasible tangency: equality rows hold there
     eq = lbg == ubg
     assert np.abs(g[eq] - lbg[eq]).max() < 1e-9
+
+
+def test_model_manifest_labels_every_input_and_output(rr, exported):
+    problem, _ = rr
+    _, manifest = exported
+    torque, jac = manifest["functions"]
+    units = {e["name"]: e["unit"] for e in torque["inputs"] + torque["outputs"]}
+    assert units == {"theta": "rad", "c": "m", "k": "N/m", "x0": "m", "F0": "N", "tau": "N·m",
+                     "x": "m", "z": "SI (see z_layout)"}
+    assert all(e["description"] for f in (torque, jac) for e in f["inputs"] + f["outputs"])
+    jac_units = {e["name"]: e["unit"] for e in jac["outputs"]}
+    assert jac_units["dtau_dk"] == "N·m/(N/m)" and jac_units["dx_dtheta"] == "m/rad"
+    z_rows = dict((e["name"], e["shape"][0]) for e in torque["outputs"])["z"]
+    assert len(manifest["z_layout"]) == z_rows == sum(len(m.unknowns) for m in problem.mechanisms)
+    # the README states the signature the manifest describes
+    signature = (f"cadcam_torque({', '.join(e['name'] for e in torque['inputs'])}) -> "
+                 f"({', '.join(e['name'] for e in torque['outputs'])})")
+    assert signature in (ROOT / "README.md").read_text()
+
+
+def _check_layout(layout, size):
+    """Blocks in offset order, without gaps or overlaps, covering the vector, each described."""
+    offset = 0
+    for block in layout:
+        assert block["offset"] == offset, block
+        assert block["size"] > 0 and block["unit"] and block["description"], block
+        assert block["role"] != "unlabelled", f"{block['name']}: give it a label in views/export.py"
+        offset += block["size"]
+    assert offset == size
+
+
+def test_problem_manifest_labels_the_decision_vector_block_by_block(rr, tmp_path):
+    """The NLP's x is profile coefficients, departure unknowns, pre-extensions and auxiliary
+    variables (it was labelled "spring extensions, m"); each block's stated unit turns the
+    exported start back into the design's SI numbers."""
+    from cadcam.optimize import default_start
+
+    problem = rr[0].with_options(grid=6, convexity_points=10)
+    design = default_start(problem)
+    manifest = export(problem, design, "problem", ["casadi"], tmp_path)
+    data = json.loads((tmp_path / "problem_data.json").read_text())
+    for f in manifest["functions"]:
+        for e in f["inputs"] + f["outputs"]:
+            assert e.get("unit") and e.get("description"), (f["name"], e["name"])
+            if e["name"] == "x":
+                assert "spring extension" not in e["description"] and "x_layout" in e["unit"]
+    x_layout, p_layout = manifest["x_layout"], manifest["p_layout"]
+    _check_layout(x_layout, len(data["x0"]))
+    _check_layout(p_layout, len(data["p"]))
+    assert [b["name"] for b in x_layout] == list(data["variables"])  # the transcription's order
+    blocks = {b["name"]: b for b in x_layout}
+    x0 = np.array(data["x0"])
+    to_si = {"mm": 1e-3, "rad": 1.0}
+
+    def part(name):
+        b = blocks[name]
+        return x0[b["offset"]:b["offset"] + b["size"]] * to_si[b["unit"]]
+
+    for k, c in enumerate(design.coefficients):
+        assert blocks[f"c{k}"]["role"] == "design"
+        np.testing.assert_allclose(part(f"c{k}"), c, rtol=1e-15)
+    assert blocks["x0"]["role"] == "design"
+    np.testing.assert_allclose(part("x0"), design.preextension, rtol=1e-15)
+    assert {b["role"] for b in x_layout} == {"design", "departure", "auxiliary"}
+    alpha = part("z0_alpha")  # the wire's departure angles on cam 1: radians, within a turn
+    assert blocks["z0_alpha"]["role"] == "departure" and np.all(np.abs(alpha) < 2 * np.pi)
+    p = np.array(data["p"])
+    pb = {b["name"]: b for b in p_layout}
+    k = pb["k"]
+    assert k["unit"] == "N/m"
+    np.testing.assert_array_equal(p[k["offset"]:k["offset"] + k["size"]], [s.rate for s in problem.springs])
+
+
+@pytest.mark.parametrize("spec", ["johnston2023_rr_arm", "ludovico2021_pendulum", "fedorov2018_balancer"])
+def test_every_block_of_the_transcription_has_a_label(spec):
+    """Coupled springs (RR arm), minimax epigraphs and curvature limits (Ludovico2021), a
+    differential pair's closure and output law (Fedorov2018): no block goes undescribed."""
+    from cadcam.nlp.transcription import Transcription
+    from cadcam.views.export import _layout, _p_labels, _x_labels
+
+    problem = load_spec(ROOT / "models" / f"{spec}.toml").with_options(grid=6, convexity_points=10)
+    tr = Transcription(problem)
+    _check_layout(_layout(tr.v.blocks, _x_labels(problem), problem), tr.v.size)
+    _check_layout(_layout(tr.p.blocks, _p_labels(problem), problem), tr.p.size)

@@ -69,7 +69,8 @@ def test_spring_state_balances_energy_against_adaptive_quadrature(theta0, F0):
 def test_a_constant_moment_arm_gives_a_circle(theta0, F0):
     r, side = 0.04, (1 if theta0 == THETA_I else -1)
     # F·r with u = u0 + r|θ − θ0|, continued linearly past θ0 for the differences of τ
-    tau = lambda t: (K * (U0 + side * r * (t - theta0)) + F0) * r
+    def tau(t):
+        return (K * (U0 + side * r * (t - theta0)) + F0) * r
     cf = closed_form(tau, THETA, theta0, K, U0, L, F0=F0, chi0=0.3)
     env, sigma = cf.envelope, cf.state.sigma
     np.testing.assert_allclose(cf.state.r_m, r, rtol=1e-12)

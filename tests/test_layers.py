@@ -7,10 +7,10 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "cadcam"
 #: Layer of each top-level module or folder of the package, lowest first.
-RANK = {"files": 0, "version": 0, "citations": 0, "physics": 1, "mechanisms": 2, "targets": 2,
+RANK = {"files": 0, "version": 0, "citations": 0, "examples": 0, "physics": 1, "mechanisms": 2, "targets": 2,
         "synthesis": 3,
         "problem": 3, "designs": 4, "spec": 4, "nlp": 5, "check": 5, "views": 6, "result": 7,
-        "optimize": 8, "studies": 9, "api": 10, "cli": 10, "__init__": 11, "__main__": 11}
+        "optimize": 8, "studies": 9, "api": 10, "cli": 11, "__init__": 12, "__main__": 12}
 
 
 def _layer(parts: tuple[str, ...]) -> str:

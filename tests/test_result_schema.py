@@ -4,11 +4,14 @@ not, and its closed sets agree with the code."""
 import copy
 import json
 import math
+import tomllib
 from importlib.resources import files
+from pathlib import Path
 
 import pytest
 from jsonschema import Draft202012Validator
 
+import cadcam
 from cadcam.cli import main
 from cadcam.mechanisms.base import TORQUE_MODELS
 from cadcam.nlp.transcription import IPOPT_STATUS
@@ -42,7 +45,12 @@ def _errors(validator, instance):
 
 
 def test_schema_ships_inside_the_package():
+    """The file validated against here is the package's own, declared as package data;
+    tests/test_packaging.py checks that a built wheel carries it byte for byte."""
     assert SCHEMA_FILE.is_file()
+    assert Path(str(SCHEMA_FILE)).resolve() == (Path(cadcam.__file__).parent / "result.schema.json").resolve()
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    assert "result.schema.json" in pyproject["tool"]["setuptools"]["package-data"]["cadcam"]
 
 
 def test_schema_is_a_valid_draft_2020_12_schema(schema):

@@ -40,14 +40,14 @@ def test_arm_target_is_eq49_and_minus_the_potential_gradient(rr_problem):
 
 def test_three_link_arm_torques_match_the_potential_gradient():
     rng = np.random.default_rng(3)
-    m, l, lc, g = [1.0, 0.7, 0.3], [0.4, 0.35, 0.2], [0.2, 0.15, 0.1], 9.81
+    m, lengths, lc, g = [1.0, 0.7, 0.3], [0.4, 0.35, 0.2], [0.2, 0.15, 0.1], 9.81
     q = ca.SX.sym("q", 3)
-    tau = ca.Function("tau", [q], [ca.vertcat(*serial_arm_torques([q[i] for i in range(3)], m, l, lc, g))])
+    tau = ca.Function("tau", [q], [ca.vertcat(*serial_arm_torques([q[i] for i in range(3)], m, lengths, lc, g))])
     phi = ca.cumsum(q)
     y, base = 0, 0
     for i in range(3):
         y += m[i] * g * (base + lc[i] * ca.cos(phi[i]))
-        base += l[i] * ca.cos(phi[i])
+        base += lengths[i] * ca.cos(phi[i])
     dV = ca.Function("dV", [q], [ca.gradient(y, q)])
     for t in rng.uniform(-2, 2, (5, 3)):
         np.testing.assert_allclose(np.asarray(tau(t)).ravel(), -np.asarray(dV(t)).ravel(), atol=1e-12)

@@ -5,11 +5,27 @@ It shares the symbolic model with the NLP but not the NLP's solution: the depart
 come from a Newton rootfinder, the wrapped lengths from a Gauss–Legendre rule of high order
 (and, under Johnston2023's force models, the wire torque from the quadrature of its Eq. 35),
 and convexity and ρ are sampled densely over each profile's wrapped range and minimised.
+
+Several joints: the grid is the tensor grid of every joint's n angles, n^m points (451³ ≈
+9·10⁷ for three joints at the default fine grid), and it is never stored. Every mechanism sits
+on one joint, so its departure, wrap and moment arms are solved at its own joint's n angles
+only; spring j's extension is x_j = x₀_j + Σ_c e_jc(θ_c) and joint i's torque
+τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (:class:`TensorGrid`). From these one-angle shares the
+metrics follow exactly: a spring's extremes are sums of its shares' extremes, ∫|∂τ_i/∂k_j|
+needs spring j's joints only, and the sums and the maximum of (τ_i − τ_d,i)² are taken over the
+joints the error depends on, streamed in blocks of :data:`BLOCK_POINTS` points. A target may
+depend on every angle (an arm's gravity torques): it is replayed from its CasADi graph by
+numpy broadcasting (:class:`TensorFunction`), which keeps it a sum of products of arrays over
+fewer joints where it can, so the stream costs a few array operations per point. The
+numbers equal a point-by-point evaluation of the tensor grid to rounding (tested).
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
+from functools import cached_property
 
+import casadi as ca
 import numpy as np
 from scipy.optimize import minimize_scalar
 
@@ -19,7 +35,7 @@ from ..mechanisms.base import (departure_solver, margin_function, port_function,
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import length_function
-from ..problem import Problem
+from ..problem import Problem, cap
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
 LENGTH_TOL = 1e-6
@@ -27,6 +43,12 @@ RESIDUAL_TOL = 1e-9
 BRANCH_TOL = 1e-6
 #: Gauss–Legendre order of the evaluation path (the NLP uses problem.options.quadrature_order).
 EVAL_QUADRATURE_ORDER = 48
+#: Points of one block of the tensor grid: a metric that needs every point of the grid streams
+#: it in blocks of at most this many (each array of a block is then at most 2 MB).
+BLOCK_POINTS = 1 << 18
+#: Largest factor [points] kept of a target or torque over the whole grid of a block's joints
+#: (32 MB), from which every block is cut; beyond it, each block is evaluated on its own.
+FACTOR_POINTS = 1 << 22
 
 
 @dataclass
@@ -66,14 +88,432 @@ class ProfileSamples:
     curvature_radius_min: float  # smallest radius of curvature over the scan [m]
 
 
+class TensorFunction:
+    """A scalar CasADi function of all joint angles, ``f(theta[m])``, evaluated on a block of
+    the tensor grid by numpy broadcasting (a target τ_d [N·m]).
+
+    The function's SX instructions are replayed on arrays that each span only the joints they
+    depend on, so a term of one angle costs n operations, not n^m. Sums and products of such
+    arrays are kept as sums of products (:class:`Terms`) until a nonlinear operation needs
+    their values, and a sine or cosine of a sum over different joints (the arm's
+    sin(θ₁ + θ₂ + θ₃)) is expanded by the angle-addition formulas,
+    sin(a + b) = sin a cos b + cos a sin b: on the block, a target then costs a few products
+    and sums per point instead of a transcendental function; the values equal the pointwise
+    ones to rounding. A function with an instruction numpy cannot replay (a ``table``
+    target's interpolant) is evaluated point by point by CasADi, on the joints it depends on
+    only (:attr:`support`).
+    """
+
+    _UNARY = {ca.OP_ASSIGN: lambda a: a, ca.OP_SQ: np.square, ca.OP_INV: np.reciprocal,
+              ca.OP_SQRT: np.sqrt, ca.OP_EXP: np.exp, ca.OP_LOG: np.log, ca.OP_SIN: np.sin,
+              ca.OP_COS: np.cos, ca.OP_TAN: np.tan, ca.OP_ASIN: np.arcsin, ca.OP_ACOS: np.arccos,
+              ca.OP_ATAN: np.arctan, ca.OP_SINH: np.sinh, ca.OP_COSH: np.cosh,
+              ca.OP_TANH: np.tanh, ca.OP_ASINH: np.arcsinh, ca.OP_ACOSH: np.arccosh,
+              ca.OP_ATANH: np.arctanh, ca.OP_FABS: np.abs, ca.OP_SIGN: np.sign,
+              ca.OP_FLOOR: np.floor, ca.OP_CEIL: np.ceil}
+    _BINARY = {ca.OP_DIV: np.divide, ca.OP_POW: np.power, ca.OP_CONSTPOW: np.power,
+               ca.OP_ATAN2: np.arctan2, ca.OP_FMIN: np.fmin, ca.OP_FMAX: np.fmax,
+               ca.OP_FMOD: np.fmod, ca.OP_COPYSIGN: np.copysign, ca.OP_HYPOT: np.hypot}
+    _LINEAR = {ca.OP_ADD: lambda a, b: a + b, ca.OP_SUB: lambda a, b: a - b,
+               ca.OP_MUL: lambda a, b: a * b, ca.OP_NEG: lambda a: -a,
+               ca.OP_TWICE: lambda a: a * 2.0}
+
+    def __init__(self, fn: ca.Function):
+        self.fn = fn
+        #: The joints the function depends on.
+        self.support = tuple(int(c) for c in
+                             np.flatnonzero(fn.which_depends("i0", [fn.name_out(0)], 1, False)))
+        ops = [fn.instruction_id(k) for k in range(fn.n_instructions())]
+        known = set(self._UNARY) | set(self._BINARY) | set(self._LINEAR) | {ca.OP_CONST, ca.OP_INPUT,
+                                                                             ca.OP_OUTPUT}
+        self.replayable = all(op in known for op in ops)
+        self._program = [(op, fn.instruction_input(k), fn.instruction_output(k),
+                          fn.instruction_constant(k) if op == ca.OP_CONST else None)
+                         for k, op in enumerate(ops)]
+
+    def __call__(self, thetas: list, limit: int | None = None) -> "Terms":
+        """The values at the angles ``thetas`` (one array per joint [rad], all broadcastable
+        against each other), as :class:`Terms` (``.value()`` gives the array). With ``limit``,
+        :class:`TooLarge` is raised rather than evaluating an array of more points."""
+        if not self.replayable:
+            if limit is not None and _size(*(thetas[c] for c in self.support)) > limit:
+                raise TooLarge
+            return Terms.of(self._pointwise(thetas), limit)
+        work, out = {}, None
+        for op, ins, outs, const in self._program:
+            if op == ca.OP_CONST:
+                work[outs[0]] = Terms.of(const, limit)
+            elif op == ca.OP_INPUT:
+                work[outs[0]] = Terms.of(thetas[ins[1]], limit)
+            elif op == ca.OP_OUTPUT:
+                out = work[ins[0]].compact()
+            elif op in self._LINEAR:
+                args = ins[:1] if op in (ca.OP_NEG, ca.OP_TWICE) else ins[:2]
+                work[outs[0]] = self._LINEAR[op](*(work[r] for r in args))
+            elif op in (ca.OP_SIN, ca.OP_COS):
+                work[outs[0]] = work[ins[0]].trig(op == ca.OP_SIN)
+            elif op in self._UNARY:
+                work[outs[0]] = Terms.of(self._UNARY[op](work[ins[0]].value()), limit)
+            else:
+                work[outs[0]] = Terms.of(self._BINARY[op](work[ins[0]].value(), work[ins[1]].value()),
+                                         limit)
+        return out
+
+    def _pointwise(self, thetas: list) -> np.ndarray:
+        """CasADi's own evaluation at every point of the broadcast of the supporting angles."""
+        shape = np.broadcast_shapes(*[np.shape(thetas[c]) for c in self.support])
+        points = np.vstack([np.broadcast_to(np.asarray(t if c in self.support else np.ravel(t)[0],
+                                                       dtype=float), shape).ravel()
+                            for c, t in enumerate(thetas)])
+        return np.asarray(self.fn.map(points.shape[1])(points)).reshape(shape)
+
+
+def _size(*arrays) -> int:
+    """Points of the broadcast of ``arrays``."""
+    return int(np.prod(np.broadcast_shapes(*[np.shape(a) for a in arrays])))
+
+
+class TooLarge(Exception):
+    """A :class:`Terms` would evaluate an array beyond its limit."""
+
+
+class Terms:
+    """Σ_k Π_f a_kf: a sum of products of arrays that each span some of the joints (broadcastable
+    against each other), kept unevaluated while its value would be larger than its factors.
+
+    A term's factors are merged where one spans the other's joints (that costs no more than
+    the larger); a sum whose value is no larger than its largest factor is evaluated at once.
+    ``limit``: :meth:`value` raises :class:`TooLarge` rather than make an array of more
+    points (None: no limit).
+    """
+
+    MAX_TERMS = 16  # a product of longer sums is evaluated
+
+    def __init__(self, terms: list[tuple], limit: int | None = None):
+        self.terms, self.limit = terms, limit
+
+    @classmethod
+    def of(cls, value, limit: int | None = None) -> "Terms":
+        """One array or number."""
+        return cls([(value,)], limit)
+
+    def _new(self, terms: list[tuple]) -> "Terms":
+        """Other terms under the same limit."""
+        return Terms(terms, self.limit)
+
+    def size(self) -> int:
+        """Points of the value."""
+        return _size(*(f for t in self.terms for f in t))
+
+    def value(self):
+        """The array (or number) the terms sum to, small terms first."""
+        if self.limit is not None and (len(self.terms) > 1 or len(self.terms[0]) > 1) \
+                and self.size() > self.limit:
+            raise TooLarge
+        products = sorted((_product(t) for t in self.terms), key=np.size)
+        out = products[0]
+        for k, p in enumerate(products[1:]):
+            if k and np.shape(out) == np.broadcast_shapes(np.shape(out), np.shape(p)):
+                out += p  # a sum made here: safe to add into
+            else:
+                out = out + p
+        return out
+
+    def on(self, block: "Block") -> "Terms":
+        """The terms on a block of the grid they span (their axes are the block's)."""
+        return Terms([tuple(block.cut(f) for f in t) for t in self.terms])
+
+    def compact(self) -> "Terms":
+        """The same sum with the terms smaller than the whole added into one array (unless
+        that is beyond the limit)."""
+        whole = self.size()
+        small = self._new([t for t in self.terms if _size(*t) < whole])
+        if len(small.terms) < 2 or (self.limit is not None and small.size() > self.limit):
+            return self
+        return self._new([(small.value(),)] + [t for t in self.terms if _size(*t) == whole])
+
+    def _settle(self) -> "Terms":
+        """Evaluated at once if the value is no larger than the largest factor."""
+        big = max(np.size(f) for t in self.terms for f in t)
+        if len(self.terms) > 1 and self.size() <= big:
+            return self._new([(self.value(),)])
+        return self
+
+    def __add__(self, other: "Terms") -> "Terms":
+        return self._new(self.terms + other.terms)._settle()
+
+    def __neg__(self) -> "Terms":
+        return self._new([_scaled(t, -1.0) for t in self.terms])
+
+    def __sub__(self, other: "Terms") -> "Terms":
+        return self + (-other)
+
+    def __mul__(self, other) -> "Terms":
+        if not isinstance(other, Terms):
+            return self._new([_scaled(t, other) for t in self.terms])
+        if len(self.terms) * len(other.terms) > self.MAX_TERMS:
+            return self._new([(self.value() * other.value(),)])
+        return self._new([_merged(p + q) for p in self.terms for q in other.terms])._settle()
+
+    def trig(self, sine: bool) -> "Terms":
+        """sin or cos of the sum. Where it spans joints that no single term spans all of, it is
+        split into b, the terms on the last of its joints, and a, the others, and expanded:
+        sin(a + b) = sin a cos b + cos a sin b, cos(a + b) = cos a cos b − sin a sin b."""
+        spans = [np.broadcast_shapes(*map(np.shape, t)) for t in self.terms]
+        full = np.broadcast_shapes(*spans)
+        wide = [k for k, n in enumerate(full) if n > 1]
+        on_last = [k for k, s in enumerate(spans) if wide and len(s) == len(full) and s[wide[-1]] > 1]
+        a = self._new([t for k, t in enumerate(self.terms) if k not in on_last])
+        b = self._new([self.terms[k] for k in on_last])
+        if not a.terms or not b.terms or max(a.size(), b.size()) >= np.prod(full):
+            v = self.value()
+            return self._new([(np.sin(v) if sine else np.cos(v),)])
+        va, vb = a.value(), b.value()
+        sin_a, cos_a, sin_b, cos_b = np.sin(va), np.cos(va), np.sin(vb), np.cos(vb)
+        if sine:
+            return self._new([(sin_a, cos_b), (cos_a, sin_b)])
+        return self._new([(cos_a, cos_b), (-sin_a, sin_b)])
+
+
+def _product(term: tuple):
+    """The product of a term's factors."""
+    out = term[0]
+    for f in term[1:]:
+        out = out * f
+    return out
+
+
+def _scaled(term: tuple, factor) -> tuple:
+    """The term times a number."""
+    return _merged(term + (factor,))
+
+
+def _merged(term: tuple) -> tuple:
+    """The term's factors, each multiplied into the smallest larger one that spans its joints
+    (a number into the smallest factor)."""
+    out = []
+    for f in sorted(term, key=np.size, reverse=True):
+        fits = [k for k, g in enumerate(out) if _size(g, f) == np.size(g)]
+        if fits:
+            k = min(fits, key=lambda k: np.size(out[k]))
+            out[k] = out[k] * f
+        else:
+            out.append(f)
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Block:
+    """A sub-grid of the tensor grid of joint angles: joint ``axes[k]`` takes the grid indices
+    ``index[k]``; the arrays on it have one dimension per axis, in that order."""
+
+    axes: tuple[int, ...]
+    index: tuple[np.ndarray, ...]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(i) for i in self.index)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape))
+
+    @cached_property
+    def _slices(self) -> tuple:
+        """``index`` with runs of consecutive indices as slices (views, not copies)."""
+        return tuple(slice(ix[0], ix[-1] + 1) if np.all(np.diff(ix) == 1) else ix for ix in self.index)
+
+    def cut(self, values):
+        """This block of an array over the whole grid of its axes (or a number), which may
+        have size 1 along some of them."""
+        if not np.ndim(values):
+            return values
+        return values[tuple(ix if k > 1 else slice(None) for ix, k in zip(self._slices, np.shape(values)))]
+
+    def view(self, values: np.ndarray, joint: int) -> np.ndarray:
+        """Per-angle ``values`` of ``joint`` on this block, broadcastable along its axes."""
+        k = self.axes.index(joint)
+        shape = [1] * len(self.axes)
+        shape[k] = len(self.index[k])
+        return np.asarray(values)[self._slices[k]].reshape(shape)
+
+    def weights(self, weights: list[np.ndarray]) -> list[np.ndarray]:
+        """The block's part of per-joint quadrature ``weights`` (one vector per joint)."""
+        return [weights[c][ix] for c, ix in zip(self.axes, self._slices)]
+
+
+def blocks(axes: tuple[int, ...], n: int, limit: int | None = None):
+    """The blocks of at most ``limit`` points (default :data:`BLOCK_POINTS`) that tile the
+    tensor grid of the joints ``axes`` with ``n`` angles each: whole trailing axes, slabs of
+    one axis, single indices of the leading ones."""
+    limit = limit or BLOCK_POINTS
+    sizes = [n] * len(axes)
+    k, rest = 0, int(np.prod(sizes))
+    while k < len(sizes) and rest > limit:
+        rest //= sizes[k]
+        k += 1
+    whole = [np.arange(s) for s in sizes[k:]]
+    if k == 0:
+        yield Block(axes, tuple(whole))
+        return
+    step = max(limit // rest, 1)
+    for lead in itertools.product(*(range(s) for s in sizes[:k - 1])):
+        for start in range(0, sizes[k - 1], step):
+            yield Block(axes, tuple([np.array([i]) for i in lead]
+                                    + [np.arange(start, min(start + step, sizes[k - 1]))] + whole))
+
+
+class TensorGrid:
+    """A design's joint torques, targets and spring extensions on the tensor grid of all
+    joints' angles, held as one-angle samples: nothing of size n^m is stored, only (cached)
+    the factors of each target and torque over the joints it depends on, each of at most
+    :data:`FACTOR_POINTS` points, from which any block is cut.
+
+    Every port depends on its own joint's angle, so spring j's extension is
+    x_j = x₀_j + Σ_c e_jc(θ_c) and joint i's torque τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c)
+    (Johnston2023 Eq. 14, 16, 17, 36; :meth:`cadcam.physics.springs.Network.torque_terms`),
+    with ∂τ_i/∂k_j = x_j a_ij(θ_i) (Eq. 43). Angles [rad], lengths [m], torques [N·m].
+
+    Parameters
+    ----------
+    problem : Problem
+    x0 : array
+        Pre-extensions [m].
+    axes : list of array
+        Each joint's grid angles [rad].
+    units : list of UnitSamples
+        Each mechanism's port displacements and arms on its joint's grid.
+    """
+
+    def __init__(self, problem: Problem, x0: np.ndarray, axes: list[np.ndarray], units: list):
+        m = len(problem.joints)
+        self.problem, self.axes, self.x0, self.m = problem, axes, np.asarray(x0, dtype=float), m
+        self.n = axes[0].size
+        self.network = net = problem.network()
+        d, arm = [[] for _ in range(m)], [[] for _ in range(m)]
+        for mech, unit in zip(problem.mechanisms, units):  # global port order within a joint
+            d[mech.joint] += list(unit.d)
+            arm[mech.joint] += list(unit.arm)
+        k = np.array([s.rate for s in problem.springs])
+        F0 = np.array([s.preload for s in problem.springs])
+        #: (j, c) → e_jc, joint c's share of spring j's extension [m] on joint c's grid.
+        self.shares = net.shares(d)
+        #: Per joint (U_i [N·m], {(j, c): V_ij [N/m·m]}) on its own grid.
+        self.terms = [net.torque_terms(i, k, F0, self.x0, arm[i], self.shares) for i in range(m)]
+        #: (i, j) → a_ij [m], the arm of spring j's force on joint i, for the springs on joint i.
+        self.arms = {(i, j): np.asarray(net.term(j, i, arm[i]), dtype=float)
+                     for j in range(net.S) for i in net.joints_of(j)}
+        self.targets = [TensorFunction(joint.target.function(m, i))
+                        for i, joint in enumerate(problem.joints)]
+        self._whole: dict = {}
+
+    @property
+    def points(self) -> int:
+        """Points of the tensor grid, n^m."""
+        return self.n**self.m
+
+    def torque_joints(self, i: int) -> tuple[int, ...]:
+        """The joints joint i's torque depends on: its own and those its springs also join."""
+        return tuple(sorted({i} | {c for _, c in self.terms[i][1]}))
+
+    def error_joints(self, i: int) -> tuple[int, ...]:
+        """The joints τ_i − τ_d,i depends on."""
+        return tuple(sorted(set(self.torque_joints(i)) | set(self.targets[i].support)))
+
+    def torque(self, i: int, block: Block) -> Terms:
+        """τ_i = U_i + Σ V_ij e_jc [N·m] on ``block`` (its ``value()`` broadcastable)."""
+        def build(b, limit):
+            U, V = self.terms[i]
+            return Terms([(b.view(U, i) if np.ndim(U) else U,)]
+                         + [(b.view(v, i), b.view(self.shares[jc], jc[1])) for jc, v in V.items()], limit)
+        return self._on(("torque", i), block, build)
+
+    def target(self, i: int, block: Block) -> Terms:
+        """τ_d,i [N·m] on ``block`` (its ``value()`` broadcastable)."""
+        return self._on(("target", i), block,
+                        lambda b, limit: self.targets[i](self._angles(b), limit))
+
+    def _on(self, key: tuple, block: Block, build) -> Terms:
+        """``build(block, limit)`` (:class:`Terms`), cut from the terms over the whole grid of
+        the block's joints (built once) if those need no array of more than
+        :data:`FACTOR_POINTS` points, else built on the block."""
+        key = key + (block.axes,)
+        if key not in self._whole:
+            whole = Block(block.axes, tuple(np.arange(self.n) for _ in block.axes))
+            try:
+                self._whole[key] = build(whole, FACTOR_POINTS).compact()
+            except TooLarge:
+                self._whole[key] = None
+        whole = self._whole[key]
+        return build(block, None) if whole is None else whole.on(block)
+
+    def _angles(self, block: Block) -> list:
+        """Each joint's angles on ``block`` (the first one for a joint it does not span)."""
+        return [block.view(self.axes[c], c) if c in block.axes else self.axes[c][0] for c in range(self.m)]
+
+    def extension(self, j: int, block: Block) -> np.ndarray:
+        """x_j = x₀_j + Σ_c e_jc [m] on ``block`` (broadcastable)."""
+        return self.x0[j] + sum(block.view(self.shares[j, c], c) for c in self.network.joints_of(j))
+
+    def extension_range(self, j: int) -> tuple[float, float]:
+        """(min, max) of x_j over the tensor grid [m], exactly: the shares depend on different
+        angles, so the extremes of their sum are the sums of their extremes."""
+        shares = [self.shares[j, c] for c in self.network.joints_of(j)]
+        return (float(self.x0[j] + sum(e.min() for e in shares)),
+                float(self.x0[j] + sum(e.max() for e in shares)))
+
+    def rate_sensitivity(self, i: int, j: int, block: Block) -> np.ndarray:
+        """∂τ_i/∂k_j = x_j a_ij [m²] on ``block`` (Johnston2023 Eq. 43; 0 for a spring that
+        does not act on joint i)."""
+        if (i, j) not in self.arms:
+            return np.zeros(())
+        return self.extension(j, block) * block.view(self.arms[i, j], i)
+
+    def whole(self) -> Block:
+        """The whole grid as one block."""
+        return Block(tuple(range(self.m)), tuple(np.arange(self.n) for _ in range(self.m)))
+
+    def line(self, point, axis: int) -> Block:
+        """The grid line along joint ``axis``'s angle through the grid point ``point`` (one
+        index per joint)."""
+        return Block(tuple(range(self.m)), tuple(np.arange(self.n) if c == axis else np.array([point[c]])
+                                                 for c in range(self.m)))
+
+    def sample(self, block: Block) -> dict:
+        """θ (m, P) [rad], τ and τ_d (m, P) [N·m], x (S, P) [m] and ∂τ/∂k (m, P, S) [m²] at the
+        P points of ``block`` (a block over every joint), in C order of its axes."""
+        P, m, S = block.size, self.m, len(self.problem.springs)
+        full = lambda a: np.broadcast_to(a, block.shape).ravel()  # noqa: E731
+        sens = [[full(self.rate_sensitivity(i, j, block)) for j in range(S)] for i in range(m)]
+        return {"theta": np.vstack([full(block.view(self.axes[i], i)) for i in range(m)]),
+                "tau": np.vstack([full(self.torque(i, block).value()) for i in range(m)]),
+                "tau_d": np.vstack([full(self.target(i, block).value()) for i in range(m)]),
+                "x": np.array([full(self.extension(j, block)) for j in range(S)]).reshape(S, P),
+                "dtau_dk": np.array(sens).reshape(m, S, P).transpose(0, 2, 1)}
+
+
+def _sums(values, weights: list[np.ndarray]) -> tuple[float, float]:
+    """(Σ v, Σ W v) over a block: plain and with the product weights W = w₀ ⊗ w₁ ⊗ … (one
+    vector per axis of the block); ``values`` may have size 1 along axes where the block has
+    more (it is then constant along them)."""
+    v = np.asarray(values, dtype=float)
+    v = v.reshape((1,) * (len(weights) - v.ndim) + v.shape)
+    plain = float(v.sum()) * np.prod([w.size for w, k in zip(weights, v.shape) if k == 1])
+    for w in reversed(weights):
+        v = v @ w if v.shape[-1] > 1 else v[..., 0] * w.sum()
+    return float(plain), float(v)
+
+
 @dataclass
 class Evaluation:
     """A design evaluated on the tensor grid of all joints' angles.
 
-    ``theta`` (m, N) are the grid points [rad], ``tau``/``tau_d`` (m, N) the joint and target
-    torques [N·m], ``x`` (S, N) the spring extensions [m], ``dtau_dk`` (m, N, S) the rate
-    sensitivities [m²]; ``units`` and ``profiles`` hold the per-mechanism and per-profile
-    samples; ``metrics`` summarises them (see :func:`evaluate`).
+    The grid is held per joint (:class:`TensorGrid`); ``metrics`` (see :func:`evaluate`) are
+    computed from it exactly, streaming the tensor grid in blocks where a metric needs every
+    point. ``theta`` (m, N) [rad], ``tau``/``tau_d`` (m, N) [N·m], ``x`` (S, N) [m],
+    ``dtau_dk`` (m, N, S) [m²] and ``energy`` (N,) [J] are the tensor grid's values,
+    materialised on first use (refused beyond :func:`cadcam.problem.cap` ``grid_points``);
+    ``worst`` holds per joint the grid indices of its largest |τ − τ_d|.
     """
 
     problem: Problem
@@ -81,17 +521,28 @@ class Evaluation:
     grid: int
     units: list[UnitSamples]
     profiles: list[ProfileSamples]
-    theta: np.ndarray
-    tau: np.ndarray
-    tau_d: np.ndarray
-    x: np.ndarray
-    dtau_dk: np.ndarray
+    tensor: TensorGrid
     metrics: dict = field(default_factory=dict)
+    worst: list = field(default_factory=list)
 
     @property
     def violations(self) -> list[str]:
         """Human-readable constraint violations beyond the check tolerances."""
         return self.metrics["violations"]
+
+    @cached_property
+    def _sample(self) -> dict:
+        if self.tensor.points > cap("grid_points"):
+            raise ValueError(f"the tensor grid of {self.tensor.points:.3g} points exceeds the cap "
+                             f"{cap('grid_points'):.3g} on materialised points (CADCAM_CAP_GRID_POINTS); "
+                             "use the metrics, streamed exactly, or TensorGrid.sample on a block")
+        return self.tensor.sample(self.tensor.whole())
+
+    theta = property(lambda self: self._sample["theta"], doc="Grid points θ (m, N) [rad].")
+    tau = property(lambda self: self._sample["tau"], doc="Joint torques τ (m, N) [N·m].")
+    tau_d = property(lambda self: self._sample["tau_d"], doc="Targets τ_d (m, N) [N·m].")
+    x = property(lambda self: self._sample["x"], doc="Spring extensions x (S, N) [m].")
+    dtau_dk = property(lambda self: self._sample["dtau_dk"], doc="Rate sensitivities ∂τ/∂k (m, N, S) [m²].")
 
     @property
     def energy(self) -> np.ndarray:
@@ -189,30 +640,15 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     unknowns.
     """
     n = grid or problem.options.grid
-    m, S = len(problem.joints), len(problem.springs)
     units, profiles = [], []
     for u, mech in enumerate(problem.mechanisms):
         unit, profs = mechanism_samples(problem, design, u, problem.joints[mech.joint].grid(n),
                                         order, wire_arm, profile, None if seeds is None else seeds[u])
         units.append(unit)
         profiles += profs
-    grids = [j.grid(n) for j in problem.joints]
-    idx = np.indices((n,) * m).reshape(m, -1)
-    N = idx.shape[1]
-    theta = np.vstack([grids[i][idx[i]] for i in range(m)])
-    rows = [(u, k) for u, mech in enumerate(problem.mechanisms) for k in range(len(mech.ports))]
-    D = np.vstack([units[u].d[k, idx[problem.mechanisms[u].joint]] for u, k in rows])
-    A = np.vstack([units[u].arm[k, idx[problem.mechanisms[u].joint]] for u, k in rows])
-    k = np.array([s.rate for s in problem.springs])
-    F0 = np.array([s.preload for s in problem.springs])
-    net = problem.network().function().map(N)
-    x, tau, jac = (np.asarray(v) for v in net(D, A, k, design.preextension, F0))
-    dtau_dk = jac.reshape(m, N, S)
-    tau_d = np.vstack([np.asarray(problem.joints[i].target.function(m, i).map(N)(theta)).ravel()
-                       for i in range(m)])
-    weights = np.prod([trapezoid_weights(grids[i])[idx[i]] for i in range(m)], axis=0)
-    ev = Evaluation(problem, design, n, units, profiles, theta, tau, tau_d, x, dtau_dk)
-    ev.metrics = _metrics(ev, weights)
+    tensor = TensorGrid(problem, design.preextension, [j.grid(n) for j in problem.joints], units)
+    ev = Evaluation(problem, design, n, units, profiles, tensor)
+    ev.metrics, ev.worst = _metrics(ev)
     return ev
 
 
@@ -255,16 +691,65 @@ METRIC_NAMES = ("grid", "output_rmse", "output_max_abs_error", "rmse", "relative
                 "objective", "margins", "violations")
 
 
-def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
+def _streamed(tensor: TensorGrid) -> dict:
+    """The metrics that need every point of the tensor grid, exactly and in bounded memory.
+
+    Joint i's error τ_i − τ_d,i depends on the joints of :meth:`TensorGrid.error_joints`
+    only; its sums over the whole grid are its sums over their sub-grid times the points (or,
+    trapezoidal, the angle ranges) of the others. The sub-grid is streamed in blocks of
+    :data:`BLOCK_POINTS`, accumulating Σ(τ − τ_d)², Σ W (τ − τ_d)², max (τ − τ_d)² with its
+    place and Σ τ_d². ∫|∂τ_i/∂k_j| = ∫|x_j a_ij| needs spring j's joints only.
+    """
+    axes, n, m = tensor.axes, tensor.n, tensor.m
+    w = [trapezoid_weights(a) for a in axes]
+    span = [float(wi.sum()) for wi in w]
+    out = {"sq": [], "wsq": [], "max": [], "td2": [], "worst": []}
+    for i in range(m):
+        own = tensor.error_joints(i)
+        sq = wsq = td2 = 0.0
+        worst, place = -np.inf, [0] * m
+        for block in blocks(own, n):
+            td = tensor.target(i, block).value()
+            td2 += float(np.einsum("i,i->", np.ravel(td), np.ravel(td))) * block.size / np.size(td)
+            err2 = np.asarray(td - tensor.torque(i, block).value(), dtype=float)
+            err2 = np.square(err2, out=err2).reshape((1,) * (len(own) - err2.ndim) + err2.shape)
+            plain, weighted = _sums(err2, block.weights(w))
+            sq, wsq = sq + plain, wsq + weighted
+            top = float(err2.max())
+            if not (top <= worst or np.isnan(worst)):  # a larger error, or the first NaN
+                worst = top
+                k = np.unravel_index(int(np.argmax(err2)), err2.shape)
+                for axis, (c, ix) in enumerate(zip(block.axes, block.index)):
+                    place[c] = int(ix[k[axis]])
+        rest = [c for c in range(m) if c not in own]
+        points = n ** len(own)
+        out["sq"].append(sq / points)
+        out["wsq"].append(wsq * float(np.prod([span[c] for c in rest])))
+        out["max"].append(float(np.sqrt(worst)))
+        out["td2"].append(td2 / points)
+        out["worst"].append(tuple(place))
+    S = len(tensor.problem.springs)
+    sens = np.zeros((m, S))
+    for i, j in tensor.arms:
+        own = tuple(tensor.network.joints_of(j))
+        total = sum(_sums(np.abs(tensor.rate_sensitivity(i, j, b)), b.weights(w))[1] for b in blocks(own, n))
+        sens[i, j] = total * float(np.prod([span[c] for c in range(m) if c not in own]))
+    out["sens"] = sens
+    return out
+
+
+def _metrics(ev: Evaluation) -> tuple[dict, list]:
+    """The metrics of :func:`evaluate` and, per joint, the grid indices of its worst point."""
     p = ev.problem
-    err = ev.tau - ev.tau_d
-    sens = np.einsum("inj,n->ij", np.abs(ev.dtau_dk), weights)
-    objective = float(sum(c.tracking_weight * np.dot(err[i] ** 2, weights)
-                          + np.dot(c.sensitivity_weights, sens[i]) for i, c in enumerate(p.joints)))
+    grid = _streamed(ev.tensor)
+    sens = grid["sens"]
+    objective = float(sum(c.tracking_weight * grid["wsq"][i] + np.dot(c.sensitivity_weights, sens[i])
+                          for i, c in enumerate(p.joints)))
+    ext = np.array([ev.tensor.extension_range(j) for j in range(len(p.springs))]).reshape(-1, 2)
     travel = np.array([s.travel for s in p.springs])
     margins = {
-        "travel": (travel - ev.x.max(axis=1)).tolist(),
-        "extension_lower": ev.x.min(axis=1).tolist(),
+        "travel": (travel - ext[:, 1]).tolist(),
+        "extension_lower": ext[:, 0].tolist(),
         "convexity": [c.convexity_min for c in ev.profiles],
         "rho_min": [c.rho_lo - pc.rho_min for c, pc in zip(ev.profiles, p.profiles)],
         "rho_max": [pc.rho_max - c.rho_hi for c, pc in zip(ev.profiles, p.profiles)],
@@ -302,11 +787,11 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
         "grid": ev.grid,
         "output_rmse": [None if e is None else float(np.sqrt(np.mean(e**2))) for e in out_err],
         "output_max_abs_error": [None if e is None else float(np.abs(e).max()) for e in out_err],
-        "rmse": np.sqrt(np.mean(err**2, axis=1)).tolist(),
-        "relative_rmse": _relative(np.sqrt(np.mean(err**2, axis=1)), np.sqrt(np.mean(ev.tau_d**2, axis=1))),
-        "max_abs_error": np.abs(err).max(axis=1).tolist(),
-        "extension_min": ev.x.min(axis=1).tolist(),
-        "extension_max": ev.x.max(axis=1).tolist(),
+        "rmse": np.sqrt(grid["sq"]).tolist(),
+        "relative_rmse": _relative(np.sqrt(grid["sq"]), np.sqrt(grid["td2"])),
+        "max_abs_error": grid["max"],
+        "extension_min": ext[:, 0].tolist(),
+        "extension_max": ext[:, 1].tolist(),
         "convexity_min": margins["convexity"],
         "rho_min": [c.rho_lo for c in ev.profiles],
         "rho_max": [c.rho_hi for c in ev.profiles],
@@ -317,4 +802,4 @@ def _metrics(ev: Evaluation, weights: np.ndarray) -> dict:
         "objective": objective,
         "margins": margins,
         "violations": violations,
-    }
+    }, grid["worst"]

@@ -330,11 +330,13 @@ class DifferentialPulley(Mechanism):
     def spec_fields(self) -> dict:
         out = {"slider_angle": self.slider_angle, "idler_radius": self.idler_radius,
                "sense": int(self.sense), "winding": self.winding,
-               "anchor_angles": list(self.anchor_angles), "cable_length": self.cable_length,
+               "anchor_angles": list(self.anchor_angles),
                "reference_angle": self.reference_angle, "slider_range": list(self.slider_range),
                "min_free_span": self.min_free_span, "groove": self.groove}
         if self.rolling_radius:
             out["rolling_radius"] = self.rolling_radius
+        if self.cable_length:  # 0: not set yet (cadcam.optimize.differential_start sets it)
+            out["cable_length"] = self.cable_length
         if self.output_target is not None:
             out["output_target"] = self.output_target.to_dict()
         return out

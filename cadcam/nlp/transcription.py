@@ -70,6 +70,9 @@ class Solve:
     z: list[np.ndarray]     # NLP's departure unknowns per mechanism (unknowns × n)
     start: int = 0
     trials: list[dict] = field(default_factory=list)
+    #: IPOPT's iterates: ``iteration``, ``objective`` (the scaled NLP objective), ``inf_pr``,
+    #: ``inf_du``, ``mu``, ``d_norm`` and ``alpha_pr`` per iteration (empty lists without an NLP)
+    history: dict = field(default_factory=lambda: iteration_history({}))
 
 
 class _Vars:
@@ -472,7 +475,23 @@ class Transcription:
             return_status=ret, iterations=int(stats.get("iter_count", -1)),
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
-               for u, mech in enumerate(problem.mechanisms)])
+               for u, mech in enumerate(problem.mechanisms)],
+            history=iteration_history(stats))
+
+
+#: The per-iteration values :func:`iteration_history` keeps, by IPOPT's (CasADi's) name.
+HISTORY_FIELDS = {"obj": "objective", "inf_pr": "inf_pr", "inf_du": "inf_du", "mu": "mu",
+                  "d_norm": "d_norm", "alpha_pr": "alpha_pr"}
+
+
+def iteration_history(stats: dict) -> dict:
+    """IPOPT's iterates from CasADi's ``stats()["iterations"]`` as lists of floats (iteration 0
+    is the start): the NLP objective, the primal and dual infeasibilities, the barrier
+    parameter, the step's max-norm and the primal step size."""
+    its = stats.get("iterations") or {}
+    out = {"iteration": list(range(len(its.get("obj", []))))}
+    out.update({name: [float(v) for v in its.get(key, [])] for key, name in HISTORY_FIELDS.items()})
+    return out
 
 
 def _per_joint(problem: Problem, samples, field: str) -> list[list[np.ndarray]]:

@@ -138,9 +138,11 @@ def run_case(study: dict, case: dict, start: dict | None = None,
 
 # -- database ---------------------------------------------------------------------------------
 def open_db(path, study: Study) -> sqlite3.Connection:
-    """Open (or create) the study database; refuse one that holds a different study."""
+    """Open (or create, with its folder) the study database; refuse one that holds a different
+    study."""
     if Path(path).exists() and not Path(path).is_file():
         raise SweepError(f"{path}: not a file; give the path of a study database (SQLite)")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     try:
         db = sqlite3.connect(str(path), timeout=60)  # runners sharing the database wait their turn
         db.execute("PRAGMA journal_mode=WAL")

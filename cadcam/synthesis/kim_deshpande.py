@@ -282,9 +282,9 @@ def envelope(theta, r_m, dr_m, d2r_m, ell: float, chi0: float, sigma: int) -> En
     phi = np.arcsin(r / ell)  # Ludovico2021 Eq. 2
     nu = chi0 + sigma * theta - np.pi / 2 + phi  # = χ − acos(r_m/ℓ)
     dphi = dr / q
-    d2phi = d2r / q + r * dr**2 / q**3
     dnu = sigma + dphi  # Ludovico2021 Eq. 6: σν′ = 1 + σφ′
     # Ludovico2021 Eq. 30 (corrected) along the winding direction, = σ(rν′³ + r″ν′ − r′ν″)
+    # with ν″ = φ″ = r″/q + r r′²/q³ substituted
     regularity = d2r + r * (1 + 3 * sigma * dphi + 3 * dphi**2)
     with np.errstate(divide="ignore", invalid="ignore"):
         dh = dr / dnu  # dh/dν

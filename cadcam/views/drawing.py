@@ -1,53 +1,49 @@
 """A workshop sheet of a cam at true scale: A4 landscape, PNG or PDF, written atomically.
 
-Views only: the outline, holes and their checks come from :mod:`cadcam.views.workshop`.
+The sheet has a frame, a title block (part, spec, drawing number, scale, units, sheet size,
+date, the cadcam version that made it) and the dimensions a machinist needs: the bore's and the
+anchor hole's diameters, the anchor hole's position from the rotation axis, the largest radius
+of the outline and the smallest radius of the designed (wrapped) arc. Built on
+``matplotlib.figure.Figure`` (no pyplot). Views only: the outline, holes and their checks come
+from :mod:`cadcam.views.workshop`.
 """
 from __future__ import annotations
 
+import datetime
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Circle
+from matplotlib.patches import Circle, Rectangle
 
 from ..files import atomic_path
+from ..version import __version__
 from .workshop import MM, Outline, holes
 
 SHEET = (297.0, 210.0)
 """A4 landscape [mm of paper]."""
 MARGIN = 10.0
-"""Blank border of the sheet [mm of paper]."""
+"""Blank border of the sheet, outside the frame [mm of paper]."""
 NOTES = 30.0
-"""Height of the band for title and notes at the foot of the sheet [mm of paper]."""
+"""Height of the band for the notes and the title block at the foot of the sheet [mm of paper]."""
+TITLE_BLOCK = 120.0
+"""Width of the title block at the lower right [mm of paper]."""
 REDUCTIONS = (1, 2, 5, 10, 20, 50, 100)
 """Scales 1:n tried in turn until the cam fits the drawing area."""
 DPI = 300
 """Resolution of a PNG sheet; printed at this resolution it is at true scale."""
 INCH = 25.4
 """Millimetres per inch."""
+LEADER = 9.0
+"""Length of a dimension's leader beyond the outline [mm of paper]."""
 
 
 def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
-               rho_min: float, rho_max: float, title: str) -> int:
-    """Draw the cam on an A4 landscape sheet, 1 mm of paper per mm of cam when it fits.
-
-    The designed (wrapped) arc is drawn thick and red, the closing arc thin and black; the bore,
-    the anchor hole, centre lines, the radius limits ρ_min and ρ_max as dashed circles (each
-    only if it fits on the sheet), a 10 mm scale bar and notes with the sizes in millimetres.
-    A cam too large for A4 at 1:1 is drawn at the first of 1:2, 1:5, 1:10, … that fits; the
-    title always states the scale.
-
-    Parameters
-    ----------
-    path : path-like
-        ``.png`` (at DPI dots per inch) or ``.pdf``.
-    outline : Outline
-    bore_diameter, anchor_diameter : float
-        [m], checked by :func:`cadcam.views.workshop.holes`.
-    rho_min, rho_max : float
-        Radius limits of the design [m].
-    title : str
+               rho_min: float, rho_max: float, title: str, *, spec: str = "", drawing: str = "",
+               date: str | None = None) -> int:
+    """Draw the cam on an A4 landscape sheet (:func:`sheet_figure`) and write it to ``path``
+    (``.png`` at :data:`DPI` dots per inch, or ``.pdf``), atomically.
 
     Returns
     -------
@@ -57,6 +53,46 @@ def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: fl
     fmt = Path(path).suffix.lower().lstrip(".")
     if fmt not in ("png", "pdf"):
         raise ValueError(f"path = {str(path)!r}: the sheet is written as .png or .pdf")
+    fig, n = sheet_figure(outline, bore_diameter, anchor_diameter, rho_min, rho_max, title,
+                          spec=spec, drawing=drawing or Path(path).stem, date=date)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=DPI)
+    return n
+
+
+def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
+                 rho_max: float, title: str, *, spec: str = "", drawing: str = "",
+                 date: str | None = None) -> tuple[Figure, int]:
+    """The workshop sheet of one cam as a Figure, 1 mm of paper per mm of cam when it fits.
+
+    The designed (wrapped) arc is drawn thick and red, the closing arc thin and black; the bore,
+    the anchor hole, centre lines, the radius limits ρ_min and ρ_max as dashed circles (each
+    only if it fits on the sheet), the dimensions (Ø bore, Ø anchor hole with its centre's x
+    and y from the axis, R of the largest radius, R of the smallest radius of the wrapped arc),
+    a 10 mm scale bar, notes and the title block. A cam too large for A4 at 1:1 is drawn at the
+    first of 1:2, 1:5, 1:10, … that fits; the title block states the scale.
+
+    Parameters
+    ----------
+    outline : Outline
+    bore_diameter, anchor_diameter : float
+        [m], checked by :func:`cadcam.views.workshop.holes`.
+    rho_min, rho_max : float
+        Radius limits of the design [m].
+    title : str
+        The part's name.
+    spec : str
+        The spec (problem) the part was designed for.
+    drawing : str
+        The drawing number (``cam1``; the file's stem when written by :func:`draw_sheet`).
+    date : str, optional
+        ISO date on the title block; default today.
+
+    Returns
+    -------
+    (Figure, int)
+        The sheet and n of the scale 1:n.
+    """
     circles = holes(outline, bore_diameter, anchor_diameter)
     points = outline.points * MM
     lo, hi = points.min(axis=0), points.max(axis=0)
@@ -71,11 +107,12 @@ def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: fl
     ax.set_ylim(centre[1] - half[1], centre[1] + half[1])
     ax.set_axis_off()
     _draw_cam(ax, outline, circles)
-    shown = _draw_limits(ax, centre, half, {"ρ_min": rho_min, "ρ_max": rho_max})
-    _notes(fig, outline, circles, title, n, rho_min, rho_max, shown)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=DPI)
-    return n
+    taken = _dimensions(ax, outline, circles, n)
+    shown = _draw_limits(ax, centre, half, {"ρ_min": rho_min, "ρ_max": rho_max}, taken)
+    _frame(fig)
+    _notes(fig, outline, circles, rho_min, rho_max, shown)
+    _title_block(fig, title, spec, drawing, n, date or datetime.date.today().isoformat())
+    return fig, n
 
 
 def _draw_cam(ax, outline, circles):
@@ -91,14 +128,16 @@ def _draw_cam(ax, outline, circles):
         ax.plot(*line, color="0.3", lw=0.4, ls="-.")
 
 
-def _draw_limits(ax, centre, half, limits) -> list[str]:
-    """Dashed circles of the radius ``limits`` that fit the view; returns their names."""
+def _draw_limits(ax, centre, half, limits, taken=()) -> list[str]:
+    """Dashed circles of the radius ``limits`` that fit the view, each named at an angle away
+    from the dimensions' angles ``taken``; returns their names."""
     shown = [name for name, r in limits.items() if np.all(np.abs(centre) + r * MM <= half)]
+    angle = _spread(list(taken), np.radians(np.arange(0, 360, 10)))
     for name in shown:
         r = limits[name] * MM
         ax.add_patch(_circle(np.zeros(2), r, ls="--", lw=0.5, color="0.45"))
-        ax.annotate(f"{name} = {r:.2f}", (r / np.sqrt(2), r / np.sqrt(2)), fontsize=7,
-                    color="0.35")
+        ax.text(r * np.cos(angle), r * np.sin(angle), f"{name} = {r:.2f}", fontsize=6, color="0.4",
+                ha="left" if np.cos(angle) >= 0 else "right", va="bottom" if np.sin(angle) >= 0 else "top")
     return shown
 
 
@@ -107,24 +146,135 @@ def _circle(centre, radius, **style):
     return Circle(tuple(centre), radius, fill=False, **style)
 
 
-def _notes(fig, outline, circles, title, n, rho_min, rho_max, shown):
-    """Title, sizes and a 10 mm scale bar in the band at the foot of the sheet."""
+def _outline_radius(outline, angle) -> float:
+    """Radius of the outline [mm] along the ray at polar ``angle`` [rad]."""
+    return float(outline.rho(angle)[0]) * MM
+
+
+def _spread(taken, candidates) -> float:
+    """The candidate angle [rad] farthest (in angle) from every angle in ``taken``."""
+    def gap(a):
+        return min(abs((a - t + np.pi) % (2 * np.pi) - np.pi) for t in taken) if taken else np.pi
+    return max(candidates, key=gap)
+
+
+def _radial(ax, outline, angle, radius, text, n, placed, colour="black"):
+    """A radius dimension: an arrow from the axis to the outline at ``angle`` and its text on
+    a leader beyond the outline, turned away from the centre lines when it would lie along one
+    [mm of cam]."""
+    u = np.array([np.cos(angle), np.sin(angle)])
+    tip = radius * u
+    ax.annotate("", xy=tip, xytext=(0, 0),
+                arrowprops=dict(arrowstyle="-|>", lw=0.5, color=colour, mutation_scale=6, shrinkA=0, shrinkB=0))
+    axis = np.round(angle / (np.pi / 2)) * np.pi / 2  # the nearest centre line
+    turn = angle - axis
+    if abs(turn) < np.radians(20):
+        angle = axis + (np.radians(25) if turn >= 0 else -np.radians(25))
+    _leader(ax, tip, angle, _outline_radius(outline, angle), text, n, placed, colour)
+
+
+def _leader(ax, start, angle, out_radius, text, n, placed, colour="black"):
+    """A leader from ``start`` along ``angle`` to LEADER mm of paper beyond the outline radius
+    ``out_radius``, then a short shoulder and the ``text`` [mm of cam]; moved further out until
+    its text clears the boxes ``placed`` of the texts drawn before it (its own is added)."""
+    u = np.array([np.cos(angle), np.sin(angle)])
+    side = 1.0 if u[0] >= 0 else -1.0
+    lines = text.split("\n")
+    width, height = (max(map(len, lines)) * 1.45 + 2) * n, (len(lines) * 3.3 + 1) * n  # 7 pt text
+    for extra in np.arange(0.0, 80.0, 3.0):
+        end = (out_radius + (LEADER + extra) * n) * u
+        shoulder = end + np.array([side * 3.0 * n, 0.0])
+        x0 = shoulder[0] + side * 0.8 * n
+        box = (min(x0, x0 + side * width), shoulder[1] - height / 2, max(x0, x0 + side * width), shoulder[1] + height / 2)
+        if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+            break
+    placed.append(box)
+    ax.plot([start[0], end[0], shoulder[0]], [start[1], end[1], shoulder[1]], color=colour, lw=0.4)
+    ax.text(x0, shoulder[1], text, fontsize=7, color=colour, ha="left" if side > 0 else "right", va="center")
+
+
+def _dimensions(ax, outline, circles, n):
+    """Ø bore, Ø anchor hole with its centre's position, R max of the outline and R min of the
+    wrapped arc [mm of cam; offsets in mm of paper × n]; returns the angles [rad] the
+    dimensions and centre lines take."""
     (_, bore), (anchor, hole) = circles
+    bore, hole, anchor = bore * MM, hole * MM, anchor * MM
+    pts = outline.points * MM
+    r = np.hypot(*pts.T)
+    k_max = int(np.argmax(r))
+    on = outline.designed(outline.phi)
+    k_min = int(np.flatnonzero(on)[np.argmin(r[on])])
+    a_max = float(np.arctan2(*pts[k_max][::-1]))
+    a_min = float(np.arctan2(*pts[k_min][::-1]))
+    a_anchor = float(np.arctan2(anchor[1], anchor[0]))
+    placed = []  # the leaders' text boxes, kept apart
+    _radial(ax, outline, a_max, r[k_max], f"R{r[k_max]:.2f} (largest radius)", n, placed)
+    _radial(ax, outline, a_min, r[k_min], f"R{r[k_min]:.2f} (least radius of the red arc)", n,
+            placed, colour="tab:red")
+    candidates = np.radians(np.arange(0, 360, 15))
+    below = [-np.pi / 4, -np.pi / 2, -3 * np.pi / 8, -np.pi / 8]  # the linear dimension's side
+    a_bore = _spread([a_max, a_min, a_anchor, 0.0, np.pi / 2, np.pi] + below, candidates)
+    start = bore / 2 * np.array([np.cos(a_bore), np.sin(a_bore)])
+    _leader(ax, start, a_bore, _outline_radius(outline, a_bore), f"Ø{bore:.2f} bore, on the axis", n, placed)
+    a_hole = _spread([a_max, a_min, a_bore, 0.0, np.pi / 2], np.radians(np.arange(15, 76, 10)))  # up, right
+    start = anchor + hole / 2 * np.array([np.cos(a_hole), np.sin(a_hole)])
+    _leader(ax, start, a_hole, _outline_radius(outline, a_hole),
+            f"Ø{hole:.2f} anchor hole\ncentre x {anchor[0]:.2f}, y {anchor[1]:.2f}", n, placed)
+    # the anchor hole's x from the axis as a linear dimension below the cam
+    y = pts[:, 1].min() - 6.0 * n
+    ax.plot([0, 0], [y - 1.0 * n, pts[:, 1].min()], color="0.3", lw=0.3)
+    ax.plot([anchor[0]] * 2, [y - 1.0 * n, anchor[1] - hole / 2], color="0.3", lw=0.3)
+    ax.annotate("", xy=(anchor[0], y), xytext=(0, y),
+                arrowprops=dict(arrowstyle="<|-|>", lw=0.5, color="black", mutation_scale=6, shrinkA=0, shrinkB=0))
+    ax.text(anchor[0] / 2, y - 0.8 * n, f"{abs(anchor[0]):.2f}", fontsize=7, ha="center", va="top")
+    return [a_max, a_min, a_bore, a_hole, 0.0, np.pi / 2, np.pi] + below
+
+
+def _frame(fig):
+    """The drawing's frame along the margin."""
+    fig.add_artist(Rectangle((MARGIN / SHEET[0], MARGIN / SHEET[1]), 1 - 2 * MARGIN / SHEET[0],
+                             1 - 2 * MARGIN / SHEET[1], transform=fig.transFigure, fill=False, lw=0.8))
+
+
+def _notes(fig, outline, circles, rho_min, rho_max, shown):
+    """Notes and a 10 mm scale bar in the band at the foot of the sheet, left of the title
+    block."""
     lo, hi = outline.rho_range
-    limits = f"radius limits ρ_min = {rho_min * MM:.2f}, ρ_max = {rho_max * MM:.2f}"
     off = [name for name in ("ρ_min", "ρ_max") if name not in shown]
     lines = [
-        f"Bore Ø{bore * MM:.2f} on the rotation axis (origin); anchor hole Ø{hole * MM:.2f} "
-        f"at x = {anchor[0] * MM:.2f}, y = {anchor[1] * MM:.2f}.",
-        f"Outline radius {lo * MM:.2f} to {hi * MM:.2f}. Red: designed (wrapped) arc, "
+        "Dimensions in mm. Red: designed (wrapped) arc, "
         f"φ = 0° to {np.degrees(outline.phi_end):.1f}° from the anchor point; black: closing arc.",
-        f"Dashed: {limits}" + (f" ({', '.join(off)} off the sheet)." if off else "."),
+        f"Outline radius {lo * MM:.2f} to {hi * MM:.2f}; the cable runs on the red arc only.",
+        f"Dashed: radius limits ρ_min = {rho_min * MM:.2f}, ρ_max = {rho_max * MM:.2f}"
+        + (f" ({', '.join(off)} off the sheet)." if off else "."),
+        "The outline's full definition: camN_points.csv / camN.dxf (this sheet is for checking).",
     ]
-    x0, y0 = MARGIN / SHEET[0], (MARGIN + NOTES) / SHEET[1]
-    fig.text(x0, y0 - 0.035, f"{title} — scale 1:{n}", fontsize=12, weight="bold")
-    fig.text(x0, y0 - 0.06, "Dimensions in mm.\n" + "\n".join(lines), fontsize=8, va="top",
-             linespacing=1.5)
-    bar = 10 / n / SHEET[0]  # 10 mm of cam as a fraction of the sheet width
-    right, foot = 1 - MARGIN / SHEET[0], MARGIN / SHEET[1] + 0.01
-    fig.add_artist(Line2D([right - bar, right], [foot, foot], color="black", lw=2))
-    fig.text(right - bar / 2, foot + 0.01, "10 mm", ha="center", fontsize=8)
+    x0 = (MARGIN + 3) / SHEET[0]
+    fig.text(x0, (MARGIN + NOTES - 4) / SHEET[1], "\n".join(lines), fontsize=7, va="top", linespacing=1.5)
+    left = 1 - (MARGIN + TITLE_BLOCK + 16) / SHEET[0]
+    foot = (MARGIN + 5) / SHEET[1]
+    fig.add_artist(Line2D([left, left + 10 / SHEET[0]], [foot, foot], color="black", lw=2))  # 10 mm of paper
+    fig.text(left + 5 / SHEET[0], foot + 0.008, "10 mm of paper", ha="center", fontsize=6)
+
+
+def _title_block(fig, title, spec, drawing, n, date):
+    """The title block at the lower right, inside the frame: part, spec, drawing number, scale,
+    units, sheet, date and the cadcam version [mm of paper]."""
+    w, h = TITLE_BLOCK, NOTES - 2
+    x0, y0 = SHEET[0] - MARGIN - w, MARGIN
+
+    def box(x, y, bw, bh, label, value, size=7.5, weight="normal"):
+        fig.add_artist(Rectangle((x / SHEET[0], y / SHEET[1]), bw / SHEET[0], bh / SHEET[1],
+                                 transform=fig.transFigure, fill=False, lw=0.6))
+        fig.text((x + 1.2) / SHEET[0], (y + bh - 1.0) / SHEET[1], label, fontsize=4.5, color="0.35", va="top")
+        fig.text((x + 1.5) / SHEET[0], (y + 1.2) / SHEET[1], value, fontsize=size, va="bottom", weight=weight)
+
+    row = h / 4
+    box(x0, y0 + 3 * row, w, row, "PART", title, size=9, weight="bold")
+    box(x0, y0 + 2 * row, w * 0.7, row, "SPEC", spec or "—")
+    box(x0 + w * 0.7, y0 + 2 * row, w * 0.3, row, "DRAWING No.", drawing or "—")
+    box(x0, y0 + row, w * 0.3, row, "SCALE", f"1:{n}", weight="bold")
+    box(x0 + w * 0.3, y0 + row, w * 0.2, row, "UNITS", "mm")
+    box(x0 + w * 0.5, y0 + row, w * 0.2, row, "SHEET", "A4")
+    box(x0 + w * 0.7, y0 + row, w * 0.3, row, "DATE", date)
+    box(x0, y0, w, row, "MADE BY", f"cadcam {__version__}")

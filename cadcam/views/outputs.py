@@ -11,7 +11,7 @@ import numpy as np
 from ..check.evaluate import output_error, output_law
 from ..files import write_csv, write_json
 from .drawing import draw_sheet
-from .plots import plot_outputs, plot_profiles, plot_springs, plot_torque
+from .plots import plot_convergence, plot_outputs, plot_profiles, plot_springs, plot_torque
 from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf, write_points_csv,
                        write_groove_csv, write_stl, write_svg)
 
@@ -29,19 +29,43 @@ class WorkshopOptions:
     groove_pitch: float = 0.004
 
 
+#: Points of a tensor grid up to which a torque table holds every one of them.
+TABLE_POINTS = 1_000_000
+
+
 def write_torque_csv(path: Path, ev) -> None:
-    """θ, τ, τ_d, error per joint and the spring extensions at every grid point."""
-    m, S = len(ev.tau), len(ev.problem.springs)
+    """θ [rad], τ, τ_d and τ − τ_d [N·m] per joint and the spring extensions [m] at grid points
+    of the evaluation ``ev``, one row per point.
+
+    A tensor grid of at most :data:`TABLE_POINTS` points is written whole, in C order of the
+    joints' angles (one joint: every angle; two joints at the default fine grid: 451² =
+    203 401 rows). A larger one (three joints at the default fine grid hold 451³ ≈ 9.2·10⁷
+    points) is represented by the grid lines through each joint's worst point (largest
+    |τ − τ_d|, ``ev.worst``): for joint 1, then joint 2, …, the line along joint 1's angle,
+    then along joint 2's, … (m² lines of n rows, the worst point in each), all other angles
+    held at the worst point's. Every row is a point of the grid, computed like every other;
+    the columns are the same either way.
+    """
+    m, S = len(ev.problem.joints), len(ev.problem.springs)
     header = ([f"theta{i + 1}_rad" for i in range(m)]
               + [f"{k}{i + 1}_Nm" for i in range(m) for k in ("tau", "tau_d", "error")]
               + [f"x{j + 1}_m" for j in range(S)])
-    cols = [*ev.theta] + [v for i in range(m) for v in (ev.tau[i], ev.tau_d[i], ev.tau[i] - ev.tau_d[i])]
-    write_csv(path, header, np.column_stack(cols + [*ev.x]))
+    if ev.tensor.points <= TABLE_POINTS:
+        samples = [ev.tensor.sample(ev.tensor.whole())]
+    else:
+        samples = [ev.tensor.sample(ev.tensor.line(worst, axis)) for worst in ev.worst for axis in range(m)]
+    rows = []
+    for s in samples:
+        cols = [*s["theta"]] + [v for i in range(m) for v in (s["tau"][i], s["tau_d"][i],
+                                                               s["tau"][i] - s["tau_d"][i])]
+        rows.append(np.column_stack(cols + [*s["x"]]))
+    write_csv(path, header, np.vstack(rows))
 
 
 def write_outputs(result, out: Path) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
-    grid), ``profile.csv``, the PNG figures (torque and springs only if there are springs) and,
+    grid), ``profile.csv``, the PNG figures (torque and springs only if there are springs,
+    ``convergence.png`` if the solver recorded IPOPT's iterates) and,
     for mechanisms with an output law (a
     differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
     ev = result.evaluation
@@ -55,6 +79,9 @@ def write_outputs(result, out: Path) -> None:
     if ev.problem.springs:  # without springs there is no torque and nothing to plot
         plot_torque(ev, out / "torque.png")
         plot_springs(ev, out / "springs.png")
+    history = (result.to_dict().get("solver") or {}).get("history")
+    if history and history.get("iteration"):  # IPOPT's iterates (none for the envelope method)
+        plot_convergence(history, out / "convergence.png")
     outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
     if outputs:  # x(θ) of mechanisms with an output law, against it
         header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
@@ -88,7 +115,8 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions) -> list[str]:
         write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
         for suffix in (".pdf", ".png"):
             draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
-                       args.anchor_diameter, cam.rho_min, cam.rho_max, f"{ev.problem.name}: {cam.name}")
+                       args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
+                       spec=ev.problem.name, drawing=f"cam{i + 1}")
         note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
         if args.stl is not None:
             volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,

@@ -1,167 +1,570 @@
-"""Figures of an evaluated design (PNG, written atomically). Views only: no physics here."""
+"""Figures of an evaluated design, as :class:`matplotlib.figure.Figure` objects.
+
+Every figure is built with ``matplotlib.figure.Figure`` — no pyplot, no global state — so
+importing this module never selects a backend and the figures work alike in a notebook (any
+backend: a Figure displays itself) and headless. :func:`figures` returns the figures of a
+design run by name; the ``plot_*`` functions save one as a PNG, written atomically (what
+``cadcam design`` writes). Views only: no physics here; the geometry comes from the
+mechanisms' drawing hooks (``world_points``, ``segments``, ``circles``).
+
+Lengths are drawn in millimetres and torques in newton-millimetres; the data stay SI.
+"""
 from __future__ import annotations
 
+import re
+import textwrap
+from dataclasses import replace
+
 import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ..check.evaluate import Evaluation, output_error, output_law  # noqa: E402
-from ..physics.profile import profile_function  # noqa: E402
-from ..files import atomic_path  # noqa: E402
+from ..check.binding import limit_state
+from ..check.evaluate import Evaluation, output_error, output_law
+from ..files import atomic_path
+from ..physics.profile import profile_function
 
 MM = 1e3
+#: Resolution of the saved PNGs [dots per inch].
+DPI = 110
+#: A circle centre, spring end or cable end further from the joint than this many times the
+#: largest drawn radius stays outside the profile view (its direction is labelled at the edge).
+REACH = 2.5
+
+# -- colours and styles of the profile view ---------------------------------------------------
+PROFILE_COLOURS = ("tab:blue", "tab:green", "tab:purple", "tab:brown")
+CABLE = dict(color="tab:orange", lw=1.6)
+DEPARTURE = dict(marker="o", color="tab:red", ms=6, ls="none", zorder=5)
+ANCHOR = dict(marker="s", color="black", ms=5, ls="none", zorder=5)
+IDLER = dict(color="0.25", lw=1.0, ls="--")
+SPRING_END = dict(marker="o", mfc="white", mec="tab:purple", mew=1.5, ms=7, ls="none", zorder=5)
+LIMIT = dict(color="0.55", lw=0.8, ls=":")
+RHO_BINDING = dict(marker="x", color="crimson", ms=10, mew=2.2, ls="none", zorder=7)
+CONVEXITY_BINDING = dict(marker="D", mfc="none", mec="magenta", mew=1.8, ms=12, ls="none", zorder=6)
 
 
-def _save(fig, path):
+def save_figure(fig: Figure, path, dpi: int = DPI) -> None:
+    """Write ``fig`` to ``path`` as a PNG, atomically (a complete file or none)."""
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+        fig.savefig(tmp, dpi=dpi, format="png")
 
 
-def plot_profiles(ev: Evaluation, path, n_poses: int = 4) -> None:
-    """Each mechanism in the world frame at a few joint angles: its profiles (thick where the
-    cable is wrapped, the anchor marked) and what it asks to draw (idlers, points, free cable
-    spans) [mm]."""
+# ------------------------------------------------------------------------------------ profiles
+def _pose_indices(n: int, n_poses: int) -> np.ndarray:
+    return np.unique(np.linspace(0, n - 1, max(1, min(n_poses, n))).round().astype(int))
+
+
+def _curve(ev: Evaluation, p: int, max_points: int = 1500):
+    """φ [rad], ρ [m] of profile ``p`` over its wrapped range [0, max α] (the evaluation's dense
+    scan, thinned; computed when the evaluation skipped the scan)."""
+    ps = ev.profiles[p]
+    if ps.phi.size:
+        idx = np.unique(np.r_[np.arange(0, ps.phi.size, max(1, ps.phi.size // max_points)), ps.phi.size - 1])
+        return ps.phi[idx], ps.rho[idx]
+    phi = np.linspace(0.0, float(np.nanmax(ps.alpha)), 600)
+    rho = np.asarray(profile_function(ev.design.bases[p]).map(phi.size)(phi, ev.design.coefficients[p])[0]).ravel()
+    return phi, rho
+
+
+def _rho_at(ev: Evaluation, p: int, phi) -> np.ndarray:
+    phi = np.atleast_1d(np.asarray(phi, dtype=float))
+    f = profile_function(ev.design.bases[p]).map(phi.size)
+    return np.asarray(f(phi, ev.design.coefficients[p])[0]).ravel()
+
+
+def _profile_marks(ev: Evaluation, p: int) -> list[tuple[str, float, float]]:
+    """(kind, φ, ρ) of the points of profile ``p`` where a limit binds (within
+    :data:`cadcam.check.binding.RTOL`): ρ at ρ_min or ρ_max, the convexity margin at its
+    required minimum."""
+    ps, lim = ev.profiles[p], ev.problem.profiles[p]
+    if not ps.phi.size:
+        return []
+    out = []
+    if limit_state(ps.rho_lo - lim.rho_min, lim.rho_min):
+        k = int(np.argmin(ps.rho))
+        out.append(("rho", ps.phi[k], ps.rho[k]))
+    if limit_state(lim.rho_max - ps.rho_hi, lim.rho_max):
+        k = int(np.argmax(ps.rho))
+        out.append(("rho", ps.phi[k], ps.rho[k]))
+    need = ev.problem.options.convexity_epsilon * lim.rho_min ** 2
+    if np.isfinite(ps.convexity_min) and limit_state(ps.convexity_min - need, lim.rho_min ** 2):
+        k = int(np.argmin(ps.convexity))
+        out.append(("convexity", ps.phi[k], ps.rho[k]))
+    return out
+
+
+def _exit_point(lo, hi, a, b):
+    """Where the segment from ``a`` (inside the box [lo, hi]) towards ``b`` leaves the box."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    d = b - a
+    t = 1.0
+    for i in range(2):
+        if d[i] > 0:
+            t = min(t, (hi[i] - a[i]) / d[i])
+        elif d[i] < 0:
+            t = min(t, (lo[i] - a[i]) / d[i])
+    return a + max(t, 0.0) * d
+
+
+def _edge_label(ax, lo, hi, a, b, text):
+    """Label, at the edge of the view, a point ``b`` [mm] outside it seen from ``a``: the text
+    just inside the edge it leaves by, an arrow to where it leaves."""
+    e = _exit_point(lo, hi, a, b)
+    span, mid = hi - lo, (lo + hi) / 2
+    towards = np.sign(mid - e)  # into the view
+    if abs(e[0] - lo[0]) < 1e-9 * span[0] or abs(e[0] - hi[0]) < 1e-9 * span[0]:  # a side
+        ha = "left" if e[0] < mid[0] else "right"
+        xy = (e[0] + towards[0] * 0.02 * span[0], e[1] + (towards[1] or 1.0) * 0.09 * span[1])
+    else:  # the top or the bottom
+        ha = "center"
+        xy = (np.clip(e[0], lo[0] + 0.2 * span[0], hi[0] - 0.2 * span[0]), e[1] + towards[1] * 0.09 * span[1])
+    ax.annotate(text, e, xytext=xy, fontsize=7, color="0.2", ha=ha, va="center",
+                arrowprops=dict(arrowstyle="->", color="0.4", lw=0.8, shrinkA=2, shrinkB=0),
+                bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.7", lw=0.5, alpha=0.9), zorder=8)
+
+
+def _inside(lo, hi, pt) -> bool:
+    return bool(np.all(pt >= lo - 1e-9) and np.all(pt <= hi + 1e-9))
+
+
+def _row(ev: Evaluation, u: int, n_poses: int):
+    """What the profile view draws for mechanism ``u`` at each of its poses [mm], and the
+    view's box (lo, hi) [mm]."""
     problem = ev.problem
-    m = len(problem.mechanisms)
-    fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 5.2), squeeze=False)
-    for ax, mech, unit, sl in zip(axes[0], problem.mechanisms, ev.units, problem.profile_slices()):
-        c = np.concatenate(ev.design.coefficients[sl])
-        poses = np.unique(np.linspace(0, unit.theta.size - 1, n_poses).round().astype(int))
-        colors = plt.cm.viridis(np.linspace(0, 0.85, poses.size))
-        for col, k in zip(colors, poses):
-            th = unit.theta[k]
-            for p in range(sl.start, sl.stop):
-                ps = ev.profiles[p]
-                phi = np.linspace(0, ps.phi[-1], 400)
-                rho = np.asarray(profile_function(ev.design.bases[p]).map(phi.size)(
-                    phi, ev.design.coefficients[p])[0]).ravel()
-                x, y = mech.world_points(th, phi, rho, p - sl.start)
-                ax.plot(MM * x, MM * y, color=col,
-                        label=f"θ = {np.degrees(th):.0f}°" if p == sl.start else None)
-                mask = phi <= ps.alpha[k]
-                ax.plot(MM * x[mask], MM * y[mask], color=col, lw=2.5, alpha=0.5)
-                ax.plot(*(MM * np.array(mech.world_points(th, 0.0, rho[0], p - sl.start))), "s",
-                        color=col, ms=4)
-            for start, end in mech.segments(th, unit.z[:, k], c):
-                ax.plot(MM * np.array([start[0], end[0]]), MM * np.array([start[1], end[1]]),
-                        color=col, lw=1.0)
-            t = np.linspace(0, 2 * np.pi, 100)
-            for centre, radius in mech.circles(th, unit.z[:, k], c):
-                if radius > 0:
-                    ax.plot(MM * (centre[0] + radius * np.cos(t)), MM * (centre[1] + radius * np.sin(t)),
-                            color=col, lw=0.8, ls="--")
-                else:  # a point (zero-radius idler): mark it
-                    ax.plot(*(MM * np.asarray(centre)), "o", color=col, ms=5, mfc="none")
-        ax.plot(0, 0, "k+")
-        ax.set_aspect("equal")
-        ax.set_xlabel("x [mm]")
-        ax.set_ylabel("y [mm]")
-        ax.set_title(f"{mech.name}\nthick: wrapped cable, ■ anchor, ○ point idler, dashed: idler",
-                     fontsize=8)
-        ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    _save(fig, path)
+    mech, unit, sl = problem.mechanisms[u], ev.units[u], problem.profile_slices()[u]
+    # the drawing hooks evaluate ρ in the mechanism's own bases: give it the design's (a
+    # published design typed in as monomials is drawn in its own basis, not the spec's)
+    mech = replace(mech, profiles=tuple(replace(pr, basis=b) for pr, b in zip(mech.profiles, ev.design.bases[sl])))
+    c = np.concatenate([np.asarray(v, dtype=float) for v in ev.design.coefficients[sl]])
+    curves = {p: _curve(ev, p) for p in range(sl.start, sl.stop)}
+    marks = {p: _profile_marks(ev, p) for p in range(sl.start, sl.stop)}
+    radius = max(float(np.nanmax(rho)) for _, rho in curves.values())
+    panels = []
+    for k in _pose_indices(unit.theta.size, n_poses):
+        th, z = float(unit.theta[k]), unit.z[:, k]
+        prof = []
+        for p, (phi, rho) in curves.items():
+            kk = p - sl.start
+            alpha = float(z[kk])
+            x, y = (MM * np.asarray(v) for v in mech.world_points(th, phi, rho, kk))
+            dep = MM * np.array(mech.world_points(th, alpha, float(_rho_at(ev, p, alpha)[0]), kk), dtype=float)
+            anchor = MM * np.array(mech.world_points(th, 0.0, float(rho[0]), kk), dtype=float)
+            bind = [(kind, MM * np.array(mech.world_points(th, f, r, kk), dtype=float)) for kind, f, r in marks[p]]
+            prof.append((x, y, phi <= alpha, dep, anchor, bind))
+        spans = [(MM * np.asarray(a, float), MM * np.asarray(b, float)) for a, b in mech.segments(th, z, c)]
+        circles = [(MM * np.asarray(ctr, float), MM * float(r)) for ctr, r in mech.circles(th, z, c)]
+        idler_wire = None
+        if "gamma" in mech.unknowns and circles and circles[0][1] > 0:
+            # Johnston2023's wire cam touches its idler: the wire wraps it from γ down to 0
+            gamma = float(z[mech.unknowns.index("gamma")])
+            t = np.linspace(gamma, 0.0, 60)
+            ctr, r = circles[0]
+            idler_wire = (ctr[0] + r * np.cos(t), ctr[1] + r * np.sin(t))
+        panels.append((th, prof, spans, circles, idler_wire))
+    # the view: the profiles at every drawn pose, and what lies near them
+    pts = [np.column_stack((x, y)) for _, prof, *_ in panels for x, y, *_ in prof] + [np.zeros((1, 2))]
+    near = REACH * MM * radius
+    for _, prof, spans, circles, _ in panels:
+        extra = [d for _, _, _, d, _, _ in prof] + [v for s in spans for v in s] + [ctr for ctr, _ in circles]
+        pts += [e[None, :] for e in extra if np.all(np.isfinite(e)) and np.hypot(*e) <= near]
+    allp = np.vstack(pts)
+    allp = allp[np.all(np.isfinite(allp), axis=1)]
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    pad = 0.08 * max(hi - lo) + 0.05 * MM * radius
+    return panels, lo - pad, hi + pad
 
 
-def plot_torque(ev: Evaluation, path) -> None:
-    """Torque against target and the error [N·mm]: lines for one joint, heat maps for two."""
+def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
+    """Each mechanism (a row) at ``n_poses`` joint angles (columns) in the world frame [mm].
+
+    Drawn: each profile over its wrapped range (thin) and thick where the cable is wrapped at
+    that angle, the anchor (■), the departure point (●), the free cable spans (the mechanism's
+    ``segments``; for Johnston2023's wire cam, which touches its idler, the wire on the idler
+    from γ down to 0), idler circles with their centres (+) and point idlers / spring ends (○)
+    (``circles``), the joint axis, the ρ_min and ρ_max circles (dotted), and the points where
+    ρ sits at a limit (✕) or the convexity margin at its required minimum (◇), within
+    :data:`cadcam.check.binding.RTOL`. The view is scaled to the profiles, not to the idler:
+    what lies further than :data:`REACH` times the largest radius is named at the edge.
+    """
+    problem = ev.problem
+    mechs = problem.mechanisms
+    rows = [_row(ev, u, n_poses) for u in range(len(mechs))]
+    ncols = max(len(panels) for panels, _, _ in rows)
+    width = 3.9  # of a panel [in]
+    heights = [width * float(np.clip((hi[1] - lo[1]) / (hi[0] - lo[0]), 0.45, 1.6)) + 0.6
+               for _, lo, hi in rows]
+    fig = Figure(figsize=(width * ncols + 0.4, sum(heights) + 1.2), layout="constrained")
+    axes = fig.subplots(len(mechs), ncols, squeeze=False, gridspec_kw={"height_ratios": heights})
+    seen = {"rho": False, "convexity": False, "idler": False, "end": False}
+    for row, (mech, (panels, lo, hi)) in enumerate(zip(mechs, rows)):
+        limits = sorted({(MM * pr.rho_min, "ρ_min") for pr in mech.profiles}
+                        | {(MM * pr.rho_max, "ρ_max") for pr in mech.profiles})
+        reach = float(np.hypot(*np.maximum(np.abs(lo), np.abs(hi))))
+        off = [f"{name} = {r:.4g} mm" for r, name in limits if r > reach]
+        for col in range(ncols):
+            ax = axes[row][col]
+            if col >= len(panels):
+                ax.set_axis_off()
+                continue
+            th, prof, spans, circles, idler_wire = panels[col]
+            for r, _ in limits:
+                ax.add_patch(Circle((0, 0), r, fill=False, **LIMIT))
+            for ctr, r in circles:
+                if r > 0:
+                    seen["idler"] = True
+                    ax.add_patch(Circle(tuple(ctr), r, fill=False, **IDLER))
+                    ax.plot(*ctr, marker="+", color="0.25", ms=8, ls="none")
+                else:
+                    seen["end"] |= _inside(lo, hi, ctr)
+                    ax.plot(*ctr, **SPRING_END)
+            for a, b in spans:
+                ax.plot([a[0], b[0]], [a[1], b[1]], **CABLE)
+            if idler_wire is not None:
+                ax.plot(*idler_wire, **CABLE)
+            for i, (x, y, wrapped, dep, anchor, bind) in enumerate(prof):
+                colour = PROFILE_COLOURS[i % len(PROFILE_COLOURS)]
+                ax.plot(x, y, color=colour, lw=0.9, alpha=0.55)
+                ax.plot(x[wrapped], y[wrapped], color=colour, lw=3.0, solid_capstyle="butt")
+                ax.plot(*anchor, **ANCHOR)
+                ax.plot(*dep, **DEPARTURE)
+                for kind, pt in bind:
+                    seen[kind] = True
+                    ax.plot(*pt, **(RHO_BINDING if kind == "rho" else CONVEXITY_BINDING))
+            ax.plot(0, 0, marker="+", color="black", ms=10, mew=1.2, ls="none")
+            ax.set_xlim(lo[0], hi[0])
+            ax.set_ylim(lo[1], hi[1])
+            ax.set_aspect("equal", adjustable="box")
+            # what lies off the view is named at its edge: an idler once (not the cable's
+            # tangent points on it), a spring end where its cable leaves the view
+            away = [(ctr, r) for ctr, r in circles if not _inside(lo, hi, ctr)]
+            for a, b in spans:
+                on_idler = any(r > 0 and np.hypot(*(b - ctr)) <= 1.01 * r for ctr, r in away)
+                if not _inside(lo, hi, b) and _inside(lo, hi, a) and not on_idler:
+                    is_end = any(r == 0 and np.allclose(ctr, b) for ctr, r in circles)
+                    what = "spring end" if is_end else "cable end"
+                    _edge_label(ax, lo, hi, a, b, f"{what} ({b[0]:.0f}, {b[1]:.0f}) mm")
+            for ctr, r in away:
+                if r > 0:
+                    _edge_label(ax, lo, hi, np.zeros(2), ctr,
+                                f"idler: centre ({ctr[0]:.0f}, {ctr[1]:.0f}) mm, r {r:.3g} mm")
+                elif not any(np.allclose(ctr, b) for _, b in spans):
+                    _edge_label(ax, lo, hi, np.zeros(2), ctr, f"spring end ({ctr[0]:.0f}, {ctr[1]:.0f}) mm")
+            angle = f"θ{mech.joint + 1}" if len(problem.joints) > 1 else "θ"
+            ax.set_title(f"{mech.name}: {angle} = {np.degrees(th):.0f}°", fontsize=9)
+            ax.tick_params(labelsize=7)
+            ax.set_xlabel("x [mm]", fontsize=8)
+            if col == 0:
+                ax.set_ylabel("y [mm]", fontsize=8)
+                if off:
+                    ax.text(0.02, 0.02, "off view: " + ", ".join(off), transform=ax.transAxes,
+                            fontsize=7, color="0.35", va="bottom")
+    pairs = max(len(mech.profiles) for mech in mechs)
+    if pairs == 1:
+        handles = [Line2D([], [], color=PROFILE_COLOURS[0], lw=0.9, alpha=0.55, label="profile (designed range)"),
+                   Line2D([], [], color=PROFILE_COLOURS[0], lw=3.0, label="cable wrapped on it")]
+    else:
+        handles = [Line2D([], [], color=PROFILE_COLOURS[k], lw=3.0, label=f"profile {k + 1} (thick: wrapped)")
+                   for k in range(pairs)]
+    handles += [Line2D([], [], label="cable off the profile", **CABLE),
+                Line2D([], [], label="departure point", **DEPARTURE),
+                Line2D([], [], label="anchor", **ANCHOR),
+                Line2D([], [], label="ρ_min, ρ_max", **LIMIT)]
+    if seen["idler"]:
+        handles.append(Line2D([], [], label="idler (+ centre)", **IDLER))
+    if seen["end"]:
+        handles.append(Line2D([], [], label="spring end / point idler", **SPRING_END))
+    if seen["rho"]:
+        handles.append(Line2D([], [], label="ρ at its limit", **RHO_BINDING))
+    if seen["convexity"]:
+        handles.append(Line2D([], [], label="convexity margin binding", **CONVEXITY_BINDING))
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8,
+               frameon=False)
+    fig.suptitle(f"{problem.name}: profiles and cable at {ncols} joint angles (+: joint axis)", fontsize=10)
+    return fig
+
+
+# -------------------------------------------------------------------------------------- torque
+def torque_figure(ev: Evaluation) -> Figure:
+    """Torque against target and the error [N·mm]: lines for one joint, error maps over the
+    first two joints' angles for several (further joints at the first angle of their grid)."""
     m = len(ev.tau)
+    metrics = ev.metrics
     if m == 1:
+        fig = Figure(figsize=(7, 6), layout="constrained")
+        a1, a2 = fig.subplots(2, 1, sharex=True)
         th = np.degrees(ev.theta[0])
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
         a1.plot(th, MM * ev.tau_d[0], "k--", label="target τ_d")
-        a1.plot(th, MM * ev.tau[0], label=f"τ ({ev.problem.torque_model} model)")
+        a1.plot(th, MM * ev.tau[0], color="tab:blue", label=f"τ ({ev.problem.torque_model} model)")
         a1.set_ylabel("torque [N·mm]")
-        a1.legend()
-        a2.plot(th, MM * (ev.tau[0] - ev.tau_d[0]), color="C3")
+        a1.legend(fontsize=8)
+        a2.plot(th, MM * (ev.tau[0] - ev.tau_d[0]), color="tab:red")
+        a2.axhline(0, color="0.5", lw=0.6)
         a2.set_ylabel("τ − τ_d [N·mm]")
         a2.set_xlabel("θ [deg]")
-        a1.set_title(f"RMSE {MM * ev.metrics['rmse'][0]:.3g} N·mm, "
-                     f"max {MM * ev.metrics['max_abs_error'][0]:.3g} N·mm")
-    else:
-        n = ev.grid
-        fig, axes = plt.subplots(1, m, figsize=(5.5 * m, 4.5), squeeze=False)
-        ext = [np.degrees(ev.theta[1].min()), np.degrees(ev.theta[1].max()),
-               np.degrees(ev.theta[0].min()), np.degrees(ev.theta[0].max())]
-        for i, ax in enumerate(axes[0]):
-            err = MM * (ev.tau[i] - ev.tau_d[i]).reshape((n,) * m)
-            im = ax.imshow(err if m == 2 else err.reshape(n, -1), origin="lower", extent=ext,
-                           aspect="auto", cmap="RdBu_r", vmin=-np.abs(err).max(), vmax=np.abs(err).max())
-            fig.colorbar(im, ax=ax, label="τ − τ_d [N·mm]")
-            ax.set_xlabel("θ₂ [deg]")
-            ax.set_ylabel("θ₁ [deg]")
-            ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * ev.metrics['rmse'][i]:.3g} N·mm")
-    fig.tight_layout()
-    _save(fig, path)
+        a1.set_title(f"{ev.problem.joints[0].name}: RMSE {MM * metrics['rmse'][0]:.3g} N·mm, "
+                     f"max |τ − τ_d| {MM * metrics['max_abs_error'][0]:.3g} N·mm", fontsize=10)
+        return fig
+    n = ev.grid
+    fig = Figure(figsize=(5.4 * m, 4.6), layout="constrained")
+    axes = fig.subplots(1, m, squeeze=False)[0]
+    t1, t2 = (np.degrees(np.linspace(*ev.problem.joints[i].theta_range, n)) for i in (0, 1))
+    for i, ax in enumerate(axes):
+        err = MM * (ev.tau[i] - ev.tau_d[i]).reshape((n,) * m)
+        err = err[(slice(None), slice(None)) + (0,) * (m - 2)]
+        top = float(np.abs(err).max()) or 1.0
+        im = ax.pcolormesh(t2, t1, err, shading="nearest", cmap="RdBu_r", vmin=-top, vmax=top)
+        fig.colorbar(im, ax=ax, label="τ − τ_d [N·mm]")
+        ax.set_xlabel("θ₂ [deg]")
+        ax.set_ylabel("θ₁ [deg]")
+        ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * metrics['rmse'][i]:.3g}, "
+                     f"max {MM * metrics['max_abs_error'][i]:.3g} N·mm", fontsize=10)
+    fig.suptitle(f"torque error ({ev.problem.torque_model} model)", fontsize=10)
+    return fig
 
 
-def plot_outputs(ev: Evaluation, path) -> None:
-    """Each mechanism's output x(θ) against its law x_d(θ) and the error [mm]."""
+# -------------------------------------------------------------------------------------- output
+def output_figure(ev: Evaluation) -> Figure:
+    """Each mechanism's output x(θ) against its law x_d(θ) [mm] and the error [µm]."""
     rows = [(mech, unit) for mech, unit in zip(ev.problem.mechanisms, ev.units)
             if mech.output_target is not None]
-    fig, axes = plt.subplots(2, len(rows), figsize=(6.5 * len(rows), 6), sharex="col", squeeze=False)
+    fig = Figure(figsize=(6.5 * max(len(rows), 1), 6), layout="constrained")
+    axes = fig.subplots(2, max(len(rows), 1), sharex="col", squeeze=False)
     for k, (mech, unit) in enumerate(rows):
         th = np.degrees(unit.theta)
         x = unit.z[mech.unknowns.index(mech.output)]
         xd, err = output_law(mech, unit.theta), output_error(mech, unit)
         a1, a2 = axes[0][k], axes[1][k]
         a1.plot(th, MM * xd, "k--", label=f"target {mech.output}_d")
-        a1.plot(th, MM * x, label=f"{mech.output} (rootfinder)")
+        a1.plot(th, MM * x, color="tab:blue", label=f"{mech.output} (rootfinder)")
         a1.set_ylabel(f"{mech.output} [mm]")
         a1.legend(fontsize=8)
         a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| "
                      f"{MM * np.abs(err).max():.3g} mm", fontsize=9)
-        a2.plot(th, 1e6 * err, color="C3")
+        a2.plot(th, 1e6 * err, color="tab:red")
+        a2.axhline(0, color="0.5", lw=0.6)
         a2.set_ylabel(f"{mech.output} − {mech.output}_d [µm]")
         a2.set_xlabel("θ [deg]")
-    fig.tight_layout()
-    _save(fig, path)
+    return fig
 
 
-def plot_springs(ev: Evaluation, path) -> None:
-    """Spring extensions against their travel limits [mm].
+# ------------------------------------------------------------------------------------- springs
+def _wrap(name: str, width: int = 26) -> str:
+    return "\n".join(textwrap.wrap(name, width)) or name
 
-    A spring on one cam is a line over that cam's angle; a spring joining two cams (Johnston2023's
-    spring 2) is a map over both angles with its travel limit drawn as a contour.
+
+#: Spring colours: the default cycle without its red, which marks limits reached.
+SPRING_COLOURS = ("C0", "C1", "C2", "C4", "C5", "C6", "C7", "C8", "C9")
+
+
+def _spring_colour(j: int) -> str:
+    return SPRING_COLOURS[j % len(SPRING_COLOURS)]
+
+
+def _short(name: str) -> str:
+    """A spring's name without its parenthesised details: "spring 1 (McMaster…)" → "spring 1"."""
+    return name.split(" (")[0] or name
+
+
+def springs_figure(ev: Evaluation) -> Figure:
+    """Every spring's extension against its travel [mm].
+
+    Top: each spring's extension range over the grid (coloured bar) inside its allowed range
+    [0, travel] (grey), the limits it sits at (within :data:`cadcam.check.binding.RTOL` of the
+    travel, or at zero) marked and named in red. Below: each extension over its joint's angle
+    (one joint: all springs in one panel), or, for a spring joining two joints (Johnston2023's
+    spring 2), a map over both angles with a contour at 99 % of its travel where it comes that
+    close; a red cross where a limit binds.
     """
-    springs, m, n = ev.problem.springs, len(ev.tau), ev.grid
-    net = ev.problem.network()
-    grids = [j.grid(n) for j in ev.problem.joints]
-    fig, axes = plt.subplots(1, len(springs) if m > 1 else 1, figsize=(5 * max(len(springs), 1) if m > 1 else 7, 4.5),
-                             squeeze=False)
+    problem = ev.problem
+    springs, m, n = problem.springs, len(ev.tau), ev.grid
+    net = problem.network()
+    grids = [np.degrees(j.grid(n)) for j in problem.joints]
+    S = len(springs)
+    detail = 1 if m == 1 else S
+    fig = Figure(figsize=(max(8.0, 4.6 * detail), 1.4 + 0.5 * S + 3.6), layout="constrained")
+    gs = fig.add_gridspec(2, detail, height_ratios=[0.6 + 0.5 * S, 3.6])
+    top = fig.add_subplot(gs[0, :])
+    xmin, xmax = MM * ev.x.min(axis=1), MM * ev.x.max(axis=1)
+    notes_all = []
     for j, s in enumerate(springs):
-        ax = axes[0][j if m > 1 else 0]
+        travel = MM * s.travel
+        y = S - 1 - j
+        top.barh(y, travel, left=0, height=0.6, color="0.9", edgecolor="0.6")
+        top.barh(y, max(xmax[j] - xmin[j], 1e-3 * travel), left=xmin[j], height=0.36, color=_spring_colour(j))
+        notes = []
+        hi_state, lo_state = limit_state(travel - xmax[j], travel), limit_state(xmin[j], travel)
+        if hi_state:
+            top.plot(xmax[j], y, marker="|", color="red", ms=22, mew=2.5)
+            notes.append("at its travel limit" if hi_state == "at" else "BEYOND its travel")
+        if lo_state:
+            top.plot(max(xmin[j], 0), y, marker="|", color="red", ms=22, mew=2.5)
+            notes.append("at zero extension" if lo_state == "at" else "IN COMPRESSION")
+        notes_all.append(f"{xmin[j]:.2f}–{xmax[j]:.2f} of {travel:.2f} mm" + (": " + ", ".join(notes) if notes else ""))
+    top.set_yticks(range(S), [_wrap(s.name, 30) for s in reversed(springs)], fontsize=7)
+    right = top.twinx()  # the ranges and binding limits, as labels on the right
+    right.set_ylim(-0.6, S - 0.4)
+    right.set_yticks(range(S), list(reversed(notes_all)), fontsize=8)
+    for label, note in zip(right.get_yticklabels(), reversed(notes_all)):
+        label.set_color("red" if ":" in note else "black")
+    right.tick_params(length=0)
+    hi = max(max(MM * s.travel for s in springs), float(xmax.max()))
+    top.set_xlim(min(0.0, float(xmin.min())) - 0.02 * hi, 1.04 * hi)
+    top.set_ylim(-0.6, S - 0.4)
+    top.set_xlabel("extension [mm] (grey: allowed, 0 to travel; red: a limit reached)", fontsize=8)
+    grid = " × ".join([str(n)] * m) if m > 1 else f"{n}-angle"
+    top.set_title(f"spring extensions over the {grid} grid ({problem.torque_model} model)", fontsize=10)
+    if m == 1:
+        ax = fig.add_subplot(gs[1, 0])
+        for j, s in enumerate(springs):
+            ax.plot(grids[0], MM * ev.x[j], color=_spring_colour(j), label=_short(s.name))
+            ax.axhline(MM * s.travel, color=_spring_colour(j), ls=":", lw=1)
+            _mark_extremes(ax, grids[0], MM * ev.x[j], MM * s.travel)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel("θ [deg]")
+        ax.set_ylabel("extension [mm] (dotted: travel)")
+        ax.legend(fontsize=8)
+        return fig
+    for j, s in enumerate(springs):
+        ax = fig.add_subplot(gs[1, j])
         cams = net.joints_of(j)
         x = MM * ev.x[j].reshape((n,) * m)
+        travel = MM * s.travel
         if len(cams) == 1:
             c = cams[0]
             line = x[tuple(slice(None) if a == c else 0 for a in range(m))]
-            ax.plot(np.degrees(grids[c]), line, color=f"C{j}", label=s.name)
-            ax.axhline(MM * s.travel, color=f"C{j}", ls=":", lw=1)
+            ax.plot(grids[c], line, color=_spring_colour(j))
+            ax.axhline(travel, color=_spring_colour(j), ls=":", lw=1)
             ax.axhline(0, color="k", lw=0.5)
-            ax.set_xlabel(f"θ{c + 1 if m > 1 else ''} [deg]")
+            _mark_extremes(ax, grids[c], line, travel)
+            ax.set_xlabel(f"θ{c + 1} [deg]")
             ax.set_ylabel("extension [mm] (dotted: travel)")
-            ax.legend(fontsize=8)
         else:
             a, b = cams[:2]
             sl = x[tuple(slice(None) if k in (a, b) else 0 for k in range(m))]
-            ext = [np.degrees(grids[b][0]), np.degrees(grids[b][-1]),
-                   np.degrees(grids[a][0]), np.degrees(grids[a][-1])]
-            im = ax.imshow(sl, origin="lower", extent=ext, aspect="auto", cmap="viridis")
+            if a > b:
+                sl = sl.T
+            im = ax.pcolormesh(grids[b], grids[a], sl, shading="nearest", cmap="viridis")
             fig.colorbar(im, ax=ax, label="extension [mm]")
-            if sl.max() >= 0.98 * MM * s.travel:
-                ax.contour(np.degrees(grids[b]), np.degrees(grids[a]), sl,
-                           levels=[0.98 * MM * s.travel], colors="r", linewidths=1)
+            if sl.max() >= 0.99 * travel:
+                cs = ax.contour(grids[b], grids[a], sl, levels=[0.99 * travel], colors="r", linewidths=1.2)
+                ax.clabel(cs, fmt=lambda v: "99 % of travel", fontsize=7)
+            ia, ib = np.unravel_index(int(np.argmax(sl)), sl.shape)
+            if limit_state(travel - sl.max(), travel):
+                ax.plot(grids[b][ib], grids[a][ia], marker="X", color="red", ms=9, ls="none")
             ax.set_xlabel(f"θ{b + 1} [deg]")
             ax.set_ylabel(f"θ{a + 1} [deg]")
-        ax.set_title(f"{s.name}\nmax {x.max():.2f} of {MM * s.travel:.2f} mm", fontsize=9)
-    fig.tight_layout()
-    _save(fig, path)
+        ax.set_title(_wrap(s.name, 40), fontsize=8)
+    return fig
 
 
+def _mark_extremes(ax, th, x, travel):
+    """Red crosses where an extension curve sits at its travel or at zero."""
+    k = int(np.argmax(x))
+    if limit_state(travel - x[k], travel):
+        ax.plot(th[k], x[k], marker="X", color="red", ms=9, ls="none")
+    k = int(np.argmin(x))
+    if limit_state(x[k], travel):
+        ax.plot(th[k], x[k], marker="X", color="red", ms=9, ls="none")
+
+
+# --------------------------------------------------------------------------------- convergence
+def convergence_figure(history: dict) -> Figure:
+    """IPOPT's iterations of the returned solve: the objective, the primal and dual
+    infeasibilities (log scale, with the barrier parameter μ) and the step (‖d‖, log scale,
+    and the primal step size α_pr) against the iteration.
+
+    ``history`` holds equal-length lists ``iteration``, ``objective``, ``inf_pr``, ``inf_du``,
+    ``mu``, ``d_norm``, ``alpha_pr`` (result.json's ``solver.history``).
+    """
+    it = np.asarray(history["iteration"], dtype=float)
+
+    def col(key):
+        v = history.get(key)
+        return None if v is None else np.asarray([np.nan if x is None else x for x in v], dtype=float)
+
+    fig = Figure(figsize=(7, 7.5), layout="constrained")
+    a1, a2, a3 = fig.subplots(3, 1, sharex=True)
+    obj = col("objective")
+    title = f"IPOPT: {len(it)} iterates"
+    if obj is not None and obj.size:
+        title += f"; last objective {obj[-1]:.6g}"
+        finite = obj[np.isfinite(obj)]
+        positive = finite[finite > 0]
+        if positive.size and positive.max() > 20 * positive.min():  # a wide range: logarithmic
+            a1.set_yscale("log")
+            if positive.size < finite.size:
+                title += f" ({finite.size - positive.size} iterate(s) ≤ 0 not shown on the log scale)"
+                obj = np.where(obj > 0, obj, np.nan)
+        a1.plot(it, obj, color="tab:blue", marker=".", ms=3)
+    a1.set_ylabel("objective (as IPOPT sees it)")
+    a1.set_title(title, fontsize=10)
+    for key, label, colour in (("inf_pr", "primal infeasibility", "tab:red"),
+                               ("inf_du", "dual infeasibility", "tab:green"),
+                               ("mu", "barrier μ", "0.5")):
+        v = col(key)
+        if v is not None:
+            a2.semilogy(it, np.where(v > 0, v, np.nan), label=label, color=colour,
+                        ls=":" if key == "mu" else "-", marker="." if key != "mu" else None, ms=3)
+    a2.set_ylabel("infeasibility, μ")
+    a2.legend(fontsize=8)
+    d = col("d_norm")
+    if d is not None:
+        a3.semilogy(it, np.where(d > 0, d, np.nan), color="tab:purple", marker=".", ms=3)
+    a3.set_ylabel("‖d‖ (step)", color="tab:purple")
+    a3.set_xlabel("iteration")
+    alpha = col("alpha_pr")
+    if alpha is not None:
+        b3 = a3.twinx()
+        b3.plot(it, alpha, color="tab:orange", lw=0.9)
+        b3.set_ylim(0, 1.05)
+        b3.set_ylabel("α_pr (primal step size)", color="tab:orange")
+    return fig
+
+
+# ------------------------------------------------------------------------------- all of a run
+def figures(ev: Evaluation, history: dict | None = None) -> dict[str, Figure]:
+    """The figures of a design run by name: ``profile``; ``torque`` and ``springs`` (only with
+    springs: without them there is no torque); ``output`` (only for mechanisms with an output
+    law); ``convergence`` (only when IPOPT's ``history`` is given)."""
+    out = {"profile": profile_figure(ev)}
+    if ev.problem.springs:
+        out["torque"] = torque_figure(ev)
+        out["springs"] = springs_figure(ev)
+    if any(mech.output_target is not None for mech in ev.problem.mechanisms):
+        out["output"] = output_figure(ev)
+    if history and history.get("iteration"):
+        out["convergence"] = convergence_figure(history)
+    return out
+
+
+def plot_profiles(ev: Evaluation, path, n_poses: int = 3) -> None:
+    """:func:`profile_figure` as a PNG."""
+    save_figure(profile_figure(ev, n_poses), path)
+
+
+def plot_torque(ev: Evaluation, path) -> None:
+    """:func:`torque_figure` as a PNG."""
+    save_figure(torque_figure(ev), path)
+
+
+def plot_springs(ev: Evaluation, path) -> None:
+    """:func:`springs_figure` as a PNG."""
+    save_figure(springs_figure(ev), path)
+
+
+def plot_outputs(ev: Evaluation, path) -> None:
+    """:func:`output_figure` as a PNG."""
+    save_figure(output_figure(ev), path)
+
+
+def plot_convergence(history: dict, path) -> None:
+    """:func:`convergence_figure` as a PNG."""
+    save_figure(convergence_figure(history), path)
+
+
+# --------------------------------------------------------------------------------------- study
 def pareto_front(points: np.ndarray) -> np.ndarray:
     """Indices of the points no other point beats in both coordinates (minimising both)."""
     order = np.lexsort((points[:, 1], points[:, 0]))
@@ -173,33 +576,120 @@ def pareto_front(points: np.ndarray) -> np.ndarray:
     return np.array(front, dtype=int)
 
 
-def plot_study(table: list[dict], x: str, y: str, color: str | None, pareto: bool, path,
-               title: str) -> None:
+#: Metric (:data:`cadcam.check.evaluate.METRIC_NAMES`) → (label, what its index counts, unit,
+#: factor from SI to the unit drawn).
+METRIC_LABELS = {
+    "grid": ("grid angles per joint", None, "", 1.0),
+    "output_rmse": ("output RMSE", "mechanism", "mm", MM),
+    "output_max_abs_error": ("output max |x − x_d|", "mechanism", "mm", MM),
+    "rmse": ("RMSE", "joint", "N·mm", MM),
+    "relative_rmse": ("RMSE / RMS target", "joint", "%", 100.0),
+    "max_abs_error": ("max |τ − τ_d|", "joint", "N·mm", MM),
+    "extension_min": ("least extension", "spring", "mm", MM),
+    "extension_max": ("largest extension", "spring", "mm", MM),
+    "convexity_min": ("least convexity margin", "profile", "mm²", MM**2),
+    "rho_min": ("least ρ", "profile", "mm", MM),
+    "rho_max": ("largest ρ", "profile", "mm", MM),
+    "curvature_radius_min": ("least radius of curvature", "profile", "mm", MM),
+    "alpha_max": ("largest wrap α", "profile", "deg", 180 / np.pi),
+    "tangency_residual_max": ("largest departure residual", None, "-", 1.0),
+    "sensitivity_integral": ("∫|∂τ/∂k|", ("joint", "spring"), "m²·rad^m", 1.0),
+    "objective": ("objective (Eq. 46/47)", None, "-", 1.0),
+}
+#: Run facts of a study table (:func:`cadcam.studies.sweep.flat_table`).
+RUN_LABELS = {
+    "iterations": ("IPOPT iterations", "", 1.0), "solve_time_s": ("solve time", "s", 1.0),
+    "build_time_s": ("build time", "s", 1.0), "wall_time_s": ("wall time", "s", 1.0),
+    "recheck_violations": ("violations on the re-check", "", 1.0), "idx": ("case index", "", 1.0),
+}
+#: Last part of a spec key (its index stripped) → (unit, factor from SI).
+SPEC_UNITS = {
+    "radius": ("mm", MM), "offset": ("mm", MM), "rho_min": ("mm", MM), "rho_max": ("mm", MM),
+    "travel": ("mm", MM), "preextension": ("mm", MM), "free_length": ("mm", MM),
+    "min_curvature_radius": ("mm", MM), "min_moment_arm": ("mm", MM), "min_free_span": ("mm", MM),
+    "initial_radius": ("mm", MM), "spring_end": ("mm", MM), "idler_radius": ("mm", MM),
+    "cable_length": ("mm", MM), "slider_range": ("mm", MM), "rolling_radius": ("mm", MM),
+    "length": ("mm", MM), "lengths": ("mm", MM), "com": ("mm", MM), "upper": ("mm", MM),
+    "crank": ("mm", MM), "fore": ("mm", MM), "rate": ("N/mm", 1 / MM), "preload": ("N", 1.0),
+    "mass": ("kg", 1.0), "masses": ("kg", 1.0), "g": ("m/s²", 1.0), "mu": ("-", 1.0),
+    "theta_range_deg": ("deg", 1.0), "anchor_angle": ("deg", 180 / np.pi),
+    "anchor_angles": ("deg", 180 / np.pi), "reference_angle": ("deg", 180 / np.pi),
+    "slider_angle": ("deg", 180 / np.pi), "phase": ("deg", 180 / np.pi),
+    "tracking_weight": ("-", 1.0), "sensitivity_weights": ("-", 1.0), "order": ("", 1.0),
+    "grid": ("", 1.0), "convexity_epsilon": ("-", 1.0), "limit_margin": ("-", 1.0),
+}
+
+
+def _unit(unit: str) -> str:
+    return f" [{unit}]" if unit else ""
+
+
+def axis_label(key: str) -> tuple[str, float]:
+    """A readable axis label with its unit for a study table column, and the factor that turns
+    the column's SI values into that unit: ``rmse_1`` → ("RMSE, joint 1 [N·mm]", 1000),
+    ``cams.1.idler.offset`` → ("cams 1 idler offset [mm]", 1000), ``springs.2.rate`` →
+    ("springs 2 rate [N/mm]", 0.001). Unknown columns keep their name and SI values."""
+    for name in sorted(METRIC_LABELS, key=len, reverse=True):
+        hit = re.fullmatch(re.escape(name) + r"((?:_\d+)*)", key)
+        if hit:
+            label, counts, unit, factor = METRIC_LABELS[name]
+            idx = [int(v) for v in hit.group(1).split("_")[1:]]
+            if isinstance(counts, tuple):
+                label += "".join(f", {c} {i}" for c, i in zip(counts, idx))
+            elif counts and idx:
+                label += f", {counts} {idx[0]}"
+            return label + _unit(unit), factor
+    if key in RUN_LABELS:
+        label, unit, factor = RUN_LABELS[key]
+        return label + _unit(unit), factor
+    if "." in key:
+        parts = key.split(".")
+        leaf = re.sub(r"(_\d+)+$", "", parts[-1])
+        suffix = parts[-1][len(leaf):]
+        unit, factor = SPEC_UNITS.get(leaf, ("", 1.0))
+        words = " ".join(p.replace("_", " ") for p in parts[:-1] + [leaf])
+        if suffix:
+            words += " " + " ".join(suffix.strip("_").split("_"))
+        return words + _unit(unit), factor
+    return key, 1.0
+
+
+def study_figure(table: list[dict], x: str, y: str, color: str | None = None, pareto: bool = False,
+                 title: str = "") -> Figure:
     """Scatter of column ``y`` against ``x`` over a study's successful cases, optionally
-    coloured by ``color`` and with the Pareto front (both minimised) drawn."""
+    coloured by ``color`` and with the Pareto front (both minimised) drawn; axes labelled with
+    names and units (:func:`axis_label`), values drawn in those units."""
     rows = [r for r in table if r.get("status") == "success"
             and isinstance(r.get(x), (int, float)) and isinstance(r.get(y), (int, float))]
-    pts = np.array([[r[x], r[y]] for r in rows], dtype=float).reshape(-1, 2)
-    fig, ax = plt.subplots(figsize=(7, 5))
+    (xl, fx), (yl, fy) = axis_label(x), axis_label(y)
+    pts = np.array([[fx * r[x], fy * r[y]] for r in rows], dtype=float).reshape(-1, 2)
+    fig = Figure(figsize=(7, 5), layout="constrained")
+    ax = fig.add_subplot()
     if color:
+        cl, fc = axis_label(color)
         c = [r.get(color) for r in rows]
-        numeric = all(isinstance(v, (int, float)) for v in c)
-        if numeric:
-            sc = ax.scatter(pts[:, 0], pts[:, 1], c=c, cmap="viridis")
-            fig.colorbar(sc, ax=ax, label=color)
+        if all(isinstance(v, (int, float)) for v in c):
+            sc = ax.scatter(pts[:, 0], pts[:, 1], c=fc * np.asarray(c, dtype=float),
+                            cmap=matplotlib.colormaps["viridis"])
+            fig.colorbar(sc, ax=ax, label=cl)
         else:
             for k, level in enumerate(dict.fromkeys(c)):
                 mask = np.array([v == level for v in c])
-                ax.scatter(pts[mask, 0], pts[mask, 1], color=f"C{k}", label=str(level))
-            ax.legend(fontsize=8, title=color)
+                ax.scatter(pts[mask, 0], pts[mask, 1], color=f"C{k % 10}", label=str(level))
+            ax.legend(fontsize=8, title=cl)
     else:
         ax.scatter(pts[:, 0], pts[:, 1])
     if pareto and len(pts):
         front = pts[pareto_front(pts)]
-        ax.plot(front[:, 0], front[:, 1], "r-o", mfc="none", label="Pareto front")
-        ax.legend(fontsize=8)
-    ax.set_xlabel(x)
-    ax.set_ylabel(y)
-    ax.set_title(f"{title}: {len(rows)} successful cases of {len(table)}")
-    fig.tight_layout()
-    _save(fig, path)
+        ax.plot(front[:, 0], front[:, 1], "r-o", mfc="none", label="Pareto front (both minimised)")
+        ax.legend(fontsize=8, title=axis_label(color)[0] if color else None)
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl)
+    ax.set_title(f"{title + ': ' if title else ''}{len(rows)} successful cases of {len(table)}", fontsize=10)
+    return fig
+
+
+def plot_study(table: list[dict], x: str, y: str, color: str | None, pareto: bool, path,
+               title: str) -> None:
+    """:func:`study_figure` as a PNG."""
+    save_figure(study_figure(table, x, y, color, pareto, title), path)

@@ -1,0 +1,289 @@
+"""cadcam as a library: design, evaluate and check a problem given as a spec file, spec data (a
+dict) or a :class:`~cadcam.problem.Problem`, with the command line's options as keyword
+arguments.
+
+Examples
+--------
+>>> import cadcam
+>>> result = cadcam.design("models/johnston2023_1dof.toml", grid=24)  # doctest: +SKIP
+>>> result.success, result.nit, result.fun                            # doctest: +SKIP
+>>> figures = result.plot()                                           # doctest: +SKIP
+>>> result.save("out/demo")                                           # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import copy
+import json
+import os
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from .check import derivatives
+from .check.evaluate import Evaluation, start_samples
+from .check.evaluate import evaluate as evaluate_design
+from .check.model import torque_function, torque_jacobian_function
+from .designs import Design, DesignError
+from .files import InputFileError, read_input
+from .nlp.transcription import Transcription
+from .optimize import default_start, differential_start, optimize
+from .problem import Options, Problem, size_error
+from .result import Result
+from .spec import SpecError, parse_spec, read_spec_data, with_overrides
+from .studies.sweep import flat_table, read_rows
+
+#: The ``[solver]`` keys that may be given as keyword arguments.
+SOLVER_KEYS = tuple(f.name for f in fields(Options) if f.name != "ipopt")
+
+
+def load_problem(spec, *, variant: str | None = None, overrides=None, torque_model: str | None = None,
+                 ipopt: dict | None = None, **solver) -> Problem:
+    """The problem of ``spec`` with overrides and options applied, checked like a spec file.
+
+    Parameters
+    ----------
+    spec : str, Path, dict or Problem
+        A spec file (TOML) or a cadcam ``result.json``, spec data as a dict (the TOML's
+        tables), or a Problem.
+    variant : str, optional
+        Apply the spec's ``[variants.NAME]`` overrides.
+    overrides : dict or list of (key, value), optional
+        Dotted-key overrides, as ``--set`` (``{"springs.1.rate": 1200.0}``).
+    torque_model : str, optional
+        ``energy``, ``force`` or ``force-as-printed``.
+    ipopt : dict, optional
+        IPOPT options (``{"mu_strategy": "monotone"}``), merged into ``[solver.ipopt]``.
+    **solver
+        ``[solver]`` keys (:data:`SOLVER_KEYS`: ``grid``, ``multistart``, ``max_iter``, …).
+
+    Raises
+    ------
+    SpecError
+        One line naming the key and the expected form, as for a spec file.
+    """
+    unknown = sorted(set(solver) - set(SOLVER_KEYS))
+    if unknown:
+        raise SpecError(f"unknown option {unknown[0]!r}; the [solver] keys are {', '.join(SOLVER_KEYS)}")
+    pairs = list(overrides.items()) if isinstance(overrides, dict) else list(overrides or ())
+    if isinstance(spec, Problem):
+        if variant is not None:
+            raise SpecError("variant: a Problem has no variants; give the spec file instead")
+        if not (pairs or torque_model or ipopt or solver):
+            return spec
+        data, origin, base = spec.to_dict(), f"<problem {spec.name}>", Path(".")
+        with_overrides(data, origin, None, pairs)
+    elif isinstance(spec, dict):
+        data, origin, base = with_overrides(copy.deepcopy(spec), "<spec>", variant, pairs), "<spec>", Path(".")
+    elif isinstance(spec, (str, os.PathLike)):
+        path = Path(spec)
+        data, origin, base = read_spec_data(path, variant, pairs), str(path), path.parent
+    else:
+        raise SpecError(f"spec: expected a file name, a dict or a Problem, not {type(spec).__name__}")
+    if solver or ipopt:
+        table = data.setdefault("solver", {})
+        if not isinstance(table, dict):
+            raise SpecError(f"{origin}: solver: expected a table")
+        table.update(solver)
+        if ipopt:
+            table["ipopt"] = {**table.get("ipopt", {}), **ipopt}
+    if torque_model is not None:
+        data.pop("friction_model", None)
+        data["torque_model"] = torque_model
+    problem = parse_spec(data, origin, base)
+    too_big = size_error(problem.options, len(problem.joints))
+    if too_big:
+        raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
+    return problem
+
+
+def load_design(design, problem: Problem) -> Design:
+    """A :class:`Design` for ``problem`` from a Design, a design or result dict, or a JSON file."""
+    if isinstance(design, Design):
+        return design
+    origin = "<design>"
+    if isinstance(design, (str, os.PathLike)):
+        origin = str(design)
+        try:
+            design = json.loads(read_input(design))
+        except InputFileError as exc:
+            raise DesignError(f"{origin}: the design: {exc}") from None
+        except (ValueError, RecursionError):
+            raise DesignError(f"{origin}: not valid JSON (or nested too deeply)") from None
+    return Design.from_dict(design, problem, origin)
+
+
+def design(spec, *, start=None, **options) -> Result:
+    """Design the profiles of ``spec`` and re-check them, as ``cadcam design`` does.
+
+    Parameters
+    ----------
+    spec : str, Path, dict or Problem
+        See :func:`load_problem`.
+    start : Design, dict or path, optional
+        The first start (default: cadcam's start for the mechanisms).
+    **options
+        :func:`load_problem`'s keywords (``variant``, ``overrides``, ``torque_model``,
+        ``ipopt``, ``grid``, ``multistart``, …).
+
+    Returns
+    -------
+    Result
+        ``success`` only for a converged optimum that passed the fine re-check; ``plot()``,
+        ``save(directory)``, ``to_dict()``.
+    """
+    problem = load_problem(spec, **options)
+    return optimize(problem, start=None if start is None else load_design(start, problem))
+
+
+def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **options) -> Evaluation:
+    """Metrics of ``design`` (a Design, dict or JSON file) for ``spec`` on a ``grid``-angle
+    grid per joint (default the spec's), as ``cadcam evaluate`` (``profile=False`` skips the
+    dense profile scan); ``options`` as for :func:`load_problem`."""
+    problem = load_problem(spec, **options)
+    return evaluate_design(problem, load_design(design, problem), grid=grid, profile=profile)
+
+
+@dataclass
+class DerivativeCheck:
+    """Automatic derivatives of a problem against finite differences.
+
+    Attributes
+    ----------
+    rows : list of cadcam.check.derivatives.Partial
+        One per (function output, input), the worst over the points checked.
+    tol : float
+        Largest relative error accepted.
+    notes : list of str
+        What was checked where, and what was not (and why).
+    """
+
+    rows: list
+    tol: float
+    notes: list
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed(self.tol) for r in self.rows)
+
+    def __repr__(self) -> str:
+        verdict = "every block agrees" if self.passed else "some blocks do NOT agree"
+        return "\n".join([derivatives.table(self.rows, self.tol), *self.notes,
+                          f"{verdict} within a relative error of {self.tol:g}"])
+
+    def to_dict(self) -> dict:
+        return {"tol": self.tol, "passed": self.passed, "notes": self.notes,
+                "rows": [{"of": r.of, "wrt": r.wrt, "shape": list(r.shape), "norm": r.norm,
+                          "abs_error": r.abs_error, "rel_error": r.rel_error,
+                          "passed": r.passed(self.tol)} for r in self.rows]}
+
+
+#: Typical size of each torque-model input (the floor of the difference step): angles [rad],
+#: profile coefficients [m], rates [N/m], pre-extensions [m], preloads [N].
+INPUT_SCALE = {"theta": 1.0, "c": 1e-2, "k": 1e3, "x0": 1e-2, "F0": 1.0}
+
+
+def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, nlp: bool = True,
+                      seed: int = 0, **options) -> DerivativeCheck:
+    """The torque model's and the NLP's automatic derivatives against central differences.
+
+    The torque model (:func:`cadcam.check.model.torque_function`, the rootfinder form whose
+    derivatives come from the implicit function theorem): ∂τ and ∂x with respect to the joint
+    angles, the profile coefficients, the spring rates and the pre-extensions, at ``points``
+    random poses in the joints' ranges. The NLP (the functions IPOPT calls): the objective's
+    gradient, the constraint Jacobian and the Lagrangian's Hessian (random multipliers) at
+    the NLP vector of ``design``. Each table row is the worst of its block over the points.
+
+    Parameters
+    ----------
+    spec : str, Path, dict or Problem
+    design : Design, dict or path, optional
+        Where to check (default: cadcam's start design for the problem).
+    points : int
+        Poses of the torque model (1 … 20).
+    tol : float
+        Largest relative error accepted (Frobenius norms of the block).
+    nlp : bool
+        Also check the NLP (builds it).
+    seed : int
+        Seed of the poses, the multipliers and the columns sampled in large blocks.
+    """
+    if not 1 <= points <= 20:
+        raise SpecError(f"points = {points}: give 1 … 20 poses")
+    if not 0 < tol < 1:
+        raise SpecError(f"tol = {tol}: give a relative error between 0 and 1")
+    problem = load_problem(spec, **options)
+    if design is None:
+        problem, start = differential_start(problem, default_start(problem))
+    else:
+        start = load_design(design, problem)
+    rng = np.random.default_rng(seed)
+    rows, notes = [], []
+    if problem.springs:
+        model = torque_function(problem, start.bases)
+        point = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
+                 "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
+        lo = np.array([j.theta_range[0] for j in problem.joints])
+        hi = np.array([j.theta_range[1] for j in problem.joints])
+        newton = torque_function(problem, start.bases, tangency="newton")
+        exported = torque_jacobian_function(problem, start.bases)
+        for _ in range(points):
+            point["theta"] = lo + (hi - lo) * rng.uniform(0.05, 0.95, lo.size)
+            rows += derivatives.function_partials(model, point, ["tau", "x"], ["theta", "c", "k", "x0"],
+                                                  INPUT_SCALE, "torque model")
+            jac = exported(**point)
+            for wrt in ("theta", "c", "k", "x0"):
+                for of in ("tau", "x"):
+                    def value(v, of=of, wrt=wrt):
+                        return np.asarray(newton(**{**point, wrt: v})[of]).ravel()
+                    rows.append(derivatives.compare(value, point[wrt], np.asarray(jac[f"d{of}_d{wrt}"]),
+                                                    f"exported Jacobian: {of}", wrt, INPUT_SCALE[wrt]))
+        notes.append(f"torque model (rootfinder tangency, CasADi's derivatives) and the exported Jacobian "
+                     f"(Newton tangency, implicit function theorem by hand): {points} random poses in the "
+                     "joints' ranges")
+    else:
+        notes.append("torque model: not checked (the problem has no springs, so no torque)")
+    if nlp and problem.options.method == "nlp":
+        rows += _nlp_partials(problem, start, rng)
+        notes.append("NLP: at the start design's NLP vector (the functions IPOPT calls)")
+    elif nlp:
+        notes.append("NLP: not checked (solver.method = 'envelope' builds no NLP)")
+    return DerivativeCheck(derivatives.worst(rows), tol, notes)
+
+
+def _nlp_partials(problem: Problem, start: Design, rng: np.random.Generator) -> list:
+    """The gradient, the constraint Jacobian and the Lagrangian Hessian IPOPT is given, against
+    central differences of the objective, the constraints and the gradient of the Lagrangian."""
+    tr = Transcription(problem)
+    solver = tr.solver
+    pv = tr.parameters(problem)
+    w = tr.initial_guess(problem, start, start_samples(problem, start, tr.n, tr.start_order()), pv)
+    f, g = solver.get_function("nlp_f"), solver.get_function("nlp_g")
+    grad, jac = solver.get_function("nlp_grad_f"), solver.get_function("nlp_jac_g")
+    lam = rng.standard_normal(g.size1_out(0))
+    upper = np.asarray(solver.get_function("nlp_hess_l")(w, pv, 1.0, lam).full())
+    hess = upper + np.triu(upper, 1).T
+
+    def lagrangian_gradient(x):
+        return (np.asarray(grad(x, pv)[1]).ravel()
+                + np.asarray(jac(x, pv)[1].T @ lam).ravel())
+
+    return [derivatives.compare(lambda x: float(f(x, pv)), w, np.asarray(grad(w, pv)[1]).reshape(1, -1),
+                                "NLP: objective", "x", rng=rng),
+            derivatives.compare(lambda x: np.asarray(g(x, pv)).ravel(), w,
+                                np.asarray(jac(w, pv)[1].full()), "NLP: constraints", "x", rng=rng),
+            derivatives.compare(lagrangian_gradient, w, hess, "NLP: Lagrangian gradient (Hessian)", "x", rng=rng)]
+
+
+def read_study(path):
+    """A study database (``cadcam sweep``) as a table: one row per case with its parameters,
+    status and metrics (the columns of ``cadcam sweep-export``). A pandas DataFrame if pandas
+    is installed, else a dict of column name → list."""
+    table = flat_table(*read_rows(path))
+    header = dict.fromkeys(k for row in table for k in row)  # every column, in first-seen order
+    columns = {name: [row.get(name) for row in table] for name in header}
+    try:
+        import pandas as pd
+    except ImportError:
+        return columns
+    return pd.DataFrame(columns)

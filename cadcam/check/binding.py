@@ -1,0 +1,138 @@
+"""Which constraints of a design bind: the limits an evaluation sits at (or beyond), each as one
+short sentence with the value and the limit in millimetres.
+
+A limit *binds* when the design's margin to it is at most :data:`RTOL` times the limit's own
+size (its scale, below); a margin more negative than that is a limit *exceeded* (it is also
+among the evaluation's ``violations``, which name it without the numbers). The tolerance is
+relative so that it means the same for a 10 mm cam and a 200 mm one; 1e-3 is ten times the
+reserve the NLP keeps from every limit (``limit_margin`` = 1e-4 of it), so an optimum pressed
+against a limit is flagged on the fine re-check while a limit missed by 0.1 % is not.
+
+The scale of each limit: a spring's travel for both its travel limit and its zero extension
+(x ≥ 0), ρ_min and ρ_max for themselves, ρ_min² for the convexity margin (which binds within
+the tolerance of the NLP's required ``convexity_epsilon``·ρ_min² and is exceeded only below zero,
+where the profile stops being convex), the minimum radius of curvature for
+itself, and for a mechanism's own limits (moment arm, free span, slider travel) the larger of
+the limit and the mechanism's ρ_min (a limit of zero has no size of its own).
+"""
+from __future__ import annotations
+
+import math
+import numbers
+import re
+
+#: Relative tolerance: a margin ≤ RTOL × the limit's scale binds.
+RTOL = 1e-3
+MM = 1e3
+
+#: A mechanism's margin names (``Mechanism.margin_names``, a trailing ``_k`` numbering the
+#: profile) → (what it limits, the mechanism's field holding the limit [m], +1 for a lower
+#: limit (value = limit + margin), −1 for an upper one (value = limit − margin)).
+MECHANISM_LIMITS = {
+    "moment_arm": ("moment arm", "min_moment_arm", +1),
+    "free_span": ("free cable span", "min_free_span", +1),
+    "slider_min": ("idler position", ("slider_range", 0), +1),
+    "slider_max": ("idler position", ("slider_range", 1), -1),
+}
+
+
+def _finite(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def limit_state(margin: float, scale: float, rtol: float = RTOL) -> str | None:
+    """"at" (|margin| ≤ rtol·scale), "beyond" (margin < −rtol·scale) or None (slack)."""
+    if margin > rtol * scale:
+        return None
+    return "at" if margin >= -rtol * scale else "beyond"
+
+
+def _limit(mech, field):
+    if isinstance(field, tuple):
+        return float(getattr(mech, field[0])[field[1]])
+    return float(getattr(mech, field, 0.0))
+
+
+def binding_constraints(metrics: dict, problem, rtol: float = RTOL) -> list[str]:
+    """The constraints of ``problem`` that bind in an evaluation's ``metrics``.
+
+    Parameters
+    ----------
+    metrics : dict
+        :attr:`cadcam.check.evaluate.Evaluation.metrics` (or ``result.json``'s ``metrics`` /
+        ``recheck``): ``extension_min``/``extension_max`` per spring, ``rho_min``/``rho_max``,
+        ``convexity_min``, ``curvature_radius_min`` per profile, ``margins["mechanism"]``.
+    problem : cadcam.problem.Problem
+        The problem whose limits the metrics are measured against.
+    rtol : float
+        Relative tolerance (:data:`RTOL`).
+
+    Returns
+    -------
+    list of str
+        One sentence per binding or exceeded limit, e.g. ``"spring 2 at its travel limit:
+        32.00 mm of 32.00 mm"``; springs first, then profiles, then mechanisms. Values that are
+        not finite are left to the evaluation's violations.
+    """
+    out = []
+    xmin, xmax = metrics.get("extension_min", []), metrics.get("extension_max", [])
+    for j, s in enumerate(problem.springs):
+        if j < len(xmax) and _finite(xmax[j]):
+            state = limit_state(s.travel - xmax[j], s.travel, rtol)
+            if state:
+                out.append(f"{s.name} {state} its travel limit: {MM * xmax[j]:.2f} mm of "
+                           f"{MM * s.travel:.2f} mm")
+        if j < len(xmin) and _finite(xmin[j]):
+            state = limit_state(xmin[j], s.travel, rtol)
+            if state == "at":
+                out.append(f"{s.name} at zero extension: least extension {MM * xmin[j]:.3f} mm "
+                           f"(travel {MM * s.travel:.2f} mm)")
+            elif state:
+                out.append(f"{s.name} in compression: {MM * xmin[j]:.3f} mm (must stay ≥ 0)")
+    eps = problem.options.convexity_epsilon
+    lo, hi = metrics.get("rho_min", []), metrics.get("rho_max", [])
+    conv, curv = metrics.get("convexity_min", []), metrics.get("curvature_radius_min", [])
+    for k, p in enumerate(problem.profiles):
+        if k < len(lo) and _finite(lo[k]):
+            state = limit_state(lo[k] - p.rho_min, p.rho_min, rtol)
+            if state:
+                out.append(f"{p.name} {state} ρ_min: ρ down to {MM * lo[k]:.2f} mm, "
+                           f"ρ_min {MM * p.rho_min:.2f} mm")
+        if k < len(hi) and _finite(hi[k]):
+            state = limit_state(p.rho_max - hi[k], p.rho_max, rtol)
+            if state:
+                out.append(f"{p.name} {state} ρ_max: ρ up to {MM * hi[k]:.2f} mm, "
+                           f"ρ_max {MM * p.rho_max:.2f} mm")
+        if k < len(conv) and _finite(conv[k]):
+            need = eps * p.rho_min ** 2  # the NLP's required margin; convexity itself is > 0
+            state = "beyond" if limit_state(conv[k], p.rho_min ** 2, rtol) == "beyond" else (
+                "at" if limit_state(conv[k] - need, p.rho_min ** 2, rtol) else None)
+            if state:
+                word = "convexity margin near zero" if state == "at" else "not convex"
+                out.append(f"{p.name} {word}: ρ² + 2ρ′² − ρρ″ down to {MM**2 * conv[k]:.3g} mm² "
+                           f"(the NLP asks ≥ {MM**2 * need:.3g} mm², ρ_min² = {MM**2 * p.rho_min**2:.3g} mm²)")
+        if p.min_curvature_radius > 0 and k < len(curv) and _finite(curv[k]):
+            state = limit_state(curv[k] - p.min_curvature_radius, p.min_curvature_radius, rtol)
+            if state:
+                out.append(f"{p.name} {state} its minimum radius of curvature: {MM * curv[k]:.2f} mm "
+                           f"of {MM * p.min_curvature_radius:.2f} mm")
+    own = metrics.get("margins", {}).get("mechanism", [])
+    for mech, margins in zip(problem.mechanisms, own):
+        size = min(p.rho_min for p in mech.profiles) if mech.profiles else 0.0
+        for name, margin in margins.items():
+            if not _finite(margin):
+                continue
+            base = re.sub(r"_(\d+)$", "", name)
+            which = name[len(base) + 1:]
+            what, field, sense = MECHANISM_LIMITS.get(base, (base.replace("_", " "), f"min_{base}", +1))
+            limit = _limit(mech, field)
+            if not math.isfinite(limit):  # no limit (an unbounded slider)
+                continue
+            state = limit_state(margin, max(abs(limit), size), rtol)
+            if not state:
+                continue
+            value = limit + sense * margin
+            side = "lower" if sense > 0 else "upper"
+            label = f"{mech.name} {what}" + (f" (profile {which})" if which else "")
+            out.append(f"{label} {state} its {side} limit: {MM * value:.2f} mm of {MM * limit:.2f} mm")
+    return out

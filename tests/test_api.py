@@ -1,0 +1,184 @@
+"""The Python API: cadcam.design/evaluate/check_derivatives/read_study, the Result's fields,
+summary, figures and files, and the CLI's check command, --ipopt and --version."""
+import copy
+import json
+import tomllib
+
+import matplotlib
+import numpy as np
+import pytest
+
+import cadcam
+from cadcam.check import derivatives
+from cadcam.check.evaluate import evaluate as check_evaluate
+from cadcam.cli import main
+from cadcam.studies.study import load_study
+from cadcam.studies.sweep import run_sweep
+
+from .conftest import SPEC_1DOF, SPEC_RR, TABLE3
+
+
+@pytest.fixture(scope="module")
+def small():
+    """The 1-DOF spec designed on a 12-angle grid through the API."""
+    return cadcam.design(SPEC_1DOF, grid=12)
+
+
+def test_design_returns_a_result_with_scipy_like_fields(small):
+    d = small.to_dict()
+    assert small.success is (small.status == "success") and small.success
+    assert small.nit == d["solver"]["iterations"] > 0
+    assert small.fun == d["solver"]["objective"]
+    assert np.array_equal(small.x, np.concatenate([*small.design.coefficients, small.design.preextension]))
+    assert small.problem.options.grid == 12
+    history = d["solver"]["history"]
+    assert history["iteration"] == list(range(small.nit + 1))
+    assert all(len(history[k]) == small.nit + 1 for k in ("objective", "inf_pr", "inf_du", "mu", "d_norm",
+                                                         "alpha_pr"))
+    assert history["inf_du"][-1] < history["inf_du"][0]  # IPOPT converged from where it started
+
+
+def test_the_repr_is_a_short_summary(small):
+    text = repr(small)
+    assert len(text) < 2000 and text.count("\n") < 15
+    assert text.startswith("success: ") and f"{1e3 * small.evaluation.metrics['rmse'][0]:.4g}" in text
+    assert text == small.summary()
+
+
+def test_a_dict_spec_with_overrides_equals_the_edited_file(tmp_path):
+    data = tomllib.loads(SPEC_1DOF.read_text())
+    edited = copy.deepcopy(data)
+    edited["springs"][0]["rate"] = 1200.0
+    by_override = cadcam.load_problem(data, overrides={"springs.1.rate": 1200.0}, grid=12)
+    by_edit = cadcam.load_problem(edited, grid=12)
+    assert by_override.to_dict() == by_edit.to_dict()
+    assert by_override.springs[0].rate == 1200.0 and by_override.options.grid == 12
+    assert data["springs"][0]["rate"] == 1100.0  # the caller's dict is left alone
+
+
+def test_a_problem_with_options_is_checked_like_a_spec():
+    problem = cadcam.load_spec(SPEC_1DOF)
+    assert cadcam.load_problem(problem) is problem
+    assert cadcam.load_problem(problem, grid=20).options.grid == 20
+    with pytest.raises(cadcam.SpecError, match="unknown option 'gird'"):
+        cadcam.load_problem(problem, gird=20)
+    with pytest.raises(cadcam.SpecError, match="solver.grid"):
+        cadcam.load_problem(problem, grid=1)
+    with pytest.raises(cadcam.SpecError, match="solver.ipopt.no_such_option"):
+        cadcam.load_problem(problem, ipopt={"no_such_option": 1})
+
+
+def test_evaluate_takes_files_and_equals_the_check_layer():
+    problem = cadcam.load_spec(SPEC_RR)
+    design = cadcam.Design.from_dict(json.loads(TABLE3.read_text()), problem)
+    by_files = cadcam.evaluate(SPEC_RR, TABLE3, grid=12, torque_model="force-as-printed")
+    direct = check_evaluate(problem.with_torque_model("force-as-printed"), design, grid=12)
+    assert by_files.metrics["rmse"] == direct.metrics["rmse"]
+    assert by_files.metrics["extension_max"] == direct.metrics["extension_max"]
+
+
+def test_plot_returns_figures_and_leaves_the_backend_alone(small):
+    backend = matplotlib.get_backend()
+    figs = small.plot()
+    assert {"profile", "torque", "springs", "convergence"} <= set(figs)
+    assert all(isinstance(f, matplotlib.figure.Figure) for f in figs.values())
+    assert small.plot("torque").axes and matplotlib.get_backend() == backend
+    with pytest.raises(ValueError, match="output"):
+        small.plot("output")  # no output law in this problem
+
+
+def test_save_writes_what_the_cli_writes(small, tmp_path):
+    notes = small.save(tmp_path / "r")
+    names = {p.name for p in (tmp_path / "r").iterdir()}
+    assert {"result.json", "torque.csv", "torque_recheck.csv", "profile.csv", "profile.png", "torque.png",
+            "springs.png", "convergence.png", "cam1.dxf", "cam1.svg", "cam1_points.csv",
+            "cam1_sheet.pdf"} <= names
+    assert notes and notes[0].startswith("cam1:")
+    saved = json.loads((tmp_path / "r" / "result.json").read_text())
+    assert saved["status"] == small.status and saved["solver"]["iterations"] == small.nit
+    small.save(tmp_path / "bare", workshop=None)
+    assert not list((tmp_path / "bare").glob("cam*"))
+
+
+def test_the_derivative_check_passes_on_the_model_and_the_nlp():
+    report = cadcam.check_derivatives(SPEC_1DOF, grid=12, points=2)
+    names = {(r.of, r.wrt) for r in report.rows}
+    assert {("torque model: tau", "theta"), ("torque model: tau", "k"), ("exported Jacobian: tau", "c"),
+            ("NLP: objective", "x"), ("NLP: constraints", "x"), ("NLP: Lagrangian gradient (Hessian)", "x")} <= names
+    assert report.passed and max(r.rel_error for r in report.rows) < 1e-6
+    assert all(r.norm > 0 for r in report.rows if r.wrt != "k" or "tau" in r.of)  # not zero blocks
+
+
+def test_a_wrong_derivative_is_caught():
+    x = np.array([0.3, -1.2, 2.0])
+
+    def value(v):
+        return np.array([np.sin(v[0]) * v[1], v[2] ** 3])
+    exact = np.array([[np.cos(x[0]) * x[1], np.sin(x[0]), 0.0], [0.0, 0.0, 3 * x[2] ** 2]])
+    good = derivatives.compare(value, x, exact, "f", "x")
+    assert good.passed(1e-6) and good.rel_error < 1e-8
+    wrong = exact.copy()
+    wrong[1, 2] *= 1 + 1e-4  # one entry off by 0.01 %
+    bad = derivatives.compare(value, x, wrong, "f", "x")
+    assert not bad.passed(1e-6) and 1e-5 < bad.rel_error < 1e-4
+
+
+def test_cadcam_check_exits_1_beyond_its_tolerance(capsys):
+    assert main(["check", str(SPEC_1DOF), "--grid", "12", "--no-nlp", "--points", "1"]) == 0
+    assert "every block agrees" in capsys.readouterr().out
+    assert main(["check", str(SPEC_1DOF), "--grid", "12", "--no-nlp", "--points", "1", "--tol", "1e-13",
+                 "--json"]) == 1  # differences are not that exact
+    report = json.loads(capsys.readouterr().out)
+    assert report["passed"] is False and any(not r["passed"] for r in report["rows"])
+    assert main(["check", str(SPEC_1DOF), "--points", "0"]) == 2
+
+
+def test_ipopt_options_reach_ipopt(tmp_path, capfd):
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "-o", str(tmp_path / "o"),
+                 "--ipopt", "print_level=5"]) == 0
+    out = capfd.readouterr().out
+    assert "iter    objective    inf_pr" in out  # IPOPT's own iteration log
+    assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "p"), "--ipopt", "print_level"]) == 2
+    assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "p"), "--ipopt", "tol=1e-3"]) == 2
+    assert not (tmp_path / "p").exists()
+
+
+def test_version_and_help(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0 and capsys.readouterr().out.strip() == f"cadcam {cadcam.__version__}"
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = capsys.readouterr().out
+    assert "``" not in text and "check" in text and text.rstrip().endswith("options.")
+
+
+def test_read_study_returns_one_row_per_case(tmp_path):
+    study = tmp_path / "s.toml"
+    study.write_text(f'name = "two"\nbase = "{SPEC_1DOF}"\n[[parameters]]\nkey = "springs.1.rate"\n'
+                     'values = [1000.0, 1200.0]\n[[parameters]]\nkey = "solver.grid"\nvalues = [12]\n')
+    run_sweep(load_study(study), tmp_path / "s.db", workers=0, progress=False)
+    table = cadcam.read_study(tmp_path / "s.db")
+    column = table["springs.1.rate"]
+    assert sorted(list(column)) == [1000.0, 1200.0] and list(table["status"]) == ["success", "success"]
+    assert all(v > 0 for v in table["rmse_1"])
+
+
+def test_the_readme_api_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    readme = (SPEC_1DOF.parents[1] / "README.md").read_text()
+    block = readme.split("<!-- api-example -->\n```python\n")[1].split("```\n<!-- /api-example -->")[0]
+    (tmp_path / "models").symlink_to(SPEC_1DOF.parent)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block, "README.md api-example", "exec"), {})
+    out = capsys.readouterr().out
+    assert out.startswith("success: ") and "every block agrees" in out
+    assert (tmp_path / "torque.png").stat().st_size > 0 and (tmp_path / "out" / "api_demo" / "result.json").exists()
+
+
+def test_an_installed_example_is_a_spec(capsys):
+    assert main(["evaluate", "--example", "johnston2023_rr_arm", "--design", str(TABLE3), "--grid", "12"]) == 0
+    by_example = json.loads(capsys.readouterr().out)["metrics"]["rmse"]
+    assert by_example == cadcam.evaluate(SPEC_RR, TABLE3, grid=12).metrics["rmse"]
+    assert main(["evaluate", "--example", "no_such_spec", "--design", str(TABLE3)]) == 2
+    assert "johnston2023_1dof" in capsys.readouterr().err
+    assert main(["evaluate", str(SPEC_RR), "--example", "johnston2023_rr_arm", "--design", str(TABLE3)]) == 2
