@@ -186,3 +186,24 @@ def test_caps_count_the_streamed_recheck_and_the_held_design_grid():
     assert size_error(Options(grid=46, recheck_factor=3), 4) is None  # 136⁴ ≈ 3.4e8
     reason = size_error(Options(grid=300, recheck_factor=1), 3)[1]
     assert "design grid would hold 2.7e+07 points" in reason and "CADCAM_CAP_GRID_POINTS" in reason
+
+
+def test_a_run_of_angles_on_another_root_is_brought_back_by_continuation():
+    """Cam 3 of a three-cam optimum: from the guess, Newton lands on another root of the
+    tangency equations at the last angles (z jumps by ~0.6 rad); continuation from the rest of
+    the grid brings them back onto the branch the cable is on."""
+    from cadcam.mechanisms.base import _jumps, departure_solver
+    from cadcam.physics.profile import Basis
+    problem = load_spec(SPEC_3)
+    mech = problem.mechanisms[2]
+    basis = Basis("chebyshev", 3, (0.0, 2.617993877991494))  # the optimum's cam 3 (an input here)
+    c = np.array([-0.022768229061280922, -0.0833360255981286, -0.04525659716986235, -0.009691300459777112])
+    solver = departure_solver((type(mech), (basis,)))
+    theta = problem.joints[mech.joint].grid(26)
+    q = np.asarray(mech.parameter_values(), dtype=float)
+    raw, raw_res = solver._solve(theta, solver.guess(theta, c, q), c, q)
+    assert raw_res.max() < 1e-9 and _jumps(raw).size  # converged, but not all on one branch
+    z, res = solver.solve(theta, c, q)
+    steps = np.abs(np.diff(z, axis=1)).max(axis=0)
+    assert res.max() < 1e-9 and not _jumps(z).size and steps.max() < 2 * np.median(steps)
+    assert np.array_equal(z[:, :20], raw[:, :20])  # the run that was right is left as it was

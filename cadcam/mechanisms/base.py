@@ -362,7 +362,11 @@ class DepartureSolver:
         """z (rows: unknowns) and the max |residual| at each θ; ``start`` overrides the guess.
 
         Angles where Newton did not reach ``tol`` from its start are solved again from a
-        converged neighbour's z (continuation along the grid), sweep after sweep.
+        converged neighbour's z (continuation along the grid), sweep after sweep. Then a run of
+        angles whose z jumps away from the rest (another root of the same equations: the guess
+        of a strongly non-circular profile can fall into its basin) is solved again by
+        continuation from the longest run without a jump, one angle at a time; see
+        :func:`_jumps`.
         """
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         c, q = (np.asarray(v, dtype=float).ravel() for v in (c, q))
@@ -375,14 +379,33 @@ class DepartureSolver:
             right = np.r_[good[1:], False] & ~good
             todo = left | right
             if not todo.any():
-                return z, res
+                break
             idx = order[todo]
             src = order[np.where(left, np.arange(good.size) - 1, np.arange(good.size) + 1)[todo]]
             zt, rt = self._solve(theta[idx], z[:, src], c, q)
             better = (rt < res[idx]) | (np.isfinite(rt) & ~np.isfinite(res[idx]))
             z[:, idx[better]], res[idx[better]] = zt[:, better], rt[better]
             if not np.any(rt <= tol):  # no progress: what is left does not converge
-                return z, res
+                break
+        return self._continued(theta, z, res, order, c, q, tol)
+
+    def _continued(self, theta, z, res, order, c, q, tol):
+        """``z`` with the runs cut off by jumps re-solved by continuation, outward from the
+        longest run, where that converges (else the angle keeps its root)."""
+        cuts = _jumps(z[:, order])
+        if not cuts.size:
+            return z, res
+        edges = np.r_[0, cuts, order.size]
+        k = int(np.argmax(np.diff(edges)))
+        lo, hi = edges[k], edges[k + 1]  # the trusted run: sorted positions lo … hi − 1
+        for steps in (range(hi, order.size), range(lo - 1, -1, -1)):
+            for pos in steps:
+                prev = pos - 1 if pos >= hi else pos + 1
+                i, j = order[pos], order[prev]
+                zt, rt = self._solve(theta[i:i + 1], z[:, j:j + 1], c, q)
+                if rt[0] <= tol:
+                    z[:, i], res[i] = zt[:, 0], rt[0]
+        return z, res
 
     def _solve(self, theta, z0, c, q):
         n = theta.size
@@ -390,6 +413,23 @@ class DepartureSolver:
         z = np.asarray(self._rf.map(n)(z0, p)).reshape(-1, n)
         R = np.asarray(self.residual.map(n)(theta, z, c, q)[0]).reshape(-1, n)
         return z, np.abs(R).max(axis=0)
+
+
+#: A step of z between neighbouring angles is a jump to another root if it exceeds this many
+#: times the median step (and :data:`JUMP_FLOOR`).
+JUMP_RATIO = 20.0
+#: Smallest step [in the unknowns' units, rad for a wire cam] that counts as a jump.
+JUMP_FLOOR = 0.05
+
+
+def _jumps(z: np.ndarray) -> np.ndarray:
+    """Positions k (in angle order) where z jumps between angle k − 1 and k: the largest change
+    of any unknown is above both JUMP_RATIO × its median over the grid and JUMP_FLOOR."""
+    if z.shape[1] < 3:
+        return np.array([], dtype=int)
+    step = np.abs(np.diff(z, axis=1)).max(axis=0)
+    limit = max(JUMP_RATIO * float(np.median(step)), JUMP_FLOOR)
+    return np.flatnonzero(step > limit) + 1
 
 
 @lru_cache(maxsize=64)
