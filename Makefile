@@ -31,6 +31,7 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/bench_design.py
 	$(PY) benchmarks/bench_sweep.py
+	$(PY) benchmarks/bench_arms.py
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info
