@@ -25,7 +25,7 @@ from cadcam.check.evaluate import evaluate
 from cadcam.files import write_json
 from cadcam.optimize import default_start, differential_start
 from cadcam.targets import robot_cable, spring_elongation
-from cadcam.views.plots import plot_outputs, plot_profiles, save_figure
+from cadcam.views.plots import output_figure, profile_figure, save_figure
 from cadcam.views.workshop import chord_outline, helical_groove, write_points_csv, write_groove_csv
 from reporting import figures, finish, limit_lines, provenance, provenance_info
 
@@ -115,7 +115,7 @@ def balancer() -> list[str]:
     if result.status != "success":
         lines.append(f"NLP: {result.message}: {'; '.join(ev.violations[:3])}")
     figures(result.evaluation, OUT, "balancer", ("pulleys", "torque", "springs"))
-    plot_outputs(ev, OUT / "balancer_x.png")
+    save_figure(output_figure(ev), OUT / "balancer_x.png")
     plot_elongation(ev, OUT / "balancer_elongation.png")
     for k, (basis, c, prof) in enumerate(zip(result.design.bases, result.design.coefficients, ev.profiles)):
         write_points_csv(OUT / f"pulley{k + 1}_points.csv", chord_outline(basis, c, float(prof.alpha.max())))
@@ -196,8 +196,8 @@ def cable_robot() -> list[str]:
              "is not run on this problem (see `docs/mechanisms.md`, known limits).", ""]
     if result.status != "success":
         lines += [f"Re-check: {result.message}: {'; '.join(ev.violations[:3])}", ""]
-    plot_profiles(ev, OUT / "robot_pulleys.png")
-    plot_outputs(ev, OUT / "robot_x.png")
+    save_figure(profile_figure(ev), OUT / "robot_pulleys.png")
+    save_figure(output_figure(ev), OUT / "robot_x.png")
     plot_path(rp, OUT / "robot_path.png")
     for prof, basis, c, k in zip(ev.profiles, result.design.bases, result.design.coefficients, range(4)):
         name = ("left", "right")[k // 2] + f"{k % 2 + 1}"

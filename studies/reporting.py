@@ -15,7 +15,7 @@ import scipy
 from cadcam import __version__
 from cadcam.check.binding import RTOL, binding_constraints
 from cadcam.files import write_text
-from cadcam.views.plots import plot_profiles, plot_springs, plot_torque
+from cadcam.views.plots import profile_figure, save_figure, springs_figure, torque_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The fields of :func:`provenance_info`, in the order the report lists them.
@@ -135,8 +135,8 @@ def limit_lines(label: str, ev) -> list[str]:
 
 def figures(ev, directory: Path, stem: str, names=("profiles", "torque", "springs")) -> None:
     """The profile, torque and spring figures of an evaluation as ``{stem}_{name}.png``."""
-    for name, plot in zip(names, (plot_profiles, plot_torque, plot_springs)):
-        plot(ev, directory / f"{stem}_{name}.png")
+    for name, build in zip(names, (profile_figure, torque_figure, springs_figure)):
+        save_figure(build(ev), directory / f"{stem}_{name}.png")
 
 
 def finish(lines: list[str], directory: Path, info: dict | None = None) -> None:

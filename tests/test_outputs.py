@@ -42,12 +42,13 @@ def _snapshot(folder):
 
 
 def _fail_at_torque_png(monkeypatch, exc):
-    real = cadcam.views.outputs.plot_torque
+    real = cadcam.views.outputs.save_figure
 
-    def broken(ev, path):
-        real(ev, path)  # the figure is half-way through the set when the environment fails
-        raise exc
-    monkeypatch.setattr(cadcam.views.outputs, "plot_torque", broken)
+    def broken(fig, path):
+        real(fig, path)  # the figure is half-way through the set when the environment fails
+        if path.name == "torque.png":
+            raise exc
+    monkeypatch.setattr(cadcam.views.outputs, "save_figure", broken)
 
 
 def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):

@@ -11,7 +11,7 @@ import numpy as np
 from ..check.evaluate import output_error, output_law
 from ..files import write_csv, write_json
 from .drawing import draw_sheet
-from .plots import plot_convergence, plot_outputs, plot_profiles, plot_springs, plot_torque
+from .plots import figures, save_figure
 from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf, write_points_csv,
                        write_groove_csv, write_stl, write_svg)
 
@@ -75,13 +75,6 @@ def write_outputs(result, out: Path) -> None:
     rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
             for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
     write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
-    plot_profiles(ev, out / "profile.png")
-    if ev.problem.springs:  # without springs there is no torque and nothing to plot
-        plot_torque(ev, out / "torque.png")
-        plot_springs(ev, out / "springs.png")
-    history = (result.to_dict().get("solver") or {}).get("history")
-    if history and history.get("iteration"):  # IPOPT's iterates (none for the envelope method)
-        plot_convergence(history, out / "convergence.png")
     outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
     if outputs:  # x(θ) of mechanisms with an output law, against it
         header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
@@ -90,7 +83,8 @@ def write_outputs(result, out: Path) -> None:
             header += [f"{mech.output}{u + 1}_m", f"{mech.output}{u + 1}_d_m", f"error{u + 1}_m"]
             cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
         write_csv(out / "output.csv", header, np.column_stack(cols))
-        plot_outputs(ev, out / "output.png")
+    for name, fig in figures(ev, result.history).items():  # the figures this run has: NAME.png
+        save_figure(fig, out / f"{name}.png")
 
 
 def write_workshop_files(ev, out: Path, args: WorkshopOptions) -> list[str]:

@@ -539,31 +539,6 @@ def figures(ev: Evaluation, history: dict | None = None) -> dict[str, Figure]:
     return out
 
 
-def plot_profiles(ev: Evaluation, path, n_poses: int = 3) -> None:
-    """:func:`profile_figure` as a PNG."""
-    save_figure(profile_figure(ev, n_poses), path)
-
-
-def plot_torque(ev: Evaluation, path) -> None:
-    """:func:`torque_figure` as a PNG."""
-    save_figure(torque_figure(ev), path)
-
-
-def plot_springs(ev: Evaluation, path) -> None:
-    """:func:`springs_figure` as a PNG."""
-    save_figure(springs_figure(ev), path)
-
-
-def plot_outputs(ev: Evaluation, path) -> None:
-    """:func:`output_figure` as a PNG."""
-    save_figure(output_figure(ev), path)
-
-
-def plot_convergence(history: dict, path) -> None:
-    """:func:`convergence_figure` as a PNG."""
-    save_figure(convergence_figure(history), path)
-
-
 # --------------------------------------------------------------------------------------- study
 def pareto_front(points: np.ndarray) -> np.ndarray:
     """Indices of the points no other point beats in both coordinates (minimising both)."""
