@@ -83,7 +83,7 @@ class _Vars:
 
     def add(self, name: str, n: int):
         self.blocks[name] = (self.size, n)
-        self.syms[name] = ca.SX.sym(f"{self.kind}_{name}", n)
+        self.syms[name] = ca.MX.sym(f"{self.kind}_{name}", n)
         self.size += n
         return self.syms[name]
 
@@ -196,7 +196,7 @@ class Transcription:
             # lengths wound from each anchor, for closure rows (a constant cable length): the
             # wound length at the reference pose plus the lifted wrapped lengths
             wound_ref = (lift(f"wound{u}", wound_lengths(bases, ref, c), L) if mech.closure_rows
-                         else ca.SX.zeros(len(bases)))
+                         else ca.MX.zeros(len(bases)))
             ports = port_function(structure, problem.torque_model,
                                   FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
             du, au, res, _ = ports(theta.T, Z, ref, wrapped, ca.repmat(wound_ref, 1, n) + wrapped, c, q)
@@ -309,7 +309,7 @@ class Transcription:
         self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
             "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
             "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-            "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt},
+            "ipopt.mu_strategy": "adaptive", "expand": True, **{f"ipopt.{k}": v for k, v in opt.ipopt},
         })
         self.build_time_s = time.perf_counter() - t0
 
