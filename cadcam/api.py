@@ -28,7 +28,7 @@ from .designs import Design, DesignError
 from .files import InputFileError, read_input
 from .nlp.transcription import Transcription
 from .optimize import default_start, differential_start, optimize
-from .problem import Options, Problem, size_error
+from .problem import Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
 from .studies.sweep import flat_table, read_rows
@@ -139,8 +139,12 @@ def design(spec, *, start=None, **options) -> Result:
 def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **options) -> Evaluation:
     """Metrics of ``design`` (a Design, dict or JSON file) for ``spec`` on a ``grid``-angle
     grid per joint (default the spec's), as ``cadcam evaluate`` (``profile=False`` skips the
-    dense profile scan); ``options`` as for :func:`load_problem`."""
+    dense profile scan); ``options`` as for :func:`load_problem`. A ``grid`` beyond
+    :func:`cadcam.problem.evaluation_size_error`'s caps raises :class:`SpecError`."""
     problem = load_problem(spec, **options)
+    too_big = None if grid is None else evaluation_size_error(grid, len(problem.joints))
+    if too_big:
+        raise SpecError(f"grid: {too_big}")
     return evaluate_design(problem, load_design(design, problem), grid=grid, profile=profile)
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from .mechanisms.base import TORQUE_MODELS
 from .designs import DesignError
 from .version import __version__
-from .problem import cap, size_error
+from .problem import cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
 from .studies.study import StudyError
 from .studies.sweep import SweepError
@@ -64,7 +64,10 @@ def _spec_path(args) -> str:
         raise InputError(f"--example: {exc}") from None
 
 
-def _problem(args):
+def _problem(args, design_grid: bool = True):
+    """The problem of the spec the command line names, with its overrides, checked against
+    the caps. ``design_grid``: ``--grid`` sets the design grid (else the caller uses it on its
+    own and checks it)."""
     from .api import load_problem
 
     ipopt = dict(_ipopt(t) for t in getattr(args, "ipopt", None) or ())
@@ -75,9 +78,10 @@ def _problem(args):
             problem = problem.with_torque_model(args.torque_model)
         except ValueError as exc:
             raise InputError(f"--torque-model: {exc}") from None
-    changes = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
-    if changes.get("grid", 3) < 3:
+    if getattr(args, "grid", None) is not None and args.grid < 3:
         raise InputError("--grid must be at least 3")
+    changes = {k: getattr(args, k) for k in (("grid", "multistart") if design_grid else ("multistart",))
+               if getattr(args, k, None) is not None}
     if changes.get("multistart", 0) < 0:
         raise InputError("--multistart must be ≥ 0 (extra random starts)")
     problem = problem.with_options(**changes) if changes else problem
@@ -186,9 +190,16 @@ def _check_workshop_args(args) -> None:
 
 
 def cmd_evaluate(args) -> int:
+    """Metrics of a design as JSON on stdout. ``--grid`` is the evaluation's own grid, streamed
+    exactly in bounded memory and nothing of its size written, so it is capped like the fine
+    re-check (:func:`cadcam.problem.evaluation_size_error`), not like a design grid."""
     from .check.evaluate import evaluate
 
-    problem, design = _problem_and_design(args)
+    problem = _problem(args, design_grid=False)
+    too_big = None if args.grid is None else evaluation_size_error(args.grid, len(problem.joints))
+    if too_big:
+        raise InputError(f"--grid: {too_big}")
+    design = _design(args, problem)
     ev = evaluate(problem, design, grid=args.grid)
     print(json.dumps({"torque_model": problem.torque_model, "design": design.to_dict(),
                       "metrics": ev.metrics}, indent=2))

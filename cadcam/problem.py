@@ -23,9 +23,10 @@ OBJECTIVES = ("least_squares", "minimax")
 #: Caps on every size a spec, study or flag controls, checked before any work. Raise one
 #: deliberately with the environment variable ``CADCAM_CAP_<NAME>`` (e.g. ``CADCAM_CAP_GRID=4000``).
 #: ``grid_points`` caps the design grid's tensor grid grid^joints, whose values are held in
-#: memory (the NLP's target marginals, torque.csv, the plots, result.json); ``recheck_points``
-#: caps the fine re-check's tensor grid, which is streamed in bounded memory
-#: (:mod:`cadcam.check.evaluate`) but whose time still grows with its size.
+#: memory (the NLP's target marginals, torque.csv, the plots); ``recheck_points`` caps the fine
+#: re-check's tensor grid and that of ``cadcam evaluate --grid`` (:func:`evaluation_size_error`),
+#: which are streamed in bounded memory (:mod:`cadcam.check.evaluate`) but whose time still
+#: grows with their size.
 CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multistart": 100,
         "recheck_factor": 100, "max_iter": 100_000, "grid_points": 20_000_000,
         "recheck_points": 1_000_000_000, "cases": 10_000, "workers": 256}
@@ -57,6 +58,30 @@ def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
                         f"(((grid − 1)·recheck_factor + 1)^{n_joints}, streamed), beyond the cap "
                         f"{cap('recheck_points'):.3g}: lower grid or recheck_factor, or raise the cap "
                         "deliberately with CADCAM_CAP_RECHECK_POINTS")
+    return None
+
+
+def evaluation_size_error(grid: int, n_joints: int) -> str | None:
+    """One-line reason why evaluating a design on ``grid`` angles per joint
+    (:func:`cadcam.check.evaluate.evaluate`, ``cadcam evaluate --grid``) is beyond its caps, or
+    None if it fits.
+
+    The evaluation streams its tensor grid grid^n_joints in bounded memory and holds nothing
+    of that size, like the fine re-check, so it is capped like the re-check: grid^n_joints by
+    ``recheck_points`` (a cap on time), and the angles per joint, whose samples it does hold
+    (the departure at each angle, the profile scan), by the re-check's largest at the caps,
+    (``grid`` − 1)·``recheck_factor`` + 1.
+    """
+    per_joint = (cap("grid") - 1) * cap("recheck_factor") + 1
+    if grid > per_joint:
+        return (f"{grid} angles per joint exceed the cap {per_joint} (the fine re-check's largest, "
+                "(grid − 1)·recheck_factor + 1 at their caps): lower grid, or raise the cap deliberately "
+                "with CADCAM_CAP_GRID or CADCAM_CAP_RECHECK_FACTOR")
+    points = grid**n_joints
+    if points > cap("recheck_points"):
+        return (f"the evaluation would stream {points:,} points (grid^{n_joints}), beyond the cap "
+                f"{cap('recheck_points'):,}: lower grid, or raise the cap deliberately with "
+                "CADCAM_CAP_RECHECK_POINTS")
     return None
 
 

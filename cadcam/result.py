@@ -182,6 +182,7 @@ class Result:
             "recheck": fine.metrics,
             "violations": fine.violations if self.status != "success" else [],
             "target_samples": target_samples(ev),
+            "target_samples_grid": target_samples_grid(ev),
             "problem": self.problem.to_dict(),
             "citations": citations(self.problem),
         }
@@ -198,9 +199,51 @@ class Result:
         return out
 
 
+#: Largest count of numbers in ``target_samples``: m joints × (m + 1) numbers a row × the
+#: rows. Written with an indent of 2, a number takes at most 34 bytes and a row 17 more, so
+#: these stay under 2.2 MB of result.json, well below the 10 MB a reader accepts
+#: (:data:`cadcam.files.MAX_INPUT_BYTES`). The whole tensor grid is kept up to 25 000 angles
+#: per joint for one joint, 91 for two, 16 for three; beyond, :func:`target_sample_stride`.
+TARGET_SAMPLE_NUMBERS = 50_000
+
+
+def target_sample_stride(grid: int, n_joints: int) -> int:
+    """The smallest stride k ≥ 1 at which every k-th angle of a ``grid``-angle design grid per
+    joint, both ends included, keeps at most :data:`TARGET_SAMPLE_NUMBERS` numbers in
+    ``target_samples`` (1: the whole grid); grid − 1 (the ends alone) if none does."""
+    for k in range(1, grid - 1):
+        kept = len(target_sample_indices(grid, k))
+        if n_joints * (n_joints + 1) * kept**n_joints <= TARGET_SAMPLE_NUMBERS:
+            return k
+    return max(grid - 1, 1)
+
+
+def target_sample_indices(grid: int, stride: int) -> list[int]:
+    """The design-grid indices kept per joint at ``stride``: 0, k, 2k, … and the last one,
+    grid − 1."""
+    return sorted(set(range(0, grid, stride)) | {grid - 1})
+
+
+def target_samples_grid(ev: Evaluation) -> dict:
+    """Which design-grid angles ``target_samples`` keeps (the same for every joint):
+    ``sampled`` (False: the whole tensor grid), ``stride`` (every stride-th angle, both ends
+    included) and ``indices`` (0-based indices into each joint's ``grid`` angles)."""
+    stride = target_sample_stride(ev.grid, len(ev.problem.joints))
+    return {"sampled": stride > 1, "stride": stride, "indices": target_sample_indices(ev.grid, stride)}
+
+
 def target_samples(ev: Evaluation) -> list[list[list[float]]]:
-    """Per joint, rows [θ₁ … θ_m [rad], τ_d [N·m]] on the evaluation grid."""
-    return [np.column_stack([ev.theta.T, ev.tau_d[i]]).tolist() for i in range(len(ev.tau_d))]
+    """Per joint, rows [θ₁ … θ_m [rad], τ_d [N·m]] at the points of the tensor grid of the
+    design-grid angles :func:`target_samples_grid` keeps, in C order of the joints' angles
+    (the whole design grid's tensor grid while it fits :data:`TARGET_SAMPLE_NUMBERS`). Only
+    these points are evaluated."""
+    m = len(ev.problem.joints)
+    index = target_samples_grid(ev)["indices"]
+    axes = [a[index].reshape([-1 if c == k else 1 for k in range(m)]) for c, a in enumerate(ev.tensor.axes)]
+    shape = (len(index),) * m
+    theta = np.vstack([np.broadcast_to(a, shape).ravel() for a in axes])
+    return [np.column_stack([theta.T, np.broadcast_to(f(axes).value(), shape).ravel()]).tolist()
+            for f in ev.tensor.targets]
 
 
 def citations(problem) -> list[dict]:

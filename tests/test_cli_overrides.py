@@ -10,7 +10,7 @@ from cadcam import load_spec
 from cadcam.cli import main
 from cadcam.spec import SpecError
 
-from .conftest import SPEC_1DOF, SPEC_RR, TABLE3
+from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
 
 
 def test_evaluate_table3_as_printed_from_the_command_line():
@@ -76,3 +76,42 @@ def test_readme_general_form_spec_loads_and_matches_the_shorthand(tmp_path):
     assert [s.rate for s in general.springs] == [s.rate for s in shorthand.springs]
     assert [s.preload for s in general.springs] == [0.0, 23.22]
     assert general.joints[0].sensitivity_weights == shorthand.joints[0].sensitivity_weights
+
+
+def test_evaluate_grid_is_capped_like_the_recheck_not_like_a_design_grid(monkeypatch, capsys):
+    """``cadcam evaluate --grid N`` streams the N^m points exactly and holds none of them, so
+    N^m is capped by recheck_points, not by grid_points (which a design grid's N^m is)."""
+    monkeypatch.setenv("CADCAM_CAP_GRID_POINTS", "100")
+    monkeypatch.setenv("CADCAM_CAP_RECHECK_POINTS", "1000")
+    # the spec's own grid, 5² points and a re-check of 9², fits the lowered caps
+    spec = [str(SPEC_RR), "--set", "solver.grid=5", "--set", "solver.recheck_factor=2"]
+    assert main(["evaluate", *spec, "--design", str(TABLE3), "--grid", "20"]) == 0  # 400 points
+    metrics = json.loads(capsys.readouterr().out)["metrics"]
+    assert metrics["grid"] == 20 and np.isfinite(metrics["rmse"]).all()
+    # the same grid as a design grid is refused: it would hold 400 points in memory
+    assert main(["check", *spec, "--grid", "20", "--no-nlp"]) == 2
+    assert "design grid would hold 400 points" in capsys.readouterr().err
+    assert main(["evaluate", *spec, "--design", str(TABLE3), "--grid", "32"]) == 2  # 1024 points
+    err = capsys.readouterr().err
+    assert err == ("cadcam: error: --grid: the evaluation would stream 1,024 points (grid^2), beyond the "
+                   "cap 1,000: lower grid, or raise the cap deliberately with CADCAM_CAP_RECHECK_POINTS\n")
+
+
+def test_evaluate_grid_beyond_the_recheck_caps_is_refused_before_any_work(tmp_path, capsys):
+    from cadcam.optimize import default_start
+
+    def start(spec):
+        path = tmp_path / f"{spec.stem}.json"
+        path.write_text(json.dumps(default_start(load_spec(spec)).to_dict()))
+        return str(path)
+    spec = ROOT / "models" / "johnston2023_three_cam_arm.toml"
+    # 1001³ points, beyond the default recheck_points 1e9
+    assert main(["evaluate", str(spec), "--design", start(spec), "--grid", "1001"]) == 2
+    err = capsys.readouterr().err
+    assert "--grid: the evaluation would stream 1,003,003,001 points (grid^3), beyond the cap 1,000,000,000" in err
+    assert err.count("\n") == 1
+    # one joint: the angles per joint, whose samples are held, are capped at the re-check's
+    # largest, (2000 − 1)·100 + 1
+    assert main(["evaluate", str(SPEC_1DOF), "--design", start(SPEC_1DOF), "--grid", "199902"]) == 2
+    err = capsys.readouterr().err
+    assert "--grid: 199902 angles per joint exceed the cap 199901" in err and err.count("\n") == 1

@@ -8,6 +8,7 @@ import tomllib
 from importlib.resources import files
 from pathlib import Path
 
+import numpy as np
 import pytest
 from jsonschema import Draft202012Validator
 
@@ -140,3 +141,56 @@ def test_every_top_level_field_is_documented(schema, result):
     assert set(schema["required"]) <= set(result)
     for name, node in props.items():
         assert resolve(node).get("description"), f"{name} has no description"
+
+
+def test_the_design_grid_is_kept_whole_while_it_is_small(result):
+    grid = result["metrics"]["grid"]
+    assert result["target_samples_grid"] == {"sampled": False, "stride": 1, "indices": list(range(grid))}
+    assert len(result["target_samples"][0]) == grid
+
+
+def test_a_result_without_target_samples_grid_still_validates(validator, result):
+    # files of an older cadcam hold the whole design grid and no description of it
+    old = copy.deepcopy(result)
+    del old["target_samples_grid"]
+    validator.validate(old)
+
+
+@pytest.fixture(scope="module")
+def three_cam_arm():
+    """The three-cam arm's problem and cadcam's start design (no solve: target_samples needs an
+    evaluation only)."""
+    from cadcam import load_spec
+    from cadcam.optimize import default_start
+    problem = load_spec(Path(__file__).resolve().parents[1] / "models" / "johnston2023_three_cam_arm.toml")
+    return problem, default_start(problem)
+
+
+@pytest.mark.parametrize("grid, stride, kept", [(16, 1, 16), (26, 2, 14), (100, 7, 16)])
+def test_three_joints_keep_a_bounded_tensor_grid_of_the_target(schema, three_cam_arm, grid, stride, kept):
+    """m·(m + 1) numbers per point: three joints keep at most 50 000 / 12 points, every
+    stride-th angle of each joint with both ends, and the rows are the target's own values
+    there (its CasADi function, point by point)."""
+    from cadcam.check.evaluate import evaluate
+    from cadcam.result import TARGET_SAMPLE_NUMBERS, target_samples, target_samples_grid
+
+    problem, design = three_cam_arm
+    ev = evaluate(problem, design, grid=grid, profile=False)
+    samples, where = target_samples(ev), target_samples_grid(ev)
+    Draft202012Validator(schema["properties"]["target_samples"]).validate(samples)
+    Draft202012Validator(schema["properties"]["target_samples_grid"]).validate(where)
+    index = list(range(0, grid, stride)) + ([grid - 1] if (grid - 1) % stride else [])
+    assert where == {"sampled": stride > 1, "stride": stride, "indices": index} and len(index) == kept
+    assert 3 * 4 * kept**3 <= TARGET_SAMPLE_NUMBERS
+    if stride > 1:  # the smallest stride that fits: one less would keep too many
+        assert 3 * 4 * len(set(range(0, grid, stride - 1)) | {grid - 1})**3 > TARGET_SAMPLE_NUMBERS
+    # well below the 10 MB a reader accepts, as result.json writes it
+    assert len(json.dumps({"target_samples": samples}, indent=2)) < 2.2e6
+    angles = [j.grid(grid)[index] for j in problem.joints]
+    theta = np.vstack([a.ravel() for a in np.meshgrid(*angles, indexing="ij")])  # C order
+    for i, (joint, rows) in enumerate(zip(problem.joints, samples)):
+        rows = np.array(rows)
+        assert rows.shape == (kept**3, 4)
+        np.testing.assert_array_equal(rows[:, :3], theta.T)
+        tau_d = np.asarray(joint.target.function(3, i).map(theta.shape[1])(theta)).ravel()
+        np.testing.assert_allclose(rows[:, 3], tau_d, rtol=1e-12, atol=1e-15)
