@@ -15,6 +15,7 @@ import threading
 from pathlib import Path
 
 from .mechanisms.base import TORQUE_MODELS
+from .nlp.compiled import CompileError
 from .designs import DesignError
 from .version import __version__
 from .problem import cap, evaluation_size_error, size_error
@@ -372,7 +373,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: temporary files are gone, no partial set is left
         print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
         return 130
-    except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError) as exc:
+    except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError,
+            CompileError) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # the reader of our output went away (``| head``): stop quietly

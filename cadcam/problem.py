@@ -18,6 +18,8 @@ from .targets import Target
 
 #: Tracking objectives of the NLP (:attr:`Options.objective`).
 OBJECTIVES = ("least_squares", "minimax")
+#: How IPOPT's functions are evaluated (:attr:`Options.functions`).
+FUNCTIONS = ("expanded", "mapped", "compiled")
 
 
 #: Caps on every size a spec, study or flag controls, checked before any work. Raise one
@@ -124,6 +126,14 @@ class Options:
         ``nlp``: cadcam's NLP from the start design; ``envelope``: the start design itself,
         Fedorov's envelope synthesis (Fedorov2018 Sec. 2.2) of every differential pair for its
         output law, re-checked like an optimum (no NLP is built).
+    functions : str
+        How IPOPT's functions of the NLP are evaluated. ``expanded``: expanded into scalar
+        (SX) graphs when the solver is built, whose time grows with the grid; ``mapped``: the
+        graph of mapped per-angle functions as built, flat in the grid, evaluated more slowly;
+        ``compiled``: that graph as C, compiled once per problem structure and cached on disk
+        (:mod:`cadcam.nlp.compiled`; needs a C compiler): slow the first time, then the
+        fastest to build and to solve. The three give the same optimum up to rounding (the
+        iteration count may differ by a few).
     """
 
     grid: int = 46
@@ -139,6 +149,7 @@ class Options:
     objective: str = "least_squares"
     ipopt: tuple = ()
     method: str = "nlp"
+    functions: str = "expanded"
 
     @property
     def recheck_grid(self) -> int:

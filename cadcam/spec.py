@@ -27,7 +27,7 @@ from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profi
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import OBJECTIVES, Joint, Options, Problem, size_error
+from .problem import FUNCTIONS, OBJECTIVES, Joint, Options, Problem, size_error
 from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table, reserved_name
 
 _REQUIRED = object()
@@ -389,6 +389,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
             for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
             "in the IPOPT documentation, numbers or strings)", {})),
         method=sol.get("method", lambda v: v in METHODS, f"one of {METHODS}", "nlp"),
+        functions=sol.get("functions", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}", "expanded"),
     )
     sol.done()
 

@@ -26,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from ..designs import Design
+from . import compiled
 from ..mechanisms.base import (margin_function, port_function, pose_residual_function,
                                split_coefficients, wound_lengths)
 from ..physics.profile import profile_function
@@ -114,8 +115,17 @@ class Transcription:
 
     Attributes
     ----------
+    nlp : dict
+        The NLP as CasADi MX expressions (``x``, ``p``, ``f``, ``g``): mapped per-angle
+        functions, so its size does not grow with the grid.
+    solver : casadi.Function
+        IPOPT on :attr:`nlp`, its functions evaluated as ``problem.options.functions`` says.
     build_time_s : float
-        Wall time of building the symbolic NLP and the IPOPT solver [s].
+        Wall time of building the symbolic NLP and the IPOPT solver (with ``compiled``
+        functions: loading, or generating and compiling, their library) [s].
+    compiled_now : bool
+        Whether this build compiled the NLP's library (False: found in the cache, or functions
+        not ``compiled``).
     """
 
     def __init__(self, problem: Problem):
@@ -305,12 +315,17 @@ class Transcription:
         self.objective = ca.Function("objective", [x, P], [objective])
         self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
                            for name, expr in self._lifted]
-        nlp = {"x": x, "p": P, "f": torque_objective * p["obj_scale"] + scaled, "g": ca.vertcat(*g)}
-        self.solver = ca.nlpsol("cadcam", "ipopt", nlp, {
-            "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-            "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-            "ipopt.mu_strategy": "adaptive", "expand": True, **{f"ipopt.{k}": v for k, v in opt.ipopt},
-        })
+        self.nlp = {"x": x, "p": P, "f": torque_objective * p["obj_scale"] + scaled, "g": ca.vertcat(*g)}
+        ipopt = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+                 "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
+                 "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}}
+        self.compiled_now = False
+        if opt.functions == "compiled":
+            lib, self.compiled_now = compiled.library(self.nlp)
+            self.solver = ca.nlpsol("cadcam", "ipopt", str(lib), ipopt)
+        else:
+            self.solver = ca.nlpsol("cadcam", "ipopt", self.nlp,
+                                    {**ipopt, "expand": opt.functions == "expanded"})
         self.build_time_s = time.perf_counter() - t0
 
     # -- numbers of a case -------------------------------------------------------------------

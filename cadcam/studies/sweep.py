@@ -72,7 +72,7 @@ def structure_key(problem) -> str:
     o = problem.options
     return json.dumps([
         problem.torque_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
-        o.objective, [p.min_curvature_radius > 0 for p in problem.profiles],
+        o.objective, o.functions, [list(x) for x in o.ipopt], [p.min_curvature_radius > 0 for p in problem.profiles],
         [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights]] for c in problem.joints],
         [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
          for m in problem.mechanisms],
@@ -134,6 +134,27 @@ def run_case(study: dict, case: dict, start: dict | None = None,
         row.update(status="error", error=f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}")
     row["wall_time_s"] = time.perf_counter() - t0
     return row
+
+
+def compile_structures(study: dict, cases: list[dict]) -> int:
+    """Build, in this process, the NLP of every structure among ``cases`` whose problem asks
+    for ``compiled`` functions, so that a pool's workers load its library from the disk cache
+    (:mod:`cadcam.nlp.compiled`) instead of each compiling it at once. Returns the number of
+    structures built; a case whose problem cannot be built is left to its worker, which records
+    the error."""
+    from ..nlp.transcription import Transcription
+
+    built = set()
+    for case in cases:
+        try:
+            problem = Study.from_dict(study).problem(case)
+            key = structure_key(problem)
+            if problem.options.functions == "compiled" and key not in built:
+                _TRANSCRIPTIONS[key] = Transcription(problem)
+                built.add(key)
+        except Exception:  # noqa: BLE001 - the worker solving this case records why it failed
+            continue
+    return len(built)
 
 
 # -- database ---------------------------------------------------------------------------------
@@ -377,6 +398,8 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
                               else (lambda r: None, lambda: None))
             definition = study.to_dict()
             t0 = time.perf_counter()
+            if workers and not dask:  # a local pool's workers would each compile the same library
+                compile_structures(definition, [c for _, c in todo])
             pending, queue = {}, list(todo)
             # two cases per worker keep a pool busy; serially a case is solved when submitted,
             # so one at a time lets the next warm-start from it

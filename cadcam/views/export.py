@@ -94,18 +94,21 @@ def model_functions(problem: Problem, design: Design) -> list[ca.Function]:
 
 
 def _renamed(f: ca.Function, name: str) -> ca.Function:
-    args = [f.sx_in(i) for i in range(f.n_in())]
+    args = f.sx_in() if f.is_a("SXFunction") else f.mx_in()
     return ca.Function(name, args, f.call(args), f.name_in(), f.name_out())
 
 
 def problem_functions(problem: Problem):
-    """The NLP functions of ``problem`` and the Transcription that built them."""
+    """The NLP functions of ``problem`` and the Transcription that built them: the graph of
+    mapped per-angle functions (:mod:`cadcam.nlp.compiled`), whose C holds each per-angle
+    function once inside loops over the grid."""
+    from ..nlp.compiled import oracle_functions
     from ..nlp.transcription import Transcription
 
-    tr = Transcription(problem)
-    fns = []
-    for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
-        fns.append(_renamed(tr.solver.get_function(name), f"cadcam_{name}"))
+    tr = Transcription(problem.with_options(functions="mapped"))
+    oracle = oracle_functions(tr.nlp)
+    fns = [_renamed(oracle[name], f"cadcam_{name}")
+           for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")]
     return fns, tr
 
 

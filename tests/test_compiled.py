@@ -1,0 +1,144 @@
+"""How IPOPT's functions are evaluated (solver.functions): expanded, mapped and compiled give the
+same optimum; the compiled library is cached on disk by structure, not by a case's numbers,
+and written atomically."""
+import os
+import shutil
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+from cadcam import evaluate, load_spec
+from cadcam.nlp import compiled
+from cadcam.nlp.transcription import Transcription
+from cadcam.optimize import default_start, solve
+
+from .conftest import SPEC_1DOF
+
+needs_cc = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                              reason="no C compiler on this machine")
+
+
+@pytest.fixture
+def small():
+    """The 1-DOF problem on a coarse grid: the same structure of functions, a small NLP."""
+    return load_spec(SPEC_1DOF).with_options(grid=8, convexity_points=12)
+
+
+@pytest.fixture(scope="module")
+def shared(tmp_path_factory):
+    """One cache folder for the tests of this module that may share compiled libraries (a
+    compile takes seconds)."""
+    return tmp_path_factory.mktemp("shared-cache")
+
+
+@pytest.fixture
+def cache(shared, monkeypatch):
+    monkeypatch.setenv("CADCAM_CACHE_DIR", str(shared))
+    return shared
+
+
+@pytest.fixture
+def empty_cache(tmp_path, monkeypatch):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("CADCAM_CACHE_DIR", str(folder))
+    return folder
+
+
+def _objective(problem):
+    tr = Transcription(problem)
+    sol = solve(tr, problem, default_start(problem))
+    assert sol.status == "converged"
+    return evaluate(problem, sol.design).metrics["objective"], tr
+
+
+@needs_cc
+def test_expanded_mapped_and_compiled_functions_reach_the_same_optimum(small, cache):
+    values = {fn: _objective(small.with_options(functions=fn))[0]
+              for fn in ("expanded", "mapped", "compiled")}
+    ref = values["expanded"]
+    assert all(abs(v - ref) <= 1e-6 * ref for v in values.values()), values
+
+
+@needs_cc
+def test_the_library_is_compiled_once_per_structure_and_found_again(small, cache):
+    problem = small.with_options(functions="compiled")
+    Transcription(problem)  # compiled here, or by an earlier test of this module
+    libraries = set(cache.glob("*.so"))
+    assert len(libraries) == 1
+    # other numbers (spring rates, the limit margin) are parameters or bounds of the same
+    # structure: the library is found, not compiled again
+    again = Transcription(problem.with_spring_rates(1.3).with_options(limit_margin=2e-4))
+    assert not again.compiled_now and set(cache.glob("*.so")) == libraries
+    # a finer grid is another structure
+    finer = Transcription(problem.with_options(grid=9))
+    assert finer.compiled_now and len(list(cache.glob("*.so"))) == 2
+    assert not [p for p in cache.iterdir() if p.name.startswith(".build-")]
+
+
+@needs_cc
+def test_a_library_compiled_by_another_process_is_loaded_not_rebuilt(small, cache):
+    Transcription(small.with_options(functions="compiled"))  # in the cache from here on
+    code = ("from cadcam import load_spec; from cadcam.nlp.transcription import Transcription; "
+            f"p = load_spec({str(SPEC_1DOF)!r}).with_options(grid=8, convexity_points=12, "
+            "functions='compiled'); print(Transcription(p).compiled_now)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "CADCAM_CACHE_DIR": str(cache)}).stdout.strip()
+    assert out == "False"
+
+
+@needs_cc
+def test_concurrent_writers_leave_one_whole_library(small, empty_cache):
+    """Two threads compile the same structure at once (the compiler runs outside the GIL):
+    both get a library that works, one file is left and no temporary folder."""
+    problem = small.with_options(functions="compiled")
+    nlp = Transcription(small.with_options(functions="mapped")).nlp
+    paths, errors = [], []
+
+    def build():
+        try:
+            paths.append(compiled.library(nlp)[0])
+        except Exception as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=build) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors and len(set(paths)) == 1
+    assert [p.name for p in empty_cache.iterdir()] == [paths[0].name]
+    objective, tr = _objective(problem)
+    assert not tr.compiled_now and np.isfinite(objective)
+
+
+def test_a_failed_compile_names_the_error_and_leaves_nothing(small, empty_cache, monkeypatch):
+    monkeypatch.setattr(compiled, "CFLAGS", ("--no-such-flag",) + compiled.CFLAGS)
+    with pytest.raises(compiled.CompileError, match="compiling the NLP failed"):
+        Transcription(small.with_options(functions="compiled"))
+    assert not empty_cache.exists() or not list(empty_cache.iterdir())
+
+
+def test_without_a_compiler_the_cli_says_what_to_do(tmp_path, empty_cache, monkeypatch, capsys):
+    from cadcam.cli import main
+
+    monkeypatch.setattr(compiled.shutil, "which", lambda name: None)
+    code = main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "out"), "--grid", "8",
+                 "--set", "solver.functions=compiled"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert "needs a C compiler" in err and "functions = 'expanded'" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_spec_refuses_an_unknown_functions_value(tmp_path):
+    from cadcam.spec import SpecError
+
+    text = SPEC_1DOF.read_text().replace("[solver]", '[solver]\nfunctions = "jit"', 1)
+    assert '"jit"' in text
+    spec = tmp_path / "bad.toml"
+    spec.write_text(text)
+    with pytest.raises(SpecError, match="solver.functions.*one of"):
+        load_spec(spec)
