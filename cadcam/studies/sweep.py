@@ -72,7 +72,8 @@ def structure_key(problem) -> str:
     o = problem.options
     return json.dumps([
         problem.torque_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
-        o.objective, o.functions, [list(x) for x in o.ipopt], [p.min_curvature_radius > 0 for p in problem.profiles],
+        o.objective, o.functions, [list(x) for x in o.ipopt],
+        [p.min_curvature_radius > 0 for p in problem.profiles],
         [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights]] for c in problem.joints],
         [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
          for m in problem.mechanisms],
@@ -144,10 +145,10 @@ def compile_structures(study: dict, cases: list[dict]) -> int:
     the error."""
     from ..nlp.transcription import Transcription
 
-    built = set()
+    built, definition = set(), Study.from_dict(study)
     for case in cases:
         try:
-            problem = Study.from_dict(study).problem(case)
+            problem = definition.problem(case)
             key = structure_key(problem)
             if problem.options.functions == "compiled" and key not in built:
                 _TRANSCRIPTIONS[key] = Transcription(problem)
