@@ -151,7 +151,7 @@ def compile_structures(study: dict, cases: list[dict]) -> int:
             problem = definition.problem(case)
             key = structure_key(problem)
             if problem.options.functions == "compiled" and key not in built:
-                _TRANSCRIPTIONS[key] = Transcription(problem)
+                Transcription(problem)  # compiles into the disk cache; the workers build their own
                 built.add(key)
         except Exception:  # noqa: BLE001 - the worker solving this case records why it failed
             continue

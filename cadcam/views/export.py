@@ -99,15 +99,13 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 
 def problem_functions(problem: Problem):
-    """The NLP functions of ``problem`` and the Transcription that built them: the graph of
-    mapped per-angle functions (:mod:`cadcam.nlp.compiled`), whose C holds each per-angle
-    function once inside loops over the grid."""
-    from ..nlp.compiled import oracle_functions
+    """The NLP functions of ``problem`` and the Transcription that built them, from the graph
+    of mapped per-angle functions (``solver.functions = "mapped"``), whose C holds each
+    per-angle function once inside loops over the grid."""
     from ..nlp.transcription import Transcription
 
     tr = Transcription(problem.with_options(functions="mapped"))
-    oracle = oracle_functions(tr.nlp)
-    fns = [_renamed(oracle[name], f"cadcam_{name}")
+    fns = [_renamed(tr.solver.get_function(name), f"cadcam_{name}")
            for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")]
     return fns, tr
 
