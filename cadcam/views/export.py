@@ -99,13 +99,16 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 
 def problem_functions(problem: Problem):
-    """The NLP functions of ``problem`` and the Transcription that built them, from the graph
-    of mapped per-angle functions (``solver.functions = "mapped"``), whose C holds each
-    per-angle function once inside loops over the grid."""
+    """The NLP functions of ``problem`` and the Transcription that built them: the functions
+    that ``solver.functions = "compiled"`` compiles (:func:`cadcam.nlp.compiled.oracle_functions`),
+    from the graph of mapped per-angle functions, whose C holds each per-angle function once
+    inside loops over the grid."""
+    from ..nlp.compiled import oracle_functions
     from ..nlp.transcription import Transcription
 
     tr = Transcription(problem.with_options(functions="mapped"))
-    fns = [_renamed(tr.solver.get_function(name), f"cadcam_{name}")
+    generated = oracle_functions(tr.nlp)
+    fns = [_renamed(generated[name], f"cadcam_{name}")
            for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")]
     return fns, tr
 
@@ -327,7 +330,8 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
                                       "outputs": _io(f, "out", labels)})
     if "c" in formats or "shared" in formats:
         with tempfile.TemporaryDirectory(dir=out) as tmp:
-            cg = ca.CodeGenerator(f"{stem}.c", {"with_header": True})
+            # without CasADi's comment per operation, which doubled the problem's C
+            cg = ca.CodeGenerator(f"{stem}.c", {"with_header": True, "verbose": False})
             for f in functions:
                 cg.add(f)
             cg.generate(tmp + "/")
