@@ -214,7 +214,9 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
     objective is the largest output error on the design grid [m]."""
     on_grid = evaluate(problem, design)
+    t0 = time.perf_counter()
     fine = evaluate(problem, design, grid=problem.options.recheck_grid)
+    recheck_s = time.perf_counter() - t0
     errors = [e for e in on_grid.metrics["output_max_abs_error"] if e is not None]
     solve = Solve(design=design, status="converged", return_status="Fedorov2018 envelope synthesis (no NLP)",
                   iterations=0, solve_time_s=seconds, objective=max(errors),
@@ -222,7 +224,7 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
     solve.trials = [_trial(solve)]
     status, message = verdict(problem, solve, fine, "envelope design")
     return Result(status=status, message=message, problem=problem, design=design,
-                  evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0)
+                  evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s)
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,
@@ -269,8 +271,11 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])
              for u, mech in enumerate(problem.mechanisms)]
     on_grid = evaluate(problem, best.design, seeds=seeds)
+    t0 = time.perf_counter()
     fine = evaluate(problem, best.design, seeds=seeds,
                     grid=problem.options.recheck_grid)
+    recheck_s = time.perf_counter() - t0
     status, message = verdict(problem, best, fine, "converged")
     return Result(status=status, message=message, problem=problem, design=best.design,
-                  evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s)
+                  evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,
+                  recheck_time_s=recheck_s)

@@ -45,6 +45,8 @@ class Result:
         What IPOPT did for the kept start (``history``: its iterates).
     build_time_s : float
         Wall time to build the NLP [s].
+    recheck_time_s : float
+        Wall time of the fine re-check [s].
     """
 
     status: str
@@ -55,6 +57,7 @@ class Result:
     recheck: Evaluation
     solve: Solve | None = None
     build_time_s: float = float("nan")
+    recheck_time_s: float = float("nan")
 
     @property
     def success(self) -> bool:
@@ -98,7 +101,8 @@ class Result:
         lines = [f"{self.status}: {self.message}",
                  f"  {self.problem.name}: RMSE per joint [N·mm]: {', '.join(rmse) or 'none (no torque goal)'}; "
                  f"iterations {self.nit}, build {self.build_time_s:.3f} s, "
-                 f"solve {self.solve.solve_time_s if self.solve is not None else float('nan'):.3f} s"]
+                 f"solve {self.solve.solve_time_s if self.solve is not None else float('nan'):.3f} s, "
+                 f"fine re-check {self.recheck_time_s:.3f} s"]
         outs = [f"{1e3 * v:.3g}" for v in fine["output_max_abs_error"] if v is not None]
         if outs:
             lines.append(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)}")
@@ -191,7 +195,8 @@ class Result:
                 "name": "envelope" if self.problem.options.method == "envelope" else "ipopt",
                 "return_status": sol.return_status,
                 "iterations": sol.iterations, "solve_time_s": sol.solve_time_s,
-                "build_time_s": self.build_time_s, "objective": sol.objective,
+                "build_time_s": self.build_time_s, "recheck_time_s": self.recheck_time_s,
+                "objective": sol.objective,
                 "start": sol.start, "trials": sol.trials, "history": sol.history,
                 "tangency_nlp_vs_rootfinder_max": float(max(
                     np.abs(sol.z[u] - unit.z).max() for u, unit in enumerate(ev.units))),

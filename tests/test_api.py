@@ -2,6 +2,7 @@
 summary, figures and files, and the CLI's check command, --ipopt and --version."""
 import copy
 import json
+import time
 import tomllib
 
 import matplotlib
@@ -36,6 +37,17 @@ def test_design_returns_a_result_with_scipy_like_fields(small):
     assert all(len(history[k]) == small.nit + 1 for k in ("objective", "inf_pr", "inf_du", "mu", "d_norm",
                                                          "alpha_pr"))
     assert history["inf_du"][-1] < history["inf_du"][0]  # IPOPT converged from where it started
+
+
+def test_the_result_times_its_build_solve_and_fine_recheck():
+    t0 = time.perf_counter()
+    result = cadcam.design(SPEC_1DOF, grid=12)
+    wall = time.perf_counter() - t0
+    d = result.to_dict()["solver"]
+    parts = [d["build_time_s"], d["solve_time_s"], d["recheck_time_s"]]
+    assert all(0 < t for t in parts) and sum(parts) < wall
+    assert d["recheck_time_s"] == result.recheck_time_s
+    assert f"fine re-check {result.recheck_time_s:.3f} s" in result.summary()
 
 
 def test_the_repr_is_a_short_summary(small):
