@@ -275,6 +275,20 @@ def cmd_plot_study(args) -> int:
     return 0
 
 
+def cmd_cache(args) -> int:
+    from .nlp.compiled import cache_dir, cached_libraries, clear_cache
+
+    if args.clear:
+        n, size = clear_cache()
+        print(f"removed {n} compiled NLP librar{'y' if n == 1 else 'ies'} ({size / 1e6:.1f} MB) from {cache_dir()}")
+        return 0
+    libs = cached_libraries()
+    size = sum(path.stat().st_size for path in libs)
+    print(f"{cache_dir()}: {len(libs)} compiled NLP librar{'y' if len(libs) == 1 else 'ies'}, {size / 1e6:.1f} MB "
+          "(solver.functions = 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves the folder)")
+    return 0
+
+
 def _terminated(signum, frame):
     """SIGTERM unwinds like Ctrl-C, so that temporary files and staging folders are removed."""
     raise KeyboardInterrupt
@@ -364,6 +378,9 @@ def main(argv=None) -> int:
     p.add_argument("--pareto", action="store_true", help="mark the front minimising both x and y")
     p.add_argument("-o", "--output", required=True, help="PNG file")
     p.set_defaults(run=cmd_plot_study)
+    p = sub.add_parser("cache", help="the compiled NLP libraries cached on disk: where, how many, how large")
+    p.add_argument("--clear", action="store_true", help="remove them (each is compiled again when next needed)")
+    p.set_defaults(run=cmd_cache)
 
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None

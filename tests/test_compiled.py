@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from cadcam import evaluate, load_spec
+from cadcam.cli import main
 from cadcam.nlp import compiled
 from cadcam.nlp.transcription import Transcription
 from cadcam.optimize import default_start, solve
@@ -153,3 +154,20 @@ def test_the_spec_refuses_an_unknown_functions_value(tmp_path):
     spec.write_text(text)
     with pytest.raises(SpecError, match="solver.functions.*one of"):
         load_spec(spec)
+
+
+@needs_cc
+def test_cache_command_lists_and_clears_the_compiled_libraries(small, empty_cache, capsys):
+    assert main(["cache"]) == 0
+    assert capsys.readouterr().out.startswith(f"{empty_cache}: 0 compiled NLP libraries, 0.0 MB")
+    Transcription(small.with_options(functions="compiled"))
+    (library,) = empty_cache.glob("nlp_*.so")
+    (empty_cache / "notes.txt").write_text("not a library")
+    assert main(["cache"]) == 0
+    assert capsys.readouterr().out.startswith(
+        f"{empty_cache}: 1 compiled NLP library, {library.stat().st_size / 1e6:.1f} MB")
+    assert main(["cache", "--clear"]) == 0
+    assert capsys.readouterr().out.startswith("removed 1 compiled NLP library")
+    assert not library.exists() and (empty_cache / "notes.txt").exists()
+    assert Transcription(small.with_options(functions="compiled")).compiled_now  # compiled again
+

@@ -41,6 +41,10 @@ CFLAGS = ("-O1", "-fPIC", "-shared")
 DIRECTIONS = 1
 
 
+#: File name of a compiled library in the cache, by its key (:func:`library_key`).
+LIBRARY_NAME = "nlp_{}.so"
+
+
 class CompileError(RuntimeError):
     """No C compiler, or the generated code did not compile."""
 
@@ -95,7 +99,7 @@ def library(nlp: dict) -> tuple[Path, bool]:
         Without a C compiler, or if compiling fails (the compiler's first lines of error).
     """
     folder = cache_dir()
-    path = folder / f"nlp_{library_key(nlp)}.so"
+    path = folder / LIBRARY_NAME.format(library_key(nlp))
     if path.exists():
         return path, False
     folder.mkdir(parents=True, exist_ok=True)
@@ -111,3 +115,19 @@ def library(nlp: dict) -> tuple[Path, bool]:
             raise CompileError(f"compiling the NLP failed: {run.stderr.strip()[:500]}")
         os.replace(built, path)
     return path, True
+
+
+def cached_libraries() -> list[Path]:
+    """The compiled libraries in :func:`cache_dir` (none if the folder does not exist)."""
+    folder = cache_dir()
+    return sorted(folder.glob(LIBRARY_NAME.format("*"))) if folder.is_dir() else []
+
+
+def clear_cache() -> tuple[int, int]:
+    """Remove the compiled libraries from :func:`cache_dir`; return how many and their bytes.
+    A process that has one loaded keeps using it; a later build compiles it again. Build
+    folders of compiles under way are left alone."""
+    removed = [(path, path.stat().st_size) for path in cached_libraries()]
+    for path, _ in removed:
+        path.unlink(missing_ok=True)
+    return len(removed), sum(size for _, size in removed)
