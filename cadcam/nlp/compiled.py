@@ -2,8 +2,8 @@
 on disk.
 
 The transcription's NLP is a graph of mapped per-angle functions (CasADi MX), so its generated
-C holds each per-angle function once, inside loops over the grid: a few MB, compiled in tens of
-seconds the first time. The library is cached under :func:`cache_dir`, keyed by the NLP's own
+C holds each per-angle function once, inside loops over the grid: 0.8 MB for the 1-DOF spec,
+1.9 MB for Sec. 10.4, 2.5 MB for the three-cam arm, compiled in 5 to 25 s the first time. The library is cached under :func:`cache_dir`, keyed by the NLP's own
 serialized graph (which holds its structure and nothing of a case's numbers: those are
 parameters and bounds) and by the cadcam and CasADi versions, the compiler and its flags; a
 later build of the same structure, in this process or another, loads it in milliseconds.
@@ -28,9 +28,8 @@ from ..version import __version__
 #: is called once, after the solve.
 ORACLE = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l", "nlp_grad")
 #: C compiler flags. Measured on this project's problems: at -O0 the 1-DOF solve took 0.72 s,
-#: no faster than CasADi's virtual machine, against 0.17 s at -O1; -O1 compiles Sec. 10.4's
-#: library in about 20 s, where -O2 took 62 s for the similar C of ``cadcam export --what
-#: problem``.
+#: no faster than CasADi's virtual machine, against 0.17 s at -O1; -O2 compiles about twice as
+#: long as -O1 (the similar C of ``cadcam export --what problem``).
 CFLAGS = ("-O1", "-fPIC", "-shared")
 #: Directions per call of a derivative in the generated functions (CasADi's ``max_num_dir``).
 #: CasADi writes each batch of directions out as straight-line code, so one direction keeps the
