@@ -3,10 +3,11 @@ on disk.
 
 The transcription's NLP is a graph of mapped per-angle functions (CasADi MX), so its generated
 C holds each per-angle function once, inside loops over the grid: 0.8 MB for the 1-DOF spec,
-1.9 MB for Sec. 10.4, 2.5 MB for the three-cam arm, compiled in 5 to 25 s the first time. The library is cached under :func:`cache_dir`, keyed by the NLP's own
-serialized graph (which holds its structure and nothing of a case's numbers: those are
-parameters and bounds) and by the cadcam and CasADi versions, the compiler and its flags; a
-later build of the same structure, in this process or another, loads it in milliseconds.
+1.9 MB for Sec. 10.4, 2.5 MB for the three-cam arm, compiled in 5 to 25 s the first time. The
+library is cached under :func:`cache_dir`, keyed by the NLP's own serialized graph (which holds
+its structure and nothing of a case's numbers: those are parameters and bounds) and by the
+cadcam and CasADi versions, the compiler and its flags; a later build of the same structure,
+in this process or another, loads it in milliseconds.
 
 Concurrent writers are safe: each compiles in a private temporary folder inside the cache and
 moves its library into place with an atomic rename, so a reader sees a whole library or none.
