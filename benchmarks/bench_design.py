@@ -90,7 +90,7 @@ def cold_compile(problem, root: str) -> float:
 
 def functions_table(runs: int, root: str, expanded: dict[str, dict]) -> None:
     """The three ways of evaluating IPOPT's functions on the 1-DOF and Sec. 10.4 problems
-    (``expanded``: the first table's results by case name, which are those of ``expanded``)."""
+    (``expanded``: the first table's results by case name, which ran with functions expanded)."""
     print(f"\nIPOPT's functions expanded, mapped or compiled (solver.functions), median of {runs} runs; "
           "end to end = build + solve + fine re-check; compiled: built from a warm cache, after one "
           "compile into an empty cache folder (its time in the last column); expanded: the runs of the "
@@ -195,11 +195,12 @@ def export_table(root: str) -> None:
     generate = time.perf_counter() - t0
     source = out / "cadcam_problem.c"
     t0 = time.perf_counter()
-    subprocess.run([compiler(), *CFLAGS, "-c", str(source), "-o", str(out / "cadcam_problem.o")],
+    cc = compiler()
+    subprocess.run([cc, *CFLAGS, "-c", str(source), "-o", str(out / "cadcam_problem.o")],
                    check=True, capture_output=True)
     compile_s = time.perf_counter() - t0
     print(f"\n`cadcam export --what problem` of Sec. 10.4 (one run): {source.stat().st_size / 1e6:.2f} MB of C "
-          f"written in {generate:.1f} s; `cc {' '.join(CFLAGS)} -c` compiles it in {compile_s:.1f} s")
+          f"written in {generate:.1f} s; `{Path(cc).name} {' '.join(CFLAGS)} -c` compiles it in {compile_s:.1f} s")
 
 
 def baseline_table(args, root: str) -> None:
