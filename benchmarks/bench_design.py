@@ -181,7 +181,8 @@ def design_command_table(runs: int, root: str) -> None:
           f"median of {runs} runs: wall {wall:.2f} s, of which starting Python and importing cadcam "
           f"{start:.2f} s (timed alone), build {build:.2f} s, solve {solve:.2f} s, fine re-check "
           f"{recheck:.2f} s (from result.json); the remaining {wall - start - build - solve - recheck:.2f} s "
-          "is reading the spec, the design-grid evaluation and writing the files and figures")
+          "is reading the spec, the design-grid evaluation, and importing matplotlib and ezdxf and writing "
+          "the files and figures with them")
 
 
 def export_table(root: str) -> None:

@@ -1,6 +1,8 @@
 """The package's folders are layers: no module imports from a layer above its own, and sibling
 layers of equal rank (the NLP and the re-check) do not import each other."""
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -62,3 +64,11 @@ def test_the_rule_catches_upward_and_sibling_imports(source):
     assert _violations(("physics", "profile.py"), source)
     assert _violations(("nlp", "transcription.py"), "from ..check import evaluate")
     assert not _violations(("nlp", "transcription.py"), "from ..physics.wrap import gauss_legendre")
+
+
+def test_importing_cadcam_leaves_the_figures_and_workshop_libraries_unloaded():
+    """Sweep workers and ``cadcam evaluate`` import cadcam without drawing anything: matplotlib,
+    ezdxf and manifold3d load only when a figure or workshop file is written."""
+    code = "import sys, cadcam; print(sorted(m for m in ('matplotlib', 'ezdxf', 'manifold3d') if m in sys.modules))"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "[]"

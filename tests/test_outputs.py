@@ -11,7 +11,7 @@ import importlib
 
 import pytest
 
-import cadcam.views.outputs
+import cadcam.views.plots
 from cadcam.cli import main
 from cadcam.files import TEMP_PREFIX, staged_folder, write_text
 from cadcam.optimize import optimize
@@ -42,13 +42,13 @@ def _snapshot(folder):
 
 
 def _fail_at_torque_png(monkeypatch, exc):
-    real = cadcam.views.outputs.save_figure
+    real = cadcam.views.plots.save_figure
 
     def broken(fig, path):
         real(fig, path)  # the figure is half-way through the set when the environment fails
         if path.name == "torque.png":
             raise exc
-    monkeypatch.setattr(cadcam.views.outputs, "save_figure", broken)
+    monkeypatch.setattr(cadcam.views.plots, "save_figure", broken)
 
 
 def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):

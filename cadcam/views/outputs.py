@@ -1,6 +1,11 @@
 """The files of a design run: ``result.json``, the torque, profile and output tables, the
 figures and the workshop files, as ``cadcam design`` (and :meth:`cadcam.result.Result.save`)
-write them into a folder."""
+write them into a folder.
+
+The figures (matplotlib) and the workshop files (ezdxf, manifold3d) are imported where they are
+written, so that importing cadcam — in every sweep worker, for ``cadcam evaluate`` — does not
+load them.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -10,10 +15,6 @@ import numpy as np
 
 from ..check.evaluate import output_error, output_law
 from ..files import write_csv, write_json
-from .drawing import draw_sheet
-from .plots import figures, save_figure
-from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf, write_points_csv,
-                       write_groove_csv, write_stl, write_svg)
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,8 @@ def write_outputs(result, out: Path) -> None:
     ``convergence.png`` if the solver recorded IPOPT's iterates) and,
     for mechanisms with an output law (a
     differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
+    from .plots import figures, save_figure
+
     ev = result.evaluation
     write_json(out / "result.json", result.to_dict())
     write_torque_csv(out / "torque.csv", ev)
@@ -91,6 +94,10 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions) -> list[str]:
     """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request. A
     profile whose cable wraps a turn or more (a helical groove) gets the groove's centre line
     ``cam{i}_groove.csv`` instead: no planar outline holds it."""
+    from .drawing import draw_sheet
+    from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf,
+                           write_groove_csv, write_points_csv, write_stl, write_svg)
+
     notes = []
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
     for i, (cam, cs, mech) in enumerate(zip(ev.problem.profiles, ev.profiles, owners)):
