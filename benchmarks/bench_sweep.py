@@ -67,7 +67,7 @@ def run(rates: int) -> None:
         its.append(r.solve.iterations)
         statuses[r.status] = statuses.get(r.status, 0) + 1
     naive = 60 * len(sample) / (time.perf_counter() - t0)
-    print(f"| naive loop, rebuild per case (every {NAIVE_STRIDE}rd case: {len(sample)}) | {naive:.0f} | "
+    print(f"| naive loop, rebuild per case (one case in {NAIVE_STRIDE}: {len(sample)}) | {naive:.0f} | "
           f"{statistics.median(its):.0f} | {statuses} | 1.0× |", flush=True)
     objectives = {}
     compiled = make_study(False, rates, "compiled")

@@ -134,8 +134,6 @@ def test_a_failed_compile_names_the_error_and_leaves_nothing(small, empty_cache,
 
 
 def test_without_a_compiler_the_cli_says_what_to_do(tmp_path, empty_cache, monkeypatch, capsys):
-    from cadcam.cli import main
-
     monkeypatch.setattr(compiled.shutil, "which", lambda name: None)
     code = main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "out"), "--grid", "8",
                  "--set", "solver.functions=compiled"])
@@ -170,4 +168,3 @@ def test_cache_command_lists_and_clears_the_compiled_libraries(small, empty_cach
     assert capsys.readouterr().out.startswith("removed 1 compiled NLP library")
     assert not library.exists() and (empty_cache / "notes.txt").exists()
     assert Transcription(small.with_options(functions="compiled")).compiled_now  # compiled again
-

@@ -3,8 +3,8 @@
 Every figure is built with ``matplotlib.figure.Figure`` — no pyplot, no global state — so
 importing this module never selects a backend and the figures work alike in a notebook (any
 backend: a Figure displays itself) and headless. :func:`figures` returns the figures of a
-design run by name; the ``plot_*`` functions save one as a PNG, written atomically (what
-``cadcam design`` writes). Views only: no physics here; the geometry comes from the
+design run by name; :func:`save_figure` writes one as a PNG, atomically (what ``cadcam design``
+writes). Views only: no physics here; the geometry comes from the
 mechanisms' drawing hooks (``world_points``, ``segments``, ``circles``).
 
 Lengths are drawn in millimetres and torques in newton-millimetres; the data stay SI.
