@@ -33,3 +33,27 @@ def test_papers_highest_first_order_reads_rho0_at_the_constant():
     m = monomial_from_highest_first([-0.0052, 0.0133, 0.0046, 0.0250])
     rho0 = float(profile_function(Basis("monomial", 3, (0, 3)))(0.0, m)[0])
     assert rho0 == pytest.approx(0.025)
+
+
+def test_the_recheck_refines_extremes_between_samples_to_the_exact_value():
+    # ρ = 0.02 + 0.01 φ − 0.003 φ² on [0, 2]: largest 0.02 + 0.01²/(4·0.003) at φ = 5/3, which
+    # falls between the six samples; smallest 0.02 at φ = 0, a sample
+    from cadcam.check.evaluate import _profile_extremes
+
+    basis = Basis("monomial", 2, (0, 2))
+    _, rho, _, _, rho_lo, rho_hi, _ = _profile_extremes(basis, np.array([0.02, 0.01, -0.003]), 2.0, 6)
+    exact = 0.02 + 0.01**2 / (4 * 0.003)
+    assert exact - rho.max() > 1e-5  # the samples alone miss it
+    assert rho_hi == pytest.approx(exact, rel=1e-14)
+    assert rho_lo == pytest.approx(0.02, rel=1e-14)
+
+
+def test_refining_a_minimum_at_a_kink_lands_on_it_and_never_below():
+    # |φ − a| has no derivative at its minimum (as a piecewise profile may have)
+    from cadcam.check.evaluate import _refine_min
+
+    a = 0.123456789
+    phi = np.linspace(0.0, 1.0, 11)
+    local = lambda p, c: [np.abs(p - a)]  # noqa: E731 — the profile function, mapped
+    m = _refine_min(local, None, phi, np.abs(phi - a), 0)
+    assert 0.0 <= m < 1e-11 and np.abs(phi - a).min() > 0.02  # 0.2 rad bracket / 50⁶

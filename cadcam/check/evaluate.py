@@ -27,7 +27,6 @@ from functools import cached_property
 
 import casadi as ca
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ..designs import Design
 from ..mechanisms.base import (departure_solver, margin_function, port_function, split_coefficients,
@@ -46,6 +45,10 @@ EVAL_QUADRATURE_ORDER = 48
 #: Points of one block of the tensor grid: a metric that needs every point of the grid streams
 #: it in blocks of at most this many (each array of a block is then at most 2 MB).
 BLOCK_POINTS = 1 << 18
+#: Nested sampling that refines a sampled minimum (:func:`_refine_min`): points per level, and
+#: levels; each level narrows the bracket 50-fold (2000 samples of 2π: to 4·10⁻¹³ rad).
+REFINE_POINTS = 101
+REFINE_LEVELS = 6
 #: Largest factor [points] kept of a target or torque over the whole grid of a block's joints
 #: (32 MB), from which every block is cut; beyond it, each block is evaluated on its own.
 FACTOR_POINTS = 1 << 22
@@ -555,24 +558,32 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     prof = profile_function(basis)
     phi = np.linspace(0.0, phi_hi, n)
     rho, drho, _, conv = (np.asarray(v).ravel() for v in prof.map(n)(phi, c))
-    conv_min = _refine_min(prof, c, phi, conv, 3)
-    rho_lo = _refine_min(prof, c, phi, rho, 0)
-    rho_hi = -_refine_min(prof, c, phi, -rho, 0, sign=-1.0)
+    local = prof.map(REFINE_POINTS)
+    conv_min = _refine_min(local, c, phi, conv, 3)
+    rho_lo = _refine_min(local, c, phi, rho, 0)
+    rho_hi = -_refine_min(local, c, phi, -rho, 0, sign=-1.0)
     with np.errstate(divide="ignore", invalid="ignore"):  # 0 where not convex
         curvature = np.where(conv > 0, (rho**2 + drho**2) ** 1.5 / conv, 0.0)
     return phi, rho, conv, conv_min, rho_lo, rho_hi, float(np.min(curvature))
 
 
-def _refine_min(prof, c, phi, values, out_index, sign=1.0):
-    """Minimum of ``values`` (= sign·output ``out_index`` of ``prof``) refined between samples
-    (NaN where the profile itself is not finite)."""
+def _refine_min(local, c, phi, values, out_index, sign=1.0):
+    """Minimum of ``values`` (= sign·output ``out_index`` of the profile at ``phi``) refined
+    between samples by nested sampling: the two intervals around the least value so far are
+    sampled at :data:`REFINE_POINTS` angles by ``local`` (the profile function mapped over that
+    many), :data:`REFINE_LEVELS` times. Every value it returns is the profile's at some angle,
+    so it never undershoots the true minimum, and a kink (a piecewise basis) or a flat stretch
+    does not mislead it (NaN where the profile itself is not finite)."""
     if not np.all(np.isfinite(values)):
         return float("nan")
     k = int(np.argmin(values))
-    lo, hi = phi[max(k - 1, 0)], phi[min(k + 1, phi.size - 1)]
-    res = minimize_scalar(lambda p: sign * float(prof(p, c)[out_index]), bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-12})
-    return float(min(values[k], res.fun))
+    best, lo, hi = float(values[k]), phi[max(k - 1, 0)], phi[min(k + 1, phi.size - 1)]
+    for _ in range(REFINE_LEVELS):
+        p = np.linspace(lo, hi, REFINE_POINTS)
+        v = sign * np.asarray(local(p, c)[out_index]).ravel()
+        j = int(np.argmin(v))
+        best, lo, hi = min(best, float(v[j])), p[max(j - 1, 0)], p[min(j + 1, p.size - 1)]
+    return best
 
 
 def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarray,

@@ -36,7 +36,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import gauss_legendre
@@ -313,6 +312,8 @@ def _second_difference(f):
 def _sign_changes(g, lo: float, hi: float, points: int) -> np.ndarray:
     """Angles in [lo, hi] where g changes sign: brackets on ``points`` equally spaced angles,
     each refined by Brent's method. A zero of even multiplicity is not a sign change."""
+    from scipy.optimize import brentq  # imported here: scipy.optimize is slow to import
+
     x = np.linspace(lo, hi, points)
     y = g(x)
     brackets = np.nonzero(np.sign(y[:-1]) * np.sign(y[1:]) < 0)[0]
