@@ -88,24 +88,30 @@ def cold_compile(problem, root: str) -> float:
     return time.perf_counter() - t0
 
 
-def functions_table(runs: int, root: str, expanded: dict[str, dict]) -> None:
+def functions_table(runs: int, root: str, expanded: dict[str, dict]) -> dict[str, str]:
     """The three ways of evaluating IPOPT's functions on the 1-DOF and Sec. 10.4 problems
-    (``expanded``: the first table's results by case name, which ran with functions expanded)."""
+    (``expanded``: the first table's results by case name, which ran with functions expanded);
+    returns each case's cache folder, which holds its compiled library."""
     print(f"\nIPOPT's functions expanded, mapped or compiled (solver.functions), median of {runs} runs; "
           "end to end = build + solve + fine re-check; compiled: built from a warm cache, after one "
           "compile into an empty cache folder (its time in the last column); expanded: the runs of the "
           "table above\n")
     print("| case | functions | build [s] | solve [s] | iterations | fine re-check [s] | end to end [s] | objective | compile, empty cache [s] |")
     print("|---|---|---|---|---|---|---|---|---|")
+    caches = {}
     for name, path, variant in CASES:
         problem = load_spec(path, variant)
         for functions in FUNCTIONS:
-            compile_s = cold_compile(problem, root) if functions == "compiled" else None
+            compile_s = None
+            if functions == "compiled":
+                compile_s = cold_compile(problem, root)
+                caches[name] = os.environ["CADCAM_CACHE_DIR"]  # where cold_compile left the library
             r = (expanded[name] if functions == "expanded"
                  else bench(problem.with_options(functions=functions), runs))
             print(f"| {name} | {functions} | {r['build']:.3f} | {r['solve']:.3f} | {r['iterations']:.0f} | "
                   f"{r['recheck']:.3f} | {r['build'] + r['solve'] + r['recheck']:.3f} | {r['objective']:.6g} | "
                   f"{'–' if compile_s is None else f'{compile_s:.1f}'} |", flush=True)
+    return caches
 
 
 def build_scan(runs: int, expanded: dict[str, dict]) -> None:
@@ -151,38 +157,50 @@ def main() -> None:
         print(f"| {name} | {problem.torque_model} | {r['n_var']} | {r['n_con']} | {r['build']:.3f} | "
               f"{r['solve']:.3f} | {r['iterations']:.0f} | {r['recheck']:.3f} | {r['status']} |", flush=True)
     with tempfile.TemporaryDirectory(prefix="cadcam-bench-cache-") as root:
-        functions_table(args.runs, root, expanded)
+        caches = functions_table(args.runs, root, expanded)
         build_scan(args.runs, expanded)
         baseline_table(args, root)
-        design_command_table(args.runs, root)
+        design_command_table(args.runs, root, caches[CASES[0][0]])
         export_table(root)
 
 
-def design_command_table(runs: int, root: str) -> None:
-    """Wall time of ``cadcam design`` on the 1-DOF spec, a new process each run, every output
-    file written, beside the work its result.json reports and the time a new process takes to
-    start Python and import cadcam."""
+#: ``cadcam design`` runs of :func:`design_command_table`: label, extra arguments.
+DESIGN_RUNS = (("every file", []),
+               ("`--no-figures`", ["--no-figures"]),
+               ("`--no-figures`, compiled from the cache", ["--no-figures", "--set", "solver.functions=compiled"]))
+
+
+def design_command_table(runs: int, root: str, cache: str) -> None:
+    """Wall time of ``cadcam design`` on the 1-DOF spec, a new process each run, with every
+    output file, without the figures, and without them with compiled functions from the cache
+    folder ``cache`` (the functions table's), beside the work its result.json reports and the
+    time a new process takes to start Python and import cadcam; the three run side by side."""
     spec = CASES[0][1]
-    walls, imports, parts = [], [], []
+    imports, walls, parts = [], {label: [] for label, _ in DESIGN_RUNS}, {label: [] for label, _ in DESIGN_RUNS}
     for _ in range(runs):
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-c", "import cadcam.cli"], check=True)
         imports.append(time.perf_counter() - t0)
-        out = Path(tempfile.mkdtemp(dir=root)) / "design"
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "cadcam", "design", str(spec), "-o", str(out)],
-                       check=True, capture_output=True)
-        walls.append(time.perf_counter() - t0)
-        solver = json.loads((out / "result.json").read_text())["solver"]
-        parts.append([solver[k] for k in ("build_time_s", "solve_time_s", "recheck_time_s")])
-    build, solve, recheck = (statistics.median(p[i] for p in parts) for i in range(3))
-    wall, start = statistics.median(walls), statistics.median(imports)
-    print(f"\n`cadcam design {spec.relative_to(ROOT)} -o DIR` (a new process, every file written), "
-          f"median of {runs} runs: wall {wall:.2f} s, of which starting Python and importing cadcam "
-          f"{start:.2f} s (timed alone), build {build:.2f} s, solve {solve:.2f} s, fine re-check "
-          f"{recheck:.2f} s (from result.json); the remaining {wall - start - build - solve - recheck:.2f} s "
-          "is reading the spec, the design-grid evaluation, and importing matplotlib and ezdxf and writing "
-          "the files and figures with them")
+        for label, extra in DESIGN_RUNS:
+            out = Path(tempfile.mkdtemp(dir=root)) / "design"
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "cadcam", "design", str(spec), "-o", str(out), *extra],
+                           check=True, capture_output=True, env={**os.environ, "CADCAM_CACHE_DIR": cache})
+            walls[label].append(time.perf_counter() - t0)
+            solver = json.loads((out / "result.json").read_text())["solver"]
+            parts[label].append([solver[k] for k in ("build_time_s", "solve_time_s", "recheck_time_s")])
+    start = statistics.median(imports)
+    print(f"\n`cadcam design {spec.relative_to(ROOT)} -o DIR` (a new process each run), median of {runs} runs; "
+          f"starting Python and importing cadcam takes {start:.2f} s (timed alone); build, solve and re-check "
+          "from result.json; the rest is reading the spec, the design-grid evaluation and writing the files "
+          "(with the figures: importing matplotlib, four figures and a drawing sheet as PDF and PNG)\n")
+    print("| run | wall [s] | build [s] | solve [s] | fine re-check [s] | the rest [s] |")
+    print("|---|---|---|---|---|---|")
+    for label, _ in DESIGN_RUNS:
+        wall = statistics.median(walls[label])
+        build, solve, recheck = (statistics.median(p[i] for p in parts[label]) for i in range(3))
+        print(f"| {label} | {wall:.2f} | {build:.2f} | {solve:.2f} | {recheck:.2f} | "
+              f"{wall - start - build - solve - recheck:.2f} |")
 
 
 def export_table(root: str) -> None:

@@ -114,16 +114,19 @@ def cmd_design(args) -> int:
     _check_workshop_args(args)
     result = optimize(problem)
     try:
-        workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}))
+        workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
+                               figures=args.figures)
     except ValueError as exc:
         print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
         return 1
     print(result.summary())
-    extra = " output.csv output.png" if any(m.output_target is not None for m in problem.mechanisms) else ""
-    print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv profile.png"
-          f"{' torque.png springs.png' if problem.springs else ''} convergence.png{extra}")
-    print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv cam*_sheet.pdf/.png or cam*_groove.csv"
-          f"{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
+    output = any(m.output_target is not None for m in problem.mechanisms)
+    pngs = (f" profile.png{' torque.png springs.png' if problem.springs else ''} convergence.png"
+            f"{' output.png' if output else ''}" if args.figures else "")
+    print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv"
+          f"{' output.csv' if output else ''}{pngs}")
+    print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
+          f"or cam*_groove.csv{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
 
 
@@ -325,6 +328,9 @@ def main(argv=None) -> int:
     common(p)
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--multistart", type=int, help="extra random starts")
+    p.add_argument("--no-figures", dest="figures", action="store_false",
+                   help="write no PNG figures and no drawing sheets (what matplotlib draws: most of a "
+                        "small design's time); the tables, outlines and result.json as usual")
     w = p.add_argument_group("workshop files (lengths in metres)")
     w.add_argument("--bore-diameter", type=float, default=0.006, help="shaft bore (default 0.006)")
     w.add_argument("--anchor-diameter", type=float, default=0.0025,

@@ -139,7 +139,8 @@ class Result:
             raise ValueError(f"which = {which!r}: this result has the figures {sorted(figs)}")
         return figs[which]
 
-    def save(self, directory, workshop: WorkshopOptions | None = WorkshopOptions()) -> list[str]:
+    def save(self, directory, workshop: WorkshopOptions | None = WorkshopOptions(),
+             figures: bool = True) -> list[str]:
         """Write what ``cadcam design`` writes into ``directory``, all or nothing
         (``result.json`` last; see :func:`cadcam.files.staged_folder`).
 
@@ -148,6 +149,10 @@ class Result:
         directory : str or Path
         workshop : WorkshopOptions or None
             Sizes of the workshop files [m]; None writes no workshop files.
+        figures : bool
+            False writes none of the files matplotlib draws — the PNG figures and the drawing
+            sheets, most of a small design's time; the tables, outlines and result.json are
+            written all the same.
 
         Returns
         -------
@@ -162,10 +167,10 @@ class Result:
         """
         notes, failure = [], None
         with staged_folder(Path(directory), last=("result.json",)) as stage:
-            write_outputs(self, stage)
+            write_outputs(self, stage, figures)
             if workshop is not None:
                 try:
-                    notes = write_workshop_files(self.evaluation, stage, workshop)
+                    notes = write_workshop_files(self.evaluation, stage, workshop, sheets=figures)
                 except ValueError as exc:
                     failure = exc
         if failure is not None:

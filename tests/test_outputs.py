@@ -31,9 +31,11 @@ def design(monkeypatch, demo, capsys):
     module = importlib.import_module("cadcam.optimize")  # the package exports a function of that name
     monkeypatch.setattr(module, "optimize", lambda problem: demo)
 
-    def run(out):
-        code = main(["design", str(SPEC_1DOF), "-o", str(out)])
-        return code, capsys.readouterr().err
+    def run(out, *flags):
+        code = main(["design", str(SPEC_1DOF), "-o", str(out), *flags])
+        captured = capsys.readouterr()
+        run.stdout = captured.out  # what the run printed, for the tests that read it
+        return code, captured.err
     return run
 
 
@@ -56,6 +58,15 @@ def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):
     names = sorted(os.listdir(tmp_path / "o"))
     assert code == 0 and "result.json" in names and "torque.png" in names
     assert not [n for n in names if n.startswith(".")]
+
+
+def test_no_figures_writes_every_file_but_those_matplotlib_draws_and_says_so(tmp_path, design):
+    code, _ = design(tmp_path / "o", "--no-figures")
+    names = set(os.listdir(tmp_path / "o"))
+    assert code == 0 and {"result.json", "torque.csv", "torque_recheck.csv", "profile.csv", "cam1.dxf",
+                          "cam1.svg", "cam1_points.csv"} <= names
+    assert not [n for n in names if n.endswith((".png", ".pdf"))]
+    assert ".png" not in design.stdout and "cam1: " in design.stdout
 
 
 def test_a_disk_full_midway_leaves_no_folder_and_one_line(tmp_path, design, monkeypatch):

@@ -63,14 +63,12 @@ def write_torque_csv(path: Path, ev) -> None:
     write_csv(path, header, np.vstack(rows))
 
 
-def write_outputs(result, out: Path) -> None:
+def write_outputs(result, out: Path, figures: bool = True) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
-    grid), ``profile.csv``, the PNG figures (torque and springs only if there are springs,
-    ``convergence.png`` if the solver recorded IPOPT's iterates) and,
-    for mechanisms with an output law (a
-    differential pair's idler distance), ``output.csv`` and ``output.png`` in ``out``."""
-    from .plots import figures, save_figure
-
+    grid), ``profile.csv``, with ``figures`` the PNG figures (torque and springs only if there
+    are springs, ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
+    mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
+    ``output.png``) in ``out``."""
     ev = result.evaluation
     write_json(out / "result.json", result.to_dict())
     write_torque_csv(out / "torque.csv", ev)
@@ -86,15 +84,17 @@ def write_outputs(result, out: Path) -> None:
             header += [f"{mech.output}{u + 1}_m", f"{mech.output}{u + 1}_d_m", f"error{u + 1}_m"]
             cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
         write_csv(out / "output.csv", header, np.column_stack(cols))
-    for name, fig in figures(ev, result.history).items():  # the figures this run has: NAME.png
-        save_figure(fig, out / f"{name}.png")
+    if figures:
+        from .plots import figures as run_figures, save_figure
+
+        for name, fig in run_figures(ev, result.history).items():  # the figures this run has: NAME.png
+            save_figure(fig, out / f"{name}.png")
 
 
-def write_workshop_files(ev, out: Path, args: WorkshopOptions) -> list[str]:
-    """Per profile: DXF, SVG, CSV points and a drawing sheet (PDF and PNG); STL on request. A
-    profile whose cable wraps a turn or more (a helical groove) gets the groove's centre line
-    ``cam{i}_groove.csv`` instead: no planar outline holds it."""
-    from .drawing import draw_sheet
+def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = True) -> list[str]:
+    """Per profile: DXF, SVG, CSV points and, with ``sheets``, a drawing sheet (PDF and PNG); STL
+    on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
+    centre line ``cam{i}_groove.csv`` instead: no planar outline holds it."""
     from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf,
                            write_groove_csv, write_points_csv, write_stl, write_svg)
 
@@ -114,10 +114,13 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions) -> list[str]:
         write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
         write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
         write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
-        for suffix in (".pdf", ".png"):
-            draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
-                       args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
-                       spec=ev.problem.name, drawing=f"cam{i + 1}")
+        if sheets:
+            from .drawing import draw_sheet
+
+            for suffix in (".pdf", ".png"):
+                draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
+                           args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
+                           spec=ev.problem.name, drawing=f"cam{i + 1}")
         note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
         if args.stl is not None:
             volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
