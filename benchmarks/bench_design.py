@@ -15,8 +15,9 @@ compiled ones are first compiled into an empty cache folder, timed, then built f
 (benchmarks/nested_baseline.py), which reimplements Johnston2023's force model (Eq. 19–21),
 so it is compared with cadcam solving the same Sec. 10.4 problem under ``force``: same model,
 same limits and margins, same grid, same start, the same objective (Eq. 47) evaluated by the
-same re-check; (5) ``cadcam design`` of the 1-DOF spec, wall time; (6) the size and compile
-time of the exported Sec. 10.4 problem.
+same re-check; (5) ``cadcam design`` of the 1-DOF spec, wall time, with every file, without
+the figures, and so compiled from the cache; (6) the size of the exported Sec. 10.4 problem,
+its compile time at -O2 and -O1 and its functions' speed at each.
 """
 from __future__ import annotations
 
@@ -29,6 +30,9 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import casadi as ca
+import numpy as np
 
 from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
@@ -161,7 +165,7 @@ def main() -> None:
         build_scan(args.runs, expanded)
         baseline_table(args, root)
         design_command_table(args.runs, root, caches[CASES[0][0]])
-        export_table(root)
+        export_table(args.runs, root)
 
 
 #: ``cadcam design`` runs of :func:`design_command_table`: label, extra arguments.
@@ -203,23 +207,53 @@ def design_command_table(runs: int, root: str, cache: str) -> None:
               f"{wall - start - build - solve - recheck:.2f} |")
 
 
-def export_table(root: str) -> None:
-    """Size of the C of ``cadcam export --what problem`` for Sec. 10.4, and the time to compile
-    it with the flags of :data:`cadcam.views.export.CFLAGS` (one run: a compile takes tens of
-    seconds)."""
+#: Optimisation levels at which :func:`export_table` compiles the exported problem (the rest of
+#: :data:`cadcam.views.export.CFLAGS` kept), and evaluations of a function per timing.
+EXPORT_LEVELS = ("-O2", "-O1")
+EXPORT_CALLS = 50
+
+
+def export_table(runs: int, root: str) -> None:
+    """Size of the C of ``cadcam export --what problem`` for Sec. 10.4; the time to compile it
+    into a shared library with the flags of :data:`cadcam.views.export.CFLAGS` at each level of
+    :data:`EXPORT_LEVELS` (one compile each: they take tens of seconds), and how fast its
+    constraint Jacobian and Lagrangian Hessian then evaluate at the start (median of ``runs``
+    timings of :data:`EXPORT_CALLS` calls)."""
     problem = load_spec(CASES[1][1], CASES[1][2])
     out = Path(tempfile.mkdtemp(dir=root)) / "export"
     t0 = time.perf_counter()
     export(problem, default_start(problem), "problem", ["c"], out)
     generate = time.perf_counter() - t0
     source = out / "cadcam_problem.c"
+    data = json.loads((out / "problem_data.json").read_text())
+    args = [np.array(data["x0"]), np.array(data["p"]), 1.0,
+            np.random.default_rng(0).normal(size=len(data["lbg"]))]  # x, p, σ_f, λ_g
+    cc, flags = compiler(), [f for f in CFLAGS if not f.startswith("-O")]
+    print(f"\n`cadcam export --what problem` of Sec. 10.4: {source.stat().st_size / 1e6:.2f} MB of C written "
+          f"in {generate:.1f} s; compiled with `{Path(cc).name} {' '.join(flags)} LEVEL -fPIC -shared` "
+          f"(one compile each), then the functions timed at the start, median of {runs} × {EXPORT_CALLS} calls\n")
+    print("| level | compile [s] | constraint Jacobian [ms] | Lagrangian Hessian [ms] |")
+    print("|---|---|---|---|")
+    for level in EXPORT_LEVELS:
+        lib = out / f"problem{level}.so"
+        t0 = time.perf_counter()
+        subprocess.run([cc, *flags, level, "-fPIC", "-shared", str(source), "-o", str(lib), "-lm"],
+                       check=True, capture_output=True)
+        compile_s = time.perf_counter() - t0
+        ms = []
+        for name in ("cadcam_nlp_jac_g", "cadcam_nlp_hess_l"):
+            f = ca.external(name, str(lib))
+            call = args[:f.n_in()]
+            f(*call)
+            ms.append(1e3 * statistics.median(_per_call(f, call) for _ in range(runs)))
+        print(f"| {level} | {compile_s:.1f} | {ms[0]:.2f} | {ms[1]:.2f} |", flush=True)
+
+
+def _per_call(f, args) -> float:
     t0 = time.perf_counter()
-    cc = compiler()
-    subprocess.run([cc, *CFLAGS, "-c", str(source), "-o", str(out / "cadcam_problem.o")],
-                   check=True, capture_output=True)
-    compile_s = time.perf_counter() - t0
-    print(f"\n`cadcam export --what problem` of Sec. 10.4 (one run): {source.stat().st_size / 1e6:.2f} MB of C "
-          f"written in {generate:.1f} s; `{Path(cc).name} {' '.join(CFLAGS)} -c` compiles it in {compile_s:.1f} s")
+    for _ in range(EXPORT_CALLS):
+        f(*args)
+    return (time.perf_counter() - t0) / EXPORT_CALLS
 
 
 def baseline_table(args, root: str) -> None:
