@@ -7,6 +7,7 @@ written), a derivative check beyond its tolerance, or the environment failed aft
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import signal
@@ -112,6 +113,7 @@ def cmd_design(args) -> int:
     _check_output_dir(args.output)
     out = Path(args.output)
     _check_workshop_args(args)
+    _import_in_background(*WRITERS[:None if args.figures else 1])
     result = optimize(problem)
     try:
         workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
@@ -128,6 +130,26 @@ def cmd_design(args) -> int:
     print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
           f"or cam*_groove.csv{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
     return 0 if result.success else 1
+
+
+#: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), then the
+#: figures' (matplotlib).
+WRITERS = ("cadcam.views.workshop", "cadcam.views.plots", "cadcam.views.drawing")
+
+
+def _import_in_background(*modules: str) -> threading.Thread:
+    """Import ``modules`` on a daemon thread (returned, started), so that loading them (0.3–1 s)
+    overlaps the build and the solve; a module that fails to import there fails again, and is
+    reported, where the files are written."""
+    def run():
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except Exception:  # reported by the writer's own import
+                continue
+    thread = threading.Thread(target=run, name="cadcam-writers", daemon=True)
+    thread.start()
+    return thread
 
 
 #: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.views.outputs.WorkshopOptions`).

@@ -148,3 +148,12 @@ def test_output_paths_are_checked_before_any_work(tmp_path, capsys, argv):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and ("is a folder" in err or "is a file" in err)
     assert sorted(os.listdir(tmp_path)) == ["file", "folder"] and not os.listdir(tmp_path / "folder")
+
+
+def test_the_writers_load_in_the_background_and_a_failed_import_is_left_to_the_writer(capsys):
+    from cadcam.cli import _import_in_background
+
+    sys.modules.pop("tabnanny", None)
+    _import_in_background("cadcam_no_such_module", "tabnanny").join(timeout=60)
+    assert "tabnanny" in sys.modules and "cadcam_no_such_module" not in sys.modules
+    assert capsys.readouterr().err == ""
