@@ -113,7 +113,7 @@ def cmd_design(args) -> int:
     _check_output_dir(args.output)
     out = Path(args.output)
     _check_workshop_args(args)
-    _import_in_background(*WRITERS[:None if args.figures else 1])
+    _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
     try:
         workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
@@ -132,9 +132,10 @@ def cmd_design(args) -> int:
     return 0 if result.success else 1
 
 
-#: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), then the
-#: figures' (matplotlib).
-WRITERS = ("cadcam.views.workshop", "cadcam.views.plots", "cadcam.views.drawing")
+#: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), and the
+#: figures' and drawing sheets' (matplotlib), which ``--no-figures`` does not write.
+WORKSHOP_WRITERS = ("cadcam.views.workshop",)
+FIGURE_WRITERS = ("cadcam.views.plots", "cadcam.views.drawing")
 
 
 def _import_in_background(*modules: str) -> threading.Thread:

@@ -135,14 +135,16 @@ def atomic_path(path):
 
 
 @contextlib.contextmanager
-def staged_folder(folder, last: tuple[str, ...] = ()):
+def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None = None):
     """Yield a hidden staging folder inside ``folder`` to write a set of outputs into; on
     success move each file into ``folder``, the names in ``last`` after the others.
 
     Before the move the old copies of ``last`` are removed, so a run killed while moving
-    leaves no final-looking file (such as ``result.json``) beside a partial set. On an
-    exception the staging folder, and the folders this call created, are removed and
-    ``folder``'s previous content is left as it was.
+    leaves no final-looking file (such as ``result.json``) beside a partial set; so are the
+    files of ``folder`` whose names ``owned`` matches in full (the names a set may hold) and
+    the new set does not hold, so no file of an earlier set stays beside it. On an exception
+    the staging folder, and the folders this call created, are removed and ``folder``'s
+    previous content is left as it was.
     """
     folder = Path(folder)
     created = [p for p in (folder, *folder.parents) if not p.exists()]
@@ -152,7 +154,10 @@ def staged_folder(folder, last: tuple[str, ...] = ()):
         stage = Path(tempfile.mkdtemp(prefix=_temp_prefix("stage-"), dir=folder))
         try:
             yield stage
-            for name in last:
+            new = set(os.listdir(stage))
+            stale = [] if owned is None else [n for n in os.listdir(folder)
+                                              if owned.fullmatch(n) and n not in new and (folder / n).is_file()]
+            for name in [*last, *stale]:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(folder / name)
             for name in sorted(os.listdir(stage), key=lambda n: n in last):

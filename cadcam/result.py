@@ -13,7 +13,7 @@ from .check.cable_robot import robot_path
 from .check.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
-from .views.outputs import WorkshopOptions, write_outputs, write_workshop_files
+from .views.outputs import RUN_FILES, WorkshopOptions, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -142,7 +142,9 @@ class Result:
     def save(self, directory, workshop: WorkshopOptions | None = WorkshopOptions(),
              figures: bool = True) -> list[str]:
         """Write what ``cadcam design`` writes into ``directory``, all or nothing
-        (``result.json`` last; see :func:`cadcam.files.staged_folder`).
+        (``result.json`` last; see :func:`cadcam.files.staged_folder`); the files of an earlier
+        run there that this one does not write (:data:`cadcam.views.outputs.RUN_FILES`) are
+        removed, other files are left alone.
 
         Parameters
         ----------
@@ -166,7 +168,7 @@ class Result:
             file is written.
         """
         notes, failure = [], None
-        with staged_folder(Path(directory), last=("result.json",)) as stage:
+        with staged_folder(Path(directory), last=("result.json",), owned=RUN_FILES) as stage:
             write_outputs(self, stage, figures)
             if workshop is not None:
                 try:

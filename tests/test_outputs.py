@@ -7,7 +7,7 @@ import os
 import subprocess
 import sys
 
-import importlib
+import importlib.util
 
 import pytest
 
@@ -151,9 +151,31 @@ def test_output_paths_are_checked_before_any_work(tmp_path, capsys, argv):
 
 
 def test_the_writers_load_in_the_background_and_a_failed_import_is_left_to_the_writer(capsys):
-    from cadcam.cli import _import_in_background
+    from cadcam.cli import FIGURE_WRITERS, WORKSHOP_WRITERS, _import_in_background
 
+    assert all(importlib.util.find_spec(name) for name in WORKSHOP_WRITERS + FIGURE_WRITERS)
     sys.modules.pop("tabnanny", None)
-    _import_in_background("cadcam_no_such_module", "tabnanny").join(timeout=60)
-    assert "tabnanny" in sys.modules and "cadcam_no_such_module" not in sys.modules
+    thread = _import_in_background("cadcam_no_such_module", "tabnanny")
+    thread.join(timeout=60)
+    assert not thread.is_alive() and "tabnanny" in sys.modules  # it went on past the failure
     assert capsys.readouterr().err == ""
+
+
+def test_no_figures_loads_no_matplotlib():
+    """``--no-figures`` neither draws nor imports the figures' library (a fresh interpreter)."""
+    code = ("import sys, tempfile; from cadcam.cli import main; "
+            f"code = main(['design', {str(SPEC_1DOF)!r}, '-o', tempfile.mkdtemp(), '--no-figures']); "
+            "print(code, 'matplotlib' in sys.modules)")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip().splitlines()[-1] == "0 False"
+
+
+def test_a_rerun_removes_the_earlier_runs_files_it_does_not_write_and_nothing_else(tmp_path, design):
+    out = tmp_path / "o"
+    assert design(out)[0] == 0
+    (out / "notes.txt").write_text("mine")
+    (out / "cam1_notes.txt").write_text("mine")
+    assert design(out, "--no-figures")[0] == 0
+    names = set(os.listdir(out))
+    assert not [n for n in names if n.endswith((".png", ".pdf"))]
+    assert {"result.json", "cam1.dxf", "notes.txt", "cam1_notes.txt"} <= names

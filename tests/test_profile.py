@@ -56,4 +56,15 @@ def test_refining_a_minimum_at_a_kink_lands_on_it_and_never_below():
     phi = np.linspace(0.0, 1.0, 11)
     local = lambda p, c: [np.abs(p - a)]  # noqa: E731 — the profile function, mapped
     m = _refine_min(local, None, phi, np.abs(phi - a), 0)
-    assert 0.0 <= m < 1e-11 and np.abs(phi - a).min() > 0.02  # 0.2 rad bracket / 50⁶
+    # the last level samples every 0.2 rad / 50⁵ / 100 = 6.4e-12 rad
+    assert 0.0 <= m < 1e-11 and np.abs(phi - a).min() > 0.02
+
+
+def test_refining_steps_around_angles_where_the_profile_is_not_finite():
+    # finite at the samples, NaN left of the minimum at a: the refinement keeps to the right
+    from cadcam.check.evaluate import _refine_min
+
+    a = 0.123456789
+    phi = np.linspace(0.0, 1.0, 11)
+    local = lambda p, c: [np.where(p < a, np.nan, p - a)]  # noqa: E731 — the profile function, mapped
+    assert 0.0 <= _refine_min(local, None, phi, np.abs(phi - a), 0) < 1e-11

@@ -581,6 +581,7 @@ def _refine_min(local, c, phi, values, out_index, sign=1.0):
     for _ in range(REFINE_LEVELS):
         p = np.linspace(lo, hi, REFINE_POINTS)
         v = sign * np.asarray(local(p, c)[out_index]).ravel()
+        v[~np.isfinite(v)] = np.inf  # a non-finite sample is never the least
         j = int(np.argmin(v))
         best, lo, hi = min(best, float(v[j])), p[max(j - 1, 0)], p[min(j + 1, p.size - 1)]
     return best

@@ -8,6 +8,7 @@ load them.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +30,13 @@ class WorkshopOptions:
     groove_width: float = 0.0
     groove_pitch: float = 0.004
 
+
+#: Names of the files a design run may write (:func:`write_outputs`, :func:`write_workshop_files`):
+#: a run into a folder removes those of an earlier run that it does not write itself — the
+#: figures after ``--no-figures``, the files of a cam the new design does not have.
+RUN_FILES = re.compile(r"result\.json|(torque|torque_recheck|profile|output)\.csv"
+                       r"|(profile|torque|springs|output|convergence)\.png"
+                       r"|cam\d+(\.dxf|\.svg|\.stl|_points\.csv|_groove\.csv|_sheet\.pdf|_sheet\.png)")
 
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
