@@ -36,7 +36,7 @@ import numpy as np
 
 from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
-from cadcam.nlp.compiled import compiler
+from cadcam.nlp.compiled import LIBRARY_NAME, compiler
 from cadcam.nlp.transcription import Transcription
 from cadcam.problem import FUNCTIONS
 from cadcam.views.export import CFLAGS, export
@@ -180,6 +180,7 @@ def design_command_table(runs: int, root: str, cache: str) -> None:
     folder ``cache`` (the functions table's), beside the work its result.json reports and the
     time a new process takes to start Python and import cadcam; the three run side by side."""
     spec = CASES[0][1]
+    libraries = sorted(Path(cache).glob(LIBRARY_NAME.format("*")))
     imports, walls, parts = [], {label: [] for label, _ in DESIGN_RUNS}, {label: [] for label, _ in DESIGN_RUNS}
     for _ in range(runs):
         t0 = time.perf_counter()
@@ -193,6 +194,8 @@ def design_command_table(runs: int, root: str, cache: str) -> None:
             walls[label].append(time.perf_counter() - t0)
             solver = json.loads((out / "result.json").read_text())["solver"]
             parts[label].append([solver[k] for k in ("build_time_s", "solve_time_s", "recheck_time_s")])
+    if sorted(Path(cache).glob(LIBRARY_NAME.format("*"))) != libraries:
+        raise RuntimeError(f"the compiled runs compiled their library instead of loading it from {cache}")
     start = statistics.median(imports)
     print(f"\n`cadcam design {spec.relative_to(ROOT)} -o DIR` (a new process each run), median of {runs} runs; "
           f"starting Python and importing cadcam takes {start:.2f} s (timed alone); build, solve and re-check "
