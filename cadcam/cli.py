@@ -304,13 +304,15 @@ def cmd_plot_study(args) -> int:
 def cmd_cache(args) -> int:
     from .nlp.compiled import cache_dir, cached_libraries, clear_cache
 
+    def libraries(n: int) -> str:
+        return f"{n} compiled NLP librar{'y' if n == 1 else 'ies'}"
+
     if args.clear:
         n, size = clear_cache()
-        print(f"removed {n} compiled NLP librar{'y' if n == 1 else 'ies'} ({size / 1e6:.1f} MB) from {cache_dir()}")
+        print(f"removed {libraries(n)} ({size / 1e6:.1f} MB) from {cache_dir()}")
         return 0
     libs = cached_libraries()
-    size = sum(path.stat().st_size for path in libs)
-    print(f"{cache_dir()}: {len(libs)} compiled NLP librar{'y' if len(libs) == 1 else 'ies'}, {size / 1e6:.1f} MB "
+    print(f"{cache_dir()}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
           "(solver.functions = 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves the folder)")
     return 0
 

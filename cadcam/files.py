@@ -160,7 +160,7 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             for name in [*last, *stale]:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(folder / name)
-            for name in sorted(os.listdir(stage), key=lambda n: n in last):
+            for name in sorted(new, key=lambda n: n in last):
                 target = folder / name
                 if target.is_dir() and not target.is_symlink():
                     shutil.rmtree(target)

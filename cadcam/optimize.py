@@ -209,14 +209,20 @@ def _trial(s: Solve) -> dict:
             "solve_time_s": s.solve_time_s}
 
 
+def _recheck(problem: Problem, design: Design, seeds=None):
+    """The fine re-check of ``design`` (:func:`cadcam.check.evaluate.evaluate` on the problem's
+    ``recheck_grid``) and its wall time [s]."""
+    t0 = time.perf_counter()
+    fine = evaluate(problem, design, seeds=seeds, grid=problem.options.recheck_grid)
+    return fine, time.perf_counter() - t0
+
+
 def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Result:
     """The start design re-checked as the answer (``method = "envelope"``): its evaluation on
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
     objective is the largest output error on the design grid [m]."""
     on_grid = evaluate(problem, design)
-    t0 = time.perf_counter()
-    fine = evaluate(problem, design, grid=problem.options.recheck_grid)
-    recheck_s = time.perf_counter() - t0
+    fine, recheck_s = _recheck(problem, design)
     errors = [e for e in on_grid.metrics["output_max_abs_error"] if e is not None]
     solve = Solve(design=design, status="converged", return_status="Fedorov2018 envelope synthesis (no NLP)",
                   iterations=0, solve_time_s=seconds, objective=max(errors),
@@ -271,10 +277,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])
              for u, mech in enumerate(problem.mechanisms)]
     on_grid = evaluate(problem, best.design, seeds=seeds)
-    t0 = time.perf_counter()
-    fine = evaluate(problem, best.design, seeds=seeds,
-                    grid=problem.options.recheck_grid)
-    recheck_s = time.perf_counter() - t0
+    fine, recheck_s = _recheck(problem, best.design, seeds)
     status, message = verdict(problem, best, fine, "converged")
     return Result(status=status, message=message, problem=problem, design=best.design,
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,

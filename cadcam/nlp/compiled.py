@@ -78,12 +78,12 @@ def oracle_functions(nlp: dict) -> dict[str, ca.Function]:
     return {"nlp": solver.oracle(), **{name: solver.get_function(name) for name in ORACLE}}
 
 
-def library_key(nlp: dict) -> str:
-    """Hex digest naming the library of ``nlp``: its serialized graph, the cadcam and CasADi
-    versions, the compiler, :data:`CFLAGS` and :data:`DIRECTIONS`."""
+def library_key(nlp: dict, cc: str) -> str:
+    """Hex digest naming the library of ``nlp`` compiled by ``cc``: its serialized graph, the
+    cadcam and CasADi versions, the compiler, :data:`CFLAGS` and :data:`DIRECTIONS`."""
     graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
     digest = hashlib.sha256()
-    for part in (__version__, ca.__version__, compiler(), " ".join(CFLAGS), str(DIRECTIONS), graph):
+    for part in (__version__, ca.__version__, cc, " ".join(CFLAGS), str(DIRECTIONS), graph):
         digest.update(part.encode())
         digest.update(b"\0")
     return digest.hexdigest()[:32]
@@ -98,8 +98,8 @@ def library(nlp: dict) -> tuple[Path, bool]:
     CompileError
         Without a C compiler, or if compiling fails (the compiler's first lines of error).
     """
-    folder = cache_dir()
-    path = folder / LIBRARY_NAME.format(library_key(nlp))
+    folder, cc = cache_dir(), compiler()
+    path = folder / LIBRARY_NAME.format(library_key(nlp, cc))
     if path.exists():
         return path, False
     folder.mkdir(parents=True, exist_ok=True)
@@ -109,7 +109,7 @@ def library(nlp: dict) -> tuple[Path, bool]:
             gen.add(f)
         gen.generate(tmp + os.sep)
         built = Path(tmp) / path.name
-        run = subprocess.run([compiler(), *CFLAGS, str(Path(tmp) / "cadcam_nlp.c"), "-o", str(built),
+        run = subprocess.run([cc, *CFLAGS, str(Path(tmp) / "cadcam_nlp.c"), "-o", str(built),
                               "-lm"], capture_output=True, text=True)
         if run.returncode != 0:
             raise CompileError(f"compiling the NLP failed: {run.stderr.strip()[:500]}")
