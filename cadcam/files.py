@@ -137,7 +137,7 @@ def atomic_path(path):
 @contextlib.contextmanager
 def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None = None):
     """Yield a hidden staging folder inside ``folder`` to write a set of outputs into; on
-    success move each file into ``folder``, the names in ``last`` after the others.
+    success move each file into ``folder`` in name order, the names in ``last`` after the others.
 
     Before the move the old copies of ``last`` are removed, so a run killed while moving
     leaves no final-looking file (such as ``result.json``) beside a partial set; so are the
@@ -160,7 +160,7 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             for name in [*last, *stale]:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(folder / name)
-            for name in sorted(new, key=lambda n: n in last):
+            for name in sorted(new, key=lambda n: (n in last, n)):
                 target = folder / name
                 if target.is_dir() and not target.is_symlink():
                     shutil.rmtree(target)
