@@ -4,8 +4,10 @@ was and never a final-looking result.json beside a partial set; temporary files 
 are recognised and removed by the next; output paths are checked before any work."""
 import errno
 import os
+import signal
 import subprocess
 import sys
+import threading
 
 import importlib.util
 
@@ -14,6 +16,7 @@ import pytest
 import cadcam.views.plots
 from cadcam.cli import main
 from cadcam.files import TEMP_PREFIX, staged_folder, write_text
+from cadcam.nlp.transcription import Transcription
 from cadcam.optimize import optimize
 from cadcam.spec import load_spec
 
@@ -90,6 +93,40 @@ def test_an_interrupt_midway_exits_130_and_leaves_nothing(tmp_path, design, monk
     _fail_at_torque_png(monkeypatch, KeyboardInterrupt())
     code, err = design(tmp_path / "o")
     assert code == 130 and "interrupted" in err and not (tmp_path / "o").exists()
+
+
+def _signal_during_solves(monkeypatch, signum):
+    """Send this process ``signum`` 50 ms into every IPOPT solve (the 1-DOF solve takes several
+    times that); returns the solvers, whose stats say whether IPOPT was stopped."""
+    solvers, build = [], Transcription.__init__
+
+    def built(self, *args, **kwargs):
+        build(self, *args, **kwargs)
+        real = self.solver
+        solvers.append(real)
+
+        def solver(**kwargs):
+            threading.Timer(0.05, signal.pthread_kill, (threading.main_thread().ident, signum)).start()
+            return real(**kwargs)
+        self.solver = solver
+    monkeypatch.setattr(Transcription, "__init__", built)
+    return solvers
+
+
+def test_ctrl_c_during_the_solve_interrupts_instead_of_returning_a_failed_design(monkeypatch):
+    """CasADi stops IPOPT on Ctrl-C but swallows the KeyboardInterrupt; it must come out."""
+    solvers = _signal_during_solves(monkeypatch, signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        optimize(load_spec(SPEC_1DOF))
+    assert solvers[0].stats()["return_status"] == "NonIpopt_Exception_Thrown"  # IPOPT was stopped
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigterm_during_the_solve_exits_130_and_leaves_nothing(tmp_path, monkeypatch, capsys):
+    solvers = _signal_during_solves(monkeypatch, signal.SIGTERM)
+    code = main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "o")])
+    assert code == 130 and "interrupted" in capsys.readouterr().err and not (tmp_path / "o").exists()
+    assert solvers[0].stats()["return_status"] == "NonIpopt_Exception_Thrown"
 
 
 def test_a_move_that_fails_leaves_no_final_looking_result(tmp_path, monkeypatch):

@@ -19,6 +19,9 @@ divided by the tracking weight times ∫τ_d² and multiplied by :data:`OBJECTIV
 """
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -480,7 +483,8 @@ class Transcription:
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
-        sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        with signals_kept():
+            sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()
         w = np.asarray(sol["x"]).ravel()
@@ -492,6 +496,44 @@ class Transcription:
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
             history=iteration_history(stats))
+
+
+@contextlib.contextmanager
+def signals_kept():
+    """Raise again, after the block, what a Python handler of SIGINT or SIGTERM raised inside
+    it (Ctrl-C's KeyboardInterrupt; ``cadcam``'s SIGTERM handler raises the same).
+
+    While IPOPT iterates, CasADi runs Python's pending signal handlers; when one raises, CasADi
+    stops IPOPT and returns status ``NonIpopt_Exception_Thrown`` without the exception, so an
+    interrupted solve would carry on as a failed design (``cadcam design`` writing it and
+    exiting 1, a serial sweep recording it and going on to the next case). Only the main
+    thread receives signals; elsewhere the block runs as it is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    raised: list[BaseException] = []
+
+    def kept(handler):
+        def run(signum, frame):
+            try:
+                handler(signum, frame)
+            except BaseException as exc:
+                raised.append(exc)
+                raise
+        return run
+
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    handlers = {s: h for s, h in handlers.items() if callable(h)}
+    for s, h in handlers.items():
+        signal.signal(s, kept(h))
+    try:
+        yield
+    finally:
+        for s, h in handlers.items():
+            signal.signal(s, h)
+    if raised:
+        raise raised[0]
 
 
 #: The per-iteration values :func:`iteration_history` keeps, by IPOPT's (CasADi's) name.
