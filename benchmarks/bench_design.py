@@ -39,7 +39,7 @@ from cadcam.optimize import default_start, solve
 from cadcam.nlp.compiled import LIBRARY_NAME, compiler
 from cadcam.nlp.transcription import Transcription
 from cadcam.problem import FUNCTIONS
-from cadcam.views.export import CFLAGS, export
+from cadcam.views.export import CFLAGS, WARNINGS, export
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -211,15 +211,16 @@ def design_command_table(runs: int, root: str, cache: str) -> None:
               f"{wall - start - build - solve - recheck:.2f} |")
 
 
-#: Optimisation levels at which :func:`export_table` compiles the exported problem (the rest of
-#: :data:`cadcam.views.export.CFLAGS` kept), and evaluations of a function per timing.
+#: Optimisation levels at which :func:`export_table` compiles the exported problem (with
+#: :data:`cadcam.views.export.WARNINGS`; ``--format shared`` uses the level in ``CFLAGS``), and
+#: evaluations of a function per timing.
 EXPORT_LEVELS = ("-O2", "-O1")
 EXPORT_CALLS = 50
 
 
 def export_table(runs: int, root: str) -> None:
     """Size of the C of ``cadcam export --what problem`` for Sec. 10.4; the time to compile it
-    into a shared library with the flags of :data:`cadcam.views.export.CFLAGS` at each level of
+    into a shared library with :data:`cadcam.views.export.WARNINGS` at each level of
     :data:`EXPORT_LEVELS` (one compile each: they take tens of seconds), and how fast its
     constraint Jacobian and Lagrangian Hessian then evaluate at the start (median of ``runs``
     timings of :data:`EXPORT_CALLS` calls)."""
@@ -232,10 +233,11 @@ def export_table(runs: int, root: str) -> None:
     data = json.loads((out / "problem_data.json").read_text())
     args = [np.array(data["x0"]), np.array(data["p"]), 1.0,
             np.random.default_rng(0).normal(size=len(data["lbg"]))]  # x, p, σ_f, λ_g
-    cc, flags = compiler(), [f for f in CFLAGS if not f.startswith("-O")]
+    cc, flags = compiler(), WARNINGS
     print(f"\n`cadcam export --what problem` of Sec. 10.4: {source.stat().st_size / 1e6:.2f} MB of C written "
           f"in {generate:.1f} s; compiled with `{Path(cc).name} {' '.join(flags)} LEVEL -fPIC -shared` "
-          f"(one compile each), then the functions timed at the start, median of {runs} × {EXPORT_CALLS} calls\n")
+          f"(one compile each; `--format shared` uses {CFLAGS[-1]}), then the functions timed at the start, median "
+          f"of {runs} × {EXPORT_CALLS} calls\n")
     print("| level | compile [s] | constraint Jacobian [ms] | Lagrangian Hessian [ms] |")
     print("|---|---|---|---|")
     for level in EXPORT_LEVELS:

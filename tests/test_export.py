@@ -11,7 +11,7 @@ import pytest
 
 from cadcam import Design, load_spec
 from cadcam.mechanisms.base import DepartureSolver, newton_function
-from cadcam.views.export import CFLAGS, export, model_functions
+from cadcam.views.export import CFLAGS, WARNINGS, export, model_functions
 from cadcam.check.model import NEWTON_STEPS, torque_function
 
 from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
@@ -70,9 +70,10 @@ def test_exported_model_and_jacobians_equal_the_rootfinder_model(rr):
 
 
 @needs_gcc
-def test_generated_c_compiles_warning_free(exported, tmp_path):
+@pytest.mark.parametrize("level", ["-O1", "-O2"])
+def test_generated_c_compiles_warning_free(exported, tmp_path, level):
     out, _ = exported
-    run = subprocess.run([GCC, *CFLAGS, "-c", str(out / "cadcam_model.c"), "-o", str(tmp_path / "m.o")],
+    run = subprocess.run([GCC, *WARNINGS, level, "-c", str(out / "cadcam_model.c"), "-o", str(tmp_path / "m.o")],
                          capture_output=True, text=True)
     assert run.returncode == 0 and run.stderr == "", run.stderr
 
@@ -116,7 +117,7 @@ def test_readme_c_example_compiles_and_runs(rr, exported, tmp_path):
     example = re.search(r"<!-- c-example -->\s*```c\n(.*?)```", readme, re.S)[1]
     (tmp_path / "example.c").write_text(example)
     exe = tmp_path / "example"
-    build = subprocess.run([GCC, *CFLAGS, f"-I{out}", str(tmp_path / "example.c"),
+    build = subprocess.run([GCC, *WARNINGS, "-O2", f"-I{out}", str(tmp_path / "example.c"),  # as the README
                             str(out / "cadcam_model.c"), "-lm", "-o", str(exe)], capture_output=True, text=True)
     assert build.returncode == 0 and build.stderr == "", build.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True)
