@@ -17,7 +17,7 @@ so it is compared with cadcam solving the same Sec. 10.4 problem under ``force``
 same limits and margins, same grid, same start, the same objective (Eq. 47) evaluated by the
 same re-check; (5) ``cadcam design`` of the 1-DOF spec, wall time, with every file, without
 the figures, and so compiled from the cache; (6) the size of the exported Sec. 10.4 problem,
-its compile time at -O2 and -O1 and its functions' speed at each.
+its compile time as ``--format shared`` compiles it and its functions' speed.
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ from cadcam.optimize import default_start, solve
 from cadcam.nlp.compiled import LIBRARY_NAME, compiler
 from cadcam.nlp.transcription import Transcription
 from cadcam.problem import FUNCTIONS
-from cadcam.views.export import CFLAGS, WARNINGS, export
+from cadcam.views.export import CFLAGS, export
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -211,19 +211,16 @@ def design_command_table(runs: int, root: str, cache: str) -> None:
               f"{wall - start - build - solve - recheck:.2f} |")
 
 
-#: Optimisation levels at which :func:`export_table` compiles the exported problem (with
-#: :data:`cadcam.views.export.WARNINGS`; ``--format shared`` uses the level in ``CFLAGS``), and
-#: evaluations of a function per timing.
-EXPORT_LEVELS = ("-O2", "-O1")
+#: Evaluations of a function per timing of :func:`export_table`.
 EXPORT_CALLS = 50
 
 
 def export_table(runs: int, root: str) -> None:
     """Size of the C of ``cadcam export --what problem`` for Sec. 10.4; the time to compile it
-    into a shared library with :data:`cadcam.views.export.WARNINGS` at each level of
-    :data:`EXPORT_LEVELS` (one compile each: they take tens of seconds), and how fast its
-    constraint Jacobian and Lagrangian Hessian then evaluate at the start (median of ``runs``
-    timings of :data:`EXPORT_CALLS` calls)."""
+    into a shared library with the flags of ``--format shared``
+    (:data:`cadcam.views.export.CFLAGS`; one compile: it takes tens of seconds), and how fast
+    its constraint Jacobian and Lagrangian Hessian then evaluate at the start (median of
+    ``runs`` timings of :data:`EXPORT_CALLS` calls)."""
     problem = load_spec(CASES[1][1], CASES[1][2])
     out = Path(tempfile.mkdtemp(dir=root)) / "export"
     t0 = time.perf_counter()
@@ -233,26 +230,23 @@ def export_table(runs: int, root: str) -> None:
     data = json.loads((out / "problem_data.json").read_text())
     args = [np.array(data["x0"]), np.array(data["p"]), 1.0,
             np.random.default_rng(0).normal(size=len(data["lbg"]))]  # x, p, σ_f, λ_g
-    cc, flags = compiler(), WARNINGS
+    command = [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(out / "problem.so"), "-lm"]
     print(f"\n`cadcam export --what problem` of Sec. 10.4: {source.stat().st_size / 1e6:.2f} MB of C written "
-          f"in {generate:.1f} s; compiled with `{Path(cc).name} {' '.join(flags)} LEVEL -fPIC -shared` "
-          f"(one compile each; `--format shared` uses {CFLAGS[-1]}), then the functions timed at the start, median "
-          f"of {runs} × {EXPORT_CALLS} calls\n")
-    print("| level | compile [s] | constraint Jacobian [ms] | Lagrangian Hessian [ms] |")
-    print("|---|---|---|---|")
-    for level in EXPORT_LEVELS:
-        lib = out / f"problem{level}.so"
-        t0 = time.perf_counter()
-        subprocess.run([cc, *flags, level, "-fPIC", "-shared", str(source), "-o", str(lib), "-lm"],
-                       check=True, capture_output=True)
-        compile_s = time.perf_counter() - t0
-        ms = []
-        for name in ("cadcam_nlp_jac_g", "cadcam_nlp_hess_l"):
-            f = ca.external(name, str(lib))
-            call = args[:f.n_in()]
-            f(*call)
-            ms.append(1e3 * statistics.median(_per_call(f, call) for _ in range(runs)))
-        print(f"| {level} | {compile_s:.1f} | {ms[0]:.2f} | {ms[1]:.2f} |", flush=True)
+          f"in {generate:.1f} s; compiled as `--format shared` does (`{Path(command[0]).name} "
+          f"{' '.join(command[1:-4])}`, one compile), then the functions timed at the start, median of "
+          f"{runs} × {EXPORT_CALLS} calls\n")
+    t0 = time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True)
+    compile_s = time.perf_counter() - t0
+    ms = []
+    for name in ("cadcam_nlp_jac_g", "cadcam_nlp_hess_l"):
+        f = ca.external(name, command[-3])
+        call = args[:f.n_in()]
+        f(*call)
+        ms.append(1e3 * statistics.median(_per_call(f, call) for _ in range(runs)))
+    print("| compile [s] | constraint Jacobian [ms] | Lagrangian Hessian [ms] |")
+    print("|---|---|---|")
+    print(f"| {compile_s:.1f} | {ms[0]:.2f} | {ms[1]:.2f} |", flush=True)
 
 
 def _per_call(f, args) -> float:
