@@ -230,7 +230,8 @@ def export_table(runs: int, root: str) -> None:
     data = json.loads((out / "problem_data.json").read_text())
     args = [np.array(data["x0"]), np.array(data["p"]), 1.0,
             np.random.default_rng(0).normal(size=len(data["lbg"]))]  # x, p, σ_f, λ_g
-    command = [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(out / "problem.so"), "-lm"]
+    lib = out / "problem.so"
+    command = [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(lib), "-lm"]
     print(f"\n`cadcam export --what problem` of Sec. 10.4: {source.stat().st_size / 1e6:.2f} MB of C written "
           f"in {generate:.1f} s; compiled as `--format shared` does (`{Path(command[0]).name} "
           f"{' '.join(command[1:-4])}`, one compile), then the functions timed at the start, median of "
@@ -240,7 +241,7 @@ def export_table(runs: int, root: str) -> None:
     compile_s = time.perf_counter() - t0
     ms = []
     for name in ("cadcam_nlp_jac_g", "cadcam_nlp_hess_l"):
-        f = ca.external(name, command[-3])
+        f = ca.external(name, str(lib))
         call = args[:f.n_in()]
         f(*call)
         ms.append(1e3 * statistics.median(_per_call(f, call) for _ in range(runs)))
