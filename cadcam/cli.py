@@ -119,7 +119,9 @@ def cmd_design(args) -> int:
         workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
                                figures=args.figures)
     except ValueError as exc:
-        print(f"cadcam: the workshop files cannot be made: {exc}", file=sys.stderr)
+        print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are "
+              f"written to {out}; --bore-diameter, --anchor-diameter, --groove-depth and --groove-width "
+              "set the workshop sizes)", file=sys.stderr)
         return 1
     print(result.summary())
     output = any(m.output_target is not None for m in problem.mechanisms)

@@ -111,7 +111,8 @@ def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
     assert check_output_file(out / "cam1.stl") == pytest.approx(reported, rel=1e-3)  # the file's own volume
     assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "b"), "--bore-diameter", "0.05"]) == 1
     err = capsys.readouterr().err
-    assert "workshop files cannot be made" in err and "bore_diameter" in err
+    assert "workshop files cannot be made: cam1: bore_diameter" in err and "--bore-diameter" in err
+    assert err.count("\n") == 1 and (tmp_path / "b" / "result.json").exists()
 
 
 def test_failed_solve_writes_its_status_and_exits_1(tmp_path):

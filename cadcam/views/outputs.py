@@ -103,12 +103,11 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = Tr
     """Per profile: DXF, SVG, CSV points and, with ``sheets``, a drawing sheet (PDF and PNG); STL
     on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
     centre line ``cam{i}_groove.csv`` instead: no planar outline holds it."""
-    from .workshop import (TWO_PI, chord_outline, closed_outline, helical_groove, polyline, write_dxf,
-                           write_groove_csv, write_points_csv, write_stl, write_svg)
+    from .workshop import TWO_PI, helical_groove, write_groove_csv
 
     notes = []
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
-    for i, (cam, cs, mech) in enumerate(zip(ev.problem.profiles, ev.profiles, owners)):
+    for i, (cs, mech) in enumerate(zip(ev.profiles, owners)):
         if cs.alpha.max() >= TWO_PI:
             groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
                                     args.groove_pitch)
@@ -116,23 +115,36 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = Tr
             notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
                          f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
             continue
-        close = chord_outline if mech.outline_closure == "chord" else closed_outline
-        outline = close(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()))
-        stem = out / f"cam{i + 1}"
-        write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
-        write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
-        write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
-        if sheets:
-            from .drawing import draw_sheet
-
-            for suffix in (".pdf", ".png"):
-                draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
-                           args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
-                           spec=ev.problem.name, drawing=f"cam{i + 1}")
-        note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
-        if args.stl is not None:
-            volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
-                               args.groove_depth, args.groove_width, args.tolerance)
-            note += f", STL {volume * 1e9:.0f} mm³"
+        try:
+            note = _write_outline_files(ev, i, out, args, sheets, mech.outline_closure)
+        except ValueError as exc:
+            raise ValueError(f"cam{i + 1}: {exc}") from exc
         notes.append(note)
     return notes
+
+
+def _write_outline_files(ev, i: int, out: Path, args: WorkshopOptions, sheets: bool, closure: str) -> str:
+    """The workshop files of profile ``i`` closed into a planar outline (see
+    :func:`write_workshop_files`); returns its line of the summary."""
+    from .workshop import chord_outline, closed_outline, polyline, write_dxf, write_points_csv, write_stl, write_svg
+
+    cam = ev.problem.profiles[i]
+    close = chord_outline if closure == "chord" else closed_outline
+    outline = close(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()))
+    stem = out / f"cam{i + 1}"
+    write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
+    write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
+    write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
+    if sheets:
+        from .drawing import draw_sheet
+
+        for suffix in (".pdf", ".png"):
+            draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
+                       args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
+                       spec=ev.problem.name, drawing=f"cam{i + 1}")
+    note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
+    if args.stl is not None:
+        volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
+                           args.groove_depth, args.groove_width, args.tolerance)
+        note += f", STL {volume * 1e9:.0f} mm³"
+    return note
