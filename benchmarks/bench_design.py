@@ -36,10 +36,10 @@ import numpy as np
 
 from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
-from cadcam.nlp.compiled import LIBRARY_NAME, compiler
+from cadcam.nlp.compiled import LIBRARY_NAME
 from cadcam.nlp.transcription import Transcription
 from cadcam.problem import FUNCTIONS
-from cadcam.views.export import CFLAGS, export
+from cadcam.views.export import CFLAGS, export, shared_library_command
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -231,10 +231,10 @@ def export_table(runs: int, root: str) -> None:
     args = [np.array(data["x0"]), np.array(data["p"]), 1.0,
             np.random.default_rng(0).normal(size=len(data["lbg"]))]  # x, p, σ_f, λ_g
     lib = out / "problem.so"
-    command = [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(lib), "-lm"]
+    command = shared_library_command(source, lib)
     print(f"\n`cadcam export --what problem` of Sec. 10.4: {source.stat().st_size / 1e6:.2f} MB of C written "
           f"in {generate:.1f} s; compiled as `--format shared` does (`{Path(command[0]).name} "
-          f"{' '.join(command[1:-4])}`, one compile), then the functions timed at the start, median of "
+          f"{' '.join(CFLAGS)} -fPIC -shared`, one compile), then the functions timed at the start, median of "
           f"{runs} × {EXPORT_CALLS} calls\n")
     t0 = time.perf_counter()
     subprocess.run(command, check=True, capture_output=True)

@@ -107,7 +107,7 @@ def _problem_and_design(args):
 
 def cmd_design(args) -> int:
     from .optimize import optimize
-    from .views.outputs import WorkshopOptions
+    from .views.outputs import WorkshopError, WorkshopOptions
 
     problem = _problem(args)
     _check_output_dir(args.output)
@@ -118,10 +118,10 @@ def cmd_design(args) -> int:
     try:
         workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
                                figures=args.figures)
-    except ValueError as exc:
-        print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are "
-              f"written to {out}; --bore-diameter, --anchor-diameter, --groove-depth and --groove-width "
-              "set the workshop sizes)", file=sys.stderr)
+    except WorkshopError as exc:
+        flags = [f"--{name.replace('_', '-')}" for name in WORKSHOP_FLAGS if name in str(exc)]
+        print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are written "
+              f"to {out}{'; set it with ' + ' or '.join(flags) if flags else ''})", file=sys.stderr)
         return 1
     print(result.summary())
     output = any(m.output_target is not None for m in problem.mechanisms)

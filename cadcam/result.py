@@ -13,7 +13,7 @@ from .check.cable_robot import robot_path
 from .check.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
-from .views.outputs import RUN_FILES, WorkshopOptions, write_outputs, write_workshop_files
+from .views.outputs import RUN_FILES, WorkshopError, WorkshopOptions, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -163,9 +163,9 @@ class Result:
 
         Raises
         ------
-        ValueError
-            The workshop files cannot be made (a hole leaves too little material); every other
-            file is written.
+        WorkshopError
+            A cam's workshop files cannot be made (its outline cannot be closed, or a hole
+            leaves too little material); every other file is written.
         """
         notes, failure = [], None
         with staged_folder(Path(directory), last=("result.json",), owned=RUN_FILES) as stage:
@@ -173,7 +173,7 @@ class Result:
             if workshop is not None:
                 try:
                     notes = write_workshop_files(self.evaluation, stage, workshop, sheets=figures)
-                except ValueError as exc:
+                except WorkshopError as exc:
                     failure = exc
         if failure is not None:
             raise failure

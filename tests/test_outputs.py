@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 
 import importlib.util
 
@@ -96,19 +95,29 @@ def test_an_interrupt_midway_exits_130_and_leaves_nothing(tmp_path, design, monk
 
 
 def _signal_during_solves(monkeypatch, signum):
-    """Send this process ``signum`` 50 ms into every IPOPT solve (the 1-DOF solve takes several
-    times that); returns the solvers, whose stats say whether IPOPT was stopped."""
+    """Have another process send this one ``signum`` 20 ms into every IPOPT solve (the 1-DOF
+    solve takes ten times that) and wait for it before the solve returns, so no signal comes
+    later; returns the solvers, whose stats say whether IPOPT was stopped."""
     solvers, build = [], Transcription.__init__
+
+    class Signalled:
+        def __init__(self, real):
+            self.real = real
+
+        def __call__(self, **kwargs):
+            sender = subprocess.Popen(["sh", "-c", f"sleep 0.02; kill -{signum.name[3:]} {os.getpid()}"])
+            try:
+                return self.real(**kwargs)
+            finally:
+                sender.wait()
+
+        def stats(self):
+            return self.real.stats()
 
     def built(self, *args, **kwargs):
         build(self, *args, **kwargs)
-        real = self.solver
-        solvers.append(real)
-
-        def solver(**kwargs):
-            threading.Timer(0.05, signal.pthread_kill, (threading.main_thread().ident, signum)).start()
-            return real(**kwargs)
-        self.solver = solver
+        solvers.append(self.solver)
+        self.solver = Signalled(self.solver)
     monkeypatch.setattr(Transcription, "__init__", built)
     return solvers
 

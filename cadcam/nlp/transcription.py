@@ -523,15 +523,21 @@ def signals_kept():
                 raise
         return run
 
-    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-    handlers = {s: h for s, h in handlers.items() if callable(h)}
-    for s, h in handlers.items():
-        signal.signal(s, kept(h))
+    installed = {}
     try:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            handler = signal.getsignal(s)
+            if callable(handler):
+                installed[s] = handler  # recorded first: the finally restores it whenever a signal comes
+                signal.signal(s, kept(handler))
         yield
+    except BaseException as exc:
+        if raised and exc is not raised[0]:  # the interrupt first, with what followed it
+            raise raised[0] from exc
+        raise
     finally:
-        for s, h in handlers.items():
-            signal.signal(s, h)
+        for s, handler in installed.items():
+            signal.signal(s, handler)
     if raised:
         raise raised[0]
 

@@ -37,16 +37,23 @@ from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
 from ..check.evaluate import start_samples
 from ..check.model import NEWTON_STEPS, torque_function, torque_jacobian_function
+from ..nlp.compiled import CompileError, compiler
 from ..problem import Problem
 
 WHATS = ("model", "problem")
 FORMATS = ("c", "shared", "casadi")
 #: The standard and warnings the generated C compiles with (and warning-free, at -O1 and -O2).
 WARNINGS = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
-#: The flags of ``--format shared`` (with ``-fPIC -shared``). -O1: ``make bench`` compiles Sec.
-#: 10.4's exported problem at both levels, and at -O1 it takes about 60 % of -O2's time into a
-#: constraint Jacobian and a Lagrangian Hessian that evaluate about as fast.
+#: The flags of ``--format shared`` (with ``-fPIC -shared``). -O1: Sec. 10.4's exported problem
+#: compiled at -O1 in 60–80 % of the time -O2 took, into a constraint Jacobian and a Lagrangian
+#: Hessian that evaluate about as fast (``make bench`` runs of 2026-11-23; see CHANGELOG).
 CFLAGS = [*WARNINGS, "-O1"]
+
+
+def shared_library_command(source, library) -> list[str]:
+    """The command that ``--format shared`` compiles C ``source`` into ``library`` with
+    (:data:`CFLAGS`); CompileError if there is no C compiler."""
+    return [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(library), "-lm"]
 #: Gauss–Legendre points of the exported wrapped length (and as-printed friction) over the
 #: whole wrap: tests check the exported torque against the 48-point evaluator to 1e-12.
 EXPORT_QUADRATURE_ORDER = 24
@@ -349,14 +356,12 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
             manifest["files"].append("cadcam_design.h")
     if "shared" in formats:
         lib = out / f"lib{stem}.so"
-        from ..nlp.compiled import CompileError, compiler as find_compiler
-        try:
-            compiler = find_compiler()
-        except CompileError:
-            raise ExportError("--format shared needs a C compiler (cc or gcc) on PATH") from None
         with atomic_path(lib) as tmp:
-            run = subprocess.run([compiler, *CFLAGS, "-fPIC", "-shared", str(out / f"{stem}.c"),
-                                  "-o", str(tmp), "-lm"], capture_output=True, text=True)
+            try:
+                command = shared_library_command(out / f"{stem}.c", tmp)
+            except CompileError:
+                raise ExportError("--format shared needs a C compiler (cc or gcc) on PATH") from None
+            run = subprocess.run(command, capture_output=True, text=True)
             if run.returncode != 0:
                 raise ExportError(f"compiling {stem}.c failed: {run.stderr.strip()[:500]}")
         manifest["files"].append(lib.name)

@@ -18,6 +18,11 @@ from ..check.evaluate import output_error, output_law
 from ..files import write_csv, write_json
 
 
+class WorkshopError(ValueError):
+    """A cam's workshop files cannot be made: its outline cannot be closed, or a hole or the
+    groove leaves too little material (the message names the cam and the size)."""
+
+
 @dataclass(frozen=True)
 class WorkshopOptions:
     """Sizes of the workshop files [m] (the ``cadcam design`` flags of the same names)."""
@@ -102,24 +107,24 @@ def write_outputs(result, out: Path, figures: bool = True) -> None:
 def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = True) -> list[str]:
     """Per profile: DXF, SVG, CSV points and, with ``sheets``, a drawing sheet (PDF and PNG); STL
     on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
-    centre line ``cam{i}_groove.csv`` instead: no planar outline holds it."""
+    centre line ``cam{i}_groove.csv`` instead: no planar outline holds it. WorkshopError when a
+    profile's files cannot be made."""
     from .workshop import TWO_PI, helical_groove, write_groove_csv
 
     notes = []
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
     for i, (cs, mech) in enumerate(zip(ev.profiles, owners)):
-        if cs.alpha.max() >= TWO_PI:
-            groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
-                                    args.groove_pitch)
-            write_groove_csv(out / f"cam{i + 1}_groove.csv", groove)
-            notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
-                         f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
-            continue
         try:
-            note = _write_outline_files(ev, i, out, args, sheets, mech.outline_closure)
+            if cs.alpha.max() >= TWO_PI:
+                groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
+                                        args.groove_pitch)
+                write_groove_csv(out / f"cam{i + 1}_groove.csv", groove)
+                notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
+                             f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
+            else:
+                notes.append(_write_outline_files(ev, i, out, args, sheets, mech.outline_closure))
         except ValueError as exc:
-            raise ValueError(f"cam{i + 1}: {exc}") from exc
-        notes.append(note)
+            raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     return notes
 
 
