@@ -506,7 +506,7 @@ def signals_kept():
     While IPOPT iterates, CasADi runs Python's pending signal handlers; when one raises, CasADi
     stops IPOPT and returns status ``NonIpopt_Exception_Thrown`` without the exception, so an
     interrupted solve would carry on as a failed design (``cadcam design`` writing it and
-    exiting 1, a serial sweep recording it and going on to the next case). Only the main
+    exiting 1, a serial sweep re-solving or recording the case and going on). Only the main
     thread receives signals; elsewhere the block runs as it is.
     """
     if threading.current_thread() is not threading.main_thread():
