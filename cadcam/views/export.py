@@ -37,7 +37,7 @@ from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
 from ..check.evaluate import start_samples
 from ..check.model import NEWTON_STEPS, torque_function, torque_jacobian_function
-from ..nlp.compiled import CompileError, compiler
+from ..nlp.compiled import CompileError, compiler, oracle_functions
 from ..problem import Problem
 
 WHATS = ("model", "problem")
@@ -48,12 +48,6 @@ WARNINGS = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
 #: compiled at -O1 in 60–80 % of the time -O2 took, into a constraint Jacobian and a Lagrangian
 #: Hessian that evaluate about as fast (``make bench`` runs of 2026-11-23; see CHANGELOG).
 CFLAGS = [*WARNINGS, "-O1"]
-
-
-def shared_library_command(source, library) -> list[str]:
-    """The command that ``--format shared`` compiles C ``source`` into ``library`` with
-    (:data:`CFLAGS`); CompileError if there is no C compiler."""
-    return [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(library), "-lm"]
 #: Gauss–Legendre points of the exported wrapped length (and as-printed friction) over the
 #: whole wrap: tests check the exported torque against the 48-point evaluator to 1e-12.
 EXPORT_QUADRATURE_ORDER = 24
@@ -114,7 +108,6 @@ def problem_functions(problem: Problem):
     that ``solver.functions = "compiled"`` compiles (:func:`cadcam.nlp.compiled.oracle_functions`),
     from the graph of mapped per-angle functions, whose C holds each per-angle function once
     inside loops over the grid."""
-    from ..nlp.compiled import oracle_functions
     from ..nlp.transcription import Transcription
 
     tr = Transcription(problem.with_options(functions="mapped"))
@@ -254,6 +247,12 @@ def _layout(blocks: dict[str, tuple[int, int]], labels, problem: Problem) -> lis
             break
         out.append(entry)
     return out
+
+
+def shared_library_command(source, library) -> list[str]:
+    """The command that ``--format shared`` compiles C ``source`` into ``library`` with
+    (:data:`CFLAGS`); CompileError if there is no C compiler."""
+    return [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(library), "-lm"]
 
 
 def _mark_unused(source: str) -> str:
