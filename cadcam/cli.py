@@ -119,7 +119,7 @@ def cmd_design(args) -> int:
         workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
                                figures=args.figures)
     except WorkshopError as exc:
-        flags = [f"--{name.replace('_', '-')}" for name in WORKSHOP_FLAGS if name in str(exc)]
+        flags = [f"--{name.replace('_', '-')}" for name in WORKSHOP_FLAGS if f"{name} = " in str(exc)]
         print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are written "
               f"to {out}{'; set it with ' + ' or '.join(flags) if flags else ''})", file=sys.stderr)
         return 1
