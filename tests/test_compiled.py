@@ -30,7 +30,7 @@ def small():
 
 #: Compiler flags of these tests: what is tested does not depend on optimised code, and -O0
 #: compiles several times faster than the default -O1.
-FAST = ("-O0", "-fPIC", "-shared")
+FAST = ("-O0", "-fPIC")
 
 
 @pytest.fixture(autouse=True)

@@ -2,9 +2,10 @@
 on disk.
 
 The transcription's NLP is a graph of mapped per-angle functions (CasADi MX), so its generated
-C holds each per-angle function once, inside loops over the grid: 0.8 MB for the 1-DOF spec,
-1.9 MB for Sec. 10.4, 2.5 MB for the three-cam arm, compiled in 5 to 25 s the first time. The
-library is cached under :func:`cache_dir`, keyed by the NLP's own serialized graph (which holds
+C holds each per-angle function once, inside loops over the grid. Each of IPOPT's functions is
+written to a C file of its own and the files compile side by side on the machine's cores, then
+link into one library: the constraint Jacobian and the Lagrangian Hessian, the two largest,
+compile at the same time instead of one after the other. The library is cached under :func:`cache_dir`, keyed by the NLP's own serialized graph (which holds
 its structure and nothing of a case's numbers: those are parameters and bounds) and by the
 cadcam and CasADi versions, the compiler and its flags; a later build of the same structure,
 in this process or another, loads it in milliseconds.
@@ -19,6 +20,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import casadi as ca
@@ -28,10 +30,10 @@ from ..version import __version__
 #: The functions IPOPT calls (CasADi's names), in the order they are generated; ``nlp_grad``
 #: is called once, after the solve.
 ORACLE = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l", "nlp_grad")
-#: C compiler flags. Measured on this project's problems: at -O0 the 1-DOF solve took 0.72 s,
-#: no faster than CasADi's virtual machine, against 0.17 s at -O1; -O2 compiles about twice as
-#: long as -O1 (the similar C of ``cadcam export --what problem``).
-CFLAGS = ("-O1", "-fPIC", "-shared")
+#: C compiler flags of each function's file. Measured on this project's problems: at -O0 the
+#: 1-DOF solve took 0.72 s, no faster than CasADi's virtual machine, against 0.17 s at -O1; -O2
+#: compiles about twice as long as -O1 (the similar C of ``cadcam export --what problem``).
+CFLAGS = ("-O1", "-fPIC")
 #: Directions per call of a derivative in the generated functions (CasADi's ``max_num_dir``).
 #: CasADi writes each batch of directions out as straight-line code, so one direction keeps the
 #: C small: measured against CasADi's default batching, the 1-DOF library compiles in 4.5 s
@@ -104,17 +106,34 @@ def library(nlp: dict) -> tuple[Path, bool]:
         return path, False
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=folder, prefix=".build-") as tmp:
-        gen = ca.CodeGenerator("cadcam_nlp.c")
-        for f in oracle_functions(nlp).values():
+        sources = []
+        for name, f in oracle_functions(nlp).items():
+            # without CasADi's comment per operation, which doubles the C
+            gen = ca.CodeGenerator(f"{name}.c", {"verbose": False})
             gen.add(f)
-        gen.generate(tmp + os.sep)
+            gen.generate(tmp + os.sep)
+            sources.append(Path(tmp) / f"{name}.c")
+        sources.sort(key=lambda source: source.stat().st_size, reverse=True)  # longest first
+        with ThreadPoolExecutor(min(len(sources), os.cpu_count() or 1)) as pool:
+            objects = list(pool.map(lambda source: _compile(cc, source), sources))
         built = Path(tmp) / path.name
-        run = subprocess.run([cc, *CFLAGS, str(Path(tmp) / "cadcam_nlp.c"), "-o", str(built),
-                              "-lm"], capture_output=True, text=True)
-        if run.returncode != 0:
-            raise CompileError(f"compiling the NLP failed: {run.stderr.strip()[:500]}")
+        _run([cc, "-shared", *map(str, objects), "-o", str(built), "-lm"])
         os.replace(built, path)
     return path, True
+
+
+def _compile(cc: str, source: Path) -> Path:
+    """Compile one C file into an object file beside it (:data:`CFLAGS`)."""
+    obj = source.with_suffix(".o")
+    _run([cc, *CFLAGS, "-c", str(source), "-o", str(obj)])
+    return obj
+
+
+def _run(command: list[str]) -> None:
+    """Run a compiler command; CompileError with its first lines of error if it fails."""
+    run = subprocess.run(command, capture_output=True, text=True)
+    if run.returncode != 0:
+        raise CompileError(f"compiling the NLP failed: {run.stderr.strip()[:500]}")
 
 
 def cached_libraries() -> list[Path]:
