@@ -5,10 +5,12 @@ The transcription's NLP is a graph of mapped per-angle functions (CasADi MX), so
 C holds each per-angle function once, inside loops over the grid. Each of IPOPT's functions is
 written to a C file of its own and the files compile side by side on the machine's cores, then
 link into one library: the constraint Jacobian and the Lagrangian Hessian, the two largest,
-compile at the same time instead of one after the other. The library is cached under :func:`cache_dir`, keyed by the NLP's own serialized graph (which holds
-its structure and nothing of a case's numbers: those are parameters and bounds) and by the
-cadcam and CasADi versions, the compiler and its flags; a later build of the same structure,
-in this process or another, loads it in milliseconds.
+compile at the same time instead of one after the other (Sec. 10.4's first build: 9.3 s
+against 16.5 s as one file, on 2 cores). The library is cached under :func:`cache_dir`, keyed
+by the NLP's own serialized graph (which holds its structure and nothing of a case's numbers:
+those are parameters and bounds) and by the cadcam and CasADi versions, the compiler and its
+flags; a later build of the same structure, in this process or another, loads it in
+milliseconds.
 
 Concurrent writers are safe: each compiles in a private temporary folder inside the cache and
 moves its library into place with an atomic rename, so a reader sees a whole library or none.
