@@ -49,7 +49,7 @@ WARNINGS = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
 #: instead of 18.8 s (medians of 3, by hand, 2026-11-23); -O1: it compiled in 60–80 % of the time
 #: -O2 took, into a constraint Jacobian and a Lagrangian Hessian that evaluate about as fast
 #: (``make bench`` runs of 2026-11-23; see CHANGELOG).
-CFLAGS = [WARNINGS[0], "-O1"]
+CFLAGS = ["-std=c99", "-O1"]
 #: Gauss–Legendre points of the exported wrapped length (and as-printed friction) over the
 #: whole wrap: tests check the exported torque against the 48-point evaluator to 1e-12.
 EXPORT_QUADRATURE_ORDER = 24
