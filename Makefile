@@ -8,8 +8,8 @@ STAMP  := $(VENV)/.installed-stamp
 .PHONY: demo test lint bench clean study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
-# tqdm — and the extras dev (pytest, hypothesis, jsonschema, dask[distributed], cvxpy,
-# setuptools) and lint (ruff, mypy)
+# tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
+# cvxpy, setuptools) and lint (ruff, mypy)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
@@ -20,8 +20,9 @@ demo: $(STAMP)
 	$(VENV)/bin/cadcam design models/johnston2023_1dof.toml -o out/johnston2023_1dof
 	@echo "demo outputs: out/johnston2023_1dof/ (result.json, torque.csv, torque_recheck.csv, profile.csv, *.png, workshop files)"
 
+# one worker per core; a test module stays on one worker (its module fixtures are built once)
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist loadfile
 
 # ruff (the rules in pyproject.toml: defects, not style) and mypy on the public API; both
 # report before the target fails
