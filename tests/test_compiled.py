@@ -133,6 +133,24 @@ def test_a_failed_compile_names_the_error_and_leaves_nothing(small, empty_cache,
     assert not empty_cache.exists() or not list(empty_cache.iterdir())
 
 
+@needs_cc
+def test_a_failed_compile_stops_the_files_not_yet_started(small, empty_cache, monkeypatch):
+    """On one core the files compile one after the other: when the first fails, the others
+    (six more) are cancelled, not compiled in vain before the error is raised."""
+    started = []
+
+    def failing(cc, source):
+        started.append(source.name)
+        raise compiled.CompileError(f"compiling the NLP failed: {source.name}")
+
+    monkeypatch.setattr(compiled, "_compile", failing)
+    monkeypatch.setattr(compiled.os, "cpu_count", lambda: 1)
+    with pytest.raises(compiled.CompileError, match="compiling the NLP failed"):
+        Transcription(small.with_options(functions="compiled"))
+    assert 1 <= len(started) <= 2 < len(compiled.ORACLE) + 1  # the worker may take one more
+    assert not [p for p in empty_cache.iterdir() if p.name.startswith(".build-")]
+
+
 def test_without_a_compiler_the_cli_says_what_to_do(tmp_path, empty_cache, monkeypatch, capsys):
     monkeypatch.setattr(compiled.shutil, "which", lambda name: None)
     code = main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "out"), "--grid", "8",

@@ -42,7 +42,7 @@ from ..problem import Problem
 
 WHATS = ("model", "problem")
 FORMATS = ("c", "shared", "casadi")
-#: The standard and warnings the generated C compiles with, warning-free at -O1 and -O2 (tested).
+#: Flags the generated C is tested to compile with warning-free, at -O1 and -O2 (tests/test_export.py).
 WARNINGS = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
 #: The flags of ``--format shared`` (with ``-fPIC -shared``): the standard without the
 #: warnings, which the tests check and which made Sec. 10.4's exported problem compile in 22.8 s
