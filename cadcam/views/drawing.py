@@ -50,14 +50,27 @@ def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: fl
     int
         n of the scale 1:n.
     """
+    _sheet_format(path)
+    fig, n = sheet_figure(outline, bore_diameter, anchor_diameter, rho_min, rho_max, title,
+                          spec=spec, drawing=drawing or Path(path).stem, date=date)
+    save_sheet(fig, path)
+    return n
+
+
+def save_sheet(fig: Figure, path) -> None:
+    """Write a sheet of :func:`sheet_figure` to ``path`` (``.png`` at :data:`DPI` dots per inch,
+    or ``.pdf``), atomically; one figure may be written to both."""
+    fmt = _sheet_format(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=DPI)
+
+
+def _sheet_format(path) -> str:
+    """``png`` or ``pdf`` from ``path``'s suffix; ValueError naming the path otherwise."""
     fmt = Path(path).suffix.lower().lstrip(".")
     if fmt not in ("png", "pdf"):
         raise ValueError(f"path = {str(path)!r}: the sheet is written as .png or .pdf")
-    fig, n = sheet_figure(outline, bore_diameter, anchor_diameter, rho_min, rho_max, title,
-                          spec=spec, drawing=drawing or Path(path).stem, date=date)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=DPI)
-    return n
+    return fmt
 
 
 def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,

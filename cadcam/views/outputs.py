@@ -141,12 +141,12 @@ def _write_outline_files(ev, i: int, out: Path, args: WorkshopOptions, sheets: b
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
     write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
     if sheets:
-        from .drawing import draw_sheet
+        from .drawing import save_sheet, sheet_figure
 
-        for suffix in (".pdf", ".png"):
-            draw_sheet(out / f"cam{i + 1}_sheet{suffix}", outline, args.bore_diameter,
-                       args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
-                       spec=ev.problem.name, drawing=f"cam{i + 1}")
+        fig, _ = sheet_figure(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max,
+                              cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}")
+        for suffix in (".pdf", ".png"):  # one figure, drawn into both
+            save_sheet(fig, out / f"cam{i + 1}_sheet{suffix}")
     note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
     if args.stl is not None:
         volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
