@@ -7,6 +7,7 @@ import subprocess
 import sys
 import threading
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -71,6 +72,21 @@ def test_expanded_mapped_and_compiled_functions_reach_the_same_optimum(small, ca
               for fn in ("expanded", "mapped", "compiled")}
     ref = values["expanded"]
     assert all(abs(v - ref) <= 1e-6 * ref for v in values.values()), values
+
+
+def test_functions_rebuilt_with_shared_subexpressions_give_the_same_values_to_the_bit(small):
+    """The library's functions are nlpsol's, rebuilt with ``FUNCTION_OPTIONS`` (common
+    subexpressions merged): fewer instructions, the very same numbers."""
+    nlp = Transcription(small.with_options(functions="mapped")).nlp
+    solver = ca.nlpsol("plain", "ipopt", nlp, {"oracle_options": {"max_num_dir": compiled.DIRECTIONS}})
+    rebuilt = compiled.oracle_functions(nlp)
+    rng = np.random.default_rng(0)
+    for name in compiled.ORACLE:
+        plain, merged = solver.get_function(name), rebuilt[name]
+        assert merged.n_instructions() < plain.n_instructions(), name
+        args = [rng.normal(size=plain.sparsity_in(i).shape) for i in range(plain.n_in())]
+        for a, b in zip(plain.call(args), merged.call(args)):
+            assert np.array_equal(np.asarray(a), np.asarray(b)), name
 
 
 @needs_cc
