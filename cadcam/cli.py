@@ -113,11 +113,12 @@ def cmd_design(args) -> int:
     _check_output_dir(args.output)
     out = Path(args.output)
     _check_workshop_args(args)
-    _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
+    writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
+    writers.join()  # the drawings are forked from a process of one thread
     try:
         workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
-                               figures=args.figures)
+                               figures=args.figures, workers=os.cpu_count() or 1)
     except WorkshopError as exc:
         flags = [f"--{name.replace('_', '-')}" for name in WORKSHOP_FLAGS if f"{name} = " in str(exc)]
         print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are written "

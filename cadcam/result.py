@@ -13,7 +13,8 @@ from .check.cable_robot import robot_path
 from .check.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
-from .views.outputs import RUN_FILES, WorkshopError, WorkshopOptions, write_outputs, write_workshop_files
+from .views.outputs import (RUN_FILES, Drawing, WorkshopError, WorkshopOptions, draw, write_outputs,
+                            write_workshop_files)
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -140,7 +141,7 @@ class Result:
         return figs[which]
 
     def save(self, directory, workshop: WorkshopOptions | None = WorkshopOptions(),
-             figures: bool = True) -> list[str]:
+             figures: bool = True, workers: int = 1) -> list[str]:
         """Write what ``cadcam design`` writes into ``directory``, all or nothing
         (``result.json`` last; see :func:`cadcam.files.staged_folder`); the files of an earlier
         run there that this one does not write (:data:`cadcam.views.outputs.RUN_FILES`) are
@@ -155,6 +156,10 @@ class Result:
             False writes none of the files matplotlib draws — the PNG figures and the drawing
             sheets, most of a small design's time; the tables, outlines and result.json are
             written all the same.
+        workers : int
+            Processes that draw the figures and sheets side by side (forked from this one; see
+            :func:`cadcam.views.outputs.draw`, which falls back to one where forking is unsafe).
+            ``cadcam design`` uses one per core.
 
         Returns
         -------
@@ -168,13 +173,16 @@ class Result:
             leaves too little material); every other file is written.
         """
         notes, failure = [], None
+        plots: list[Drawing] = []
+        sheets: list[Drawing] = []
         with staged_folder(Path(directory), last=("result.json",), owned=RUN_FILES) as stage:
-            write_outputs(self, stage, figures)
+            write_outputs(self, stage, figures, plots)
             if workshop is not None:
                 try:
-                    notes = write_workshop_files(self.evaluation, stage, workshop, sheets=figures)
+                    notes = write_workshop_files(self.evaluation, stage, workshop, figures, sheets)
                 except WorkshopError as exc:
                     failure = exc
+            draw(sheets + plots, workers)  # a sheet, PDF and 300-dpi PNG, is the longest to draw
         if failure is not None:
             raise failure
         return notes

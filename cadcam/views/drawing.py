@@ -57,12 +57,13 @@ def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: fl
     return n
 
 
-def save_sheet(fig: Figure, path) -> None:
-    """Write a sheet of :func:`sheet_figure` to ``path`` (``.png`` at :data:`DPI` dots per inch,
-    or ``.pdf``), atomically; one figure may be written to both."""
-    fmt = _sheet_format(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=DPI)
+def save_sheet(fig: Figure, *paths) -> None:
+    """Write a sheet of :func:`sheet_figure` to each of ``paths`` (``.png`` at :data:`DPI` dots
+    per inch, or ``.pdf``), atomically."""
+    for path in paths:
+        fmt = _sheet_format(path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=DPI)
 
 
 def _sheet_format(path) -> str:
