@@ -13,8 +13,8 @@ from .check.cable_robot import robot_path
 from .check.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
-from .views.outputs import (RUN_FILES, Drawing, WorkshopError, WorkshopOptions, draw, write_outputs,
-                            write_workshop_files)
+from .views.forked import Drawing, draw
+from .views.outputs import RUN_FILES, WorkshopError, WorkshopOptions, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -158,7 +158,7 @@ class Result:
             written all the same.
         workers : int
             Processes that draw the figures and sheets side by side (forked from this one; see
-            :func:`cadcam.views.outputs.draw`, which falls back to one where forking is unsafe).
+            :func:`cadcam.views.forked.draw`, which falls back to one where forking is unsafe).
             ``cadcam design`` uses one per core.
 
         Returns

@@ -79,10 +79,10 @@ def test_functions_rebuilt_with_shared_subexpressions_give_the_same_values_to_th
     subexpressions merged): fewer instructions, the very same numbers."""
     nlp = Transcription(small.with_options(functions="mapped")).nlp
     solver = ca.nlpsol("plain", "ipopt", nlp, {"oracle_options": {"max_num_dir": compiled.DIRECTIONS}})
-    rebuilt = compiled.oracle_functions(nlp)
+    library = compiled.oracle_functions(nlp)
     rng = np.random.default_rng(0)
     for name in compiled.ORACLE:
-        plain, merged = solver.get_function(name), rebuilt[name]
+        plain, merged = compiled.rebuilt(solver.get_function(name), {}), library[name]
         assert merged.n_instructions() < plain.n_instructions(), name
         args = [rng.normal(size=plain.sparsity_in(i).shape) for i in range(plain.n_in())]
         for a, b in zip(plain.call(args), merged.call(args)):

@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 
 import importlib.util
 
@@ -230,53 +229,7 @@ def test_a_rerun_removes_the_earlier_runs_files_it_does_not_write_and_nothing_el
     assert {"result.json", "cam1.dxf", "notes.txt", "cam1_notes.txt"} <= names
 
 
-# -- figures and sheets drawn side by side ---------------------------------------------------
-DRAWINGS = """
-import os, sys, time
-from functools import partial
-from pathlib import Path
-from cadcam.views.outputs import draw
-out = Path(sys.argv[1])
-def mark(name):
-    time.sleep(0.1)
-    (out / name).write_text(str(os.getpid()))
-def fail():
-    raise ValueError("this drawing failed")
-"""
-
-
-def _run_drawings(code: str, out) -> subprocess.CompletedProcess:
-    """``code`` after :data:`DRAWINGS` in a new process (of one thread, as ``cadcam design``)."""
-    return subprocess.run([sys.executable, "-c", DRAWINGS + code, str(out)], capture_output=True, text=True)
-
-
-def test_drawings_are_drawn_by_processes_forked_from_this_one(tmp_path):
-    run = _run_drawings("draw([partial(mark, f'd{i}') for i in range(4)], 2); print(os.getpid())", tmp_path)
-    assert run.returncode == 0, run.stderr
-    drawers = {(tmp_path / f"d{i}").read_text() for i in range(4)}
-    assert run.stdout.strip() not in drawers and len(drawers) <= 2
-
-
-def test_a_drawing_that_fails_raises_in_the_process_that_asked(tmp_path):
-    run = _run_drawings("draw([fail] + [partial(mark, f'd{i}') for i in range(2)], 2)", tmp_path)
-    assert run.returncode == 1 and "ValueError: this drawing failed" in run.stderr
-
-
-def test_with_other_threads_running_the_drawings_are_drawn_here(tmp_path):
-    """Forking a process that runs other threads copies whatever lock they hold: not done."""
-    from cadcam.views.outputs import draw
-
-    drawers, stop = [], threading.Event()
-    other = threading.Thread(target=stop.wait)
-    other.start()
-    try:
-        draw([lambda: drawers.append(os.getpid())] * 3, 2)
-    finally:
-        stop.set()
-        other.join()
-    assert drawers == [os.getpid()] * 3
-
-
+# -- figures and sheets drawn side by side (tests/test_forked.py tests the drawing processes)
 def test_figures_drawn_side_by_side_are_the_figures_drawn_one_after_another(tmp_path):
     code = ("from cadcam import load_spec; from cadcam.optimize import optimize; "
             f"r = optimize(load_spec({str(SPEC_1DOF)!r})); "

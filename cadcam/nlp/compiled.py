@@ -88,13 +88,13 @@ def oracle_functions(nlp: dict) -> dict[str, ca.Function]:
     loads."""
     solver = ca.nlpsol("oracle", "ipopt", nlp, {"oracle_options": {"max_num_dir": DIRECTIONS}})
     functions = {"nlp": solver.oracle(), **{name: solver.get_function(name) for name in ORACLE}}
-    return {name: _with_options(f) for name, f in functions.items()}
+    return {name: rebuilt(f, FUNCTION_OPTIONS) for name, f in functions.items()}
 
 
-def _with_options(f: ca.Function) -> ca.Function:
-    """``f`` (MX) rebuilt, its body inlined, with :data:`FUNCTION_OPTIONS`."""
+def rebuilt(f: ca.Function, options: dict) -> ca.Function:
+    """``f`` (MX) rebuilt with its body inlined (not called), with ``options``."""
     args = f.mx_in()
-    return ca.Function(f.name(), args, f.call(args), f.name_in(), f.name_out(), FUNCTION_OPTIONS)
+    return ca.Function(f.name(), args, f.call(args, True, False), f.name_in(), f.name_out(), options)
 
 
 def library_key(nlp: dict, cc: str) -> str:

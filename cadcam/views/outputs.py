@@ -5,18 +5,13 @@ write them into a folder.
 The figures (matplotlib) and the workshop files (ezdxf, manifold3d) are imported where they are
 written, so that importing cadcam — in every sweep worker, for ``cadcam evaluate`` — does not
 load them. Drawing the figures and the sheets is most of a small design's time; given a list,
-the writers append them to it as drawings, which :func:`draw` runs side by side on the cores.
+the writers append them to it as drawings, which :func:`cadcam.views.forked.draw` runs side by
+side on the cores.
 """
 from __future__ import annotations
 
 import functools
-import multiprocessing
 import re
-import signal
-import sys
-import threading
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +19,7 @@ import numpy as np
 
 from ..check.evaluate import output_error, output_law
 from ..files import write_csv, write_json
+from .forked import Drawing
 
 
 class WorkshopError(ValueError):
@@ -84,17 +80,13 @@ def write_torque_csv(path: Path, ev) -> None:
     write_csv(path, header, np.vstack(rows))
 
 
-#: A figure or sheet to draw: a function of no arguments that writes its file(s) atomically.
-Drawing = Callable[[], None]
-
-
 def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawing] | None = None) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
     grid), ``profile.csv``, with ``figures`` the PNG figures (torque and springs only if there
     are springs, ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
     ``output.png``) in ``out``. With a list ``drawings``, the figures are built here and
-    appended to it, to be drawn by :func:`draw`, instead of being drawn here."""
+    appended to it, to be drawn by :func:`cadcam.views.forked.draw`, not drawn here."""
     ev = result.evaluation
     write_json(out / "result.json", result.to_dict())
     write_torque_csv(out / "torque.csv", ev)
@@ -123,7 +115,7 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = Tr
     on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
     centre line ``cam{i}_groove.csv`` instead: no planar outline holds it. WorkshopError when a
     profile's files cannot be made. With a list ``drawings``, the sheets are built here and
-    appended to it, to be drawn by :func:`draw`, instead of being drawn here."""
+    appended to it, to be drawn by :func:`cadcam.views.forked.draw`, not drawn here."""
     from .workshop import TWO_PI, helical_groove, write_groove_csv
 
     notes = []
@@ -173,48 +165,9 @@ def _write_outline_files(ev, i: int, out: Path, args: WorkshopOptions, sheets: b
 
 
 def _drawn(drawing: Drawing, drawings: list[Drawing] | None) -> None:
-    """Draw ``drawing`` now, or append it to ``drawings`` (a list) to be drawn by :func:`draw`."""
+    """Draw ``drawing`` now, or append it to ``drawings`` (a list) to be drawn by
+    :func:`cadcam.views.forked.draw`."""
     if drawings is None:
         drawing()
     else:
         drawings.append(drawing)
-
-
-def draw(drawings: list[Drawing], workers: int = 1) -> None:
-    """Run ``drawings``, in their order, on up to ``workers`` processes forked from this one (a
-    drawing is mostly Python in matplotlib, so threads would take turns); the longest first
-    finishes soonest. Serially with one worker, where processes are not forked (outside Linux),
-    from a daemon process (a pool's worker may not have its own) and when this process runs
-    other threads: a forked child holds a copy of whatever lock they held. A drawing that fails
-    raises here, after the drawings under way; the ones not yet started are not.
-    """
-    forkable = (sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
-                and threading.active_count() == 1)
-    workers = min(workers, len(drawings)) if forkable else 1
-    if workers <= 1:
-        for drawing in drawings:
-            drawing()
-        return
-    _FORKED[:] = drawings  # inherited by the forked workers, which run them by index
-    try:
-        with ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), _drawing_worker) as pool:
-            for _ in pool.map(_draw_one, range(len(drawings))):  # raises a drawing's error
-                pass
-    finally:
-        _FORKED.clear()
-
-
-#: The drawings of the :func:`draw` under way, for its forked workers.
-_FORKED: list[Drawing] = []
-
-
-def _drawing_worker() -> None:
-    """A drawing worker leaves Ctrl-C to its parent, which stops handing out drawings and waits
-    for the ones under way, and ends at SIGTERM (not through the parent's handler, which it
-    inherited)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
-def _draw_one(index: int) -> None:
-    _FORKED[index]()
