@@ -112,3 +112,21 @@ def test_with_other_threads_running_the_drawings_are_drawn_here():
         stop.set()
         other.join()
     assert drawers == [os.getpid()] * 3
+
+
+def test_a_ctrl_c_while_the_workers_start_ends_them_too(tmp_path):
+    """A Ctrl-C held back while the workers are forked is raised once they all run, and ends
+    them before it comes out of :func:`draw`."""
+    code = ("import multiprocessing.context as mc; real = mc.ForkProcess.start; started = []\n"
+            "def start(self):\n"
+            "    real(self); started.append(self.pid)\n"
+            "    if len(started) == 1: os.kill(os.getpid(), signal.SIGINT)  # pending: signals held back\n"
+            "mc.ForkProcess.start = start\n"
+            "try:\n"
+            "    draw([partial(mark, f'd{i}', 30) for i in range(4)], 2)\n"
+            "except KeyboardInterrupt:\n"
+            "    from cadcam.files import process_alive\n"
+            "    print(sum(process_alive(p) for p in started), len(started))\n")
+    returncode, stdout, stderr = _run(code, tmp_path)
+    assert returncode == 0, stderr
+    assert stdout.split()[1:] == ["0", "2"]  # when the interrupt arrives, both workers are gone

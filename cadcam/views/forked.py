@@ -65,18 +65,19 @@ def draw(drawings: list[Drawing], workers: int = 1) -> None:
     pipes = [context.Pipe(duplex=False) for _ in range(workers)]
     processes = [context.Process(target=_work, args=(drawings, taken, sender, os.getpid()), daemon=True)
                  for _, sender in pipes]
-    with _blocked(STOPPING), warnings.catch_warnings():
-        # Python 3.12+ warns on fork when native threads run (numpy's OpenBLAS pool, which
-        # re-creates itself in the child); the Python threads were checked above
-        warnings.filterwarnings("ignore", "This process .* is multi-threaded", DeprecationWarning)
-        for process in processes:
-            process.start()
     try:
+        with _blocked(STOPPING), warnings.catch_warnings():
+            # Python 3.12+ warns on fork when native threads run (numpy's OpenBLAS pool, which
+            # re-creates itself in the child); the Python threads were checked above
+            warnings.filterwarnings("ignore", "This process .* is multi-threaded", DeprecationWarning)
+            for process in processes:
+                process.start()
+        # a Ctrl-C held back during the starts is raised on leaving the block, here
         for process in processes:
             process.join()
     except BaseException:
         with _blocked(STOPPING):  # a second Ctrl-C waits until the workers are gone
-            for process in processes:
+            for process in (p for p in processes if p.pid is not None):
                 process.kill()
                 process.join()
         raise
