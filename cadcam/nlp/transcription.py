@@ -14,7 +14,7 @@ pre-extensions) a bound passed at solve time, so one built solver serves every c
 parameter sweep.
 
 Scaling: lengths in millimetres (coefficients, pre-extensions, closure and travel constraints),
-convexity margins in mm², moment arms in units of :data:`ARM_SCALE`, and the objective
+convexity margins in mm², sensitivities in units of :data:`SENSITIVITY_SCALE`, and the objective
 divided by the tracking weight times ∫τ_d² and multiplied by :data:`OBJECTIVE_SCALE`.
 """
 from __future__ import annotations
@@ -38,7 +38,10 @@ from ..physics.wrap import length_function, segment_lengths
 from ..problem import Problem
 
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
-ARM_SCALE = 1e-2     # m: scale of the moment arms in the sensitivity terms
+#: m²: scale of the sensitivities ∂τ/∂k = x·a in the NLP (a few hundred units at most). Measured
+#: on the 60-case 1-DOF sweep of ``make bench`` against 1e-4 and 1e-3: the fewest iterations
+#: (median 26 against 48 and 44); the local optimum IPOPT reaches changes with the scale.
+SENSITIVITY_SCALE = 1e-5
 FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8× the points
 #: Gauss–Legendre points of the segment from the reference pose to the grid's first angle, at
 #: most: the rule grows with that segment's length in grid steps, which a narrow range far from
@@ -285,16 +288,23 @@ class Transcription:
             objective += p[f"weights{i}"] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
                                                            p[f"td2{i}"], lift)
 
-        # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i) and x_j ≥ 0 (a constraint), so
-        # |∂τ_i/∂k_j| = x_j |a_ij|; |a_ij| = s⁺ + s⁻ with a_ij = s⁺ − s⁻, s± ≥ 0 (no abs), and
-        # the integral over the other joints' angles of x_j = x₀_j + Σ_c e_jc is separable.
+        # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i), and the integral over the other
+        # joints' angles of |x_j a_ij| = x_j |a_ij| (x_j ≥ 0 is a constraint) is separable: x̄_j
+        # |a_ij| with x̄_j the mean of x_j = x₀_j + Σ_c e_jc over the other joints' grids. Its
+        # value is split, x̄_j a_ij = s⁺ − s⁻ with s± ≥ 0, and s⁺ + s⁻ is minimised (no abs). The
+        # split is of the product, not of a_ij weighted by x̄_j: where x̄_j reaches 0 (a spring
+        # slack at some angle), s± of a_ij alone cost nothing, and IPOPT's barrier drove both up
+        # together (steps of 10⁷ on the 1-DOF spec).
+        sens = []
         for i, j in self.pairs:
             sp, sn = v.add(f"sp{i}_{j}", n), v.add(f"sn{i}_{j}", n)
-            constrain(sp - sn - net.term(j, i, arm[i]) / ARM_SCALE, zero)
             others = [c for c in range(m) if c != i]
             x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
                                            for c in others if (j, c) in e)
-            integral = ARM_SCALE * ca.dot(w[i], (sp + sn) * x_mean)
+            s_ij = x_mean * net.term(j, i, arm[i]) / SENSITIVITY_SCALE
+            constrain(sp - sn - s_ij, zero)
+            sens.append(s_ij)
+            integral = SENSITIVITY_SCALE * ca.dot(w[i], sp + sn)
             for c in others:
                 integral = integral * span[c]
             objective += p[f"wsens{i}"][j] * integral  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
@@ -318,6 +328,7 @@ class Transcription:
         self.objective = ca.Function("objective", [x, P], [objective])
         self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
                            for name, expr in self._lifted]
+        self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * p["obj_scale"] + scaled, "g": ca.vertcat(*g)}
         ipopt = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
                  "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
@@ -432,8 +443,9 @@ class Transcription:
         ``samples`` holds, per mechanism, the departure unknowns ``z`` and ``z_ref``, the port
         displacements ``d`` and moment arms ``arm`` at the grid angles, as
         :func:`cadcam.check.evaluate.mechanism_samples` computes them with the rootfinder
-        (order :meth:`start_order`); the wrapped lengths follow from the angles, s± from the
-        arms, and every lifted variable starts on its definition. ``pv`` is
+        (order :meth:`start_order`); the wrapped lengths follow from the angles, and every
+        lifted variable, then s± (the split of the NLP's own x̄·a), start on their definition
+        (the start's moment arms are not used). ``pv`` is
         :meth:`parameters` of ``problem`` if the caller has it already.
         """
         v, n = self.v, self.n
@@ -452,11 +464,7 @@ class Transcription:
                 v.put(w0, f"len{k}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
         net = problem.network()
-        d, arm = _per_joint(problem, samples, "d"), _per_joint(problem, samples, "arm")
-        for i, j in self.pairs:  # s⁺ − s⁻ start on a_ij: feasible and tight
-            a = net.term(j, i, arm[i]) / ARM_SCALE
-            v.put(w0, f"sp{i}_{j}", np.maximum(a, 0))
-            v.put(w0, f"sn{i}_{j}", np.maximum(-a, 0))
+        d = _displacements(problem, samples)
         for j in range(self.S):
             joints = net.joints_of(j)
             if len(joints) > 1:
@@ -466,6 +474,10 @@ class Transcription:
         pv = self.parameters(problem) if pv is None else pv
         for name, fn in self._lifted_fn:  # in creation order: later ones use earlier ones
             v.put(w0, name, np.asarray(fn(w0, pv)).ravel())
+        sens = np.asarray(self._sensitivity_fn(w0, pv)).reshape(-1, self.n)
+        for (i, j), s_ij in zip(self.pairs, sens):  # s± start on the split of x̄·a: feasible, tight
+            v.put(w0, f"sp{i}_{j}", np.maximum(s_ij, 0))
+            v.put(w0, f"sn{i}_{j}", np.maximum(-s_ij, 0))
         return w0
 
     def design_of(self, w) -> Design:
@@ -557,12 +569,11 @@ def iteration_history(stats: dict) -> dict:
     return out
 
 
-def _per_joint(problem: Problem, samples, field: str) -> list[list[np.ndarray]]:
-    """Per joint, the rows of ``field`` (``d`` or ``arm``) of its mechanisms' ports in global
-    port order."""
+def _displacements(problem: Problem, samples) -> list[list[np.ndarray]]:
+    """Per joint, the port displacements ``d`` of its mechanisms' ports in global port order."""
     out = [[] for _ in problem.joints]
     for mech, s in zip(problem.mechanisms, samples):
-        out[mech.joint] += list(getattr(s, field))
+        out[mech.joint] += list(s.d)
     return out
 
 

@@ -151,7 +151,7 @@ def _x_labels(problem: Problem) -> list[tuple[str, str, str, str]]:
     """(name pattern, unit, description, role) of the transcription's variable blocks; the
     pattern's groups are 0-based indices, shown 1-based as ``{1}``, ``{2}``, … and a
     mechanism's unknown as ``{name}``."""
-    from ..nlp.transcription import ARM_SCALE, FORCE_SCALE, LENGTH_SCALE, TORQUE_SCALE
+    from ..nlp.transcription import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE
 
     mm, rad_m = _length_unit(LENGTH_SCALE), _rad(len(problem.joints))
     force = "N" if FORCE_SCALE == 1 else f"{FORCE_SCALE:g} N"
@@ -175,10 +175,11 @@ def _x_labels(problem: Problem) -> list[tuple[str, str, str, str]]:
         (r"V(\d+)_(\d+)_(\d+)", force, "joint {1}'s torque per unit of spring {2}'s extension share "
          "from joint {3} (k·a, the coupling term), at each grid angle", "auxiliary"),
         (r"t(\d+)", torque, "bound on joint {1}'s largest |τ − τ_d| (minimax epigraph)", "auxiliary"),
-        (r"sp(\d+)_(\d+)", _length_unit(ARM_SCALE) + "/rad", "positive part of joint {1}'s moment arm "
-         "of spring {2} (∂τ/∂k = x·a), at each grid angle", "auxiliary"),
-        (r"sn(\d+)_(\d+)", _length_unit(ARM_SCALE) + "/rad", "negative part of joint {1}'s moment arm "
-         "of spring {2}, at each grid angle", "auxiliary"),
+        (r"sp(\d+)_(\d+)", f"{SENSITIVITY_SCALE:g} m²", "positive part of joint {1}'s torque per unit "
+         "of spring {2}'s rate (∂τ/∂k = x·a, x averaged over the other joints' angles), at each grid "
+         "angle", "auxiliary"),
+        (r"sn(\d+)_(\d+)", f"{SENSITIVITY_SCALE:g} m²", "negative part of joint {1}'s torque per unit "
+         "of spring {2}'s rate, at each grid angle", "auxiliary"),
         (r"to(\d+)", mm, "bound on mechanism {1}'s largest |x − x_d| (minimax epigraph)", "auxiliary"),
         (r"mom(\d+)_(\d+)_(\d+)", f"{mm}·rad", "∫ of spring {2}'s share from joint {3} over that "
          "joint's angle (in joint {1}'s squared error)", "auxiliary"),
