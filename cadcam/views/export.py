@@ -42,14 +42,16 @@ from ..problem import Problem
 
 WHATS = ("model", "problem")
 FORMATS = ("c", "shared", "casadi")
+#: The C standard of the generated code.
+STANDARD = "-std=c99"
 #: Flags the generated C is tested to compile with warning-free, at -O1 and -O2 (tests/test_export.py).
-WARNINGS = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
+WARNINGS = [STANDARD, "-Wall", "-Wextra", "-Werror"]
 #: The flags of ``--format shared`` (with ``-fPIC -shared``): the standard without the
 #: warnings, which the tests check and which made Sec. 10.4's exported problem compile in 22.8 s
 #: instead of 18.8 s (medians of 3, by hand, 2026-11-23); -O1: it compiled in 60–80 % of the time
 #: -O2 took, into a constraint Jacobian and a Lagrangian Hessian that evaluate about as fast
 #: (``make bench`` runs of 2026-11-23; see CHANGELOG).
-CFLAGS = ["-std=c99", "-O1"]
+CFLAGS = [STANDARD, "-O1"]
 #: Gauss–Legendre points of the exported wrapped length (and as-printed friction) over the
 #: whole wrap: tests check the exported torque against the 48-point evaluator to 1e-12.
 EXPORT_QUADRATURE_ORDER = 24
