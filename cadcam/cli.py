@@ -13,13 +13,14 @@ import os
 import signal
 import sys
 import threading
+from dataclasses import replace
 from pathlib import Path
 
 from .mechanisms.base import TORQUE_MODELS
 from .nlp.compiled import CompileError
 from .designs import DesignError
 from .version import __version__
-from .problem import cap, evaluation_size_error, size_error
+from .problem import WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
 from .studies.study import StudyError
 from .studies.sweep import SweepError
@@ -107,22 +108,26 @@ def _problem_and_design(args):
 
 def cmd_design(args) -> int:
     from .optimize import optimize
-    from .views.outputs import WorkshopError, WorkshopOptions
+    from .views.outputs import WorkshopError
 
+    _check_workshop_args(args)
     problem = _problem(args)
     _check_output_dir(args.output)
     out = Path(args.output)
-    _check_workshop_args(args)
+    # each flag given overrides the spec's [workshop]; result.json records the sizes used
+    flags = {name: getattr(args, name) for name in WORKSHOP_FLAGS if getattr(args, name) is not None}
+    problem = replace(problem, workshop=replace(problem.workshop, **flags))
     writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
     writers.join()  # the drawings are forked from a process of one thread
     try:
-        workshop = result.save(out, WorkshopOptions(**{k: getattr(args, k) for k in WORKSHOP_FLAGS}),
-                               figures=args.figures, workers=os.cpu_count() or 1)
+        notes = result.save(out, figures=args.figures, workers=os.cpu_count() or 1)
     except WorkshopError as exc:
-        flags = [f"--{name.replace('_', '-')}" for name in WORKSHOP_FLAGS if f"{name} = " in str(exc)]
+        named = [name for name in WORKSHOP_FLAGS if f"{name} = " in str(exc)]
+        fix = "; ".join(f"set it with --{name.replace('_', '-')} or the spec's [workshop] {name}"
+                        for name in named)
         print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are written "
-              f"to {out}{'; set it with ' + ' or '.join(flags) if flags else ''})", file=sys.stderr)
+              f"to {out}{'; ' + fix if fix else ''})", file=sys.stderr)
         return 1
     print(result.summary())
     output = any(m.output_target is not None for m in problem.mechanisms)
@@ -131,7 +136,7 @@ def cmd_design(args) -> int:
     print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv"
           f"{' output.csv' if output else ''}{pngs}")
     print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
-          f"or cam*_groove.csv{' cam*.stl' if args.stl is not None else ''} ({'; '.join(workshop)})")
+          f"or cam*_groove.csv{' cam*.stl' if problem.workshop.stl is not None else ''} ({'; '.join(notes)})")
     return 0 if result.success else 1
 
 
@@ -156,7 +161,7 @@ def _import_in_background(*modules: str) -> threading.Thread:
     return thread
 
 
-#: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.views.outputs.WorkshopOptions`).
+#: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.problem.Workshop`).
 WORKSHOP_FLAGS = ("bore_diameter", "anchor_diameter", "tolerance", "stl", "groove_depth", "groove_width",
                   "groove_pitch")
 
@@ -203,15 +208,9 @@ def _check_output_file(text: str, flag: str) -> None:
     _check_output_dir(str(path.parent), flag)
 
 
-#: Workshop lengths [m] a flag may set: (smallest, largest); a chordal tolerance below 0.1 µm
-#: would make polygons of unbounded size.
-WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "tolerance": (1e-7, 1e-3),
-                   "stl": (1e-4, 1.0), "groove_depth": (0.0, 0.1), "groove_width": (0.0, 0.1),
-                   "groove_pitch": (1e-4, 0.1)}
-
-
 def _check_workshop_args(args) -> None:
-    """Every workshop length within :data:`WORKSHOP_LIMITS`, before any work."""
+    """Every workshop length a flag gives within :data:`cadcam.problem.WORKSHOP_LIMITS`, before
+    any work."""
     for name, (lo, hi) in WORKSHOP_LIMITS.items():
         value = getattr(args, name)
         if value is not None and not lo <= value <= hi:
@@ -359,16 +358,16 @@ def main(argv=None) -> int:
     p.add_argument("--no-figures", dest="figures", action="store_false",
                    help="write no PNG figures and no drawing sheets (what matplotlib draws: most of a "
                         "small design's time); the tables, outlines and result.json as usual")
-    w = p.add_argument_group("workshop files (lengths in metres)")
-    w.add_argument("--bore-diameter", type=float, default=0.006, help="shaft bore (default 0.006)")
-    w.add_argument("--anchor-diameter", type=float, default=0.0025,
-                   help="cable anchor hole near φ = 0 (default 0.0025)")
-    w.add_argument("--tolerance", type=float, default=1e-5,
+    w = p.add_argument_group("workshop files (lengths in metres; each flag overrides the spec's "
+                             "[workshop] table, whose defaults are given)")
+    w.add_argument("--bore-diameter", type=float, help="shaft bore (default 0.006)")
+    w.add_argument("--anchor-diameter", type=float, help="cable anchor hole near φ = 0 (default 0.0025)")
+    w.add_argument("--tolerance", type=float,
                    help="chordal tolerance of DXF/SVG/CSV/STL polygons (default 1e-5 = 0.01 mm)")
     w.add_argument("--stl", type=float, metavar="THICKNESS", help="also write cam*.stl of this thickness")
-    w.add_argument("--groove-depth", type=float, default=0.0, help="cable groove depth in the STL")
-    w.add_argument("--groove-width", type=float, default=0.0, help="cable groove width in the STL")
-    w.add_argument("--groove-pitch", type=float, default=0.004,
+    w.add_argument("--groove-depth", type=float, help="cable groove depth in the STL (default 0)")
+    w.add_argument("--groove-width", type=float, help="cable groove width in the STL (default 0)")
+    w.add_argument("--groove-pitch", type=float,
                    help="rise per turn of a helical groove's centre line (default 0.004)")
     p.set_defaults(run=cmd_design)
     p = sub.add_parser("evaluate", help="metrics of a given design, as JSON")

@@ -157,6 +157,52 @@ class Options:
         return (self.grid - 1) * self.recheck_factor + 1
 
 
+#: Workshop sizes [m] a spec's ``[workshop]`` table or a ``cadcam design`` flag may set:
+#: (smallest, largest); a chordal tolerance below 0.1 µm would make polygons of unbounded size.
+WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "tolerance": (1e-7, 1e-3),
+                   "stl": (1e-4, 1.0), "groove_depth": (0.0, 0.1), "groove_width": (0.0, 0.1),
+                   "groove_pitch": (1e-4, 0.1)}
+
+
+@dataclass(frozen=True)
+class Workshop:
+    """Sizes of the workshop files [m]: a spec's ``[workshop]`` table, each overridden by the
+    ``cadcam design`` flag of the same name (``--bore-diameter`` …), each within
+    :data:`WORKSHOP_LIMITS`.
+
+    bore_diameter : float
+        Shaft bore of every planar outline.
+    anchor_diameter : float
+        Cable-anchor hole near φ = 0.
+    tolerance : float
+        Chordal tolerance of the DXF, SVG, CSV and STL polygons.
+    stl : float or None
+        Thickness of ``camN.stl``; None writes no STL.
+    groove_depth, groove_width : float
+        Cable groove cut around the STL (0: none).
+    groove_pitch : float
+        Rise per turn of a helical groove's centre line.
+    """
+
+    bore_diameter: float = 0.006
+    anchor_diameter: float = 0.0025
+    tolerance: float = 1e-5
+    stl: float | None = None
+    groove_depth: float = 0.0
+    groove_width: float = 0.0
+    groove_pitch: float = 0.004
+
+    def __post_init__(self):
+        for name, (lo, hi) in WORKSHOP_LIMITS.items():
+            value = getattr(self, name)
+            if value is not None and not lo <= value <= hi:
+                raise ValueError(f"{name} = {value!r}: expected a length from {lo:g} to {hi:g} m")
+
+    def to_dict(self) -> dict:
+        """The sizes as a spec's ``[workshop]`` table (no ``stl`` without one)."""
+        return {k: v for k, v in vars(self).items() if v is not None}
+
+
 @dataclass(frozen=True)
 class Joint:
     """A joint angle with its range, its target and the weights of its objective terms.
@@ -183,7 +229,8 @@ class Joint:
 @dataclass(frozen=True)
 class Problem:
     """A design problem: joints, mechanisms on them, springs joining their ports, the torque
-    model (``energy`` by default; see :data:`cadcam.mechanisms.base.TORQUE_MODELS`) and options.
+    model (``energy`` by default; see :data:`cadcam.mechanisms.base.TORQUE_MODELS`), options
+    and the sizes of the workshop files.
 
     Raises ValueError if a mechanism cannot compute ``torque_model``.
     """
@@ -196,6 +243,7 @@ class Problem:
     torque_model: str = ENERGY
     options: Options = field(default_factory=Options)
     notes: str = ""
+    workshop: Workshop = field(default_factory=Workshop)
 
     def __post_init__(self):
         for mech in self.mechanisms:
@@ -280,4 +328,5 @@ class Problem:
             } for c in self.joints],
             "mechanisms": mechanisms,
             "springs": [s.to_dict() for s in self.springs],
+            "workshop": self.workshop.to_dict(),
         }

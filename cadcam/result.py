@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -14,12 +14,12 @@ from .check.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
 from .views.forked import Drawing, draw
-from .views.outputs import RUN_FILES, WorkshopError, WorkshopOptions, write_outputs, write_workshop_files
+from .views.outputs import RUN_FILES, WorkshopError, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
     from .nlp.transcription import Solve
-    from .problem import Problem
+    from .problem import Problem, Workshop
 
 
 @dataclass(repr=False)
@@ -140,7 +140,7 @@ class Result:
             raise ValueError(f"which = {which!r}: this result has the figures {sorted(figs)}")
         return figs[which]
 
-    def save(self, directory, workshop: WorkshopOptions | None = WorkshopOptions(),
+    def save(self, directory, workshop: Workshop | None | Literal["spec"] = "spec",
              figures: bool = True, workers: int = 1) -> list[str]:
         """Write what ``cadcam design`` writes into ``directory``, all or nothing
         (``result.json`` last; see :func:`cadcam.files.staged_folder`); the files of an earlier
@@ -150,8 +150,9 @@ class Result:
         Parameters
         ----------
         directory : str or Path
-        workshop : WorkshopOptions or None
-            Sizes of the workshop files [m]; None writes no workshop files.
+        workshop : Workshop, None or "spec"
+            Sizes of the workshop files [m]: ``"spec"``, the problem's (its spec's ``[workshop]``
+            table); a :class:`cadcam.problem.Workshop`, those; None writes no workshop files.
         figures : bool
             False writes none of the files matplotlib draws — the PNG figures and the drawing
             sheets, most of a small design's time; the tables, outlines and result.json are
@@ -178,8 +179,9 @@ class Result:
         with staged_folder(Path(directory), last=("result.json",), owned=RUN_FILES) as stage:
             write_outputs(self, stage, figures, plots)
             if workshop is not None:
+                sizes = self.problem.workshop if workshop == "spec" else workshop
                 try:
-                    notes = write_workshop_files(self.evaluation, stage, workshop, figures, sheets)
+                    notes = write_workshop_files(self.evaluation, stage, sizes, figures, sheets)
                 except WorkshopError as exc:
                     failure = exc
             draw(sheets + plots, workers)  # a sheet, PDF and 300-dpi PNG, is the longest to draw

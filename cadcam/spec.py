@@ -27,7 +27,7 @@ from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profi
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import FUNCTIONS, OBJECTIVES, Joint, Options, Problem, size_error
+from .problem import FUNCTIONS, OBJECTIVES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
 from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table, reserved_name
 
 _REQUIRED = object()
@@ -408,6 +408,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                         "a non-empty array of [[mechanisms]] tables")
     raw_springs = top.get("springs", lambda v: isinstance(v, list), "an array of [[springs]] tables", [])
     top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
+    workshop = _workshop(_Reader(origin, top.get("workshop", lambda v: isinstance(v, dict),
+                                                 "a [workshop] table of lengths [m]", {}), "workshop"))
     top.done()
     n_springs = len(raw_springs)
 
@@ -467,10 +469,24 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
     try:
         return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
-                       options=options, springs=tuple(springs), mechanisms=tuple(mechanisms),
+                       options=options, workshop=workshop, springs=tuple(springs), mechanisms=tuple(mechanisms),
                        joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
     except ValueError as exc:
         raise SpecError(f"{origin}: torque_model: {exc}") from None
+
+
+def _workshop(r: _Reader) -> Workshop:
+    """The ``[workshop]`` table: sizes of the workshop files [m], each within
+    :data:`cadcam.problem.WORKSHOP_LIMITS`; the defaults of :class:`cadcam.problem.Workshop`
+    where a key is missing."""
+    sizes = {}
+    for name, (lo, hi) in WORKSHOP_LIMITS.items():
+        value = r.get(name, lambda v, lo=lo, hi=hi: _number(v) and lo <= v <= hi,
+                      f"a length from {lo:g} to {hi:g} m", None)
+        if value is not None:
+            sizes[name] = float(value)
+    r.done()
+    return Workshop(**sizes)
 
 
 #: Design methods: cadcam's NLP, or Fedorov's envelope synthesis alone (differential pairs).

@@ -123,6 +123,20 @@ def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
     assert err.count("\n") == 1 and (tmp_path / "b" / "result.json").exists()
 
 
+def test_spec_workshop_table_sizes_the_files_and_a_flag_overrides_it(tmp_path):
+    import ezdxf
+    spec = tmp_path / "sized.toml"
+    spec.write_text(SPEC_1DOF.read_text().replace(
+        "[solver]", "[workshop]\nbore_diameter = 0.005\nanchor_diameter = 0.002\n\n[solver]", 1))
+    out = tmp_path / "o"
+    assert main(["design", str(spec), "-o", str(out), "--no-figures", "--bore-diameter", "0.004"]) == 0
+    holes = ezdxf.readfile(out / "cam1.dxf").modelspace().query('CIRCLE[layer=="HOLES"]')
+    assert sorted(c.dxf.radius for c in holes) == pytest.approx([1.0, 2.0])  # anchor from the spec, bore from the flag
+    workshop = json.loads((out / "result.json").read_text())["problem"]["workshop"]
+    assert workshop["bore_diameter"] == 0.004 and workshop["anchor_diameter"] == 0.002  # the sizes used
+    assert load_spec(out / "result.json").workshop.bore_diameter == 0.004  # and they load back
+
+
 def test_failed_solve_writes_its_status_and_exits_1(tmp_path):
     # a 0.3 N·mm² torque is out of reach with a 2-iteration budget: the result says so
     spec = tmp_path / "short.toml"

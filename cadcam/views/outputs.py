@@ -12,32 +12,19 @@ from __future__ import annotations
 
 import functools
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..check.evaluate import output_error, output_law
 from ..files import write_csv, write_json
+from ..problem import Workshop
 from .forked import Drawing
 
 
 class WorkshopError(ValueError):
     """A cam's workshop files cannot be made: its outline cannot be closed, or a hole or the
     groove leaves too little material (the message names the cam and the size)."""
-
-
-@dataclass(frozen=True)
-class WorkshopOptions:
-    """Sizes of the workshop files [m] (the ``cadcam design`` flags of the same names)."""
-
-    bore_diameter: float = 0.006
-    anchor_diameter: float = 0.0025
-    tolerance: float = 1e-5
-    stl: float | None = None
-    groove_depth: float = 0.0
-    groove_width: float = 0.0
-    groove_pitch: float = 0.004
 
 
 #: Names of the files a design run may write (:func:`write_outputs`, :func:`write_workshop_files`):
@@ -109,7 +96,7 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
             _drawn(functools.partial(save_figure, fig, out / f"{name}.png"), drawings)
 
 
-def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = True,
+def write_workshop_files(ev, out: Path, args: Workshop, sheets: bool = True,
                          drawings: list[Drawing] | None = None) -> list[str]:
     """Per profile: DXF, SVG, CSV points and, with ``sheets``, a drawing sheet (PDF and PNG); STL
     on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
@@ -135,7 +122,7 @@ def write_workshop_files(ev, out: Path, args: WorkshopOptions, sheets: bool = Tr
     return notes
 
 
-def _write_outline_files(ev, i: int, out: Path, args: WorkshopOptions, sheets: bool, closure: str,
+def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, closure: str,
                          drawings: list[Drawing] | None) -> str:
     """The workshop files of profile ``i`` closed into a planar outline (see
     :func:`write_workshop_files`); returns its line of the summary."""
