@@ -29,10 +29,12 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .; ruff=$$?; $(VENV)/bin/mypy && exit $$ruff
 
+# the three benchmarks, then their total time against issue 12's goal of 5 minutes
 bench: $(STAMP)
-	$(PY) benchmarks/bench_design.py
-	$(PY) benchmarks/bench_sweep.py
-	$(PY) benchmarks/bench_arms.py
+	@start=$$(date +%s) && \
+	$(PY) benchmarks/bench_design.py && $(PY) benchmarks/bench_sweep.py && $(PY) benchmarks/bench_arms.py && \
+	took=$$(( $$(date +%s) - start )) && \
+	echo && echo "| \`make bench\` ≤ 5 min | $$took s | $$([ $$took -le 300 ] && echo met || echo '**missed**') |"
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info

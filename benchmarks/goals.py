@@ -1,0 +1,13 @@
+"""Issue 12's speed goals as ``make bench`` reports them: one row per goal with the value this
+run measured and whether it met the goal (each benchmark script prints the goals it measures,
+after its tables)."""
+from __future__ import annotations
+
+
+def print_goals(rows: list[tuple[str, str, bool]]) -> None:
+    """Print ``rows`` (goal, measured value, met) as a table headed "goals"."""
+    print("\nGoals (issue 12), this run on this machine\n")
+    print("| goal | measured | verdict |")
+    print("|---|---|---|")
+    for goal, measured, met in rows:
+        print(f"| {goal} | {measured} | {'met' if met else '**missed**'} |", flush=True)
