@@ -476,17 +476,19 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
 
 
 def _workshop(r: _Reader) -> Workshop:
-    """The ``[workshop]`` table: sizes of the workshop files [m], each within
-    :data:`cadcam.problem.WORKSHOP_LIMITS`; the defaults of :class:`cadcam.problem.Workshop`
-    where a key is missing."""
+    """The ``[workshop]`` table: sizes of the workshop files [m], each checked by
+    :class:`cadcam.problem.Workshop` against :data:`cadcam.problem.WORKSHOP_LIMITS`; its
+    defaults where a key is missing."""
     sizes = {}
     for name, (lo, hi) in WORKSHOP_LIMITS.items():
-        value = r.get(name, lambda v, lo=lo, hi=hi: _number(v) and lo <= v <= hi,
-                      f"a length from {lo:g} to {hi:g} m", None)
+        value = r.get(name, _number, f"a length from {lo:g} to {hi:g} m", None)
         if value is not None:
             sizes[name] = float(value)
     r.done()
-    return Workshop(**sizes)
+    try:
+        return Workshop(**sizes)
+    except ValueError as exc:  # a size beyond its limits, named as Workshop names it
+        raise SpecError(f"{r.origin}: {r.key(str(exc))}") from None
 
 
 #: Design methods: cadcam's NLP, or Fedorov's envelope synthesis alone (differential pairs).

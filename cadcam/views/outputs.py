@@ -73,7 +73,8 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     are springs, ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
     ``output.png``) in ``out``. With a list ``drawings``, the figures are built here and
-    appended to it, to be drawn by :func:`cadcam.views.forked.draw`, not drawn here."""
+    appended to it, the convergence figure (the longest to draw) first, to be drawn by
+    :func:`cadcam.views.forked.draw`, not drawn here."""
     ev = result.evaluation
     write_json(out / "result.json", result.to_dict())
     write_torque_csv(out / "torque.csv", ev)
