@@ -36,10 +36,10 @@ import numpy as np
 
 from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
-from cadcam.nlp.compiled import LIBRARY_NAME
-from cadcam.nlp.transcription import Transcription
+from cadcam.solve.compiled import LIBRARY_NAME
+from cadcam.solve.transcription import Transcription
 from cadcam.problem import FUNCTIONS
-from cadcam.views.export import CFLAGS, export, shared_library_command
+from cadcam.export.codegen import CFLAGS, export, shared_library_command
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -257,7 +257,7 @@ EXPORT_CALLS = 50
 def export_table(runs: int, root: str) -> tuple[float, float]:
     """Size of the C of ``cadcam export --what problem`` for Sec. 10.4; the time to compile it
     into a shared library with the flags of ``--format shared``
-    (:data:`cadcam.views.export.CFLAGS`; one compile: it takes tens of seconds), and how fast
+    (:data:`cadcam.export.codegen.CFLAGS`; one compile: it takes tens of seconds), and how fast
     its constraint Jacobian and Lagrangian Hessian then evaluate at the start (median of
     ``runs`` timings of :data:`EXPORT_CALLS` calls). Returns the C's size [MB] and the compile
     time [s]."""

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from cadcam.optimize import optimize
-from cadcam.studies.study import Parameter, Study
-from cadcam.studies.sweep import read_rows, run_sweep
+from cadcam.sweep.study import Parameter, Study
+from cadcam.sweep.runner import read_rows, run_sweep
 
 from goals import print_goals
 

@@ -24,8 +24,8 @@ from scipy.optimize import least_squares, minimize
 
 from cadcam.designs import Design
 from cadcam.mechanisms.base import port_function
-from cadcam.mechanisms.wire_cam import WireCam
-from cadcam.physics.departure import cam_tangent, tangency_residuals
+from cadcam.mechanisms.wire_cam.model import WireCam
+from cadcam.mechanisms.wire_cam.departure import cam_tangent, tangency_residuals
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.quadrature import trapezoid_weights
 from cadcam.physics.wrap import length_function

@@ -20,18 +20,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .check import derivatives
-from .check.evaluate import Evaluation, start_samples
-from .check.evaluate import evaluate as evaluate_design
-from .check.model import torque_function, torque_jacobian_function
+from .verify import derivatives
+from .verify.evaluate import Evaluation, start_samples
+from .verify.evaluate import evaluate as evaluate_design
+from .verify.model import torque_function, torque_jacobian_function
 from .designs import Design, DesignError
 from .files import InputFileError, read_input
-from .nlp.transcription import Transcription
+from .solve.transcription import Transcription
 from .optimize import default_start, differential_start, optimize
 from .problem import Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
-from .studies.sweep import flat_table, read_rows
+from .sweep.runner import flat_table, read_rows
 
 #: The ``[solver]`` keys that may be given as keyword arguments.
 SOLVER_KEYS = tuple(f.name for f in fields(Options) if f.name != "ipopt")
@@ -154,7 +154,7 @@ class DerivativeCheck:
 
     Attributes
     ----------
-    rows : list of cadcam.check.derivatives.Partial
+    rows : list of cadcam.verify.derivatives.Partial
         One per (function output, input), the worst over the points checked.
     tol : float
         Largest relative error accepted.
@@ -191,7 +191,7 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
                       seed: int = 0, **options) -> DerivativeCheck:
     """The torque model's and the NLP's automatic derivatives against central differences.
 
-    The torque model (:func:`cadcam.check.model.torque_function`, the rootfinder form whose
+    The torque model (:func:`cadcam.verify.model.torque_function`, the rootfinder form whose
     derivatives come from the implicit function theorem): ∂τ and ∂x with respect to the joint
     angles, the profile coefficients, the spring rates and the pre-extensions, at ``points``
     random poses in the joints' ranges. The NLP (the functions IPOPT calls): the objective's

@@ -17,13 +17,13 @@ from dataclasses import replace
 from pathlib import Path
 
 from .mechanisms.base import TORQUE_MODELS
-from .nlp.compiled import CompileError
+from .solve.compiled import CompileError
 from .designs import DesignError
 from .version import __version__
 from .problem import WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
-from .studies.study import StudyError
-from .studies.sweep import SweepError
+from .sweep.study import StudyError
+from .sweep.runner import SweepError
 from .targets import ExpressionError
 
 
@@ -108,7 +108,7 @@ def _problem_and_design(args):
 
 def cmd_design(args) -> int:
     from .optimize import optimize
-    from .views.outputs import WorkshopError
+    from .outputs.run_files import WorkshopError
 
     _check_workshop_args(args)
     problem = _problem(args)
@@ -142,8 +142,8 @@ def cmd_design(args) -> int:
 
 #: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), and the
 #: figures' and drawing sheets' (matplotlib), which ``--no-figures`` does not write.
-WORKSHOP_WRITERS = ("cadcam.views.workshop",)
-FIGURE_WRITERS = ("cadcam.views.plots", "cadcam.views.drawing")
+WORKSHOP_WRITERS = ("cadcam.make.workshop",)
+FIGURE_WRITERS = ("cadcam.outputs.plots", "cadcam.make.drawing")
 
 
 def _import_in_background(*modules: str) -> threading.Thread:
@@ -222,7 +222,7 @@ def cmd_evaluate(args) -> int:
     """Metrics of a design as JSON on stdout. ``--grid`` is the evaluation's own grid, streamed
     exactly in bounded memory and nothing of its size written, so it is capped like the fine
     re-check (:func:`cadcam.problem.evaluation_size_error`), not like a design grid."""
-    from .check.evaluate import evaluate
+    from .verify.evaluate import evaluate
 
     problem = _problem(args, design_grid=False)
     too_big = None if args.grid is None else evaluation_size_error(args.grid, len(problem.joints))
@@ -236,7 +236,7 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from .views.export import ExportError, export
+    from .export.codegen import ExportError, export
 
     problem, design = _problem_and_design(args)
     _check_output_dir(args.output)
@@ -250,8 +250,8 @@ def cmd_export(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from .studies.study import load_study
-    from .studies.sweep import run_sweep
+    from .sweep.study import load_study
+    from .sweep.runner import run_sweep
 
     study = load_study(args.study)
     _check_output_file(args.output, "-o")
@@ -272,7 +272,7 @@ def cmd_sweep_export(args) -> int:
     import io
 
     from .files import write_text
-    from .studies.sweep import flat_table, read_rows
+    from .sweep.runner import flat_table, read_rows
 
     _check_output_file(args.csv, "--csv")
     study, rows = read_rows(args.database)
@@ -288,8 +288,8 @@ def cmd_sweep_export(args) -> int:
 
 
 def cmd_plot_study(args) -> int:
-    from .views.plots import plot_study
-    from .studies.sweep import flat_table, read_rows
+    from .outputs.plots import plot_study
+    from .sweep.runner import flat_table, read_rows
 
     _check_output_file(args.output, "-o")
     study, rows = read_rows(args.database)
@@ -304,7 +304,7 @@ def cmd_plot_study(args) -> int:
 
 
 def cmd_cache(args) -> int:
-    from .nlp.compiled import cache_dir, cached_libraries, clear_cache
+    from .solve.compiled import cache_dir, cached_libraries, clear_cache
 
     def libraries(n: int) -> str:
         return f"{n} compiled NLP librar{'y' if n == 1 else 'ies'}"

@@ -1,6 +1,6 @@
 """Design a cam system: solve the NLP (with optional multistarts) and re-check the optimum.
 
-The NLP's answer is trusted only after :func:`cadcam.check.evaluate.evaluate` has re-evaluated it on
+The NLP's answer is trusted only after :func:`cadcam.verify.evaluate.evaluate` has re-evaluated it on
 a grid ``recheck_factor`` times finer, by the rootfinder and independent quadrature, and found
 every constraint satisfied (status ``success``); otherwise the status says what went wrong.
 """
@@ -13,14 +13,14 @@ import casadi as ca
 import numpy as np
 
 from .designs import Design
-from .mechanisms.anchored_pulley import AnchoredPulley
-from .mechanisms.differential_pulley import DifferentialPulley
-from .synthesis.fedorov_envelope import cable_length, differential_envelopes, fit_pulley
-from .synthesis.kim_deshpande import closed_form, fit_profile
-from .check.evaluate import evaluate, start_samples
+from .mechanisms.anchored_pulley.model import AnchoredPulley
+from .mechanisms.differential_pulley.model import DifferentialPulley
+from .mechanisms.differential_pulley.fedorov_envelope import cable_length, differential_envelopes, fit_pulley
+from .mechanisms.anchored_pulley.kim_deshpande import closed_form, fit_profile
+from .verify.evaluate import evaluate, start_samples
 from .problem import Problem
 from .result import Result
-from .nlp.transcription import Solve, Transcription
+from .solve.transcription import Solve, Transcription
 
 
 def default_start(problem: Problem) -> Design:
@@ -90,7 +90,7 @@ def differential_start(problem: Problem, design: Design, samples: int = 2001):
     """Fedorov's envelope pulleys (Fedorov2018 Sec. 2.2) as the start of every differential pair
     without a ``cable_length``: shaped for its output law (or, without one, circles at its
     start distance), transferring cable at its rolling radius
-    (:meth:`~cadcam.mechanisms.differential_pulley.DifferentialPulley.start_radius`).
+    (:meth:`~cadcam.mechanisms.differential_pulley.model.DifferentialPulley.start_radius`).
 
     Returns the problem with those pairs' anchor angles and cable lengths set from the start
     (the NLP then keeps the cable length) and ``design`` with their profiles replaced.
@@ -210,7 +210,7 @@ def _trial(s: Solve) -> dict:
 
 
 def _recheck(problem: Problem, design: Design, seeds=None):
-    """The fine re-check of ``design`` (:func:`cadcam.check.evaluate.evaluate` on the problem's
+    """The fine re-check of ``design`` (:func:`cadcam.verify.evaluate.evaluate` on the problem's
     ``recheck_grid``) and its wall time [s]."""
     t0 = time.perf_counter()
     fine = evaluate(problem, design, seeds=seeds, grid=problem.options.recheck_grid)

@@ -27,7 +27,7 @@ FUNCTIONS = ("expanded", "mapped", "compiled")
 #: ``grid_points`` caps the design grid's tensor grid grid^joints, whose values are held in
 #: memory (the NLP's target marginals, torque.csv, the plots); ``recheck_points`` caps the fine
 #: re-check's tensor grid and that of ``cadcam evaluate --grid`` (:func:`evaluation_size_error`),
-#: which are streamed in bounded memory (:mod:`cadcam.check.evaluate`) but whose time still
+#: which are streamed in bounded memory (:mod:`cadcam.verify.evaluate`) but whose time still
 #: grows with their size.
 CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multistart": 100,
         "recheck_factor": 100, "max_iter": 100_000, "grid_points": 20_000_000,
@@ -65,7 +65,7 @@ def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
 
 def evaluation_size_error(grid: int, n_joints: int) -> str | None:
     """One-line reason why evaluating a design on ``grid`` angles per joint
-    (:func:`cadcam.check.evaluate.evaluate`, ``cadcam evaluate --grid``) is beyond its caps, or
+    (:func:`cadcam.verify.evaluate.evaluate`, ``cadcam evaluate --grid``) is beyond its caps, or
     None if it fits.
 
     The evaluation streams its tensor grid grid^n_joints in bounded memory and holds nothing
@@ -131,7 +131,7 @@ class Options:
         (SX) graphs when the solver is built, whose time grows with the grid; ``mapped``: the
         graph of mapped per-angle functions as built, flat in the grid, evaluated more slowly;
         ``compiled``: that graph as C, compiled once per problem structure and cached on disk
-        (:mod:`cadcam.nlp.compiled`; needs a C compiler): slow the first time, then the
+        (:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, then the
         fastest to build and to solve. The three give the same optimum up to rounding (the
         iteration count may differ by a few).
     """

@@ -8,17 +8,17 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from .citations import cited
-from .check.binding import binding_constraints
-from .check.cable_robot import robot_path
-from .check.evaluate import Evaluation
+from .verify.binding import binding_constraints
+from .mechanisms.differential_pulley.robot_path import robot_path
+from .verify.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
-from .views.forked import Drawing, draw
-from .views.outputs import RUN_FILES, WorkshopError, write_outputs, write_workshop_files
+from .outputs.forked import Drawing, draw
+from .outputs.run_files import RUN_FILES, WorkshopError, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
-    from .nlp.transcription import Solve
+    from .solve.transcription import Solve
     from .problem import Problem, Workshop
 
 
@@ -84,13 +84,13 @@ class Result:
 
     @property
     def history(self) -> dict:
-        """IPOPT's iterates of the kept start (see :func:`cadcam.nlp.transcription.iteration_history`)."""
+        """IPOPT's iterates of the kept start (see :func:`cadcam.solve.transcription.iteration_history`)."""
         return self.solve.history if self.solve is not None else {}
 
     @property
     def binding(self) -> list[str]:
         """Constraints that bind on the fine re-check, one sentence each
-        (:func:`cadcam.check.binding.binding_constraints`)."""
+        (:func:`cadcam.verify.binding.binding_constraints`)."""
         return binding_constraints(self.recheck.metrics, self.problem)
 
     def summary(self) -> str:
@@ -132,7 +132,7 @@ class Result:
         -------
         dict of str to matplotlib.figure.Figure, or one Figure if ``which`` is given.
         """
-        from .views.plots import figures
+        from .outputs.plots import figures
         figs = figures(self.evaluation, self.history or None)
         if which is None:
             return figs
@@ -144,7 +144,7 @@ class Result:
              figures: bool = True, workers: int = 1) -> list[str]:
         """Write what ``cadcam design`` writes into ``directory``, all or nothing
         (``result.json`` last; see :func:`cadcam.files.staged_folder`); the files of an earlier
-        run there that this one does not write (:data:`cadcam.views.outputs.RUN_FILES`) are
+        run there that this one does not write (:data:`cadcam.outputs.run_files.RUN_FILES`) are
         removed, other files are left alone.
 
         Parameters
@@ -159,7 +159,7 @@ class Result:
             written all the same.
         workers : int
             Processes that draw the figures and sheets side by side (forked from this one; see
-            :func:`cadcam.views.forked.draw`, which falls back to one where forking is unsafe).
+            :func:`cadcam.outputs.forked.draw`, which falls back to one where forking is unsafe).
             ``cadcam design`` uses one per core.
 
         Returns

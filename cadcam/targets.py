@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from .files import read_input
-from .physics.cable_robot import cable_length, pick_and_place
+from .mechanisms.differential_pulley.cable_robot import cable_length, pick_and_place
 
 FUNCTIONS = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
@@ -302,7 +302,7 @@ def spring_elongation(phi, mass, length, g, rate, preload):
     return (-preload + ca.sqrt(preload**2 + 2 * rate * mgl * (ca.cos(phi) + 1))) / rate  # Fedorov2018 Eq. 18
 
 
-#: The path keys of a ``cable_robot`` target (:func:`cadcam.physics.cable_robot.pick_and_place`).
+#: The path keys of a ``cable_robot`` target (:func:`cadcam.mechanisms.differential_pulley.cable_robot.pick_and_place`).
 PATH_KEYS = ("start", "lift", "span", "lift_share", "overlap")
 #: The keys both cables of one robot share: its path and the input range it runs over.
 SHARED_PATH_KEYS = PATH_KEYS + ("theta_range",)

@@ -30,9 +30,9 @@ from cadcam import Design
 from cadcam.mechanisms.base import departure_solver
 from cadcam.files import atomic_path, write_json, write_text
 from cadcam.optimize import default_start, solve
-from cadcam.studies.study import Study, load_study
-from cadcam.studies.sweep import read_rows, run_sweep
-from cadcam.nlp.transcription import Transcription
+from cadcam.sweep.study import Study, load_study
+from cadcam.sweep.runner import read_rows, run_sweep
+from cadcam.solve.transcription import Transcription
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "basis_order.toml"
@@ -268,7 +268,7 @@ def main() -> None:
                   "guess) cannot follow the wire on that profile at some angles, which makes "
                   "`cadcam.optimize` raise `ValueError: Optimization bounds must be finite scalars.` "
                   "(`scipy.optimize.minimize_scalar` given a NaN interval in "
-                  "`cadcam.check.evaluate._refine_min`) instead of returning a status such as "
+                  "`cadcam.verify.evaluate._refine_min`) instead of returning a status such as "
                   "`recheck_failed`, so the sweep records `error` and loses the solve.", ""]
 
     lines += ["## Findings", ""]

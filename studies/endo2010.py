@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 
 from cadcam import load_spec, optimize
-from cadcam.check.binding import limit_state
+from cadcam.verify.binding import limit_state
 from reporting import figures, finish, limit_lines, provenance, provenance_info
 
 ROOT = Path(__file__).resolve().parents[1]

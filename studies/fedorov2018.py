@@ -20,13 +20,13 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from cadcam import load_spec, optimize
-from cadcam.check.cable_robot import robot_path
-from cadcam.check.evaluate import evaluate
+from cadcam.mechanisms.differential_pulley.robot_path import robot_path
+from cadcam.verify.evaluate import evaluate
 from cadcam.files import write_json
 from cadcam.optimize import default_start, differential_start
 from cadcam.targets import robot_cable, spring_elongation
-from cadcam.views.plots import output_figure, profile_figure, save_figure
-from cadcam.views.workshop import chord_outline, helical_groove, write_points_csv, write_groove_csv
+from cadcam.outputs.plots import output_figure, profile_figure, save_figure
+from cadcam.make.workshop import chord_outline, helical_groove, write_points_csv, write_groove_csv
 from reporting import figures, finish, limit_lines, provenance, provenance_info
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -125,7 +125,7 @@ def balancer() -> list[str]:
 
 def plot_path(rp, path) -> None:
     """The end effector in the frame against its pick-and-place path, and the distance between
-    them over the input rotation [mm] (``rp`` a :class:`cadcam.check.cable_robot.RobotPath`)."""
+    them over the input rotation [mm] (``rp`` a :class:`cadcam.mechanisms.differential_pulley.robot_path.RobotPath`)."""
     fig = Figure(figsize=(12, 5), layout="constrained")
     a1, a2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.4]})
     a1.plot([0, 1000, 1000, 0, 0], [0, 0, 1000, 1000, 0], color="0.6", lw=1, label="frame")

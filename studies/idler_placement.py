@@ -28,9 +28,9 @@ from matplotlib.colors import Normalize
 
 from cadcam import Design, evaluate, optimize
 from cadcam.files import atomic_path, write_json, write_text
-from cadcam.studies.study import load_study
-from cadcam.studies.sweep import sweep_and_read
-from cadcam.nlp.transcription import Transcription
+from cadcam.sweep.study import load_study
+from cadcam.sweep.runner import sweep_and_read
+from cadcam.solve.transcription import Transcription
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "idler_placement.toml"

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from cadcam import Design, evaluate, load_spec, optimize
 from cadcam.mechanisms.base import TORQUE_MODELS
-from cadcam.check.evaluate import rate_deviation
+from cadcam.verify.evaluate import rate_deviation
 from cadcam.files import write_json
 from reporting import figures as shared_figures, finish, limit_lines, provenance, provenance_info
 

@@ -23,9 +23,9 @@ import numpy as np
 from numpy.polynomial import Polynomial
 
 from cadcam import load_spec, optimize
-from cadcam.check.binding import RTOL, limit_state
-from cadcam.synthesis.kim_deshpande import closed_form
-from cadcam.synthesis.ludovico_qcqp import solve_qcqp
+from cadcam.verify.binding import RTOL, limit_state
+from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form
+from cadcam.mechanisms.anchored_pulley.ludovico_qcqp import solve_qcqp
 from reporting import figures, finish, limit_lines, provenance, provenance_info
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,9 +13,9 @@ import numpy as np
 import scipy
 
 from cadcam import __version__
-from cadcam.check.binding import RTOL, binding_constraints
+from cadcam.verify.binding import RTOL, binding_constraints
 from cadcam.files import write_text
-from cadcam.views.plots import profile_figure, save_figure, springs_figure, torque_figure
+from cadcam.outputs.plots import profile_figure, save_figure, springs_figure, torque_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The fields of :func:`provenance_info`, in the order the report lists them.
@@ -116,7 +116,7 @@ def provenance_section(info: dict | None = None) -> list[str]:
 def limit_lines(label: str, ev) -> list[str]:
     """Markdown bullets: how an evaluated design stands against its own limits — the
     evaluation's violations, and the limits it sits at or beyond with their values
-    (:func:`cadcam.check.binding.binding_constraints`, relative tolerance RTOL)."""
+    (:func:`cadcam.verify.binding.binding_constraints`, relative tolerance RTOL)."""
     binding = binding_constraints(ev.metrics, ev.problem)
     exceeded = [b for b in binding if " beyond " in b or "compression" in b or "not convex" in b]
     at = [b for b in binding if b not in exceeded]

@@ -32,11 +32,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from cadcam import Design, evaluate, load_spec
-from cadcam.check.evaluate import rate_deviation
+from cadcam.verify.evaluate import rate_deviation
 from cadcam.files import atomic_path, write_json, write_text
-from cadcam.views.plots import pareto_front
-from cadcam.studies.study import load_study
-from cadcam.studies.sweep import sweep_and_read
+from cadcam.outputs.plots import pareto_front
+from cadcam.sweep.study import load_study
+from cadcam.sweep.runner import sweep_and_read
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "sensitivity_pareto.toml"

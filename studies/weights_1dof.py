@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from cadcam import load_spec, optimize
-from cadcam.check.evaluate import rate_deviation
+from cadcam.verify.evaluate import rate_deviation
 from cadcam.files import write_text
 
 ROOT = Path(__file__).resolve().parents[1]

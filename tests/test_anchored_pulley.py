@@ -1,4 +1,4 @@
-"""The anchored-spring pulley (cadcam/mechanisms/anchored_pulley.py; Ludovico2021 Sec. II after
+"""The anchored-spring pulley (cadcam/mechanisms/anchored_pulley/model.py; Ludovico2021 Sec. II after
 Kim & Deshpande, Endo2010 Sec. II) against closed forms, world geometry, virtual work, the
 paper's closed-form pulley, solved designs and an independent model fed only the files
 ``cadcam design`` writes (tests/independent_anchored_pulley.py).
@@ -22,7 +22,7 @@ import pytest
 import cadcam
 from cadcam.optimize import closed_form_start
 from cadcam.physics.profile import Basis, profile_function
-from cadcam.synthesis.kim_deshpande import closed_form
+from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form
 
 from . import independent_anchored_pulley as ind
 

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 import cadcam
-from cadcam.check import derivatives
-from cadcam.check.evaluate import evaluate as check_evaluate
+from cadcam.verify import derivatives
+from cadcam.verify.evaluate import evaluate as check_evaluate
 from cadcam.cli import main
-from cadcam.studies.study import load_study
-from cadcam.studies.sweep import run_sweep
+from cadcam.sweep.study import load_study
+from cadcam.sweep.runner import run_sweep
 
 from .conftest import SPEC_1DOF, SPEC_RR, TABLE3
 

@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 from jsonschema import Draft202012Validator
 
-from cadcam.check.cable_robot import robot_path
-from cadcam.check.evaluate import evaluate
+from cadcam.mechanisms.differential_pulley.robot_path import robot_path
+from cadcam.verify.evaluate import evaluate
 from cadcam.mechanisms.base import Profile, departure_solver
-from cadcam.mechanisms.differential_pulley import DifferentialPulley
+from cadcam.mechanisms.differential_pulley.model import DifferentialPulley
 from cadcam.optimize import default_start, differential_start
-from cadcam.physics.cable_robot import cable_length, end_effector, pick_and_place
+from cadcam.mechanisms.differential_pulley.cable_robot import cable_length, end_effector, pick_and_place
 from cadcam.physics.profile import Basis
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
-from cadcam.synthesis.fedorov_envelope import cable_length as pair_cable_length
+from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_length as pair_cable_length
 from cadcam.targets import cable_robot_slider, robot_cable, slider_cable
 
 ROBOT = "models/fedorov2018_cable_robot.toml"

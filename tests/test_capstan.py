@@ -3,8 +3,8 @@ import numpy as np
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from cadcam.physics.capstan import anchor_load, curve, loads_function, wire_torque_function
-from cadcam.physics.departure import departure_moments
+from cadcam.mechanisms.wire_cam.capstan import anchor_load, curve, loads_function, wire_torque_function
+from cadcam.mechanisms.wire_cam.departure import departure_moments
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.quadrature import gauss_legendre
 

@@ -13,8 +13,8 @@ import pytest
 
 from cadcam import evaluate, load_spec
 from cadcam.cli import main
-from cadcam.nlp import compiled
-from cadcam.nlp.transcription import Transcription
+from cadcam.solve import compiled
+from cadcam.solve.transcription import Transcription
 from cadcam.optimize import default_start, solve
 
 from .conftest import SPEC_1DOF
@@ -108,8 +108,8 @@ def test_the_library_is_compiled_once_per_structure_and_found_again(small, cache
 @needs_cc
 def test_a_library_compiled_by_another_process_is_loaded_not_rebuilt(small, cache):
     Transcription(small.with_options(functions="compiled"))  # in the cache from here on
-    code = (f"from cadcam.nlp import compiled; compiled.CFLAGS = {FAST!r}; "
-            "from cadcam import load_spec; from cadcam.nlp.transcription import Transcription; "
+    code = (f"from cadcam.solve import compiled; compiled.CFLAGS = {FAST!r}; "
+            "from cadcam import load_spec; from cadcam.solve.transcription import Transcription; "
             f"p = load_spec({str(SPEC_1DOF)!r}).with_options(grid=8, convexity_points=12, "
             "functions='compiled'); print(Transcription(p).compiled_now)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,

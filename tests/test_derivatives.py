@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from cadcam.check.model import torque_function
+from cadcam.verify.model import torque_function
 
 
 @pytest.mark.parametrize("model", ["energy", "force", "force-as-printed"])
@@ -32,7 +32,7 @@ def test_ad_jacobians_match_central_differences(rr_problem, table3, model):
 
 
 def test_the_model_agrees_with_the_evaluator(rr_problem, table3):
-    from cadcam.check.evaluate import evaluate
+    from cadcam.verify.evaluate import evaluate
     f = torque_function(rr_problem, table3.bases)
     ev = evaluate(rr_problem, table3, grid=5)
     k = np.array([s.rate for s in rr_problem.springs])

@@ -9,7 +9,7 @@ import pytest
 
 from cadcam import Design, evaluate, load_spec
 from cadcam.cli import main
-from cadcam.check.evaluate import LENGTH_TOL
+from cadcam.verify.evaluate import LENGTH_TOL
 
 from .conftest import SPEC_1DOF, check_output_file
 

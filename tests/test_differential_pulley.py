@@ -10,12 +10,12 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from cadcam.mechanisms.base import Profile, departure_solver, port_function, wound_lengths
-from cadcam.mechanisms.differential_pulley import DifferentialPulley
+from cadcam.mechanisms.differential_pulley.model import DifferentialPulley
 from cadcam.optimize import optimize
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.wrap import wound_length
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
-from cadcam.synthesis.fedorov_envelope import cable_length, envelope, fit_pulley
+from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_length, envelope, fit_pulley
 
 RANGE = (-np.radians(170), np.radians(170))
 BALANCER = "models/fedorov2018_balancer.toml"
@@ -143,7 +143,7 @@ def test_slider_arm_is_fedorov_eq_11_summed_over_both_halves():
     t = ca.SX.sym("t")
     x, dx = (np.asarray(v).ravel() for v in ca.Function(
         "law", [t], [law.expression([t], 0), ca.jacobian(law.expression([t], 0), t)]).map(theta.size)(theta))
-    from cadcam.synthesis.fedorov_envelope import differential_envelopes
+    from cadcam.mechanisms.differential_pulley.fedorov_envelope import differential_envelopes
     mech, envs = differential_envelopes(mech, theta, x, dx, 0.055)
     coefs = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
     mech, z = _solve(mech, coefs, theta, x[0], [env.phi_polar[0] for env in envs])
@@ -204,7 +204,7 @@ def test_balancer_result_recomputes_from_its_json(balancer, tmp_path):
     """The result's problem (anchors, cable length, slider) re-evaluates to the same x(θ)."""
     import json
 
-    from cadcam.check.evaluate import evaluate
+    from cadcam.verify.evaluate import evaluate
     from cadcam.designs import Design
     data = json.loads(json.dumps(balancer.to_dict()))
     problem = parse_spec(data["problem"])
@@ -236,7 +236,7 @@ def test_malformed_differential_specs_get_one_line_errors(key, value, message):
 def test_balancer_outlines_close_with_a_chord_at_the_anchor(balancer):
     """Wraps of nearly a turn leave no room for a rounded closure: the outline closes with the
     straight chord from the wrap's end to the anchor, and the holes still fit."""
-    from cadcam.views.workshop import chord_outline, closed_outline, holes, polyline
+    from cadcam.make.workshop import chord_outline, closed_outline, holes, polyline
     for basis, c, prof in zip(balancer.design.bases, balancer.design.coefficients, balancer.recheck.profiles):
         end = float(prof.alpha.max())
         with pytest.raises(ValueError):

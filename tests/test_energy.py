@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cadcam import Design, evaluate, optimize
-from cadcam.check.model import torque_function
+from cadcam.verify.model import torque_function
 from cadcam.physics.profile import profile_function
 
 from . import independent_wire_cam as independent

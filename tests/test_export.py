@@ -11,8 +11,8 @@ import pytest
 
 from cadcam import Design, load_spec
 from cadcam.mechanisms.base import DepartureSolver, newton_function
-from cadcam.views.export import WARNINGS, export, model_functions
-from cadcam.check.model import NEWTON_STEPS, torque_function
+from cadcam.export.codegen import WARNINGS, export, model_functions
+from cadcam.verify.model import NEWTON_STEPS, torque_function
 
 from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
 
@@ -190,7 +190,7 @@ def _check_layout(layout, size):
     for block in layout:
         assert block["offset"] == offset, block
         assert block["size"] > 0 and block["unit"] and block["description"], block
-        assert block["role"] != "unlabelled", f"{block['name']}: give it a label in views/export.py"
+        assert block["role"] != "unlabelled", f"{block['name']}: give it a label in export/codegen.py"
         offset += block["size"]
     assert offset == size
 
@@ -241,8 +241,8 @@ def test_problem_manifest_labels_the_decision_vector_block_by_block(rr, tmp_path
 def test_every_block_of_the_transcription_has_a_label(spec):
     """Coupled springs (RR arm), minimax epigraphs and curvature limits (Ludovico2021), a
     differential pair's closure and output law (Fedorov2018): no block goes undescribed."""
-    from cadcam.nlp.transcription import Transcription
-    from cadcam.views.export import _layout, _p_labels, _x_labels
+    from cadcam.solve.transcription import Transcription
+    from cadcam.export.codegen import _layout, _p_labels, _x_labels
 
     problem = load_spec(ROOT / "models" / f"{spec}.toml").with_options(grid=6, convexity_points=10)
     tr = Transcription(problem)

@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from cadcam.check.binding import RTOL, binding_constraints, limit_state
-from cadcam.check.evaluate import METRIC_NAMES, evaluate
+from cadcam.verify.binding import RTOL, binding_constraints, limit_state
+from cadcam.verify.evaluate import METRIC_NAMES, evaluate
 from cadcam.optimize import default_start, differential_start
 from cadcam.physics.profile import Basis
 from cadcam.spec import load_spec
 from cadcam.version import __version__
-from cadcam.views.drawing import draw_sheet, sheet_figure
-from cadcam.views.outputs import write_outputs
-from cadcam.views.plots import (METRIC_LABELS, axis_label, convergence_figure, figures,
+from cadcam.make.drawing import draw_sheet, sheet_figure
+from cadcam.outputs.run_files import write_outputs
+from cadcam.outputs.plots import (METRIC_LABELS, axis_label, convergence_figure, figures,
                                 study_figure)
-from cadcam.views.workshop import closed_outline
+from cadcam.make.workshop import closed_outline
 
 from .conftest import ROOT, check_output_file, circle_design
 
@@ -52,7 +52,7 @@ def _texts(fig) -> str:
 # ------------------------------------------------------------------------------- no backend
 def test_importing_the_views_selects_no_backend_and_no_pyplot():
     code = ("import matplotlib, sys; before = matplotlib.rcParams['backend']; "
-            "import cadcam.views.plots, cadcam.views.drawing, cadcam.views.outputs; "
+            "import cadcam.outputs.plots, cadcam.make.drawing, cadcam.outputs.run_files; "
             "print(before, matplotlib.rcParams['backend'], 'matplotlib.pyplot' in sys.modules)")
     env = {**os.environ, "MPLBACKEND": "svg"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True,
@@ -98,7 +98,7 @@ def test_figures_of_two_joints_flag_what_binds(ev_rr):
 
 
 def test_profile_view_draws_a_published_design_in_its_own_basis(ev_rr):
-    from cadcam.views.plots import _row
+    from cadcam.outputs.plots import _row
     for u in range(2):  # Table 3 is typed in as monomials; the spec's cams are Chebyshev
         panels, _, _ = _row(ev_rr, u, 3)
         for _, prof, _, circles, _ in panels:

@@ -9,13 +9,13 @@ import threading
 import time
 
 from cadcam.files import process_alive
-from cadcam.views.forked import draw
+from cadcam.outputs.forked import draw
 
 SCRIPT = """
 import os, signal, sys, time
 from functools import partial
 from pathlib import Path
-from cadcam.views.forked import draw
+from cadcam.outputs.forked import draw
 out = Path(sys.argv[1])
 def mark(name, seconds=0.1):
     (out / f"{name}.pid").write_text(str(os.getpid()))

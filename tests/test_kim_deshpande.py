@@ -6,8 +6,8 @@ import pytest
 from scipy.integrate import quad
 
 from cadcam.physics.profile import Basis, profile_function
-from cadcam.synthesis.kim_deshpande import closed_form, envelope, fit_profile, spring_state
-from cadcam.synthesis.ludovico_qcqp import design_matrices, solve_qcqp
+from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form, envelope, fit_profile, spring_state
+from cadcam.mechanisms.anchored_pulley.ludovico_qcqp import design_matrices, solve_qcqp
 
 THETA_I, THETA_F = np.pi / 6, 5 * np.pi / 6
 K, U0, L = 30e3, 0.015, 0.25  # Ludovico2021 Tables I and III

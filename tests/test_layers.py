@@ -1,5 +1,5 @@
 """The package's folders are layers: no module imports from a layer above its own, and sibling
-layers of equal rank (the NLP and the re-check) do not import each other."""
+layers of equal rank (the NLP and the re-check; the workshop part and the export) do not import each other."""
 import ast
 import subprocess
 import sys
@@ -9,10 +9,9 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "cadcam"
 #: Layer of each top-level module or folder of the package, lowest first.
-RANK = {"files": 0, "version": 0, "citations": 0, "examples": 0, "physics": 1, "mechanisms": 2, "targets": 2,
-        "synthesis": 3,
-        "problem": 3, "designs": 4, "spec": 4, "nlp": 5, "check": 5, "views": 6, "result": 7,
-        "optimize": 8, "studies": 9, "api": 10, "cli": 11, "__init__": 12, "__main__": 12}
+RANK = {"files": 0, "version": 0, "citations": 0, "examples": 0, "physics": 1, "targets": 2, "mechanisms": 3,
+        "problem": 4, "designs": 5, "spec": 5, "solve": 6, "verify": 6, "make": 7, "export": 7, "outputs": 8,
+        "result": 9, "optimize": 10, "sweep": 11, "api": 12, "cli": 13, "__init__": 14, "__main__": 14}
 
 
 def _layer(parts: tuple[str, ...]) -> str:
@@ -57,13 +56,13 @@ def test_no_import_from_a_higher_or_sibling_layer(path):
     assert _violations(here, path.read_text()) == []
 
 
-@pytest.mark.parametrize("source", ["from ..nlp.transcription import Transcription",
-                                    "from cadcam.check.evaluate import evaluate",
+@pytest.mark.parametrize("source", ["from ..solve.transcription import Transcription",
+                                    "from cadcam.verify.evaluate import evaluate",
                                     "from .. import optimize"])
 def test_the_rule_catches_upward_and_sibling_imports(source):
     assert _violations(("physics", "profile.py"), source)
-    assert _violations(("nlp", "transcription.py"), "from ..check import evaluate")
-    assert not _violations(("nlp", "transcription.py"), "from ..physics.wrap import gauss_legendre")
+    assert _violations(("solve", "transcription.py"), "from ..verify import evaluate")
+    assert not _violations(("solve", "transcription.py"), "from ..physics.wrap import gauss_legendre")
 
 
 def test_importing_cadcam_leaves_the_slow_libraries_unloaded():

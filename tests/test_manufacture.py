@@ -8,8 +8,8 @@ import pytest
 from matplotlib.image import imread
 
 from cadcam import evaluate, optimize
-from cadcam.views.drawing import draw_sheet
-from cadcam.views.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
+from cadcam.make.drawing import draw_sheet
+from cadcam.make.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
                                 polyline, segment_distance, write_points_csv, write_dxf, write_stl,
                                 write_svg)
 from cadcam.physics.profile import Basis

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import cadcam.views.plots
+import cadcam.outputs.plots
 from cadcam.cli import main
 from cadcam.files import TEMP_PREFIX, staged_folder, write_text
-from cadcam.nlp.transcription import Transcription
+from cadcam.solve.transcription import Transcription
 from cadcam.optimize import optimize
 from cadcam.spec import load_spec
 
@@ -48,13 +48,13 @@ def _snapshot(folder):
 
 
 def _fail_at_torque_png(monkeypatch, exc):
-    real = cadcam.views.plots.save_figure
+    real = cadcam.outputs.plots.save_figure
 
     def broken(fig, path):
         real(fig, path)  # the figure is half-way through the set when the environment fails
         if path.name == "torque.png":
             raise exc
-    monkeypatch.setattr(cadcam.views.plots, "save_figure", broken)
+    monkeypatch.setattr(cadcam.outputs.plots, "save_figure", broken)
 
 
 def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):

@@ -38,7 +38,7 @@ def test_papers_highest_first_order_reads_rho0_at_the_constant():
 def test_the_recheck_refines_extremes_between_samples_to_the_exact_value():
     # ρ = 0.02 + 0.01 φ − 0.003 φ² on [0, 2]: largest 0.02 + 0.01²/(4·0.003) at φ = 5/3, which
     # falls between the six samples; smallest 0.02 at φ = 0, a sample
-    from cadcam.check.evaluate import _profile_extremes
+    from cadcam.verify.evaluate import _profile_extremes
 
     basis = Basis("monomial", 2, (0, 2))
     _, rho, _, _, rho_lo, rho_hi, _ = _profile_extremes(basis, np.array([0.02, 0.01, -0.003]), 2.0, 6)
@@ -50,7 +50,7 @@ def test_the_recheck_refines_extremes_between_samples_to_the_exact_value():
 
 def test_refining_a_minimum_at_a_kink_lands_on_it_and_never_below():
     # |φ − a| has no derivative at its minimum (as a piecewise profile may have)
-    from cadcam.check.evaluate import _refine_min
+    from cadcam.verify.evaluate import _refine_min
 
     a = 0.123456789
     phi = np.linspace(0.0, 1.0, 11)
@@ -62,7 +62,7 @@ def test_refining_a_minimum_at_a_kink_lands_on_it_and_never_below():
 
 def test_refining_steps_around_angles_where_the_profile_is_not_finite():
     # finite at the samples, NaN left of the minimum at a: the refinement keeps to the right
-    from cadcam.check.evaluate import _refine_min
+    from cadcam.verify.evaluate import _refine_min
 
     a = 0.123456789
     phi = np.linspace(0.0, 1.0, 11)

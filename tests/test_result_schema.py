@@ -15,7 +15,7 @@ from jsonschema import Draft202012Validator
 import cadcam
 from cadcam.cli import main
 from cadcam.mechanisms.base import TORQUE_MODELS
-from cadcam.nlp.transcription import IPOPT_STATUS
+from cadcam.solve.transcription import IPOPT_STATUS
 from cadcam.optimize import VERDICTS
 
 from .conftest import SPEC_1DOF
@@ -171,7 +171,7 @@ def test_three_joints_keep_a_bounded_tensor_grid_of_the_target(schema, three_cam
     """m·(m + 1) numbers per point: three joints keep at most 50 000 / 12 points, every
     stride-th angle of each joint with both ends, and the rows are the target's own values
     there (its CasADi function, point by point)."""
-    from cadcam.check.evaluate import evaluate
+    from cadcam.verify.evaluate import evaluate
     from cadcam.result import TARGET_SAMPLE_NUMBERS, target_samples, target_samples_grid
 
     problem, design = three_cam_arm

@@ -1,6 +1,6 @@
 """The re-check on the tensor grid of several joints, computed from one-angle shares and streamed
-(cadcam.check.evaluate), against a brute-force evaluation of the single-point torque model
-(cadcam.check.model) at every grid point; and its bounded cost for three joints."""
+(cadcam.verify.evaluate), against a brute-force evaluation of the single-point torque model
+(cadcam.verify.model) at every grid point; and its bounded cost for three joints."""
 import csv
 import tracemalloc
 
@@ -9,13 +9,13 @@ import pytest
 
 from cadcam import Design, load_spec
 from cadcam.api import load_problem
-from cadcam.check.evaluate import evaluate
-from cadcam.check.model import torque_function, torque_jacobian_function
+from cadcam.verify.evaluate import evaluate
+from cadcam.verify.model import torque_function, torque_jacobian_function
 from cadcam.optimize import default_start
 from cadcam.physics.quadrature import trapezoid_weights
 from cadcam.problem import Options, size_error
 from cadcam.spec import read_spec_data
-from cadcam.views.outputs import TABLE_POINTS, write_torque_csv
+from cadcam.outputs.run_files import TABLE_POINTS, write_torque_csv
 
 from .conftest import ROOT, SPEC_RR
 

@@ -9,8 +9,8 @@ import time
 import numpy as np
 import pytest
 
-from cadcam.studies.study import Study, StudyError, load_study
-from cadcam.studies.sweep import read_rows, run_sweep, runner
+from cadcam.sweep.study import Study, StudyError, load_study
+from cadcam.sweep.runner import read_rows, run_sweep, runner
 
 from .conftest import SPEC_1DOF, check_output_file
 

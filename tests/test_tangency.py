@@ -3,7 +3,7 @@ the energy model)."""
 import numpy as np
 import pytest
 
-from cadcam.check.evaluate import evaluate
+from cadcam.verify.evaluate import evaluate
 
 from .conftest import circle_design
 
@@ -50,7 +50,7 @@ def test_eq43_sensitivities_equal_the_automatic_derivative(rr_problem, table3):
     np.testing.assert_allclose(ev.dtau_dk[0, :, 2], 0.0, atol=0)
     np.testing.assert_allclose(ev.dtau_dk[1, :, 2], ev.x[2] * c2.arm[0, i2], rtol=1e-9)
     # the wire arm by quadrature of Eq. 35 equals the departure moment ρ²/√(ρ²+ρ′²)
-    from cadcam.physics.departure import departure_moments
+    from cadcam.mechanisms.wire_cam.departure import departure_moments
     from cadcam.physics.profile import profile_function
     rho, drho, _, _ = (np.asarray(v).ravel() for v in profile_function(table3.bases[0]).map(n)(
         c1.z[0], table3.coefficients[0]))

@@ -10,7 +10,7 @@ from numpy.polynomial import Polynomial
 
 import cadcam
 import cadcam.cli
-from cadcam.check.model import torque_function
+from cadcam.verify.model import torque_function
 from cadcam.mechanisms.base import departure_solver
 
 from . import toy_pulley  # noqa: F401  (registers "toy_pulley")

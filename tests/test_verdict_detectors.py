@@ -23,14 +23,14 @@ import pytest
 from numpy.polynomial import Polynomial
 
 from cadcam import Design, load_spec
-from cadcam.check.evaluate import LENGTH_TOL, evaluate
+from cadcam.verify.evaluate import LENGTH_TOL, evaluate
 from cadcam.cli import main
 from cadcam.files import atomic_path, write_csv, write_json, write_text
-from cadcam.nlp.transcription import Solve
+from cadcam.solve.transcription import Solve
 from cadcam.optimize import verdict
 from cadcam.physics.profile import Basis
-from cadcam.studies import sweep
-from cadcam.studies.study import Parameter, Study, StudyError, load_study
+from cadcam.sweep import sweep
+from cadcam.sweep.study import Parameter, Study, StudyError, load_study
 
 from .conftest import SPEC_1DOF, circle_design
 

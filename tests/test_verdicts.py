@@ -222,7 +222,7 @@ def test_a_joint_range_of_more_than_ten_turns_is_refused_before_work():
 
 
 def test_a_study_recording_an_unknown_metric_is_refused(tmp_path):
-    from cadcam.studies.study import StudyError, load_study
+    from cadcam.sweep.study import StudyError, load_study
     path = tmp_path / "s.toml"
     path.write_text(f'name = "s"\nbase = "{SPEC_1DOF}"\nrecord = ["rmse", "rmse_typo"]\n'
                     '[[parameters]]\nkey = "springs.1.rate"\nvalues = [1000.0]\n')
@@ -231,5 +231,5 @@ def test_a_study_recording_an_unknown_metric_is_refused(tmp_path):
 
 
 def test_the_recordable_metric_names_are_exactly_an_evaluations_metrics(demo):
-    from cadcam.check.evaluate import METRIC_NAMES
+    from cadcam.verify.evaluate import METRIC_NAMES
     assert sorted(METRIC_NAMES) == sorted(demo.recheck.metrics)

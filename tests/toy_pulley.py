@@ -18,7 +18,7 @@ changes by exactly R·θ.
 Port ``cable``: the change, from the reference pose θ = 0, of the cable length from the
 profile anchor to A, i.e. the wrapped length change plus the change of the free span |A − p(α)|.
 Unknown: α. The equations are the library's anchored-spring pulley's
-(:class:`cadcam.mechanisms.anchored_pulley.AnchoredPulley`), written once there: in its
+(:class:`cadcam.mechanisms.anchored_pulley.model.AnchoredPulley`), written once there: in its
 canonical frame this pulley (turning clockwise with θ, wound counter-clockwise) sees A at
 distance |A| and polar angle ψ_A + θ (ℓ = |A|, χ₀ = ψ_A, σ = +1, θ_ref = 0). This module only
 maps its own numbers (ax, ay) onto those — a plug-in with its own kind, spec keys and
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from cadcam.mechanisms.anchored_pulley import AnchoredPulley
+from cadcam.mechanisms.anchored_pulley.model import AnchoredPulley
 from cadcam.mechanisms.base import Mechanism, register
 
 def _canonical(q):

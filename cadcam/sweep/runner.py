@@ -14,7 +14,7 @@ released when its case is recorded; the claims of a runner that was killed are r
 and taken over by the next run — at once on the same host (its process is gone), after
 :data:`CLAIM_LEASE_S` without a recorded case for a runner on another host.
 
-Workers keep one :class:`~cadcam.nlp.transcription.Transcription` per problem structure and
+Workers keep one :class:`~cadcam.solve.transcription.Transcription` per problem structure and
 reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
 NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
 already solved (in normalised parameter space) instead of the default start, and is solved
@@ -96,7 +96,7 @@ def run_case(study: dict, case: dict, start: dict | None = None,
     """
     from ..designs import Design
     from ..optimize import optimize
-    from ..nlp.transcription import Transcription
+    from ..solve.transcription import Transcription
 
     t0 = time.perf_counter()
     row = {"case_id": Study.case_id(case), "params": json.dumps(case, sort_keys=True),
@@ -140,10 +140,10 @@ def run_case(study: dict, case: dict, start: dict | None = None,
 def compile_structures(study: dict, cases: list[dict]) -> int:
     """Build, in this process, the NLP of every structure among ``cases`` whose problem asks
     for ``compiled`` functions, so that a pool's workers load its library from the disk cache
-    (:mod:`cadcam.nlp.compiled`) instead of each compiling it at once. Returns the number of
+    (:mod:`cadcam.solve.compiled`) instead of each compiling it at once. Returns the number of
     structures built; a case whose problem cannot be built is left to its worker, which records
     the error."""
-    from ..nlp.transcription import Transcription
+    from ..solve.transcription import Transcription
 
     built, definition = set(), Study.from_dict(study)
     for case in cases:

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..check.evaluate import METRIC_NAMES
+from ..verify.evaluate import METRIC_NAMES
 from ..files import InputFileError, loads_toml, read_input
 from ..problem import Problem, cap
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.cable_robot import end_effector
-from ..targets import SHARED_PATH_KEYS, robot_position, slider_cable
+from .cable_robot import end_effector
+from ...targets import SHARED_PATH_KEYS, robot_position, slider_cable
 
 
 @dataclass

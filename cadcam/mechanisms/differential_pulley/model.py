@@ -43,8 +43,8 @@ from typing import ClassVar
 import casadi as ca
 import numpy as np
 
-from ..physics.profile import profile_function
-from .base import Mechanism, register, split_coefficients
+from ...physics.profile import profile_function
+from ..base import Mechanism, register, split_coefficients
 
 WINDING = {"ccw": 1.0, "cw": -1.0}
 GROOVES = ("flat", "helical")

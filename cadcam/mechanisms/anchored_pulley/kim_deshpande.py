@@ -37,8 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.profile import Basis, profile_function
-from ..physics.quadrature import gauss_legendre
+from ...physics.profile import Basis, profile_function
+from ...physics.quadrature import gauss_legendre
 
 #: Gauss–Legendre points per sub-interval and the longest sub-interval [rad] of the work
 #: integral: the rule is exact for polynomials of degree 15 on 0.05 rad, so the relative error

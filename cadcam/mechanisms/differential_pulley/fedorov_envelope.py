@@ -25,10 +25,10 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from ..mechanisms.base import residual_function, split_coefficients, wound_lengths
-from ..mechanisms.differential_pulley import DifferentialPulley
-from ..physics.profile import profile_function
-from .kim_deshpande import fit_profile
+from ..base import residual_function, split_coefficients, wound_lengths
+from .model import DifferentialPulley
+from ...physics.profile import profile_function
+from ..anchored_pulley.kim_deshpande import fit_profile
 
 #: Wrap [rad] left between the anchor and the least-wound departure point of the start design.
 ANCHOR_WRAP = np.radians(0.5)

@@ -16,10 +16,10 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..physics.capstan import wire_torque_function
-from ..physics.departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
-from ..physics.profile import profile_function
-from .base import Mechanism, register
+from .capstan import wire_torque_function
+from .departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
+from ...physics.profile import profile_function
+from ..base import Mechanism, register
 
 #: Circle-solution sweeps of the closed-form guess of α.
 GUESS_SWEEPS = 6

@@ -59,7 +59,7 @@ def binding_constraints(metrics: dict, problem, rtol: float = RTOL) -> list[str]
     Parameters
     ----------
     metrics : dict
-        :attr:`cadcam.check.evaluate.Evaluation.metrics` (or ``result.json``'s ``metrics`` /
+        :attr:`cadcam.verify.evaluate.Evaluation.metrics` (or ``result.json``'s ``metrics`` /
         ``recheck``): ``extension_min``/``extension_max`` per spring, ``rho_min``/``rho_max``,
         ``convexity_min``, ``curvature_radius_min`` per profile, ``margins["mechanism"]``.
     problem : cadcam.problem.Problem

@@ -8,10 +8,10 @@ What can be exported:
     unknowns, listed in the manifest's ``z_layout``) and ``cadcam_torque_jacobian`` (∂τ and ∂x
     with respect to the angles, the design coefficients, the spring rates, the pre-extensions
     and the preloads; ∂z with respect to the angles and the coefficients) of
-    :func:`cadcam.check.model.torque_function` with the tangency by unrolled Newton steps (no
+    :func:`cadcam.verify.model.torque_function` with the tangency by unrolled Newton steps (no
     callback), and ``cadcam_design.h`` holding the design's numbers.
 ``problem``
-    The design NLP of :class:`cadcam.nlp.transcription.Transcription`: objective, constraints,
+    The design NLP of :class:`cadcam.solve.transcription.Transcription`: objective, constraints,
     objective gradient, constraint Jacobian and Lagrangian Hessian, with the problem's
     parameter vector, bounds and a starting point in ``problem_data.json``. The manifest's
     ``x_layout`` and ``p_layout`` describe the decision and parameter vectors block by block
@@ -35,9 +35,9 @@ import numpy as np
 from ..version import __version__
 from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
-from ..check.evaluate import start_samples
-from ..check.model import NEWTON_STEPS, torque_function, torque_jacobian_function
-from ..nlp.compiled import CompileError, compiler, oracle_functions
+from ..verify.evaluate import start_samples
+from ..verify.model import NEWTON_STEPS, torque_function, torque_jacobian_function
+from ..solve.compiled import CompileError, compiler, oracle_functions
 from ..problem import Problem
 
 WHATS = ("model", "problem")
@@ -109,10 +109,10 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 def problem_functions(problem: Problem):
     """The NLP functions of ``problem`` and the Transcription that built them: the functions
-    that ``solver.functions = "compiled"`` compiles (:func:`cadcam.nlp.compiled.oracle_functions`),
+    that ``solver.functions = "compiled"`` compiles (:func:`cadcam.solve.compiled.oracle_functions`),
     from the graph of mapped per-angle functions, whose C holds each per-angle function once
     inside loops over the grid."""
-    from ..nlp.transcription import Transcription
+    from ..solve.transcription import Transcription
 
     tr = Transcription(problem.with_options(functions="mapped"))
     generated = oracle_functions(tr.nlp)
@@ -153,7 +153,7 @@ def _x_labels(problem: Problem) -> list[tuple[str, str, str, str]]:
     """(name pattern, unit, description, role) of the transcription's variable blocks; the
     pattern's groups are 0-based indices, shown 1-based as ``{1}``, ``{2}``, … and a
     mechanism's unknown as ``{name}``."""
-    from ..nlp.transcription import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE
+    from ..solve.transcription import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE
 
     mm, rad_m = _length_unit(LENGTH_SCALE), _rad(len(problem.joints))
     force = "N" if FORCE_SCALE == 1 else f"{FORCE_SCALE:g} N"
@@ -229,7 +229,7 @@ def _layout(blocks: dict[str, tuple[int, int]], labels, problem: Problem) -> lis
     out = []
     for name, (offset, size) in sorted(blocks.items(), key=lambda item: item[1][0]):
         entry = {"name": name, "offset": offset, "size": size, "unit": "unknown",
-                 "description": "a block cadcam.views.export does not describe", "role": "unlabelled"}
+                 "description": "a block cadcam.export.codegen does not describe", "role": "unlabelled"}
         for pattern, unit, text, role in labels:
             if not (m := re.fullmatch(pattern, name)):
                 continue

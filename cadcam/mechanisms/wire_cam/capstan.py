@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import casadi as ca
 
-from .profile import Basis, profile_function
-from .quadrature import gauss_legendre
+from ...physics.profile import Basis, profile_function
+from ...physics.quadrature import gauss_legendre
 
 FRICTION_MODELS = ("corrected", "as-printed")
 

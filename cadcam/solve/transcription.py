@@ -442,7 +442,7 @@ class Transcription:
 
         ``samples`` holds, per mechanism, the departure unknowns ``z`` and ``z_ref``, the port
         displacements ``d`` and moment arms ``arm`` at the grid angles, as
-        :func:`cadcam.check.evaluate.mechanism_samples` computes them with the rootfinder
+        :func:`cadcam.verify.evaluate.mechanism_samples` computes them with the rootfinder
         (order :meth:`start_order`); the wrapped lengths follow from the angles, and every
         lifted variable, then s± (the split of the NLP's own x̄·a), start on their definition
         (the start's moment arms are not used). ``pv`` is

@@ -21,8 +21,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
-from ..check.binding import limit_state
-from ..check.evaluate import Evaluation, output_error, output_law
+from ..verify.binding import limit_state
+from ..verify.evaluate import Evaluation, output_error, output_law
 from ..files import atomic_path
 from ..physics.profile import profile_function
 
@@ -76,7 +76,7 @@ def _rho_at(ev: Evaluation, p: int, phi) -> np.ndarray:
 
 def _profile_marks(ev: Evaluation, p: int) -> list[tuple[str, float, float]]:
     """(kind, φ, ρ) of the points of profile ``p`` where a limit binds (within
-    :data:`cadcam.check.binding.RTOL`): ρ at ρ_min or ρ_max, the convexity margin at its
+    :data:`cadcam.verify.binding.RTOL`): ρ at ρ_min or ρ_max, the convexity margin at its
     required minimum."""
     ps, lim = ev.profiles[p], ev.problem.profiles[p]
     if not ps.phi.size:
@@ -185,7 +185,7 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
     from γ down to 0), idler circles with their centres (+) and point idlers / spring ends (○)
     (``circles``), the joint axis, the ρ_min and ρ_max circles (dotted), and the points where
     ρ sits at a limit (✕) or the convexity margin at its required minimum (◇), within
-    :data:`cadcam.check.binding.RTOL`. The view is scaled to the profiles, not to the idler:
+    :data:`cadcam.verify.binding.RTOL`. The view is scaled to the profiles, not to the idler:
     what lies further than :data:`REACH` times the largest radius is named at the edge.
     """
     problem = ev.problem
@@ -371,7 +371,7 @@ def springs_figure(ev: Evaluation) -> Figure:
     """Every spring's extension against its travel [mm].
 
     Top: each spring's extension range over the grid (coloured bar) inside its allowed range
-    [0, travel] (grey), the limits it sits at (within :data:`cadcam.check.binding.RTOL` of the
+    [0, travel] (grey), the limits it sits at (within :data:`cadcam.verify.binding.RTOL` of the
     travel, or at zero) marked and named in red. Below: each extension over its joint's angle
     (one joint: all springs in one panel), or, for a spring joining two joints (Johnston2023's
     spring 2), a map over both angles with a contour at 99 % of its travel where it comes that
@@ -551,7 +551,7 @@ def pareto_front(points: np.ndarray) -> np.ndarray:
     return np.array(front, dtype=int)
 
 
-#: Metric (:data:`cadcam.check.evaluate.METRIC_NAMES`) → (label, what its index counts, unit,
+#: Metric (:data:`cadcam.verify.evaluate.METRIC_NAMES`) → (label, what its index counts, unit,
 #: factor from SI to the unit drawn).
 METRIC_LABELS = {
     "grid": ("grid angles per joint", None, "", 1.0),
@@ -571,7 +571,7 @@ METRIC_LABELS = {
     "sensitivity_integral": ("∫|∂τ/∂k|", ("joint", "spring"), "m²·rad^m", 1.0),
     "objective": ("objective (Eq. 46/47)", None, "-", 1.0),
 }
-#: Run facts of a study table (:func:`cadcam.studies.sweep.flat_table`).
+#: Run facts of a study table (:func:`cadcam.sweep.runner.flat_table`).
 RUN_LABELS = {
     "iterations": ("IPOPT iterations", "", 1.0), "solve_time_s": ("solve time", "s", 1.0),
     "build_time_s": ("build time", "s", 1.0), "wall_time_s": ("wall time", "s", 1.0),

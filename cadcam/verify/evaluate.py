@@ -629,7 +629,7 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
 
 def start_samples(problem: Problem, design: Design, grid: int, order: int) -> list:
     """Per-mechanism samples of ``design`` on a ``grid``-angle grid with quadrature ``order``, for
-    :meth:`cadcam.nlp.transcription.Transcription.initial_guess`: departure by the rootfinder,
+    :meth:`cadcam.solve.transcription.Transcription.initial_guess`: departure by the rootfinder,
     port quantities in closed form."""
     return evaluate(problem, design, grid=grid, order=order, wire_arm="closed-form", profile=False).units
 

@@ -5,7 +5,7 @@ write them into a folder.
 The figures (matplotlib) and the workshop files (ezdxf, manifold3d) are imported where they are
 written, so that importing cadcam — in every sweep worker, for ``cadcam evaluate`` — does not
 load them. Drawing the figures and the sheets is most of a small design's time; given a list,
-the writers append them to it as drawings, which :func:`cadcam.views.forked.draw` runs side by
+the writers append them to it as drawings, which :func:`cadcam.outputs.forked.draw` runs side by
 side on the cores.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..check.evaluate import output_error, output_law
+from ..verify.evaluate import output_error, output_law
 from ..files import write_csv, write_json
 from ..problem import Workshop
 from .forked import Drawing
@@ -74,7 +74,7 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
     ``output.png``) in ``out``. With a list ``drawings``, the figures are built here and
     appended to it, the convergence figure (the longest to draw) first, to be drawn by
-    :func:`cadcam.views.forked.draw`, not drawn here."""
+    :func:`cadcam.outputs.forked.draw`, not drawn here."""
     ev = result.evaluation
     write_json(out / "result.json", result.to_dict())
     write_torque_csv(out / "torque.csv", ev)
@@ -106,8 +106,8 @@ def write_workshop_files(ev, out: Path, args: Workshop, sheets: bool = True,
     on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
     centre line ``cam{i}_groove.csv`` instead: no planar outline holds it. WorkshopError when a
     profile's files cannot be made. With a list ``drawings``, the sheets are built here and
-    appended to it, to be drawn by :func:`cadcam.views.forked.draw`, not drawn here."""
-    from .workshop import TWO_PI, helical_groove, write_groove_csv
+    appended to it, to be drawn by :func:`cadcam.outputs.forked.draw`, not drawn here."""
+    from ..make.workshop import TWO_PI, helical_groove, write_groove_csv
 
     notes = []
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
@@ -130,7 +130,7 @@ def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, cl
                          drawings: list[Drawing] | None) -> str:
     """The workshop files of profile ``i`` closed into a planar outline (see
     :func:`write_workshop_files`); returns its line of the summary."""
-    from .workshop import chord_outline, closed_outline, polyline, write_dxf, write_points_csv, write_stl, write_svg
+    from ..make.workshop import chord_outline, closed_outline, polyline, write_dxf, write_points_csv, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
     close = chord_outline if closure == "chord" else closed_outline
@@ -140,7 +140,7 @@ def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, cl
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
     write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
     if sheets:
-        from .drawing import save_sheet, sheet_figure
+        from ..make.drawing import save_sheet, sheet_figure
 
         fig, _ = sheet_figure(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max,
                               cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}")
@@ -157,7 +157,7 @@ def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, cl
 
 def _drawn(drawing: Drawing, drawings: list[Drawing] | None) -> None:
     """Draw ``drawing`` now, or append it to ``drawings`` (a list) to be drawn by
-    :func:`cadcam.views.forked.draw`."""
+    :func:`cadcam.outputs.forked.draw`."""
     if drawings is None:
         drawing()
     else:

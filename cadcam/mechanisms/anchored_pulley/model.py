@@ -38,8 +38,8 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from ..physics.profile import profile_function
-from .base import Mechanism, register
+from ...physics.profile import profile_function
+from ..base import Mechanism, register
 
 #: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
 GUESS_SWEEPS = 6

@@ -5,7 +5,7 @@ date, the cadcam version that made it) and the dimensions a machinist needs: the
 anchor hole's diameters, the anchor hole's position from the rotation axis, the largest radius
 of the outline and the smallest radius of the designed (wrapped) arc. Built on
 ``matplotlib.figure.Figure`` (no pyplot). Views only: the outline, holes and their checks come
-from :mod:`cadcam.views.workshop`.
+from :mod:`cadcam.make.workshop`.
 """
 from __future__ import annotations
 
@@ -90,7 +90,7 @@ def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float,
     ----------
     outline : Outline
     bore_diameter, anchor_diameter : float
-        [m], checked by :func:`cadcam.views.workshop.holes`.
+        [m], checked by :func:`cadcam.make.workshop.holes`.
     rho_min, rho_max : float
         Radius limits of the design [m].
     title : str

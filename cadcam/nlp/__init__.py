@@ -1,1 +1,0 @@
-"""The design NLP: transcription of a problem for IPOPT."""

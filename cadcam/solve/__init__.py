@@ -1,0 +1,1 @@
+"""The design NLP: transcription of a problem for IPOPT, and its compiled-function cache."""

@@ -1,1 +1,0 @@
-"""Views of a result: plots, workshop drawings and files, code export. No physics here."""
