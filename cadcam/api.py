@@ -27,7 +27,7 @@ from .verify.model import torque_function, torque_jacobian_function
 from .designs import Design, DesignError
 from .files import InputFileError, read_input
 from .solve.transcription import Transcription
-from .optimize import default_start, differential_start, optimize
+from .optimize import optimize, start_design
 from .problem import Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
@@ -218,7 +218,7 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
         raise SpecError(f"tol = {tol}: give a relative error between 0 and 1")
     problem = load_problem(spec, **options)
     if design is None:
-        problem, start = differential_start(problem, default_start(problem))
+        problem, start = start_design(problem)
     else:
         start = load_design(design, problem)
     rng = np.random.default_rng(seed)

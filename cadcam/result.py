@@ -9,7 +9,7 @@ import numpy as np
 
 from .citations import cited
 from .verify.binding import binding_constraints
-from .mechanisms.differential_pulley.robot_path import robot_path
+from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation
 from .files import staged_folder
 from .version import __version__
@@ -107,10 +107,8 @@ class Result:
         outs = [f"{1e3 * v:.3g}" for v in fine["output_max_abs_error"] if v is not None]
         if outs:
             lines.append(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)}")
-        path = robot_path(self.recheck)
-        if path is not None:
-            lines.append(f"  cable robot: the end effector deviates from its path by {1e3 * path.error.mean():.3g} mm "
-                         f"on average, {1e3 * path.error.max():.3g} mm at most (re-check grid)")
+        for kind in kinds_in(self.problem.mechanisms):
+            lines += kind.summary_lines(self.recheck)
         lines += [f"  violated: {v}" for v in (self.recheck.violations if not self.success else [])]
         lines += [f"  binding: {b}" for b in self.binding]
         return "\n".join(lines)
@@ -212,7 +210,7 @@ class Result:
         }
         if sol is not None:
             out["solver"] = {
-                "name": "envelope" if self.problem.options.method == "envelope" else "ipopt",
+                "name": "ipopt" if self.problem.options.method == "nlp" else self.problem.options.method,
                 "return_status": sol.return_status,
                 "iterations": sol.iterations, "solve_time_s": sol.solve_time_s,
                 "build_time_s": self.build_time_s, "recheck_time_s": self.recheck_time_s,

@@ -22,13 +22,13 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .mechanisms.base import (ENERGY, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profile,
+from .mechanisms.base import (ENERGY, design_methods, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profile,
                               mechanism_class, mechanism_kinds)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
 from .problem import FUNCTIONS, OBJECTIVES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
-from .targets import SHARED_PATH_KEYS, ExpressionError, Target, read_table, reserved_name
+from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
 _REQUIRED = object()
 _PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
@@ -52,6 +52,10 @@ def _nonneg(v) -> bool:
 
 def _posint(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 1
+
+
+def _list_of(ok, n=None):
+    return lambda v: isinstance(v, list) and (n is None or len(v) == n) and all(ok(x) for x in v)
 
 
 class _Reader:
@@ -87,16 +91,14 @@ class _Reader:
 
     number = staticmethod(_number)
     positive = staticmethod(_positive)
+    nonneg = staticmethod(_nonneg)
+    list_of = staticmethod(_list_of)
 
     def done(self):
         extra = sorted(set(self.table) - self.seen)
         if extra:
             raise SpecError(f"{self.origin}: unknown key '{self.key(extra[0])}'; allowed keys "
                             f"here: {', '.join(sorted(self.seen))}")
-
-
-def _list_of(ok, n=None):
-    return lambda v: isinstance(v, list) and (n is None or len(v) == n) and all(ok(x) for x in v)
 
 
 def _arm(r: _Reader, n_cams: int) -> dict:
@@ -129,29 +131,6 @@ def _five_bar(r: _Reader, n_cams: int) -> dict:
             "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
 
 
-def _cable_robot(r: _Reader, theta_range) -> dict:
-    """A ``cable_robot`` output law (Fedorov2018 Sec. 4.1): this cable's frame anchor, the
-    pick-and-place path, the amplification and the idler's position at the shortest cable."""
-    point = _list_of(_number, 2)
-    data = {"anchor": r.get("anchor", point, "[x, y]: this cable's attachment on the frame [m]"),
-            "start": r.get("start", point, "[x, y]: the path's pick point [m]"),
-            "lift": r.get("lift", _positive, "the height of the vertical moves [m]"),
-            "span": r.get("span", _number, "the horizontal move [m], signed"),
-            "lift_share": r.get("lift_share", lambda v: _number(v) and 0 < v < 0.5,
-                                "the share of the input rotation each vertical move takes, in (0, 0.5)"),
-            "amplification": r.get("amplification", _positive, "the ratio G of cable to idler "
-                                   "travel of the amplification stage (6 for 6:1)"),
-            "slider_at_shortest": r.get("slider_at_shortest", _positive, "the idler's distance "
-                                        "from the shaft where the cable is shortest [m]")}
-    data["overlap"] = r.get("overlap", lambda v: _number(v) and 0 <= v < data["lift_share"],
-                            "the share of the input during which the horizontal move overlaps a "
-                            "vertical one, in [0, lift_share)", 0.0)
-    data["theta_range"] = r.get("theta_range", lambda v: point(v) and v[1] > v[0], "[start, end]: "
-                                "the joint angles over which the path runs [rad], end > start",
-                                list(theta_range))
-    return {k: ([float(x) for x in v] if isinstance(v, list) else float(v)) for k, v in data.items()}
-
-
 ACCEPTANCE = ("max_abs_error", "rmse")
 
 
@@ -172,19 +151,18 @@ def _acceptance(r: _Reader) -> tuple:
     return out
 
 
-#: Target kinds of a joint's torque law and of a mechanism's output displacement law.
-TORQUE_KINDS = ("expression", "pendulum", "table", "arm", "five_bar", "none")
-OUTPUT_KINDS = ("expression", "table", "spring_balance", "cable_robot")
 
 
 def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool = False,
             theta_range=None) -> Target:
     """A joint's torque law, or (``output``) a mechanism's output law x(θ) [m] over its
     joint's ``theta_range`` [rad]."""
-    kinds = OUTPUT_KINDS if output else TORQUE_KINDS
+    kinds = target_kinds(output)
     unit, column = ("m", "x_m") if output else ("N·m", "torque_Nm")
     kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
-    if kind == "expression":
+    if target_kind(kind).read is not None:  # a kind a mechanism brings reads its own keys
+        data = target_kind(kind).read(r, theta_range)
+    elif kind == "expression":
         example = "'0.15 + 0.01*cos(theta)'" if output else "'0.08*theta**2'"
         data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
                                     f"an expression of theta such as {example} [{unit}]"),
@@ -207,18 +185,6 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool 
         data = {"joint": joint, **arm}
     elif kind == "five_bar":
         data = _five_bar(r, n_cams)
-    elif kind == "spring_balance":
-        data = {"mass": r.get("mass", _positive, "a positive pendulum mass [kg]"),
-                "length": r.get("length", _positive, "a positive length to the centre of mass [m]"),
-                "g": r.get("g", _positive, "a positive gravity [m/s²]", 9.81),
-                "rate": r.get("rate", _positive, "the slider spring's positive rate [N/m]"),
-                "preload": r.get("preload", _nonneg, "the slider spring's initial tension ≥ 0 [N]"),
-                "slider_zero": r.get("slider_zero", _positive, "the idler's distance from the shaft "
-                                     "where the spring's elongation is zero [m]"),
-                "phase": r.get("phase", _number, "the joint angle minus the pendulum angle from "
-                               "its stable equilibrium [rad]", 0.0)}
-    elif kind == "cable_robot":
-        data = _cable_robot(r, theta_range)
     elif kind == "none":
         data = {}
     else:
@@ -347,19 +313,11 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     base : Path
         Folder against which table files are resolved.
     """
-    shorthand = isinstance(data, dict) and "cams" in data and "joints" not in data
-    if shorthand:  # name the user's own [[cams]], not the general form
-        if "mechanisms" in data:
-            raise SpecError(f"{origin}: unknown key 'mechanisms' beside 'cams'; expected either [[cams]] "
-                            "tables or [[joints]] and [[mechanisms]] tables")
-        if not isinstance(data["cams"], list) or not data["cams"]:
-            raise SpecError(f"{origin}: cams = {data['cams']!r}: expected a non-empty array of [[cams]] tables")
-        for i, cam in enumerate(data["cams"]):
-            if not isinstance(cam, dict):
-                raise SpecError(f"{origin}: cams[{i + 1}] = {cam!r}: expected a [[cams]] table")
-    data = legacy_cams(data)
-    # errors in the [[cams]] shorthand name the user's own tables
-    joint_label, mech_label = ("cams", "cams") if shorthand else ("joints", "mechanisms")
+    table = _shorthand_table(data)
+    if table:  # errors in a shorthand name the user's own tables, not the general form
+        _check_shorthand(origin, data, table)
+        data = _from_shorthand(data, table)
+    joint_label, mech_label = (table, table) if table else ("joints", "mechanisms")
     top = _Reader(origin, data, "")
     name = top.get("name", lambda v: isinstance(v, str) and v, "a non-empty string")
     source = top.get("source", lambda v: isinstance(v, str), "a string citing the source")
@@ -388,7 +346,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
             re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
             for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
             "in the IPOPT documentation, numbers or strings)", {})),
-        method=sol.get("method", lambda v: v in METHODS, f"one of {METHODS}", "nlp"),
+        method=sol.get("method", lambda v: v in _methods(), f"one of {_methods()}", "nlp"),
         functions=sol.get("functions", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}", "expanded"),
     )
     sol.done()
@@ -450,16 +408,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
 
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
                for j, raw in enumerate(raw_springs)]
-    robot = [m for m in mechanisms if m.output_target is not None and m.output_target.kind == "cable_robot"]
-    for key in SHARED_PATH_KEYS:
-        if len({repr(m.output_target.data[key]) for m in robot}) > 1:
-            raise SpecError(f"{origin}: mechanisms' output_target.{key}: the cables of one cable robot "
-                            f"follow one path; give every cable_robot law the same {key}")
-    if options.method == "envelope" and not all(
-            m.kind == "differential_pulley" and m.output_target is not None for m in mechanisms):
-        raise SpecError(f"{origin}: solver.method: 'envelope' designs differential pairs for their "
-                        "output laws only: give every mechanism kind = \"differential_pulley\" and "
-                        "a [mechanisms.output_target], or use method = \"nlp\"")
+    _check_output_laws(origin, mechanisms)
+    _check_method(origin, options.method, mechanisms)
     if not springs and any(c["tracking_weight"] > 0 for c in joints):
         raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
                         "tables (or kind = \"none\" on every joint's target, for output laws only)")
@@ -473,6 +423,32 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                        joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
     except ValueError as exc:
         raise SpecError(f"{origin}: torque_model: {exc}") from None
+
+
+def _check_output_laws(origin, mechanisms) -> None:
+    """Refuse output laws that contradict each other (:attr:`TargetKind.check`): the cables of
+    one cable robot follow one path."""
+    laws: dict[str, list] = {}
+    for m in mechanisms:
+        if m.output_target is not None:
+            laws.setdefault(m.output_target.kind, []).append(m.output_target.data)
+    for kind, datas in laws.items():
+        problem = target_kind(kind).check(datas) if target_kind(kind).check else None
+        if problem:
+            raise SpecError(f"{origin}: mechanisms' output_target.{problem}")
+
+
+def _methods() -> tuple[str, ...]:
+    """Design methods: cadcam's NLP, and those the registered mechanisms bring."""
+    return ("nlp", *design_methods())
+
+
+def _check_method(origin, method: str, mechanisms) -> None:
+    """Refuse a mechanism's own design method where not every mechanism offers it."""
+    if method != "nlp" and not all(m.offers(method) for m in mechanisms):
+        m = design_methods()[method]
+        raise SpecError(f"{origin}: solver.method: {method!r} designs {m.scope}: give every mechanism "
+                        f"{m.requirement}, or use method = \"nlp\"")
 
 
 def _workshop(r: _Reader) -> Workshop:
@@ -491,8 +467,6 @@ def _workshop(r: _Reader) -> Workshop:
         raise SpecError(f"{r.origin}: {r.key(str(exc))}") from None
 
 
-#: Design methods: cadcam's NLP, or Fedorov's envelope synthesis alone (differential pairs).
-METHODS = ("nlp", "envelope")
 #: Highest polynomial degree per basis: monomials are ill-conditioned beyond 15; Chebyshev
 #: polynomials stay well-conditioned, and a multi-turn spiral needs the degree.
 MAX_ORDER = {"monomial": 15, "chebyshev": 40}
@@ -574,25 +548,40 @@ def _optional_float(v):
     return None if v is None else float(v)
 
 
-def legacy_cams(data: dict) -> dict:
-    """A spec in the ``[[cams]]`` shorthand (a wire cam on its own joint, cadcam ≤ 0.1) in the
-    general form: each cam becomes joint i and mechanism i of kind ``wire_cam``, so its ports
-    (``wire:i``, ``platform:i``) and every number keep their meaning."""
-    if not isinstance(data, dict) or "cams" not in data or not isinstance(data["cams"], list):
-        return data
-    if "joints" in data or "mechanisms" in data:
-        return data  # parse_spec then names 'cams' as an unknown key
-    out = {k: v for k, v in data.items() if k != "cams"}
+def _shorthand_table(data) -> str:
+    """The mechanism shorthand (:attr:`Mechanism.shorthand`: ``[[cams]]`` for the wire cam,
+    cadcam ≤ 0.1) a spec is written in, or ""."""
+    if not isinstance(data, dict) or "joints" in data:
+        return ""
+    tables = [mechanism_class(kind).shorthand for kind in mechanism_kinds()]
+    return next((t for t in tables if t and t in data), "")
+
+
+def _check_shorthand(origin, data: dict, table: str) -> None:
+    """Refuse a shorthand beside the general form, or one that is not a list of tables."""
+    if "mechanisms" in data:
+        raise SpecError(f"{origin}: unknown key 'mechanisms' beside '{table}'; expected either [[{table}]] "
+                        "tables or [[joints]] and [[mechanisms]] tables")
+    if not isinstance(data[table], list) or not data[table]:
+        raise SpecError(f"{origin}: {table} = {data[table]!r}: expected a non-empty array of [[{table}]] tables")
+    for i, entry in enumerate(data[table]):
+        if not isinstance(entry, dict):
+            raise SpecError(f"{origin}: {table}[{i + 1}] = {entry!r}: expected a [[{table}]] table")
+
+
+def _from_shorthand(data: dict, table: str) -> dict:
+    """``data`` in the general form: each entry of its shorthand list ``table`` becomes joint i
+    and mechanism i of the kind whose shorthand it is, so its ports and every number keep their
+    meaning."""
+    kind = next(k for k in mechanism_kinds() if mechanism_class(k).shorthand == table)
+    out = {k: v for k, v in data.items() if k != table}
     joint_keys = ("name", "theta_range_deg", "tracking_weight", "sensitivity_weights", "target",
                   "acceptance")
     out["joints"], out["mechanisms"] = [], []
-    for i, cam in enumerate(data["cams"]):
-        if not isinstance(cam, dict):
-            out["joints"].append(cam)
-            continue
-        out["joints"].append({k: cam[k] for k in joint_keys if k in cam})
-        out["mechanisms"].append({"kind": "wire_cam", "joint": i + 1,
-                                  **{k: v for k, v in cam.items() if k not in joint_keys[1:]}})
+    for i, entry in enumerate(data[table]):
+        out["joints"].append({k: entry[k] for k in joint_keys if k in entry})
+        out["mechanisms"].append({"kind": kind, "joint": i + 1,
+                                  **{k: v for k, v in entry.items() if k not in joint_keys[1:]}})
     return out
 
 

@@ -12,12 +12,12 @@ import io
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import casadi as ca
 import numpy as np
 
 from .files import read_input
-from .mechanisms.differential_pulley.cable_robot import cable_length, pick_and_place
 
 FUNCTIONS = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
@@ -294,63 +294,96 @@ def five_bar_torques(theta1, theta2, masses, lengths, g):
     return [out[0], out[1]]  # Endo2010 Eq. 8
 
 
-def spring_elongation(phi, mass, length, g, rate, preload):
-    """The elongation e(φ) [m] of a spring (rate k [N/m], initial tension F0 [N]) that balances
-    a pendulum (m g l) by energy, zero at the unstable equilibrium φ = ±π (Fedorov2018 Eq. 18):
-    m g l (1 − cos φ) + F0 e + ½ k e² = 2 m g l (Eq. 17)."""
-    mgl = mass * g * length
-    return (-preload + ca.sqrt(preload**2 + 2 * rate * mgl * (ca.cos(phi) + 1))) / rate  # Fedorov2018 Eq. 18
+@dataclass(frozen=True)
+class TargetKind:
+    """A kind of target law, declared once: its law, where it may be used, and (for a kind a
+    mechanism brings) how its keys are read from a spec.
 
-
-#: The path keys of a ``cable_robot`` target (:func:`cadcam.mechanisms.differential_pulley.cable_robot.pick_and_place`).
-PATH_KEYS = ("start", "lift", "span", "lift_share", "overlap")
-#: The keys both cables of one robot share: its path and the input range it runs over.
-SHARED_PATH_KEYS = PATH_KEYS + ("theta_range",)
-#: Input shares at which the shortest cable of a path is sought.
-PATH_SAMPLES = 20001
-
-
-def robot_position(theta, d: dict):
-    """The end effector's target position (x, y) [m] at joint angle θ: the path's input share
-    is τ = (θ − θ₀)/(θ₁ − θ₀) over ``d["theta_range"]`` [rad] (Fedorov2018 Sec. 4.1)."""
-    lo, hi = d["theta_range"]
-    return pick_and_place((theta - lo) / (hi - lo), *(d[k] for k in PATH_KEYS))
-
-
-def robot_cable(theta, d: dict):
-    """The cable length [m] from anchor ``d["anchor"]`` to the end effector's target position
-    at joint angle θ (:func:`robot_position`)."""
-    return cable_length(*robot_position(theta, d), d["anchor"])
-
-
-def shortest_cable(d: dict) -> float:
-    """ℓ_min [m]: the least :func:`robot_cable` along the path, sampled at
-    :data:`PATH_SAMPLES` angles and refined between the best sample's neighbours."""
-    theta = np.linspace(*d["theta_range"], PATH_SAMPLES)
-    k = int(np.argmin(robot_cable(theta, d)))
-    bracket = (theta[max(k - 1, 0)], theta[min(k + 1, theta.size - 1)])
-    from scipy.optimize import minimize_scalar  # imported here: scipy.optimize is slow to import
-
-    best = minimize_scalar(lambda t: robot_cable(t, d), bounds=bracket, method="bounded",
-                           options={"xatol": 1e-12})
-    return float(min(best.fun, robot_cable(theta[k], d)))
-
-
-def cable_robot_slider(theta, d: dict):
-    """The idler position x(θ) [m] of one cable of Fedorov2018's cable robot (Sec. 4.1).
-
-    The amplification stage (two coaxial pulleys of diameter ratio G = ``amplification``)
-    turns the idler's travel into G times as much cable to the end effector, so that
-    x = ``slider_at_shortest`` + (ℓ(θ) − ℓ_min)/G with ℓ(θ) :func:`robot_cable` and ℓ_min
-    :func:`shortest_cable`: the idler moves away from the shaft as the cable pays out.
+    Attributes
+    ----------
+    name : str
+        The spec's ``kind``.
+    law : callable
+        ``law(data, thetas, cam)``: the law as a CasADi expression of the joint angles
+        ``thetas`` (a list of SX) for joint ``cam``, from the kind's ``data``.
+    torque, output : bool
+        Whether it may be a joint's torque law [N·m], a mechanism's output law [m].
+    read : callable or None
+        ``read(reader, theta_range) -> data``: the kind's keys from its spec table (the reader
+        of :mod:`cadcam.spec`), for a kind the spec reader does not know itself.
+    check : callable or None
+        ``check(datas) -> str or None``: given the data of every output law of this kind in
+        one problem, ``"key: what is wrong"`` where they contradict each other.
     """
-    return d["slider_at_shortest"] + (robot_cable(theta, d) - shortest_cable(d)) / d["amplification"]
+
+    name: str
+    law: Callable
+    torque: bool = True
+    output: bool = False
+    read: Callable | None = None
+    check: Callable | None = None
 
 
-def slider_cable(x, d: dict):
-    """The inverse of :func:`cable_robot_slider`: the cable length [m] to the end effector
-    that an idler at ``x`` [m] gives, ℓ = ℓ_min + G (x − ``slider_at_shortest``)."""
-    return shortest_cable(d) + d["amplification"] * (x - d["slider_at_shortest"])
+_KINDS: dict[str, TargetKind] = {}
+
+
+def register_target_kind(kind: TargetKind) -> TargetKind:
+    """Make ``kind`` available to specs and :class:`Target` (a mechanism's folder registers
+    the laws it brings)."""
+    if kind.name in _KINDS and _KINDS[kind.name] != kind:
+        raise ValueError(f"a target kind named {kind.name!r} is already registered")
+    _KINDS[kind.name] = kind
+    return kind
+
+
+def target_kind(name: str) -> TargetKind:
+    """The registered target kind ``name``; ValueError if there is none."""
+    try:
+        return _KINDS[name]
+    except KeyError:
+        raise ValueError(f"unknown target kind {name!r}") from None
+
+
+def target_kinds(output: bool = False) -> tuple[str, ...]:
+    """Names of the kinds that may be a torque law (or, with ``output``, an output law)."""
+    return tuple(k.name for k in _KINDS.values() if (k.output if output else k.torque))
+
+
+def _expression_names(data: dict, thetas, cam: int) -> dict:
+    """An ``expression``'s names: its numeric ``parameters`` and the angles."""
+    return {**{k: float(v) for k, v in data.get("parameters", {}).items()}, **angle_names(thetas, cam)}
+
+
+def _expression_law(data, thetas, cam):
+    return parse_expression(data["expression"], _expression_names(data, thetas, cam))
+
+
+def _pendulum_law(d, thetas, cam):
+    return d["mass"] * d["g"] * d["length"] * ca.sin(thetas[cam] + d["phase"])
+
+
+def _arm_law(d, thetas, cam):
+    joints = serial_arm_torques(thetas[:len(d["masses"])], d["masses"], d["lengths"], d["com"], d["g"])
+    return joints[d["joint"] - 1]
+
+
+def _five_bar_law(d, thetas, cam):
+    joints = five_bar_torques(thetas[0], thetas[1], d["masses"], {k: d[k] for k in FIVE_BAR_LENGTHS}, d["g"])
+    return joints[d["joint"] - 1]
+
+
+def _table_law(d, thetas, cam):
+    s = np.asarray(d["samples"], dtype=float)
+    return ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])(thetas[cam])
+
+
+for _kind in (TargetKind("expression", _expression_law, output=True),
+              TargetKind("pendulum", _pendulum_law),
+              TargetKind("table", _table_law, output=True),
+              TargetKind("arm", _arm_law),
+              TargetKind("five_bar", _five_bar_law),
+              TargetKind("none", lambda d, thetas, cam: ca.SX(0))):
+    register_target_kind(_kind)
 
 
 @dataclass
@@ -369,12 +402,8 @@ class Target:
     ``none`` (no torque goal: τ_d = 0 with no weight in the objective).
 
     A mechanism's output law x(θ) [m] (:attr:`cadcam.mechanisms.base.Mechanism.output_target`)
-    is a Target too: ``expression`` or ``table`` of metres, or ``spring_balance``: the idler
-    position x = ``slider_zero`` − e(θ + ``phase``) at which a spring (``rate`` [N/m],
-    ``preload`` [N]) on the slider balances a pendulum (``mass`` [kg], ``length`` [m], ``g``)
-    by energy (:func:`spring_elongation`, Fedorov2018 Eq. 16–18), or ``cable_robot``: the
-    idler position that gives a cable robot's cable the length to its end effector on a
-    pick-and-place path (:func:`cable_robot_slider`, Fedorov2018 Sec. 4.1).
+    is a Target too: ``expression`` or ``table`` of metres, or a kind the mechanism's folder
+    registers (:func:`register_target_kind`).
     """
 
     kind: str
@@ -382,39 +411,7 @@ class Target:
 
     def expression(self, thetas, cam: int):
         """τ_d as a CasADi expression of the cam angles ``thetas`` (a list of SX)."""
-        if self.kind == "expression":
-            return parse_expression(self.data["expression"], self._names(thetas, cam))
-        if self.kind == "pendulum":
-            d = self.data
-            return d["mass"] * d["g"] * d["length"] * ca.sin(thetas[cam] + d["phase"])
-        if self.kind == "arm":
-            d = self.data
-            joints = serial_arm_torques(thetas[:len(d["masses"])], d["masses"], d["lengths"],
-                                        d["com"], d["g"])
-            return joints[d["joint"] - 1]
-        if self.kind == "five_bar":
-            d = self.data
-            joints = five_bar_torques(thetas[0], thetas[1], d["masses"],
-                                      {k: d[k] for k in FIVE_BAR_LENGTHS}, d["g"])
-            return joints[d["joint"] - 1]
-        if self.kind == "spring_balance":
-            d = self.data
-            return d["slider_zero"] - spring_elongation(thetas[cam] + d["phase"], d["mass"], d["length"],
-                                                        d["g"], d["rate"], d["preload"])
-        if self.kind == "cable_robot":
-            return cable_robot_slider(thetas[cam], self.data)
-        if self.kind == "none":
-            return ca.SX(0)
-        if self.kind == "table":
-            s = np.asarray(self.data["samples"], dtype=float)
-            interp = ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])
-            return interp(thetas[cam])
-        raise ValueError(f"unknown target kind {self.kind!r}")
-
-    def _names(self, thetas, cam: int) -> dict:
-        """An ``expression``'s names: its numeric ``parameters`` and the angles."""
-        return {**{k: float(v) for k, v in self.data.get("parameters", {}).items()},
-                **angle_names(thetas, cam)}
+        return target_kind(self.kind).law(self.data, thetas, cam)
 
     def guard_failure(self, axes, cam: int) -> str | None:
         """For an ``expression``: where it has a pole, leaves its functions' domains or jumps
@@ -424,7 +421,7 @@ class Target:
         th = ca.SX.sym("theta", len(axes))
         thetas = [th[i] for i in range(len(axes))]
         guards = []
-        parse_expression(self.data["expression"], self._names(thetas, cam), guards)
+        parse_expression(self.data["expression"], _expression_names(self.data, thetas, cam), guards)
         return check_guards(guards, thetas, axes)
 
     def function(self, n_cams: int, cam: int) -> ca.Function:

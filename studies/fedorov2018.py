@@ -23,8 +23,8 @@ from cadcam import load_spec, optimize
 from cadcam.mechanisms.differential_pulley.robot_path import robot_path
 from cadcam.verify.evaluate import evaluate
 from cadcam.files import write_json
-from cadcam.optimize import default_start, differential_start
-from cadcam.targets import robot_cable, spring_elongation
+from cadcam.optimize import start_design
+from cadcam.mechanisms.differential_pulley.output_laws import robot_cable, spring_elongation
 from cadcam.outputs.plots import output_figure, profile_figure, save_figure
 from cadcam.make.workshop import chord_outline, helical_groove, write_points_csv, write_groove_csv
 from reporting import figures, finish, limit_lines, provenance, provenance_info
@@ -38,7 +38,7 @@ GROOVE_PITCH = 0.004
 
 def elongation(phi, rate, preload):
     """Fedorov2018 Eq. 18 [m] at the angles ``phi`` for the report's pendulum
-    (:func:`cadcam.targets.spring_elongation`)."""
+    (:func:`cadcam.mechanisms.differential_pulley.output_laws.spring_elongation`)."""
     return np.asarray(spring_elongation(ca.DM(phi), MASS, LENGTH, G, rate, preload)).ravel()
 
 
@@ -73,7 +73,7 @@ def balancer() -> list[str]:
     problem = load_spec(ROOT / "models" / "fedorov2018_balancer.toml")
     fine = problem.options.recheck_grid
     phi = np.linspace(-np.pi, np.pi, 100001)
-    start_problem, start = differential_start(problem, default_start(problem))
+    start_problem, start = start_design(problem)
     baseline = evaluate(start_problem, start, grid=fine)
     result = optimize(problem)
     ev = result.recheck

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 import cadcam
-from cadcam.optimize import closed_form_start
+from cadcam.mechanisms.anchored_pulley.starts import closed_form_start
+from cadcam.optimize import default_start
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form
 
@@ -227,7 +228,7 @@ def test_pendulum_from_the_closed_form_start_on_a_coarse_grid(pendulum):
     converge on every grid: of 21, 26, …, 51 angles, 21–36 and 51 end at IPOPT's iteration
     limit with diverged coefficients; 41 and the spec's 46 converge."""
     problem = pendulum.with_options(grid=21)
-    r = cadcam.optimize(problem, start=closed_form_start(problem, SHARES))
+    r = cadcam.optimize(problem, start=closed_form_start(problem, default_start(problem), SHARES))
     assert r.status == "success", (r.message, r.recheck.violations)
     assert r.recheck.metrics["max_abs_error"][0] < 1e-3
 
@@ -289,7 +290,7 @@ def test_closed_form_pulleys_of_table_I_reproduce_the_target(pendulum):
     over the two pulleys. Measured: e = 8.3e-6 m for each pulley (near its least-wound end,
     where the envelope is flattest), bound 0.103 N·m, error 0.0162 N·m (at the range ends)."""
     problem = with_basis(pendulum, "chebyshev", 15)
-    design = closed_form_start(problem, SHARES)
+    design = closed_form_start(problem, default_start(problem), SHARES)
     ev = cadcam.evaluate(problem, design, grid=400)
     assert ev.violations == []
     err = np.abs(ev.tau[0] - ev.tau_d[0]).max()

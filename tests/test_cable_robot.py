@@ -13,12 +13,12 @@ from cadcam.mechanisms.differential_pulley.robot_path import robot_path
 from cadcam.verify.evaluate import evaluate
 from cadcam.mechanisms.base import Profile, departure_solver
 from cadcam.mechanisms.differential_pulley.model import DifferentialPulley
-from cadcam.optimize import default_start, differential_start
+from cadcam.optimize import start_design
 from cadcam.mechanisms.differential_pulley.cable_robot import cable_length, end_effector, pick_and_place
 from cadcam.physics.profile import Basis
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
 from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_length as pair_cable_length
-from cadcam.targets import cable_robot_slider, robot_cable, slider_cable
+from cadcam.mechanisms.differential_pulley.output_laws import cable_robot_slider, robot_cable, slider_cable
 
 ROBOT = "models/fedorov2018_cable_robot.toml"
 PATH = dict(start=(0.125, 0.0), lift=0.5, span=0.75, lift_share=0.45, overlap=0.2)
@@ -91,7 +91,7 @@ def test_helical_circles_wound_oppositely_keep_the_idler_still_over_two_and_a_ha
 def test_envelope_pulleys_trace_the_path_within_a_millimetre(robot):
     """Fedorov's envelope pulleys (the baseline) fitted at the spec's degree, re-checked by the
     rootfinder: convex, every limit met, and the end effector within 1 mm of its path."""
-    problem, design = differential_start(robot, default_start(robot))
+    problem, design = start_design(robot)
     ev = evaluate(problem, design, grid=301)
     assert ev.violations == []
     path = robot_path(ev)

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 
 from cadcam.verify.binding import RTOL, binding_constraints, limit_state
 from cadcam.verify.evaluate import METRIC_NAMES, evaluate
-from cadcam.optimize import default_start, differential_start
+from cadcam.optimize import start_design
 from cadcam.physics.profile import Basis
 from cadcam.spec import load_spec
 from cadcam.version import __version__
@@ -110,7 +110,7 @@ def test_profile_view_draws_a_published_design_in_its_own_basis(ev_rr):
 
 def test_output_figure_only_with_an_output_law():
     problem = load_spec(ROOT / "models" / "fedorov2018_balancer.toml")
-    start_problem, start = differential_start(problem, default_start(problem))
+    start_problem, start = start_design(problem)
     figs = figures(evaluate(start_problem, start, grid=12))
     assert sorted(figs) == ["output", "profile", "springs", "torque"]
     assert "idler (+ centre)" in _texts(figs["profile"])

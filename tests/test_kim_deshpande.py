@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from cadcam.physics.profile import Basis, profile_function
-from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form, envelope, fit_profile, spring_state
+from cadcam.physics.profile import Basis, fit_profile, profile_function
+from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form, envelope, spring_state
 from cadcam.mechanisms.anchored_pulley.ludovico_qcqp import design_matrices, solve_qcqp
 
 THETA_I, THETA_F = np.pi / 6, 5 * np.pi / 6

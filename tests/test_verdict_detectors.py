@@ -29,7 +29,7 @@ from cadcam.files import atomic_path, write_csv, write_json, write_text
 from cadcam.solve.transcription import Solve
 from cadcam.optimize import verdict
 from cadcam.physics.profile import Basis
-from cadcam.sweep import sweep
+from cadcam.sweep import runner as sweep
 from cadcam.sweep.study import Parameter, Study, StudyError, load_study
 
 from .conftest import SPEC_1DOF, circle_design

@@ -96,7 +96,7 @@ class ExportError(ValueError):
 
 def model_functions(problem: Problem, design: Design) -> list[ca.Function]:
     """The torque model of ``design`` and its Jacobians, code-generable (SX, no callbacks)."""
-    kw = dict(order=EXPORT_QUADRATURE_ORDER, wire_arm="closed-form")
+    kw = dict(order=EXPORT_QUADRATURE_ORDER, integrals="closed-form")
     f = torque_function(problem, design.bases, tangency="newton", **kw)
     jac = torque_jacobian_function(problem, design.bases, **kw)
     return [_renamed(f, "cadcam_torque"), _renamed(jac, "cadcam_torque_jacobian")]

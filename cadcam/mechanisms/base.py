@@ -48,6 +48,86 @@ def mechanism_kinds() -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
+class DesignMethod:
+    """A mechanism's own way to make a design without the NLP: its start design
+    (:meth:`Mechanism.prepare_start`) is the answer, re-checked like an optimum.
+
+    Attributes
+    ----------
+    name : str
+        The spec's ``[solver] method``.
+    title : str
+        What made the design, for the result's solver status.
+    scope : str
+        What it designs, for messages (``"differential pairs for their output laws only"``).
+    requirement : str
+        What every mechanism of the problem needs for it, for messages.
+    """
+
+    name: str
+    title: str
+    scope: str
+    requirement: str
+
+
+def design_methods() -> dict[str, DesignMethod]:
+    """The design methods the registered mechanisms offer, by name."""
+    return {m.name: m for cls in _REGISTRY.values() for m in cls.methods}
+
+
+def kinds_in(mechanisms) -> list[type]:
+    """The distinct mechanism classes of ``mechanisms``, in order of first appearance."""
+    return list(dict.fromkeys(type(m) for m in mechanisms))
+
+
+#: Units a per-pose limit may have: its factor to the unit reports show, that unit, and the size
+#: [SI] a margin is divided by in the NLP (lengths in millimetres, angles as they are).
+LIMIT_UNITS = {"m": (1e3, "mm", 1e-3), "rad": (180 / np.pi, "°", 1.0)}
+
+
+@dataclass(frozen=True)
+class Limit:
+    """One per-pose limit of a mechanism, declared once: the NLP's rows, the re-check's margins
+    and violations, and the binding sentences all read it.
+
+    Attributes
+    ----------
+    name : str
+        The margin's name (a key of ``metrics.margins.mechanism``).
+    what : str
+        What it limits, in words (``"moment arm"``), for sentences and labels.
+    bound : str
+        The mechanism's field [SI] that holds the limit's value; ``"field[i]"`` for element i of
+        a tuple field.
+    sense : int
+        +1 for a lower limit (value = limit + margin), −1 for an upper one (value = limit −
+        margin).
+    unit : str
+        A key of :data:`LIMIT_UNITS`: the unit of the margin and of the limit.
+    profile : int or None
+        The profile (1-based) a limit of one of several profiles belongs to.
+    """
+
+    name: str
+    what: str
+    bound: str
+    sense: int = +1
+    unit: str = "m"
+    profile: int | None = None
+
+    def value(self, mech) -> float:
+        """The limit's value [SI] on mechanism ``mech`` (inf where it has none)."""
+        field, _, index = self.bound.partition("[")
+        v = getattr(mech, field, 0.0)
+        return float(v[int(index.rstrip("]"))] if index else v)
+
+    @property
+    def nlp_scale(self) -> float:
+        """The size [SI] the NLP divides the margin by, so that its rows are O(1)."""
+        return LIMIT_UNITS[self.unit][2]
+
+
+@dataclass(frozen=True)
 class Profile:
     """One designed profile ρ(φ) of a mechanism, with its radius and curvature limits [m]."""
 
@@ -81,7 +161,9 @@ class Mechanism:
     residual_units: ClassVar[tuple[str, ...]] = ()
     #: Bounds (lo, hi) of each unknown in the NLP; empty: unbounded.
     unknown_bounds: ClassVar[tuple[tuple[float, float], ...]] = ()
-    #: Names of the per-pose limits :meth:`margins` returns (each ≥ 0 when met) [m].
+    #: The per-pose limits :meth:`margins` returns, in its order (each margin ≥ 0 when met).
+    limits: ClassVar[tuple[Limit, ...]] = ()
+    #: Their names (derived from :attr:`limits`).
     margin_names: ClassVar[tuple[str, ...]] = ()
     parameter_names: ClassVar[tuple[str, ...]] = ()
     force_models: ClassVar[tuple[str, ...]] = ()
@@ -98,6 +180,16 @@ class Mechanism:
     #: it should follow (a :class:`cadcam.targets.Target` of the joint angle, or None).
     output: ClassVar[str] = ""
     output_target: ClassVar[object] = None
+    #: A spec's top-level list of this mechanism, one per joint (a shorthand), or "".
+    shorthand: ClassVar[str] = ""
+    #: SI unit ("m", "rad", "N/m", "N", "-") of each of its own spec keys, for labels.
+    spec_units: ClassVar[dict[str, str]] = {}
+    #: Design methods of its own (:class:`DesignMethod`), besides the NLP.
+    methods: ClassVar[tuple[DesignMethod, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.margin_names = tuple(limit.name for limit in cls.limits)
 
     # -- what a subclass provides ---------------------------------------------------------------
     def parameter_values(self) -> tuple[float, ...]:
@@ -127,16 +219,18 @@ class Mechanism:
         raise NotImplementedError
 
     @classmethod
-    def force_arms(cls, bases, model, theta, z, c, q, order, wire_arm):
+    def force_arms(cls, bases, model, theta, z, c, q, order, integrals):
         """The arms of a named force model (a column of len(ports)); only for
-        :attr:`force_models`."""
+        :attr:`force_models`. ``integrals`` says how a model evaluates the integrals it has:
+        ``"closed-form"`` (the NLP's, the export's) or ``"quadrature"`` of ``order`` points per
+        segment (the re-check's)."""
         raise NotImplementedError
 
     @classmethod
     def margins(cls, bases, theta, z, c, q, arm):
-        """Per-pose limits of the mechanism (a column of len(:attr:`margin_names`), [m]), each
-        ≥ 0 when met, given the port arms ``arm`` [m]; imposed by the NLP at every grid angle
-        and checked by the re-check."""
+        """Per-pose limits of the mechanism (a column, one row per :attr:`limits`, each in its
+        limit's unit), each ≥ 0 when met, given the port arms ``arm`` [m]; imposed by the NLP
+        at every grid angle and checked by the re-check."""
         return ca.SX(0, 1)
 
     @classmethod
@@ -169,6 +263,10 @@ class Mechanism:
         """Straight cable spans (start, end) [m] to draw at the pose θ."""
         return []
 
+    def wraps(self, theta: float, z: np.ndarray, c: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Curves (x, y) [m] of cable lying on idlers at the pose θ, to draw."""
+        return []
+
     def start_radius(self, profile: Profile) -> float:
         """Radius of a feasible circular starting profile [m]."""
         return 1.2 * profile.rho_min
@@ -188,6 +286,21 @@ class Mechanism:
     def spec_fields(self) -> dict:
         """The mechanism's own keys in the spec form (inverse of :meth:`from_spec`)."""
         return {}
+
+    def offers(self, method: str) -> bool:
+        """Whether this mechanism can be designed by its own ``method``."""
+        return any(m.name == method for m in self.methods)
+
+    @classmethod
+    def prepare_start(cls, problem, design):
+        """The problem and start design with this kind's mechanisms given their own start (a
+        closed form, an envelope), from ``design``'s circles; default: unchanged."""
+        return problem, design
+
+    @classmethod
+    def summary_lines(cls, evaluation) -> list[str]:
+        """Lines this kind adds to a result's summary, from the fine re-check ``evaluation``."""
+        return []
 
     # -- generic -------------------------------------------------------------------------------
     @property
@@ -303,13 +416,13 @@ def energy_arms(structure, theta, z, wound, wrapped, c, q, d):
 
 
 @lru_cache(maxsize=64)
-def port_function(structure, model: str, order: int, wire_arm: str = "closed-form") -> ca.Function:
+def port_function(structure, model: str, order: int, integrals: str = "closed-form") -> ca.Function:
     """Per-angle port quantities of a mechanism under torque ``model``.
 
     ``ports(theta, z, z_ref, wrapped, wound, c, q) -> (d, arm, R, branch_error)``: port
     displacements [m] from the reference pose, their moment arms [m] (``energy``: dd/dθ by
     :func:`energy_arms`; otherwise the mechanism's named force model, with ``order`` and
-    ``wire_arm`` passed on), and the residuals at (θ, z). ``wrapped`` holds each profile's
+    ``integrals`` passed on), and the residuals at (θ, z). ``wrapped`` holds each profile's
     wrapped length between α_k(θ_ref) and α_k(θ) [m] (Johnston2023 Eq. 10) and ``wound`` the
     length from its anchor to α_k(θ) [m] (used by closure rows only), inputs so that callers
     integrate them per angle (the re-check) or cumulatively along a grid (the NLP).
@@ -323,7 +436,7 @@ def port_function(structure, model: str, order: int, wire_arm: str = "closed-for
     if model == ENERGY:
         arm = energy_arms(structure, theta, z, wound, wrapped, c, q, d)
     else:
-        arm = cls.force_arms(bases, model, theta, z, c, q, order, wire_arm)
+        arm = cls.force_arms(bases, model, theta, z, c, q, order, integrals)
     R, branch = pose_residual_function(structure)(theta, z, wound, c, q)
     return ca.Function("ports", [theta, z, z_ref, wrapped, wound, c, q], [d, arm, R, branch],
                        ["theta", "z", "z_ref", "wrapped", "wound", "c", "q"],

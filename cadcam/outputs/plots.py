@@ -24,6 +24,7 @@ from matplotlib.patches import Circle
 from ..verify.binding import limit_state
 from ..verify.evaluate import Evaluation, output_error, output_law
 from ..files import atomic_path
+from ..mechanisms.base import mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
 
 MM = 1e3
@@ -155,14 +156,8 @@ def _row(ev: Evaluation, u: int, n_poses: int):
             prof.append((x, y, phi <= alpha, dep, anchor, bind))
         spans = [(MM * np.asarray(a, float), MM * np.asarray(b, float)) for a, b in mech.segments(th, z, c)]
         circles = [(MM * np.asarray(ctr, float), MM * float(r)) for ctr, r in mech.circles(th, z, c)]
-        idler_wire = None
-        if "gamma" in mech.unknowns and circles and circles[0][1] > 0:
-            # Johnston2023's wire cam touches its idler: the wire wraps it from γ down to 0
-            gamma = float(z[mech.unknowns.index("gamma")])
-            t = np.linspace(gamma, 0.0, 60)
-            ctr, r = circles[0]
-            idler_wire = (ctr[0] + r * np.cos(t), ctr[1] + r * np.sin(t))
-        panels.append((th, prof, spans, circles, idler_wire))
+        wraps = [(MM * np.asarray(x, float), MM * np.asarray(y, float)) for x, y in mech.wraps(th, z, c)]
+        panels.append((th, prof, spans, circles, wraps))
     # the view: the profiles at every drawn pose, and what lies near them
     pts = [np.column_stack((x, y)) for _, prof, *_ in panels for x, y, *_ in prof] + [np.zeros((1, 2))]
     near = REACH * MM * radius
@@ -181,8 +176,7 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
 
     Drawn: each profile over its wrapped range (thin) and thick where the cable is wrapped at
     that angle, the anchor (■), the departure point (●), the free cable spans (the mechanism's
-    ``segments``; for Johnston2023's wire cam, which touches its idler, the wire on the idler
-    from γ down to 0), idler circles with their centres (+) and point idlers / spring ends (○)
+    ``segments``) and the cable lying on idlers (its ``wraps``), idler circles with their centres (+) and point idlers / spring ends (○)
     (``circles``), the joint axis, the ρ_min and ρ_max circles (dotted), and the points where
     ρ sits at a limit (✕) or the convexity margin at its required minimum (◇), within
     :data:`cadcam.verify.binding.RTOL`. The view is scaled to the profiles, not to the idler:
@@ -208,7 +202,7 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
             if col >= len(panels):
                 ax.set_axis_off()
                 continue
-            th, prof, spans, circles, idler_wire = panels[col]
+            th, prof, spans, circles, wraps = panels[col]
             for r, _ in limits:
                 ax.add_patch(Circle((0, 0), r, fill=False, **LIMIT))
             for ctr, r in circles:
@@ -221,8 +215,8 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                     ax.plot(*ctr, **SPRING_END)
             for a, b in spans:
                 ax.plot([a[0], b[0]], [a[1], b[1]], **CABLE)
-            if idler_wire is not None:
-                ax.plot(*idler_wire, **CABLE)
+            for wrap in wraps:
+                ax.plot(*wrap, **CABLE)
             for i, (x, y, wrapped, dep, anchor, bind) in enumerate(prof):
                 colour = PROFILE_COLOURS[i % len(PROFILE_COLOURS)]
                 ax.plot(x, y, color=colour, lw=0.9, alpha=0.55)
@@ -579,20 +573,31 @@ RUN_LABELS = {
 }
 #: Last part of a spec key (its index stripped) → (unit, factor from SI).
 SPEC_UNITS = {
-    "radius": ("mm", MM), "offset": ("mm", MM), "rho_min": ("mm", MM), "rho_max": ("mm", MM),
+    "rho_min": ("mm", MM), "rho_max": ("mm", MM),
     "travel": ("mm", MM), "preextension": ("mm", MM), "free_length": ("mm", MM),
-    "min_curvature_radius": ("mm", MM), "min_moment_arm": ("mm", MM), "min_free_span": ("mm", MM),
-    "initial_radius": ("mm", MM), "spring_end": ("mm", MM), "idler_radius": ("mm", MM),
-    "cable_length": ("mm", MM), "slider_range": ("mm", MM), "rolling_radius": ("mm", MM),
+    "min_curvature_radius": ("mm", MM),
     "length": ("mm", MM), "lengths": ("mm", MM), "com": ("mm", MM), "upper": ("mm", MM),
     "crank": ("mm", MM), "fore": ("mm", MM), "rate": ("N/mm", 1 / MM), "preload": ("N", 1.0),
-    "mass": ("kg", 1.0), "masses": ("kg", 1.0), "g": ("m/s²", 1.0), "mu": ("-", 1.0),
-    "theta_range_deg": ("deg", 1.0), "anchor_angle": ("deg", 180 / np.pi),
-    "anchor_angles": ("deg", 180 / np.pi), "reference_angle": ("deg", 180 / np.pi),
-    "slider_angle": ("deg", 180 / np.pi), "phase": ("deg", 180 / np.pi),
+    "mass": ("kg", 1.0), "masses": ("kg", 1.0), "g": ("m/s²", 1.0),
+    "theta_range_deg": ("deg", 1.0), "reference_angle": ("deg", 180 / np.pi), "phase": ("deg", 180 / np.pi),
     "tracking_weight": ("-", 1.0), "sensitivity_weights": ("-", 1.0), "order": ("", 1.0),
     "grid": ("", 1.0), "convexity_epsilon": ("-", 1.0), "limit_margin": ("-", 1.0),
 }
+#: How a mechanism's spec key in SI (:attr:`cadcam.mechanisms.base.Mechanism.spec_units`) is shown.
+SHOWN_AS = {"m": ("mm", MM), "rad": ("deg", 180 / np.pi), "N/m": ("N/mm", 1 / MM), "N": ("N", 1.0),
+            "-": ("-", 1.0)}
+
+
+def spec_unit(key: str) -> tuple[str, float]:
+    """The unit a spec key is shown in and the factor from SI: the problem's own keys, then the
+    keys the registered mechanisms declare; ("", 1) for a key no one declares."""
+    if key in SPEC_UNITS:
+        return SPEC_UNITS[key]
+    for kind in mechanism_kinds():
+        unit = mechanism_class(kind).spec_units.get(key)
+        if unit is not None:
+            return SHOWN_AS[unit]
+    return "", 1.0
 
 
 def _unit(unit: str) -> str:
@@ -621,7 +626,7 @@ def axis_label(key: str) -> tuple[str, float]:
         parts = key.split(".")
         leaf = re.sub(r"(_\d+)+$", "", parts[-1])
         suffix = parts[-1][len(leaf):]
-        unit, factor = SPEC_UNITS.get(leaf, ("", 1.0))
+        unit, factor = spec_unit(leaf)
         words = " ".join(p.replace("_", " ") for p in parts[:-1] + [leaf])
         if suffix:
             words += " " + " ".join(suffix.strip("_").split("_"))

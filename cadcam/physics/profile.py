@@ -122,3 +122,41 @@ def profile_function(basis: Basis) -> ca.Function:
         "profile", [phi, c], [rho, drho, ddrho, convexity_margin(rho, drho, ddrho)],
         ["phi", "c"], ["rho", "drho", "ddrho", "convexity"],
     )
+
+
+def fit_profile(basis: Basis, phi, rho) -> np.ndarray:
+    """Least-squares coefficients of ``basis`` for polar samples ρ(φ) of a profile.
+
+    The design matrix is built column by column from the basis's own evaluation
+    (:func:`profile_function`), so any basis works.
+
+    Parameters
+    ----------
+    basis : Basis
+    phi : array_like
+        Polar angles [rad] measured as the basis expects (from the anchor).
+    rho : array_like
+        Polar radii [m].
+
+    Returns
+    -------
+    ndarray
+        Coefficients [m] in the basis's order.
+
+    Raises
+    ------
+    ValueError
+        For mismatched samples or fewer samples than coefficients.
+    """
+    phi = np.asarray(phi, dtype=float)
+    if phi.ndim != 1 or phi.size == 0 or not np.all(np.isfinite(phi)):
+        raise ValueError("phi must be a non-empty 1-D array of finite angles [rad]")
+    rho = np.asarray(rho, dtype=float)
+    if rho.shape != phi.shape:
+        raise ValueError("phi and rho must have the same shape")
+    if phi.size < basis.size:
+        raise ValueError(f"need at least {basis.size} samples to fit {basis.size} coefficients")
+    evaluate = profile_function(basis).map(phi.size)
+    matrix = np.column_stack([np.asarray(evaluate(phi[None, :], unit)[0]).ravel()
+                              for unit in np.eye(basis.size)])
+    return np.linalg.lstsq(matrix, rho, rcond=None)[0]

@@ -235,9 +235,10 @@ class Transcription:
                     rc = p.add(f"rc{pk}", 1)
                     constrain(((rho**2 + drho**2) ** 1.5 - rc * conv).T / L**3,
                               lambda pr: (0.0, np.inf))
-            if mech.margin_names:  # the mechanism's own per-pose limits (moment arm, span…)
+            if mech.limits:  # the mechanism's own per-pose limits (moment arm, span…)
                 marg = margin_function(structure).map(n)(theta.T, Z, c, q, au)
-                constrain(ca.vec(marg.T) / L, lambda pr: (0.0, np.inf))
+                scale = ca.DM([lim.nlp_scale for lim in mech.limits])
+                constrain(ca.vec((marg / ca.repmat(scale, 1, n)).T), lambda pr: (0.0, np.inf))
             d[i] += [du[r, :].T for r in range(du.shape[0])]
             arm[i] += [au[r, :].T for r in range(au.shape[0])]
         w = [trapezoid_weights_sx(p[f"theta{i}"]).T for i in range(m)]

@@ -19,22 +19,12 @@ from __future__ import annotations
 
 import math
 import numbers
-import re
+
+from ..mechanisms.base import LIMIT_UNITS
 
 #: Relative tolerance: a margin ≤ RTOL × the limit's scale binds.
 RTOL = 1e-3
 MM = 1e3
-
-#: A mechanism's margin names (``Mechanism.margin_names``, a trailing ``_k`` numbering the
-#: profile) → (what it limits, the mechanism's field holding the limit [m], +1 for a lower
-#: limit (value = limit + margin), −1 for an upper one (value = limit − margin)).
-MECHANISM_LIMITS = {
-    "moment_arm": ("moment arm", "min_moment_arm", +1),
-    "free_span": ("free cable span", "min_free_span", +1),
-    "slider_min": ("idler position", ("slider_range", 0), +1),
-    "slider_max": ("idler position", ("slider_range", 1), -1),
-}
-
 
 def _finite(v) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
@@ -45,12 +35,6 @@ def limit_state(margin: float, scale: float, rtol: float = RTOL) -> str | None:
     if margin > rtol * scale:
         return None
     return "at" if margin >= -rtol * scale else "beyond"
-
-
-def _limit(mech, field):
-    if isinstance(field, tuple):
-        return float(getattr(mech, field[0])[field[1]])
-    return float(getattr(mech, field, 0.0))
 
 
 def binding_constraints(metrics: dict, problem, rtol: float = RTOL) -> list[str]:
@@ -118,21 +102,27 @@ def binding_constraints(metrics: dict, problem, rtol: float = RTOL) -> list[str]
                            f"of {MM * p.min_curvature_radius:.2f} mm")
     own = metrics.get("margins", {}).get("mechanism", [])
     for mech, margins in zip(problem.mechanisms, own):
-        size = min(p.rho_min for p in mech.profiles) if mech.profiles else 0.0
-        for name, margin in margins.items():
-            if not _finite(margin):
-                continue
-            base = re.sub(r"_(\d+)$", "", name)
-            which = name[len(base) + 1:]
-            what, field, sense = MECHANISM_LIMITS.get(base, (base.replace("_", " "), f"min_{base}", +1))
-            limit = _limit(mech, field)
-            if not math.isfinite(limit):  # no limit (an unbounded slider)
-                continue
-            state = limit_state(margin, max(abs(limit), size), rtol)
-            if not state:
-                continue
-            value = limit + sense * margin
-            side = "lower" if sense > 0 else "upper"
-            label = f"{mech.name} {what}" + (f" (profile {which})" if which else "")
-            out.append(f"{label} {state} its {side} limit: {MM * value:.2f} mm of {MM * limit:.2f} mm")
+        out += _mechanism_sentences(mech, margins, rtol)
+    return out
+
+
+def _mechanism_sentences(mech, margins: dict, rtol: float) -> list[str]:
+    """The binding sentences of one mechanism's own limits (:attr:`Mechanism.limits`)."""
+    out = []
+    size = min(p.rho_min for p in mech.profiles) if mech.profiles else 0.0
+    for lim in mech.limits:
+        margin = margins.get(lim.name)
+        limit = lim.value(mech)
+        if not _finite(margin) or not math.isfinite(limit):  # not computed, or no limit (an unbounded slider)
+            continue
+        state = limit_state(margin, max(abs(limit), size if lim.unit == "m" else 0.0), rtol)
+        if not state:
+            continue
+        factor, unit, _ = LIMIT_UNITS[lim.unit]
+        value = limit + lim.sense * margin
+        side = "lower" if lim.sense > 0 else "upper"
+        label = f"{mech.name} {lim.what}" + (f" (profile {lim.profile})" if lim.profile else "")
+        space = " " if unit.isalpha() else ""
+        out.append(f"{label} {state} its {side} limit: {factor * value:.2f}{space}{unit} of "
+                   f"{factor * limit:.2f}{space}{unit}")
     return out

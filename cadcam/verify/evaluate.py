@@ -38,6 +38,8 @@ from ..problem import Problem, cap
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
 LENGTH_TOL = 1e-6
+#: Tolerance of a mechanism's own limit on the re-check, by its unit [m or rad].
+LIMIT_TOL = {"m": LENGTH_TOL, "rad": 1e-6}
 RESIDUAL_TOL = 1e-9
 BRANCH_TOL = 1e-6
 #: Gauss–Legendre order of the evaluation path (the NLP uses problem.options.quadrature_order).
@@ -60,7 +62,7 @@ class UnitSamples:
 
     ``z`` (unknowns × n) are the departure unknowns, ``z_ref`` those at the reference pose,
     ``d`` and ``arm`` (ports × n) the port displacements [m] and moment arms [m] of the
-    problem's torque model, ``margins`` (the mechanism's margin_names × n) its per-pose limits
+    problem's torque model, ``margins`` (the mechanism's limits × n) its per-pose limits
     [m], ≥ 0 when met.
     """
 
@@ -588,7 +590,7 @@ def _refine_min(local, c, phi, values, out_index, sign=1.0):
 
 
 def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarray,
-                      order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature",
+                      order: int = EVAL_QUADRATURE_ORDER, integrals: str = "quadrature",
                       profile: bool = True, seed=None) -> tuple[UnitSamples, list[ProfileSamples]]:
     """Solve mechanism ``u``'s departure with the rootfinder at ``theta`` and evaluate its port
     quantities (and, with ``profile``, scan ρ and the convexity margin of its profiles).
@@ -610,7 +612,7 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     wrapped = [np.asarray(length_function(b, order).map(n)(z[k, 0], z[k, 1:], ck)).ravel()
                for k, (b, ck) in enumerate(zip(bases, pieces))]
     wound = np.asarray(wound_lengths(bases, z[:, 0], c)).ravel()[:, None] + np.vstack(wrapped)
-    ports = port_function(structure, problem.torque_model, order, wire_arm).map(n)
+    ports = port_function(structure, problem.torque_model, order, integrals).map(n)
     d, arm, _, branch = (np.asarray(v) for v in ports(theta, z[:, 1:], z[:, 0], np.vstack(wrapped),
                                                       wound, c, q))
     margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
@@ -631,11 +633,11 @@ def start_samples(problem: Problem, design: Design, grid: int, order: int) -> li
     """Per-mechanism samples of ``design`` on a ``grid``-angle grid with quadrature ``order``, for
     :meth:`cadcam.solve.transcription.Transcription.initial_guess`: departure by the rootfinder,
     port quantities in closed form."""
-    return evaluate(problem, design, grid=grid, order=order, wire_arm="closed-form", profile=False).units
+    return evaluate(problem, design, grid=grid, order=order, integrals="closed-form", profile=False).units
 
 
 def evaluate(problem: Problem, design: Design, grid: int | None = None,
-             order: int = EVAL_QUADRATURE_ORDER, wire_arm: str = "quadrature",
+             order: int = EVAL_QUADRATURE_ORDER, integrals: str = "quadrature",
              profile: bool = True, seeds=None) -> Evaluation:
     """Evaluate ``design`` on a uniform grid of ``grid`` angles per joint (default: the
     problem's), under the problem's torque model.
@@ -655,7 +657,7 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     units, profiles = [], []
     for u, mech in enumerate(problem.mechanisms):
         unit, profs = mechanism_samples(problem, design, u, problem.joints[mech.joint].grid(n),
-                                        order, wire_arm, profile, None if seeds is None else seeds[u])
+                                        order, integrals, profile, None if seeds is None else seeds[u])
         units.append(unit)
         profiles += profs
     tensor = TensorGrid(problem, design.preextension, [j.grid(n) for j in problem.joints], units)
@@ -784,8 +786,8 @@ def _metrics(ev: Evaluation) -> tuple[dict, list]:
              "curvature_radius": "radius of curvature below its minimum"}
     violations = []
     for mech, own in zip(p.mechanisms, margins["mechanism"]):
-        violations += [f"{name.replace('_', ' ')} below its limit: {mech.name} (margin {v:.3g})"
-                       for name, v in own.items() if not v >= -LENGTH_TOL]
+        violations += [f"{lim.name.replace('_', ' ')} below its limit: {mech.name} (margin {own[lim.name]:.3g})"
+                       for lim in mech.limits if not own[lim.name] >= -LIMIT_TOL[lim.unit]]
     for key, vals in margins.items():
         if key == "mechanism":
             continue

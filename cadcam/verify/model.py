@@ -49,7 +49,7 @@ def _mechanism_inputs(problem: Problem, bases: list[Basis], c):
     return out
 
 
-def _model(problem: Problem, bases: list[Basis], sym, order: int, wire_arm: str, solve=None):
+def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str, solve=None):
     """Symbols (theta, c, k, x0, F0, z), residuals R(z), the unknowns at θ, and (tau, x).
 
     ``z`` stacks [z(θ), z(θ_ref)] per mechanism. With ``solve`` given (structure → solver),
@@ -74,7 +74,7 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, wire_arm: str,
         wrapped = ca.vertcat(*[length_function(b, order)(zr[i], zu[i], ci)  # Johnston2023 Eq. 10
                                for i, (b, ci) in enumerate(zip(ub, split_coefficients(ub, cu)))])
         wound = wound_lengths(ub, zu, cu)
-        d, arm, _, _ = port_function(structure, problem.torque_model, order, wire_arm)(
+        d, arm, _, _ = port_function(structure, problem.torque_model, order, integrals)(
             th, zu, zr, wrapped, wound, cu, q)
         D.append(d)
         A.append(arm)
@@ -84,34 +84,34 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, wire_arm: str,
 
 
 def torque_function(problem: Problem, bases: list[Basis], order: int = 48,
-                    tangency: str = "rootfinder", wire_arm: str = "quadrature") -> ca.Function:
+                    tangency: str = "rootfinder", integrals: str = "quadrature") -> ca.Function:
     """Build the torque model for designs in ``bases`` (one per profile).
 
     Uses the problem's mechanisms, torque model and spring network; ``order`` is the
     Gauss–Legendre order of the wrapped-length (and force-model friction) integrals over the
     whole wrap; ``tangency`` is ``rootfinder`` (MX, implicit-function derivatives) or
     ``newton`` (:data:`NEWTON_STEPS` unrolled steps, SX, code-generable; differentiate it with
-    :func:`torque_jacobian_function`); ``wire_arm`` as in
+    :func:`torque_jacobian_function`); ``integrals`` as in
     :func:`cadcam.mechanisms.base.port_function`.
     """
     if tangency == "rootfinder":
         sym, solve = ca.MX.sym, _rootfinder
     else:
         sym, solve = ca.SX.sym, lambda s: newton_function(s, NEWTON_STEPS)
-    (theta, c, k, x0, F0, _), _, Z, tau, x = _model(problem, bases, sym, order, wire_arm, solve)
+    (theta, c, k, x0, F0, _), _, Z, tau, x = _model(problem, bases, sym, order, integrals, solve)
     return ca.Function("torque", [theta, c, k, x0, F0], [tau, x, Z], list(INPUTS),
                        ["tau", "x", "z"])
 
 
 def torque_jacobian_function(problem: Problem, bases: list[Basis], order: int = 48,
-                             wire_arm: str = "quadrature") -> ca.Function:
+                             integrals: str = "quadrature") -> ca.Function:
     """Jacobians of the Newton torque model by the implicit function theorem (SX).
 
     ``torque_jacobian(theta, c, k, x0, F0)`` gives ∂(tau, x) with respect to every input and
     ∂z with respect to (theta, c), named ``d<out>_d<in>``: at the departure solution z(p),
     dz/dp = −R_z⁻¹ R_p and d·/dp = ∂·/∂p + ∂·/∂z dz/dp, exact when R(z) = 0.
     """
-    args, R, _, tau, x = _model(problem, bases, ca.SX.sym, order, wire_arm)
+    args, R, _, tau, x = _model(problem, bases, ca.SX.sym, order, integrals)
     *inputs, z = args
     Rz_inv_Rp = {name: ca.solve(ca.jacobian(R, z), ca.jacobian(R, p)) for name, p in zip(INPUTS, inputs)}
     # the unknowns at θ (not those at the reference angle) of each mechanism

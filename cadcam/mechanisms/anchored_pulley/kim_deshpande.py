@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...physics.profile import Basis, profile_function
 from ...physics.quadrature import gauss_legendre
 
 #: Gauss–Legendre points per sub-interval and the longest sub-interval [rad] of the work
@@ -375,39 +374,3 @@ def closed_form(tau, theta, theta0: float, k: float, u0: float, ell: float, F0: 
         state=state, dr_m=dr, d2r_m=d2r, envelope=env,
         curvature_zeros=_sign_changes(lambda x: solve(x)[3].dnu, lo, hi, search_points),
         nonregular_points=_sign_changes(lambda x: solve(x)[3].regularity, lo, hi, search_points))
-
-
-def fit_profile(basis: Basis, phi, rho) -> np.ndarray:
-    """Least-squares coefficients of ``basis`` for polar samples ρ(φ) of a profile.
-
-    The design matrix is built column by column from the basis's own evaluation
-    (:func:`cadcam.physics.profile.profile_function`), so any basis works.
-
-    Parameters
-    ----------
-    basis : Basis
-    phi : array_like
-        Polar angles [rad] measured as the basis expects (from the anchor).
-    rho : array_like
-        Polar radii [m].
-
-    Returns
-    -------
-    ndarray
-        Coefficients [m] in the basis's order.
-
-    Raises
-    ------
-    ValueError
-        For mismatched samples or fewer samples than coefficients.
-    """
-    phi = _angles(phi)
-    rho = np.asarray(rho, dtype=float)
-    if rho.shape != phi.shape:
-        raise ValueError("phi and rho must have the same shape")
-    if phi.size < basis.size:
-        raise ValueError(f"need at least {basis.size} samples to fit {basis.size} coefficients")
-    evaluate = profile_function(basis).map(phi.size)
-    matrix = np.column_stack([np.asarray(evaluate(phi[None, :], unit)[0]).ravel()
-                              for unit in np.eye(basis.size)])
-    return np.linalg.lstsq(matrix, rho, rcond=None)[0]

@@ -39,7 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ..base import Mechanism, register
+from ..base import Limit, Mechanism, register
 
 #: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
 GUESS_SWEEPS = 6
@@ -88,6 +88,7 @@ class AnchoredPulley(Mechanism):
 
     kind = "anchored_pulley"
     citation = "Ludovico2021"
+    spec_units = {"spring_end": "m", "anchor_angle": "rad", "reference_angle": "rad", "min_moment_arm": "m", "min_free_span": "m", "initial_radius": "m"}
     ports = ("cable",)
     unknowns = ("alpha",)
     unknown_units = ("rad",)
@@ -95,7 +96,8 @@ class AnchoredPulley(Mechanism):
     parameter_names = ("ell", "chi0", "sigma", "theta_ref", "min_moment_arm", "min_free_span")
     unknown_bounds = ((0.0, np.inf),)  # the cable never leaves before its anchor
     force_models = ("force",)
-    margin_names = ("moment_arm", "free_span")
+    limits = (Limit("moment_arm", "moment arm", "min_moment_arm"),
+              Limit("free_span", "free cable span", "min_free_span"))
 
     # -- derived numbers -------------------------------------------------------------------------
     def citations(self) -> tuple[str, ...]:
@@ -162,7 +164,7 @@ class AnchoredPulley(Mechanism):
         return (px * ty - py * tx) / ca.sqrt(tx**2 + ty**2)
 
     @classmethod
-    def force_arms(cls, bases, model, theta, z, c, q, order, wire_arm):
+    def force_arms(cls, bases, model, theta, z, c, q, order, integrals):
         """σ·r_m: τ = F r_m (Ludovico2021 Eq. 1, Endo2010 Eq. 1–2) with the spring's sense."""
         return q[2] * cls.moment_arm(bases, theta, z, c, q)
 

@@ -27,8 +27,7 @@ import numpy as np
 
 from ..base import residual_function, split_coefficients, wound_lengths
 from .model import DifferentialPulley
-from ...physics.profile import profile_function
-from ..anchored_pulley.kim_deshpande import fit_profile
+from ...physics.profile import fit_profile, profile_function
 
 #: Wrap [rad] left between the anchor and the least-wound departure point of the start design.
 ANCHOR_WRAP = np.radians(0.5)

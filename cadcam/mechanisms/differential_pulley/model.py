@@ -44,7 +44,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ..base import Mechanism, register, split_coefficients
+from ..base import DesignMethod, Limit, Mechanism, register, split_coefficients
 
 WINDING = {"ccw": 1.0, "cw": -1.0}
 GROOVES = ("flat", "helical")
@@ -93,6 +93,7 @@ class DifferentialPulley(Mechanism):
 
     kind = "differential_pulley"
     citation = "Fedorov2018"
+    spec_units = {"slider_angle": "rad", "idler_radius": "m", "anchor_angles": "rad", "cable_length": "m", "reference_angle": "rad", "slider_range": "m", "min_free_span": "m", "rolling_radius": "m"}
     n_profiles: ClassVar[int] = 2
     closure_rows: ClassVar[int] = 1
     outline_closure: ClassVar[str] = "chord"  # a wrap of nearly a turn leaves no room to round
@@ -104,7 +105,13 @@ class DifferentialPulley(Mechanism):
     parameter_names = ("chi0_1", "chi0_2", "sigma_1", "sigma_2", "idler_radius", "cable_length",
                        "theta_ref", "slider_min", "slider_max", "min_free_span", "wrap_max",
                        "slider_start")
-    margin_names = ("free_span_1", "free_span_2", "slider_min", "slider_max")
+    methods = (DesignMethod("envelope", "Fedorov2018 envelope synthesis (no NLP)",
+                            "differential pairs for their output laws only",
+                            'kind = "differential_pulley" and a [mechanisms.output_target]'),)
+    limits = (Limit("free_span_1", "free cable span", "min_free_span", profile=1),
+              Limit("free_span_2", "free cable span", "min_free_span", profile=2),
+              Limit("slider_min", "idler position", "slider_range[0]"),
+              Limit("slider_max", "idler position", "slider_range[1]", sense=-1))
 
     # -- derived numbers -------------------------------------------------------------------------
     @property
@@ -142,6 +149,29 @@ class DifferentialPulley(Mechanism):
             return float(self.output_target.function(1, 0)(self.reference_angle))
         lo, hi = self.slider_range
         return 0.5 * (lo + hi) if np.isfinite(hi) else 2 * lo
+
+    def offers(self, method: str) -> bool:
+        """The envelope method shapes a pair for its output law: only with one."""
+        return super().offers(method) and self.output_target is not None
+
+    @classmethod
+    def prepare_start(cls, problem, design):
+        """Fedorov's envelope pulleys for every pair without a cable length
+        (:func:`.starts.envelope_start`), which also sets it."""
+        from .starts import envelope_start  # the start imports this model
+
+        return envelope_start(problem, design)
+
+    @classmethod
+    def summary_lines(cls, evaluation) -> list[str]:
+        """A cable robot's end-effector deviation from its path (:func:`.robot_path.robot_path`)."""
+        from .robot_path import robot_path  # the check imports this model's laws
+
+        path = robot_path(evaluation)
+        if path is None:
+            return []
+        return [f"  cable robot: the end effector deviates from its path by {1e3 * path.error.mean():.3g} mm "
+                f"on average, {1e3 * path.error.max():.3g} mm at most (re-check grid)"]
 
     # -- the symbolic model --------------------------------------------------------------------
     @classmethod
@@ -335,7 +365,7 @@ class DifferentialPulley(Mechanism):
                "min_free_span": self.min_free_span, "groove": self.groove}
         if self.rolling_radius:
             out["rolling_radius"] = self.rolling_radius
-        if self.cable_length:  # 0: not set yet (cadcam.optimize.differential_start sets it)
+        if self.cable_length:  # 0: not set yet (.starts.envelope_start sets it)
             out["cable_length"] = self.cable_length
         if self.output_target is not None:
             out["output_target"] = self.output_target.to_dict()

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cable_robot import end_effector
-from ...targets import SHARED_PATH_KEYS, robot_position, slider_cable
+from .output_laws import SHARED_PATH_KEYS, robot_position, slider_cable
 
 
 @dataclass

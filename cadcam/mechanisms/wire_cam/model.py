@@ -47,6 +47,8 @@ class WireCam(Mechanism):
 
     kind = "wire_cam"
     citation = "Johnston2023"
+    spec_units = {"radius": "m", "offset": "m", "mu": "-"}
+    shorthand = "cams"  # [[cams]]: a wire cam on its own joint (cadcam ≤ 0.1)
     ports = ("wire", "platform")
     unknowns = ("alpha", "gamma")
     unknown_units = ("rad", "rad")
@@ -87,12 +89,12 @@ class WireCam(Mechanism):
                           platform_displacement(qx, qx_ref))
 
     @classmethod
-    def force_arms(cls, bases, model, theta, z, c, q, order, wire_arm):
+    def force_arms(cls, bases, model, theta, z, c, q, order, integrals):
         """Johnston2023 Eq. 19–21: the wire term per unit tension (the departure moment, or
         Eq. 35 by quadrature of the capstan loads) and the unit-normal idler term."""
         rho, drho, _, _ = profile_function(bases[0])(z[0], c)
         arm_t, arm_n = departure_moments(theta, z[0], rho, drho)
-        if model == "force-as-printed" or wire_arm == "quadrature":
+        if model == "force-as-printed" or integrals == "quadrature":
             capstan = "as-printed" if model == "force-as-printed" else "corrected"
             arm_t = wire_torque_function(bases[0], capstan, order)(z[0], c, q[2])
         return ca.vertcat(arm_t, arm_n)
@@ -107,6 +109,14 @@ class WireCam(Mechanism):
         """The idler at one pose."""
         qx = float(_idler_x_function(self.bases)(theta, z, c, self.parameter_values()))
         return [(np.array([qx, self.idler_offset]), self.idler_radius)]
+
+    def wraps(self, theta, z, c):
+        """The wire on the idler, which it wraps from γ down to 0 (Johnston2023 Fig. 1)."""
+        (centre, r), = self.circles(theta, z, c)
+        if r <= 0:
+            return []
+        t = np.linspace(float(z[1]), 0.0, 60)
+        return [(centre[0] + r * np.cos(t), centre[1] + r * np.sin(t))]
 
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):

@@ -1,0 +1,46 @@
+"""The start of a differential pair for the design NLP: Fedorov's envelope pulleys
+(Fedorov2018 Sec. 2.2), which also fix the pair's cable length."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+
+from .fedorov_envelope import cable_length, differential_envelopes, fit_pulley
+from .model import DifferentialPulley
+
+
+def envelope_start(problem, design, samples: int = 2001):
+    """Fedorov's envelope pulleys (Fedorov2018 Sec. 2.2) as the start of every differential pair
+    without a ``cable_length``: shaped for its output law (or, without one, circles at its
+    start distance), transferring cable at its rolling radius
+    (:meth:`~cadcam.mechanisms.differential_pulley.model.DifferentialPulley.start_radius`).
+
+    Returns the problem with those pairs' anchor angles and cable lengths set from the start
+    (the NLP then keeps the cable length) and ``design`` with their profiles replaced.
+    """
+    mechanisms, coefs = list(problem.mechanisms), list(design.coefficients)
+    for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+        if not isinstance(mech, DifferentialPulley) or mech.cable_length > 0:
+            continue
+        theta = np.linspace(*problem.joints[mech.joint].theta_range, samples)
+        x, dx = _law(mech, theta)
+        mech, envs = differential_envelopes(mech, theta, x, dx, mech.start_radius(mech.profiles[0]))
+        fitted = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
+        k = int(np.argmin(np.abs(theta - mech.reference_angle)))
+        length = cable_length(mech, fitted, theta[k], x[k], [env.phi_polar[k] for env in envs])
+        mechanisms[u] = replace(mech, cable_length=length)
+        coefs[sl] = fitted
+    return (replace(problem, mechanisms=tuple(mechanisms)),
+            replace(design, coefficients=coefs))
+
+
+def _law(mech: DifferentialPulley, theta: np.ndarray):
+    """x(θ) [m] and dx/dθ [m/rad] of a pair's output law (constant without one)."""
+    if mech.output_target is None:
+        return np.full_like(theta, mech.slider_start()), np.zeros_like(theta)
+    t = ca.SX.sym("theta")
+    x = mech.output_target.expression([t], 0)
+    f = ca.Function("law", [t], [x, ca.jacobian(x, t)]).map(theta.size)
+    return tuple(np.asarray(v).ravel() for v in f(theta))
