@@ -32,11 +32,13 @@ import casadi as ca
 import numpy as np
 
 from cadcam.mechanisms.anchored_pulley.model import AnchoredPulley
-from cadcam.mechanisms.base import Mechanism, register
+from cadcam.mechanisms.base import Mechanism, Quantity, register
+
 
 def _canonical(q):
     """The anchored pulley's parameters (ℓ, χ₀, σ, θ_ref, no margins) of the anchor A = q."""
-    return ca.vertcat(ca.sqrt(q[0] ** 2 + q[1] ** 2), ca.atan2(q[1], q[0]), 1, 0, 0, 0)
+    a = ToyPulley.named_parameters(q)
+    return ca.vertcat(ca.sqrt(a.anchor_x ** 2 + a.anchor_y ** 2), ca.atan2(a.anchor_y, a.anchor_x), 1, 0, 0, 0)
 
 
 @register
@@ -52,10 +54,9 @@ class ToyPulley(Mechanism):
     #: one tag of cadcam.citations.PAPERS (a result lists it); Endo2010 is cited above only
     citation = "Ludovico2021"
     ports = ("cable",)
-    unknowns = ("alpha",)
-    unknown_units = ("rad",)
-    residual_units = ("",)  # angle between tangent and cable [rad]
-    parameter_names = ("anchor_x", "anchor_y")
+    parameters = (Quantity("anchor_x", "m", "the fixed point's x"), Quantity("anchor_y", "m", "the fixed point's y"))
+    per_angle = AnchoredPulley.per_angle
+    residual_rows = AnchoredPulley.residual_rows
 
     @classmethod
     def residual(cls, bases, theta, z, c, q):

@@ -128,6 +128,35 @@ class Limit:
 
 
 @dataclass(frozen=True)
+class Quantity:
+    """A named entry of a mechanism's parameter vector q, unknown vector z or residual R,
+    declared once with its unit and meaning (labels, manifests and docs read it).
+
+    ``unit`` is SI ("m", "rad", "m/rad", "N", "-"); a residual row in "m" is scaled to
+    millimetres in the NLP, one in "rad" or "-" is left as it is.
+    """
+
+    name: str
+    unit: str
+    description: str
+
+
+class Named:
+    """The entries of a symbolic vector by the names of their declarations:
+    ``Named(cls.parameters, q).idler_radius`` is ``q[0]`` for a wire cam."""
+
+    def __init__(self, quantities: tuple[Quantity, ...], vector):
+        self._index = {v.name: i for i, v in enumerate(quantities)}
+        self._vector = vector
+
+    def __getattr__(self, name: str):
+        try:
+            return self._vector[self._index[name]]
+        except KeyError:
+            raise AttributeError(f"no entry named {name!r}; declared: {', '.join(self._index)}") from None
+
+
+@dataclass(frozen=True)
 class Profile:
     """One designed profile ρ(φ) of a mechanism, with its radius and curvature limits [m]."""
 
@@ -154,10 +183,16 @@ class Mechanism:
     kind: ClassVar[str] = ""
     citation: ClassVar[str] = ""
     ports: ClassVar[tuple[str, ...]] = ()
+    #: The numbers q the symbolic model reads (:meth:`parameter_values` gives them, SI).
+    parameters: ClassVar[tuple[Quantity, ...]] = ()
+    #: The unknowns z solved at every angle (the first ones are the departure angles α_k).
+    per_angle: ClassVar[tuple[Quantity, ...]] = ()
+    #: The rows of R(θ, z) = 0 (:meth:`residual` stacked over :meth:`closure`).
+    residual_rows: ClassVar[tuple[Quantity, ...]] = ()
+    #: Names and units derived from the declarations above.
+    parameter_names: ClassVar[tuple[str, ...]] = ()
     unknowns: ClassVar[tuple[str, ...]] = ()
     unknown_units: ClassVar[tuple[str, ...]] = ()
-    #: Unit of each residual row: "m" rows are scaled to millimetres in the NLP, "" rows are
-    #: dimensionless.
     residual_units: ClassVar[tuple[str, ...]] = ()
     #: Bounds (lo, hi) of each unknown in the NLP; empty: unbounded.
     unknown_bounds: ClassVar[tuple[tuple[float, float], ...]] = ()
@@ -165,7 +200,6 @@ class Mechanism:
     limits: ClassVar[tuple[Limit, ...]] = ()
     #: Their names (derived from :attr:`limits`).
     margin_names: ClassVar[tuple[str, ...]] = ()
-    parameter_names: ClassVar[tuple[str, ...]] = ()
     force_models: ClassVar[tuple[str, ...]] = ()
     #: Joint angle [rad] at which the port displacements are zero.
     reference_angle: ClassVar[float] = 0.0
@@ -190,6 +224,20 @@ class Mechanism:
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         cls.margin_names = tuple(limit.name for limit in cls.limits)
+        cls.parameter_names = tuple(v.name for v in cls.parameters)
+        cls.unknowns = tuple(v.name for v in cls.per_angle)
+        cls.unknown_units = tuple(v.unit for v in cls.per_angle)
+        cls.residual_units = tuple(v.unit for v in cls.residual_rows)
+
+    @classmethod
+    def named_parameters(cls, q) -> Named:
+        """q's entries by name (:attr:`parameters`)."""
+        return Named(cls.parameters, q)
+
+    @classmethod
+    def named_unknowns(cls, z) -> Named:
+        """z's entries by name (:attr:`per_angle`)."""
+        return Named(cls.per_angle, z)
 
     # -- what a subclass provides ---------------------------------------------------------------
     def parameter_values(self) -> tuple[float, ...]:

@@ -752,16 +752,29 @@ def _streamed(tensor: TensorGrid) -> dict:
     return out
 
 
-def _metrics(ev: Evaluation) -> tuple[dict, list]:
-    """The metrics of :func:`evaluate` and, per joint, the grid indices of its worst point."""
+#: The re-check's generic margins (each ≥ 0 when met), declared once: what each belongs to
+#: (``springs``, ``mechanisms`` or ``profiles``), the tolerance a violation must pass [SI] and
+#: the words that name it. A mechanism's own margins are its :attr:`Mechanism.limits`.
+MARGINS = {
+    "travel": ("springs", LENGTH_TOL, "spring above its travel"),
+    "extension_lower": ("springs", LENGTH_TOL, "spring in compression"),
+    "convexity": ("profiles", 0.0, "profile not convex"),
+    "rho_min": ("profiles", LENGTH_TOL, "radius below rho_min"),
+    "rho_max": ("profiles", LENGTH_TOL, "radius above rho_max"),
+    "tangency": ("mechanisms", 0.0, "departure not solved"),
+    "branch": ("mechanisms", 0.0, "cable on the wrong departure branch"),
+    "preextension": ("springs", LENGTH_TOL, "negative pre-extension"),
+    "curvature_radius": ("profiles", LENGTH_TOL, "radius of curvature below its minimum"),
+}
+
+
+def _margins(ev: Evaluation, ext: np.ndarray) -> dict:
+    """Every margin of :data:`MARGINS` (per spring, profile or mechanism) and each mechanism's
+    own (its limits' smallest margins over the grid), given the springs' extension ranges
+    ``ext`` [m]."""
     p = ev.problem
-    grid = _streamed(ev.tensor)
-    sens = grid["sens"]
-    objective = float(sum(c.tracking_weight * grid["wsq"][i] + np.dot(c.sensitivity_weights, sens[i])
-                          for i, c in enumerate(p.joints)))
-    ext = np.array([ev.tensor.extension_range(j) for j in range(len(p.springs))]).reshape(-1, 2)
     travel = np.array([s.travel for s in p.springs])
-    margins = {
+    return {
         "travel": (travel - ext[:, 1]).tolist(),
         "extension_lower": ext[:, 0].tolist(),
         "convexity": [c.convexity_min for c in ev.profiles],
@@ -775,27 +788,31 @@ def _metrics(ev: Evaluation) -> tuple[dict, list]:
         "mechanism": [{name: float(row.min()) for name, row in zip(mech.margin_names, u.margins)}
                       for mech, u in zip(p.mechanisms, ev.units)],
     }
-    tol = {"travel": LENGTH_TOL, "extension_lower": LENGTH_TOL, "convexity": 0.0,
-           "rho_min": LENGTH_TOL, "rho_max": LENGTH_TOL, "tangency": 0.0, "branch": 0.0,
-           "preextension": LENGTH_TOL, "curvature_radius": LENGTH_TOL}
-    names = {"travel": "spring above its travel", "extension_lower": "spring in compression",
-             "convexity": "profile not convex", "rho_min": "radius below rho_min",
-             "rho_max": "radius above rho_max", "tangency": "departure not solved",
-             "branch": "cable on the wrong departure branch",
-             "preextension": "negative pre-extension",
-             "curvature_radius": "radius of curvature below its minimum"}
+
+
+def _violations(p: Problem, margins: dict) -> list[str]:
+    """One line per margin below minus its tolerance (a NaN, not computable, counts as one)."""
     violations = []
     for mech, own in zip(p.mechanisms, margins["mechanism"]):
         violations += [f"{lim.name.replace('_', ' ')} below its limit: {mech.name} (margin {own[lim.name]:.3g})"
                        for lim in mech.limits if not own[lim.name] >= -LIMIT_TOL[lim.unit]]
-    for key, vals in margins.items():
-        if key == "mechanism":
-            continue
-        owner = (p.springs if key in ("travel", "extension_lower", "preextension")
-                 else p.mechanisms if key in ("tangency", "branch") else p.profiles)
-        for item, v in zip(owner, vals):
-            if not v >= -tol[key]:  # NaN (not computable) counts as violated
-                violations.append(f"{names[key]}: {item.name} (margin {v:.3g})")
+    for key, (owners, tol, words) in MARGINS.items():
+        for item, v in zip(getattr(p, owners), margins[key]):
+            if not v >= -tol:
+                violations.append(f"{words}: {item.name} (margin {v:.3g})")
+    return violations
+
+
+def _metrics(ev: Evaluation) -> tuple[dict, list]:
+    """The metrics of :func:`evaluate` and, per joint, the grid indices of its worst point."""
+    p = ev.problem
+    grid = _streamed(ev.tensor)
+    sens = grid["sens"]
+    objective = float(sum(c.tracking_weight * grid["wsq"][i] + np.dot(c.sensitivity_weights, sens[i])
+                          for i, c in enumerate(p.joints)))
+    ext = np.array([ev.tensor.extension_range(j) for j in range(len(p.springs))]).reshape(-1, 2)
+    margins = _margins(ev, ext)
+    violations = _violations(p, margins)
     out_err = [output_error(mech, u) for mech, u in zip(p.mechanisms, ev.units)]
     return {
         "grid": ev.grid,

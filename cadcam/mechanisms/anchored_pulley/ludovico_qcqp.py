@@ -80,6 +80,46 @@ def design_matrices(theta: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarr
     return power, first, second
 
 
+def _check_inputs(theta_i, theta_f, theta0, k, u0, L, order, n, eps) -> None:
+    """ValueError naming the first argument of :func:`solve_qcqp` out of its range."""
+    if not theta_f > theta_i:
+        raise ValueError(f"need theta_i < theta_f, got {theta_i} and {theta_f}")
+    if not np.isclose(theta0, theta_i, rtol=0, atol=1e-12) and not np.isclose(
+            theta0, theta_f, rtol=0, atol=1e-12):
+        raise ValueError(f"theta0 must be theta_i or theta_f, got {theta0}")
+    if not (k > 0 and u0 > 0 and L > 0):
+        raise ValueError(f"k, u0 and L must be positive, got {k}, {u0} and {L}")
+    if order < 2 or n < order + 1:
+        raise ValueError(f"need order >= 2 and n > order, got order {order} and n {n}")
+    if not 0 <= eps < L / 2:
+        raise ValueError(f"eps must be in [0, L/2), got {eps}")
+
+
+def _spring_force_term(tau, theta: np.ndarray, theta0: float, k: float, u0: float):
+    """The target τ_p on the grid [N·m] and v = k·u(θ) [N], the spring force the energy
+    balance gives (Ludovico2021 Eq. 8: ½k(u² − u0²) = ∫τ dθ, by the paper's rectangle rule)."""
+    target = np.broadcast_to(np.asarray(tau(theta), dtype=float), theta.shape)
+    if np.any(target < 0):
+        raise ValueError("tau must be >= 0 on the grid: a pulley gives a torque magnitude")
+    d_alpha = (theta[-1] - theta[0]) / theta.size  # as printed under Eq. 7
+    from_start = np.isclose(theta0, theta[0], rtol=0, atol=1e-12)
+    work = np.cumsum(target) if from_start else np.cumsum(target[::-1])[::-1]
+    v = np.sqrt(2 * k * work * d_alpha + k**2 * u0**2)  # Ludovico2021 Eq. 8
+    return target, v
+
+
+def _qcqp(cp, beta, matrices, v, target, L: float, eps: float):
+    """Ludovico2021's QCQP (Eq. 36) in ``beta``: the least-squares torque error with the arm's
+    bounds, its curve inside the circle of radius L and the pulley's convexity."""
+    H, Hd, Hdd = matrices
+    arm, slope = H @ beta, Hd @ beta
+    return cp.Problem(
+        cp.Minimize(cp.sum_squares(cp.multiply(v, arm) - target)),  # Ludovico2021 Eq. 10
+        [arm >= eps, arm <= L - eps,  # Ludovico2021 Eq. 11–12
+         cp.norm(cp.vstack([arm, slope]), 2, axis=0) <= L,  # Ludovico2021 Eq. 17 (RHS L², Eq. 15)
+         (Hdd + H / 4) @ beta >= eps])  # Ludovico2021 Eq. 35
+
+
 def solve_qcqp(tau, theta_i: float, theta_f: float, theta0: float, k: float, u0: float,
                L: float, order: int = 5, n: int = 250, eps: float = 1e-6,
                solver: str | None = None) -> QCQPResult:
@@ -119,39 +159,18 @@ def solve_qcqp(tau, theta_i: float, theta_f: float, theta0: float, k: float, u0:
     ImportError
         If cvxpy is not installed.
     """
-    if not theta_f > theta_i:
-        raise ValueError(f"need theta_i < theta_f, got {theta_i} and {theta_f}")
-    if not np.isclose(theta0, theta_i, rtol=0, atol=1e-12) and not np.isclose(
-            theta0, theta_f, rtol=0, atol=1e-12):
-        raise ValueError(f"theta0 must be theta_i or theta_f, got {theta0}")
-    if not (k > 0 and u0 > 0 and L > 0):
-        raise ValueError(f"k, u0 and L must be positive, got {k}, {u0} and {L}")
-    if order < 2 or n < order + 1:
-        raise ValueError(f"need order >= 2 and n > order, got order {order} and n {n}")
-    if not 0 <= eps < L / 2:
-        raise ValueError(f"eps must be in [0, L/2), got {eps}")
+    _check_inputs(theta_i, theta_f, theta0, k, u0, L, order, n, eps)
     try:
         import cvxpy as cp
     except ImportError:
         raise ImportError("solve_qcqp needs cvxpy: pip install 'cadcam[convex]'") from None
 
     theta = np.linspace(theta_i, theta_f, n)
-    target = np.broadcast_to(np.asarray(tau(theta), dtype=float), theta.shape)
-    if np.any(target < 0):
-        raise ValueError("tau must be >= 0 on the grid: a pulley gives a torque magnitude")
-    d_alpha = (theta_f - theta_i) / n  # as printed under Eq. 7
-    from_start = np.isclose(theta0, theta_i, rtol=0, atol=1e-12)
-    work = np.cumsum(target) if from_start else np.cumsum(target[::-1])[::-1]
-    v = np.sqrt(2 * k * work * d_alpha + k**2 * u0**2)  # Ludovico2021 Eq. 8
+    target, v = _spring_force_term(tau, theta, theta0, k, u0)
     H, Hd, Hdd = design_matrices(theta, order)
 
     beta = cp.Variable(order + 1)
-    arm, slope = H @ beta, Hd @ beta
-    problem = cp.Problem(
-        cp.Minimize(cp.sum_squares(cp.multiply(v, arm) - target)),  # Ludovico2021 Eq. 10
-        [arm >= eps, arm <= L - eps,  # Ludovico2021 Eq. 11–12
-         cp.norm(cp.vstack([arm, slope]), 2, axis=0) <= L,  # Ludovico2021 Eq. 17 (RHS L², Eq. 15)
-         (Hdd + H / 4) @ beta >= eps])  # Ludovico2021 Eq. 35
+    problem = _qcqp(cp, beta, (H, Hd, Hdd), v, target, L, eps)
     start = time.perf_counter()
     problem.solve(solver=solver)
     elapsed = time.perf_counter() - start

@@ -39,7 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ..base import Limit, Mechanism, register
+from ..base import Limit, Mechanism, Quantity, register
 
 #: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
 GUESS_SWEEPS = 6
@@ -52,12 +52,13 @@ WINDING = {"ccw": 1.0, "cw": -1.0}
 
 def _pose(bases, theta, alpha, c, q):
     """Canonical-frame departure point p(α), tangent t = dp/dφ and u = S(θ) − p [m]."""
+    q = AnchoredPulley.named_parameters(q)
     rho, drho, _, _ = profile_function(bases[0])(alpha, c)
     ca_, sa = ca.cos(alpha), ca.sin(alpha)
     px, py = rho * ca_, rho * sa
     tx, ty = drho * ca_ - rho * sa, drho * sa + rho * ca_  # dp/dφ (Johnston2023 Eq. 3)
-    chi = q[1] + q[2] * theta
-    return (px, py), (tx, ty), (q[0] * ca.cos(chi) - px, q[0] * ca.sin(chi) - py)
+    chi = q.chi0 + q.sigma * theta
+    return (px, py), (tx, ty), (q.ell * ca.cos(chi) - px, q.ell * ca.sin(chi) - py)
 
 
 @register
@@ -90,10 +91,14 @@ class AnchoredPulley(Mechanism):
     citation = "Ludovico2021"
     spec_units = {"spring_end": "m", "anchor_angle": "rad", "reference_angle": "rad", "min_moment_arm": "m", "min_free_span": "m", "initial_radius": "m"}
     ports = ("cable",)
-    unknowns = ("alpha",)
-    unknown_units = ("rad",)
-    residual_units = ("",)  # angle between tangent and cable [rad]
-    parameter_names = ("ell", "chi0", "sigma", "theta_ref", "min_moment_arm", "min_free_span")
+    parameters = (Quantity("ell", "m", "the distance ℓ from the joint to the spring end"),
+                  Quantity("chi0", "rad", "the spring end's canonical angle χ₀ at θ = 0"),
+                  Quantity("sigma", "-", "σ = ±1: the spring end turns by σθ around the pulley"),
+                  Quantity("theta_ref", "rad", "the joint angle where the spring has its pre-extension"),
+                  Quantity("min_moment_arm", "m", "the least moment arm allowed"),
+                  Quantity("min_free_span", "m", "the shortest free cable allowed"))
+    per_angle = (Quantity("alpha", "rad", "the departure angle α of the cable on the pulley"),)
+    residual_rows = (Quantity("tangency", "rad", "the angle from the profile's tangent to the cable"),)
     unknown_bounds = ((0.0, np.inf),)  # the cable never leaves before its anchor
     force_models = ("force",)
     limits = (Limit("moment_arm", "moment arm", "min_moment_arm"),
@@ -125,10 +130,11 @@ class AnchoredPulley(Mechanism):
     # -- the symbolic model --------------------------------------------------------------------
     @classmethod
     def residual(cls, bases, theta, z, c, q):
-        _, (tx, ty), (ux, uy) = _pose(bases, theta, z[0], c, q)
+        alpha = cls.named_unknowns(z).alpha
+        _, (tx, ty), (ux, uy) = _pose(bases, theta, alpha, c, q)
         cross, dot = tx * uy - ty * ux, tx * ux + ty * uy
         cosine = dot / (ca.sqrt(tx**2 + ty**2) * ca.sqrt(ux**2 + uy**2))
-        return ca.atan2(cross, dot), ca.fmax(0, 1 - cosine) + ca.fmax(0, -z[0])
+        return ca.atan2(cross, dot), ca.fmax(0, 1 - cosine) + ca.fmax(0, -alpha)
 
     @classmethod
     def guess(cls, bases, theta, c, q):
@@ -138,46 +144,49 @@ class AnchoredPulley(Mechanism):
         far spring end's tangent touches), so that a profile is never evaluated far outside
         its wrapped range; exact for a circle."""
         prof = profile_function(bases[0])
-        chi = q[1] + q[2] * theta
+        q = cls.named_parameters(q)
+        chi = q.chi0 + q.sigma * theta
         alpha = chi - ca.pi / 2  # the tangent point for a far spring end: inside the wrap
         for _ in range(GUESS_SWEEPS):
             rho, drho, _, _ = prof(alpha, c)
             h = rho**2 / ca.sqrt(rho**2 + drho**2)
-            alpha = chi - ca.acos(ca.fmin(h / q[0], 1)) + ca.atan2(drho, rho)
+            alpha = chi - ca.acos(ca.fmin(h / q.ell, 1)) + ca.atan2(drho, rho)
         return alpha
 
     @classmethod
     def free_span(cls, bases, theta, z, c, q):
         """|S − p(α)| [m]: the straight cable from the departure point to the spring end."""
-        _, _, (ux, uy) = _pose(bases, theta, z[0], c, q)
+        _, _, (ux, uy) = _pose(bases, theta, cls.named_unknowns(z).alpha, c, q)
         return ca.sqrt(ux**2 + uy**2)
 
     @classmethod
     def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
         return (wrapped[0] + cls.free_span(bases, theta, z, c, q)
-                - cls.free_span(bases, q[3], z_ref, c, q))
+                - cls.free_span(bases, cls.named_parameters(q).theta_ref, z_ref, c, q))
 
     @classmethod
     def moment_arm(cls, bases, theta, z, c, q):
         """r_m = p × t̂ [m]: the distance from O to the cable line (Ludovico2021 Fig. 1)."""
-        (px, py), (tx, ty), _ = _pose(bases, theta, z[0], c, q)
+        (px, py), (tx, ty), _ = _pose(bases, theta, cls.named_unknowns(z).alpha, c, q)
         return (px * ty - py * tx) / ca.sqrt(tx**2 + ty**2)
 
     @classmethod
     def force_arms(cls, bases, model, theta, z, c, q, order, integrals):
         """σ·r_m: τ = F r_m (Ludovico2021 Eq. 1, Endo2010 Eq. 1–2) with the spring's sense."""
-        return q[2] * cls.moment_arm(bases, theta, z, c, q)
+        return cls.named_parameters(q).sigma * cls.moment_arm(bases, theta, z, c, q)
 
     @classmethod
     def margins(cls, bases, theta, z, c, q, arm):
         """σ·arm − r_min (moment arm) and |S − p| − span_min (free span) [m], ≥ 0 when met."""
-        return ca.vertcat(q[2] * arm[0] - q[4], cls.free_span(bases, theta, z, c, q) - q[5])
+        p = cls.named_parameters(q)
+        return ca.vertcat(p.sigma * arm[0] - p.min_moment_arm, cls.free_span(bases, theta, z, c, q) - p.min_free_span)
 
     @classmethod
     def wrap_end(cls, first, last, q):
         """The departure angle at the most-wound end of the range: the last grid angle when
         σ = +1, the first when σ = −1."""
-        return 0.5 * (1 + q[2]) * last + 0.5 * (1 - q[2]) * first
+        sigma = cls.named_parameters(q).sigma
+        return 0.5 * (1 + sigma) * last + 0.5 * (1 - sigma) * first
 
     @classmethod
     def profile_domain(cls, theta_range) -> tuple[float, float]:
@@ -204,8 +213,9 @@ class AnchoredPulley(Mechanism):
 
     def segments(self, theta, z, c):
         """The free cable from the departure point to the spring end."""
-        rho = float(profile_function(self.bases[0])(z[0], c)[0])
-        p = np.array(self.world_points(theta, z[0], rho), dtype=float)
+        alpha = self.named_unknowns(z).alpha
+        rho = float(profile_function(self.bases[0])(alpha, c)[0])
+        p = np.array(self.world_points(theta, alpha, rho), dtype=float)
         return [(p, self.spring_end(theta))]
 
     def start_radius(self, profile):

@@ -44,7 +44,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ..base import DesignMethod, Limit, Mechanism, register, split_coefficients
+from ..base import DesignMethod, Limit, Mechanism, Quantity, register, split_coefficients
 
 WINDING = {"ccw": 1.0, "cw": -1.0}
 GROOVES = ("flat", "helical")
@@ -98,13 +98,29 @@ class DifferentialPulley(Mechanism):
     closure_rows: ClassVar[int] = 1
     outline_closure: ClassVar[str] = "chord"  # a wrap of nearly a turn leaves no room to round
     ports = ("slider",)
-    unknowns = ("alpha1", "alpha2", "x", "rho1", "drho1", "rho2", "drho2")
-    unknown_units = ("rad", "rad", "m", "m", "m/rad", "m", "m/rad")
+    per_angle = (Quantity("alpha1", "rad", "the departure angle α₁ on profile 1"),
+                 Quantity("alpha2", "rad", "the departure angle α₂ on profile 2"),
+                 Quantity("x", "m", "the idler centre's distance from the shaft (the output)"),
+                 Quantity("rho1", "m", "ρ₁(α₁), lifted"), Quantity("drho1", "m/rad", "ρ₁′(α₁), lifted"),
+                 Quantity("rho2", "m", "ρ₂(α₂), lifted"), Quantity("drho2", "m/rad", "ρ₂′(α₂), lifted"))
     output = "x"
-    residual_units = ("", "", "m", "m", "m", "m", "m")
-    parameter_names = ("chi0_1", "chi0_2", "sigma_1", "sigma_2", "idler_radius", "cable_length",
-                       "theta_ref", "slider_min", "slider_max", "min_free_span", "wrap_max",
-                       "slider_start")
+    residual_rows = (Quantity("tangency1", "rad", "the cable tangent to profile 1 and the idler (Eq. 4a–5)"),
+                     Quantity("tangency2", "rad", "the cable tangent to profile 2 and the idler (Eq. 4a–5)"),
+                     Quantity("lift_rho1", "m", "ρ₁ at α₁"), Quantity("lift_drho1", "m", "ρ₁′ at α₁"),
+                     Quantity("lift_rho2", "m", "ρ₂ at α₂"), Quantity("lift_drho2", "m", "ρ₂′ at α₂"),
+                     Quantity("cable_length", "m", "the cable keeps its length (Eq. 6a–6c)"))
+    parameters = (Quantity("chi0_1", "rad", "χ₀₁: the idler's angle in profile 1's frame at θ = 0"),
+                  Quantity("chi0_2", "rad", "χ₀₂: the idler's angle in profile 2's frame at θ = 0"),
+                  Quantity("sigma_1", "-", "σ₁ = ±1: the idler turns by σ₁θ around profile 1"),
+                  Quantity("sigma_2", "-", "σ₂ = −σ₁"),
+                  Quantity("idler_radius", "m", "the idler's radius q"),
+                  Quantity("cable_length", "m", "the cable's length from anchor to anchor"),
+                  Quantity("theta_ref", "rad", "the joint angle where the slider port is zero"),
+                  Quantity("slider_min", "m", "the slider's least distance"),
+                  Quantity("slider_max", "m", "the slider's greatest distance (1 km for none)"),
+                  Quantity("min_free_span", "m", "the shortest free cable allowed"),
+                  Quantity("wrap_max", "rad", "the largest wrap: 2π for a flat groove"),
+                  Quantity("slider_start", "m", "the idler's distance in the closed-form guess"))
     methods = (DesignMethod("envelope", "Fedorov2018 envelope synthesis (no NLP)",
                             "differential pairs for their output laws only",
                             'kind = "differential_pulley" and a [mechanisms.output_target]'),)
@@ -175,26 +191,41 @@ class DifferentialPulley(Mechanism):
 
     # -- the symbolic model --------------------------------------------------------------------
     @classmethod
+    def _profile_unknowns(cls, z, k: int):
+        """(α_k, ρ_k, ρ′_k) of profile k (0-based) among the unknowns."""
+        u = cls.named_unknowns(z)
+        return getattr(u, f"alpha{k + 1}"), getattr(u, f"rho{k + 1}"), getattr(u, f"drho{k + 1}")
+
+    @classmethod
+    def _frame(cls, q, k: int):
+        """(χ₀ₖ, σ_k) of profile k (0-based)."""
+        p = cls.named_parameters(q)
+        return getattr(p, f"chi0_{k + 1}"), getattr(p, f"sigma_{k + 1}")
+
+    @classmethod
     def _halves(cls, theta, z, q):
         """Per profile: (p, t, u) in its frame, from the unknowns α_k, x, ρ_k and ρ′_k."""
-        return [_pose(theta, z[k], z[3 + 2 * k], z[4 + 2 * k], z[2], q[k], q[2 + k]) for k in range(2)]
+        x = cls.named_unknowns(z).x
+        return [_pose(theta, *cls._profile_unknowns(z, k), x, *cls._frame(q, k)) for k in range(2)]
 
-    @staticmethod
-    def _spans(halves, q):
+    @classmethod
+    def _spans(cls, halves, q):
         """√(|P − p|² − q²) of each half [m] (Fedorov2018 Eq. 6b)."""
-        return [ca.sqrt(ca.fmax(u[0]**2 + u[1]**2 - q[4]**2, 0)) for _, _, u in halves]
+        r = cls.named_parameters(q).idler_radius
+        return [ca.sqrt(ca.fmax(u[0]**2 + u[1]**2 - r**2, 0)) for _, _, u in halves]
 
     @classmethod
     def free_spans(cls, bases, theta, z, c, q):
         """The straight cable between each profile and the idler [m] (Fedorov2018 Eq. 6b)."""
         return cls._spans(cls._halves(theta, z, q), q)
 
-    @staticmethod
-    def _idler_wrap(halves, q):
+    @classmethod
+    def _idler_wrap(cls, halves, q):
         """ω: the angle the cable turns on the idler [rad], in (0, 2π) (Fedorov2018 Eq. 6c for
         both halves)."""
         (_, t1, _), (_, t2, _) = halves
-        delta = q[0] + q[1] - ca.atan2(t1[1], t1[0]) - ca.atan2(t2[1], t2[0])
+        p = cls.named_parameters(q)
+        delta = p.chi0_1 + p.chi0_2 - ca.atan2(t1[1], t1[0]) - ca.atan2(t2[1], t2[0])
         return ca.pi + ca.atan2(ca.sin(delta), ca.cos(delta))
 
     @classmethod
@@ -202,28 +233,33 @@ class DifferentialPulley(Mechanism):
         """The cable length from anchor to anchor at the pose [m]: both wound lengths
         ``wound``, both free spans and the idler arc (Fedorov2018 Eq. 6a–6c)."""
         halves = cls._halves(theta, z, q)
-        return wound[0] + wound[1] + sum(cls._spans(halves, q)) + q[4] * cls._idler_wrap(halves, q)
+        r = cls.named_parameters(q).idler_radius
+        return wound[0] + wound[1] + sum(cls._spans(halves, q)) + r * cls._idler_wrap(halves, q)
 
     @classmethod
     def residual(cls, bases, theta, z, c, q):
         """Tangency on both profiles (the angle from t to P − p minus asin(q/|P − p|)), and
         ρ_k, ρ′_k at α_k: lifted into unknowns so that the tangency and length rows see the
         coefficients only through them (a small Hessian in the NLP)."""
+        p = cls.named_parameters(q)
         rows, lifted, branch = [], [], 0
         for k, (_, (tx, ty), (ux, uy)) in enumerate(cls._halves(theta, z, q)):
+            alpha = cls._profile_unknowns(z, k)[0]
             dist = ca.sqrt(ux**2 + uy**2)
-            rows.append(ca.atan2(tx * uy - ty * ux, tx * ux + ty * uy) - ca.asin(ca.fmin(q[4] / dist, 1)))
+            rows.append(ca.atan2(tx * uy - ty * ux, tx * ux + ty * uy) - ca.asin(ca.fmin(p.idler_radius / dist, 1)))
             cosine = (tx * ux + ty * uy) / (ca.sqrt(tx**2 + ty**2) * dist)
-            branch += ca.fmax(0, -cosine) + ca.fmax(0, -z[k]) + ca.fmax(0, z[k] - q[10]) + ca.fmax(0, q[4] - dist)
+            branch = (branch + ca.fmax(0, -cosine) + ca.fmax(0, -alpha) + ca.fmax(0, alpha - p.wrap_max)
+                      + ca.fmax(0, p.idler_radius - dist))
         for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
-            rho, drho, _, _ = profile_function(b)(z[k], ck)
-            lifted += [z[3 + 2 * k] - rho, z[4 + 2 * k] - drho]
-        return ca.vertcat(*rows, *lifted), branch + ca.fmax(0, -z[2])
+            alpha, rho_k, drho_k = cls._profile_unknowns(z, k)
+            rho, drho, _, _ = profile_function(b)(alpha, ck)
+            lifted += [rho_k - rho, drho_k - drho]
+        return ca.vertcat(*rows, *lifted), branch + ca.fmax(0, -cls.named_unknowns(z).x)
 
     @classmethod
     def closure(cls, bases, theta, z, wound, c, q):
         """The cable keeps its length (Fedorov2018 Sec. 2.2, mode 2: constant l) [m]."""
-        return cls.cable_path(bases, theta, z, wound, c, q) - q[5]
+        return cls.cable_path(bases, theta, z, wound, c, q) - cls.named_parameters(q).cable_length
 
     @classmethod
     def guess(cls, bases, theta, c, q):
@@ -232,16 +268,18 @@ class DifferentialPulley(Mechanism):
         line at α lies at h = ρ²/√(ρ² + ρ′²) from the shaft and at q from the idler's centre on
         the shaft's side, so its normal makes acos((h − q)/x) with the idler's direction χ):
         exact for circles. χ = χ₀ + σθ is not reduced modulo 2π: χ₀ fixes the turn."""
-        x = q[11]
+        p = cls.named_parameters(q)
+        x = p.slider_start
         alphas = []
         for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
             prof = profile_function(b)
-            chi = q[k] + q[2 + k] * theta
+            chi0, sigma = cls._frame(q, k)
+            chi = chi0 + sigma * theta
             alpha = chi - ca.pi / 2
             for _ in range(GUESS_SWEEPS):
                 rho, drho, _, _ = prof(alpha, ck)
                 h = rho**2 / ca.sqrt(rho**2 + drho**2)
-                alpha = chi - ca.acos(ca.fmin((h - q[4]) / x, 1)) + ca.atan2(drho, rho)
+                alpha = chi - ca.acos(ca.fmin((h - p.idler_radius) / x, 1)) + ca.atan2(drho, rho)
             alphas.append(alpha)
         values = []
         for alpha, b, ck in zip(alphas, bases, split_coefficients(bases, c)):
@@ -250,13 +288,13 @@ class DifferentialPulley(Mechanism):
 
     @classmethod
     def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
-        return z[2] - z_ref[2]
+        return cls.named_unknowns(z).x - cls.named_unknowns(z_ref).x
 
     @classmethod
     def moment_arms(cls, bases, theta, z, c, q):
         """r sin α_F of each half: the distance from the shaft to its cable line [m]
         (Fedorov2018 Eq. 8), signed by σ_k."""
-        return [q[2 + k] * (px * ty - py * tx) / ca.sqrt(tx**2 + ty**2)
+        return [cls._frame(q, k)[1] * (px * ty - py * tx) / ca.sqrt(tx**2 + ty**2)
                 for k, ((px, py), (tx, ty), _) in enumerate(cls._halves(theta, z, q))]
 
     @classmethod
@@ -265,15 +303,16 @@ class DifferentialPulley(Mechanism):
         (Fedorov2018 Eq. 10: ∂l/∂x)."""
         out = []
         for k, (_, (tx, ty), _) in enumerate(cls._halves(theta, z, q)):
-            chi = q[k] + q[2 + k] * theta
+            chi0, sigma = cls._frame(q, k)
+            chi = chi0 + sigma * theta
             out.append((tx * ca.cos(chi) + ty * ca.sin(chi)) / ca.sqrt(tx**2 + ty**2))
         return out
 
     @classmethod
     def margins(cls, bases, theta, z, c, q, arm):
         """Free spans − min_free_span, x − x_min and x_max − x [m], ≥ 0 when met."""
-        spans = cls.free_spans(bases, theta, z, c, q)
-        return ca.vertcat(spans[0] - q[9], spans[1] - q[9], z[2] - q[7], q[8] - z[2])
+        spans, p, x = cls.free_spans(bases, theta, z, c, q), cls.named_parameters(q), cls.named_unknowns(z).x
+        return ca.vertcat(spans[0] - p.min_free_span, spans[1] - p.min_free_span, x - p.slider_min, p.slider_max - x)
 
     @classmethod
     def wrap_end(cls, first, last, q):
@@ -298,15 +337,16 @@ class DifferentialPulley(Mechanism):
 
     def circles(self, theta, z, c):
         """The idler at its pose."""
-        return [(self.idler_centre(z[2]), float(self.idler_radius))]
+        return [(self.idler_centre(self.named_unknowns(z).x), float(self.idler_radius))]
 
     def segments(self, theta, z, c):
         """Both free spans, from each departure point to its tangent point on the idler."""
         out = []
-        P = self.idler_centre(z[2])
+        P = self.idler_centre(self.named_unknowns(z).x)
         for k, (b, ck) in enumerate(zip(self.bases, split_coefficients(self.bases, np.asarray(c)))):
-            rho = float(profile_function(b)(z[k], ck)[0])
-            p = np.array(self.world_points(theta, z[k], rho, k), dtype=float)
+            alpha = self._profile_unknowns(z, k)[0]
+            rho = float(profile_function(b)(alpha, ck)[0])
+            p = np.array(self.world_points(theta, alpha, rho, k), dtype=float)
             d = P - p
             dist = np.hypot(*d)
             span = np.sqrt(max(dist**2 - self.idler_radius**2, 0.0))

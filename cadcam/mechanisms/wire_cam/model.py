@@ -19,7 +19,7 @@ import numpy as np
 from .capstan import wire_torque_function
 from .departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
 from ...physics.profile import profile_function
-from ..base import Mechanism, register
+from ..base import Mechanism, Quantity, register
 
 #: Circle-solution sweeps of the closed-form guess of α.
 GUESS_SWEEPS = 6
@@ -50,16 +50,21 @@ class WireCam(Mechanism):
     spec_units = {"radius": "m", "offset": "m", "mu": "-"}
     shorthand = "cams"  # [[cams]]: a wire cam on its own joint (cadcam ≤ 0.1)
     ports = ("wire", "platform")
-    unknowns = ("alpha", "gamma")
-    unknown_units = ("rad", "rad")
-    residual_units = ("", "m")  # Eq. 6 as a cross product, Eq. 7 closure
-    parameter_names = ("idler_radius", "idler_offset", "mu")
+    parameters = (Quantity("idler_radius", "m", "the idler's radius r (Eq. 7)"),
+                  Quantity("idler_offset", "m", "the platform's height a₀ above the cam axis (Eq. 7)"),
+                  Quantity("mu", "-", "the wire–cam friction coefficient (force models, Eq. 33–35)"))
+    per_angle = (Quantity("alpha", "rad", "the wire's contact angle α on the cam (Eq. 6)"),
+                 Quantity("gamma", "rad", "the wire's contact angle γ on the idler (Eq. 7)"))
+    residual_rows = (Quantity("tangency", "-", "the wire tangent to cam and idler (Eq. 6, a cross product)"),
+                     Quantity("closure", "m", "the idler on its platform (Eq. 7)"))
     force_models = ("force", "force-as-printed")
 
     @classmethod
     def residual(cls, bases, theta, z, c, q):
-        rho, drho, _, _ = profile_function(bases[0])(z[0], c)
-        cross, closure, branch = tangency_residuals(theta, z[0], z[1], rho, drho, q[0], q[1])
+        u, p = cls.named_unknowns(z), cls.named_parameters(q)
+        rho, drho, _, _ = profile_function(bases[0])(u.alpha, c)
+        cross, closure, branch = tangency_residuals(theta, u.alpha, u.gamma, rho, drho, p.idler_radius,
+                                                    p.idler_offset)
         return ca.vertcat(cross, closure), 1 + branch
 
     @classmethod
@@ -67,7 +72,8 @@ class WireCam(Mechanism):
         """The circle solution (ρ + r) sin(α − θ) = a₀ iterated with ρ = ρ(α), then γ along the
         inward normal ẑ × t̂(α); exact for a circular cam."""
         prof = profile_function(bases[0])
-        r, a0 = q[0], q[1]
+        p = cls.named_parameters(q)
+        r, a0 = p.idler_radius, p.idler_offset
         alpha = theta
         for _ in range(GUESS_SWEEPS):
             alpha = theta + ca.asin(a0 / (prof(alpha, c)[0] + r))
@@ -78,25 +84,28 @@ class WireCam(Mechanism):
     @classmethod
     def idler_x(cls, bases, theta, z, c, q):
         """Idler centre q_x [m] (Johnston2023 Eq. 15)."""
-        rho = profile_function(bases[0])(z[0], c)[0]
-        return idler_centre_x(theta, z[0], z[1], rho, q[0])
+        u = cls.named_unknowns(z)
+        rho = profile_function(bases[0])(u.alpha, c)[0]
+        return idler_centre_x(theta, u.alpha, u.gamma, rho, cls.named_parameters(q).idler_radius)
 
     @classmethod
     def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
         qx = cls.idler_x(bases, theta, z, c, q)
         qx_ref = cls.idler_x(bases, cls.reference_angle, z_ref, c, q)
-        return ca.vertcat(wire_displacement(wrapped[0], q[0], z[1], z_ref[1]),
+        gamma, gamma_ref = cls.named_unknowns(z).gamma, cls.named_unknowns(z_ref).gamma
+        return ca.vertcat(wire_displacement(wrapped[0], cls.named_parameters(q).idler_radius, gamma, gamma_ref),
                           platform_displacement(qx, qx_ref))
 
     @classmethod
     def force_arms(cls, bases, model, theta, z, c, q, order, integrals):
         """Johnston2023 Eq. 19–21: the wire term per unit tension (the departure moment, or
         Eq. 35 by quadrature of the capstan loads) and the unit-normal idler term."""
-        rho, drho, _, _ = profile_function(bases[0])(z[0], c)
-        arm_t, arm_n = departure_moments(theta, z[0], rho, drho)
+        alpha = cls.named_unknowns(z).alpha
+        rho, drho, _, _ = profile_function(bases[0])(alpha, c)
+        arm_t, arm_n = departure_moments(theta, alpha, rho, drho)
         if model == "force-as-printed" or integrals == "quadrature":
             capstan = "as-printed" if model == "force-as-printed" else "corrected"
-            arm_t = wire_torque_function(bases[0], capstan, order)(z[0], c, q[2])
+            arm_t = wire_torque_function(bases[0], capstan, order)(alpha, c, cls.named_parameters(q).mu)
         return ca.vertcat(arm_t, arm_n)
 
     def start_radius(self, profile):
@@ -115,7 +124,7 @@ class WireCam(Mechanism):
         (centre, r), = self.circles(theta, z, c)
         if r <= 0:
             return []
-        t = np.linspace(float(z[1]), 0.0, 60)
+        t = np.linspace(float(self.named_unknowns(z).gamma), 0.0, 60)
         return [(centre[0] + r * np.cos(t), centre[1] + r * np.sin(t))]
 
     @classmethod
