@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 
 from ..physics.profile import Basis, profile_function
-from ..physics.wrap import arc_length_density, wound_length
+from ..physics.wrap import arc_length_density, length_function, wound_length
 
 #: Torque models: ``energy`` for every mechanism; force models where a mechanism offers them.
 ENERGY = "energy"
@@ -492,6 +492,27 @@ def port_function(structure, model: str, order: int, integrals: str = "closed-fo
 
 
 @lru_cache(maxsize=64)
+def pose_function(structure, model: str, order: int, integrals: str = "closed-form") -> ca.Function:
+    """One pose of a mechanism whose unknowns are solved at θ and at its reference angle: the
+    assembly the re-check maps over its grid and the exported model calls symbolically.
+
+    ``pose(theta, z, z_ref, c, q) -> (d, arm, R, branch_error)`` as :func:`port_function`,
+    with each profile's wrapped length from α_k(θ_ref) to α_k(θ) by an ``order``-point
+    Gauss–Legendre rule (Johnston2023 Eq. 10) and its wound length W_k(α_k(θ_ref)) plus that.
+    (The NLP lifts the wrapped lengths to variables instead and calls :func:`port_function`.)
+    """
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    z_ref = ca.SX.sym("z_ref", z.shape[0])
+    wrapped = ca.vertcat(*[length_function(b, order)(z_ref[k], z[k], ck)  # Johnston2023 Eq. 10
+                           for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c)))])
+    wound = wound_lengths(bases, z_ref, c) + wrapped
+    d, arm, R, branch = port_function(structure, model, order, integrals)(theta, z, z_ref, wrapped, wound, c, q)
+    return ca.Function("pose", [theta, z, z_ref, c, q], [d, arm, R, branch],
+                       ["theta", "z", "z_ref", "c", "q"], ["d", "arm", "R", "branch_error"])
+
+
+@lru_cache(maxsize=64)
 def margin_function(structure) -> ca.Function:
     """``margins(theta, z, c, q, arm) -> m``: the mechanism's per-pose limits [m]."""
     cls, bases = structure
@@ -513,6 +534,11 @@ class DepartureSolver:
         self._rf = ca.rootfinder("departure", "newton", g,
                                  {"abstol": abstol, "max_iter": max_iter, "error_on_fail": False,
                                   "show_eval_warnings": False})  # failures show in the residual
+
+    def symbolic(self, theta, c, q):
+        """z at θ as an expression (MX) of θ, c and q: the rootfinder from the guess, its
+        derivatives by the implicit function theorem (the exported model's departure)."""
+        return self._rf(self._guess(theta, c, q), ca.vertcat(theta, c, q))
 
     def guess(self, theta, c, q) -> np.ndarray:
         """Initial z (rows: unknowns) at each θ in ``theta``."""

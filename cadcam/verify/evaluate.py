@@ -29,11 +29,9 @@ import casadi as ca
 import numpy as np
 
 from ..designs import Design
-from ..mechanisms.base import (departure_solver, margin_function, port_function, split_coefficients,
-                               wound_lengths)
+from ..mechanisms.base import departure_solver, margin_function, pose_function, split_coefficients
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
-from ..physics.wrap import length_function
 from ..problem import Problem, cap
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
@@ -609,12 +607,8 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     z, residual = departure_solver(structure).solve(th, c, q, start)
     n = theta.size
     pieces = split_coefficients(bases, c)
-    wrapped = [np.asarray(length_function(b, order).map(n)(z[k, 0], z[k, 1:], ck)).ravel()
-               for k, (b, ck) in enumerate(zip(bases, pieces))]
-    wound = np.asarray(wound_lengths(bases, z[:, 0], c)).ravel()[:, None] + np.vstack(wrapped)
-    ports = port_function(structure, problem.torque_model, order, integrals).map(n)
-    d, arm, _, branch = (np.asarray(v) for v in ports(theta, z[:, 1:], z[:, 0], np.vstack(wrapped),
-                                                      wound, c, q))
+    pose = pose_function(structure, problem.torque_model, order, integrals).map(n)
+    d, arm, _, branch = (np.asarray(v) for v in pose(theta, z[:, 1:], z[:, 0], c, q))
     margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
                        branch.ravel(), d.reshape(-1, n), arm.reshape(-1, n),

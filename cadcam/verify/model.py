@@ -14,28 +14,15 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ..mechanisms.base import (guess_function, newton_function, port_function, residual_function,
-                               wound_lengths,
+from ..mechanisms.base import (departure_solver, newton_function, pose_function, residual_function,
                                split_coefficients)
 from ..physics.profile import Basis
-from ..physics.wrap import length_function
 from ..problem import Problem
 
 #: Unrolled Newton steps of the exported departure; 4 already reach 1e-12 rad (tests check 6).
 NEWTON_STEPS = 6
 #: Inputs of the torque model, in order.
 INPUTS = ("theta", "c", "k", "x0", "F0")
-
-
-def _rootfinder(structure):
-    """``solve(theta, c, q) -> z`` by a Newton rootfinder (MX) from the mechanism's guess."""
-    cls, bases = structure
-    nz, nc, nq = len(cls.unknowns), sum(b.size for b in bases), len(cls.parameter_names)
-    z, theta, c, q = ca.MX.sym("z", nz), ca.MX.sym("theta"), ca.MX.sym("c", nc), ca.MX.sym("q", nq)
-    g = ca.Function("g", [z, ca.vertcat(theta, c, q)], [residual_function(structure)(theta, z, c, q)[0]])
-    rf = ca.rootfinder("departure", "newton", g, {"abstol": 1e-14, "max_iter": 50})
-    guess = guess_function(structure)
-    return lambda theta, c, q: rf(guess(theta, c, q), ca.vertcat(theta, c, q))
 
 
 def _mechanism_inputs(problem: Problem, bases: list[Basis], c):
@@ -70,12 +57,7 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str
             zu, zr = solve(structure)(th, cu, q), solve(structure)(mech.reference_angle, cu, q)
         res = residual_function(structure)
         R += [res(th, zu, cu, q)[0], res(mech.reference_angle, zr, cu, q)[0]]
-        ub = structure[1]
-        wrapped = ca.vertcat(*[length_function(b, order)(zr[i], zu[i], ci)  # Johnston2023 Eq. 10
-                               for i, (b, ci) in enumerate(zip(ub, split_coefficients(ub, cu)))])
-        wound = wound_lengths(ub, zu, cu)
-        d, arm, _, _ = port_function(structure, problem.torque_model, order, integrals)(
-            th, zu, zr, wrapped, wound, cu, q)
+        d, arm, _, _ = pose_function(structure, problem.torque_model, order, integrals)(th, zu, zr, cu, q)
         D.append(d)
         A.append(arm)
         Z.append(zu)
@@ -95,7 +77,7 @@ def torque_function(problem: Problem, bases: list[Basis], order: int = 48,
     :func:`cadcam.mechanisms.base.port_function`.
     """
     if tangency == "rootfinder":
-        sym, solve = ca.MX.sym, _rootfinder
+        sym, solve = ca.MX.sym, lambda s: departure_solver(s).symbolic
     else:
         sym, solve = ca.SX.sym, lambda s: newton_function(s, NEWTON_STEPS)
     (theta, c, k, x0, F0, _), _, Z, tau, x = _model(problem, bases, sym, order, integrals, solve)
