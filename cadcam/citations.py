@@ -39,6 +39,14 @@ PAPERS = {
 }
 
 
+def register_paper(tag: str, paper: Paper) -> str:
+    """Make ``paper`` citable as ``tag`` (a mechanism's folder registers its own source);
+    ValueError if the tag names another paper."""
+    if PAPERS.setdefault(tag, paper) != paper:
+        raise ValueError(f"a paper tagged {tag!r} is already registered")
+    return tag
+
+
 def cited(tags) -> list[dict]:
     """The registry entries of ``tags`` (unique, in order) as plain data for a result."""
     out = []
