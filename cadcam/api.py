@@ -224,24 +224,7 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
     rng = np.random.default_rng(seed)
     rows, notes = [], []
     if problem.springs:
-        model = torque_function(problem, start.bases)
-        point = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
-                 "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
-        lo = np.array([j.theta_range[0] for j in problem.joints])
-        hi = np.array([j.theta_range[1] for j in problem.joints])
-        newton = torque_function(problem, start.bases, tangency="newton")
-        exported = torque_jacobian_function(problem, start.bases)
-        for _ in range(points):
-            point["theta"] = lo + (hi - lo) * rng.uniform(0.05, 0.95, lo.size)
-            rows += derivatives.function_partials(model, point, ["tau", "x"], ["theta", "c", "k", "x0"],
-                                                  INPUT_SCALE, "torque model")
-            jac = exported(**point)
-            for wrt in ("theta", "c", "k", "x0"):
-                for of in ("tau", "x"):
-                    def value(v, of=of, wrt=wrt):
-                        return np.asarray(newton(**{**point, wrt: v})[of]).ravel()
-                    rows.append(derivatives.compare(value, point[wrt], np.asarray(jac[f"d{of}_d{wrt}"]),
-                                                    f"exported Jacobian: {of}", wrt, INPUT_SCALE[wrt]))
+        rows += _torque_model_partials(problem, start, points, rng)
         notes.append(f"torque model (rootfinder tangency, CasADi's derivatives) and the exported Jacobian "
                      f"(Newton tangency, implicit function theorem by hand): {points} random poses in the "
                      "joints' ranges")
@@ -253,6 +236,39 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
     elif nlp:
         notes.append("NLP: not checked (solver.method = 'envelope' builds no NLP)")
     return DerivativeCheck(derivatives.worst(rows), tol, notes)
+
+
+def _torque_model_partials(problem: Problem, start: Design, points: int, rng: np.random.Generator) -> list:
+    """∂τ and ∂x of the torque model (rootfinder tangency, CasADi's derivatives) and of the
+    exported Jacobian (Newton tangency, implicit function theorem by hand) against central
+    differences, at ``points`` random poses in the joints' ranges."""
+    model = torque_function(problem, start.bases)
+    point = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
+             "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
+    lo = np.array([j.theta_range[0] for j in problem.joints])
+    hi = np.array([j.theta_range[1] for j in problem.joints])
+    newton = torque_function(problem, start.bases, tangency="newton")
+    exported = torque_jacobian_function(problem, start.bases)
+    rows = []
+    for _ in range(points):
+        point["theta"] = lo + (hi - lo) * rng.uniform(0.05, 0.95, lo.size)
+        rows += derivatives.function_partials(model, point, ["tau", "x"], ["theta", "c", "k", "x0"],
+                                              INPUT_SCALE, "torque model")
+        rows += _exported_jacobian_partials(newton, exported(**point), point)
+    return rows
+
+
+def _exported_jacobian_partials(newton, jac, point: dict) -> list:
+    """The exported Jacobian's blocks ``jac`` at ``point`` against central differences of the
+    torque model with Newton tangency, ``newton``."""
+    rows = []
+    for wrt in ("theta", "c", "k", "x0"):
+        for of in ("tau", "x"):
+            def value(v, of=of, wrt=wrt):
+                return np.asarray(newton(**{**point, wrt: v})[of]).ravel()
+            rows.append(derivatives.compare(value, point[wrt], np.asarray(jac[f"d{of}_d{wrt}"]),
+                                            f"exported Jacobian: {of}", wrt, INPUT_SCALE[wrt]))
+    return rows
 
 
 def _nlp_partials(problem: Problem, start: Design, rng: np.random.Generator) -> list:

@@ -324,35 +324,30 @@ def _terminated(signum, frame):
     raise KeyboardInterrupt
 
 
-def main(argv=None) -> int:
+def _add_spec_arguments(p) -> None:
+    """The arguments of every command that reads a spec: which spec, and what overrides it."""
     from . import examples
 
-    parser = _Parser(prog="cadcam", description="Design wire-wrapped cams and noncircular pulleys with "
-                     "CasADi and IPOPT, re-check them, export them for a controller or a workshop.",
-                     epilog="Exit codes: 0 success; 1 a failed solve, re-check or derivative check, or the "
-                     "environment failed after work began; 2 bad input (one line on stderr); 130 interrupted. "
-                     "Run 'cadcam COMMAND --help' for a command's options.")
-    parser.add_argument("--version", action="version", version=f"cadcam {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p.add_argument("spec", nargs="?", help="problem spec (TOML) or a cadcam result.json")
+    p.add_argument("--example", metavar="NAME", help="use an example spec installed with cadcam instead "
+                   "of SPEC: " + ", ".join(examples.names()))
+    p.add_argument("--torque-model", choices=TORQUE_MODELS,
+                   help="override the spec's torque model (energy: ∂V/∂θ, the default; "
+                        "force, force-as-printed: Johnston2023 Eq. 19–21 for wire cams)")
+    p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
+    p.add_argument("--variant", help="apply the spec's [variants.NAME] overrides")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a spec value by dotted key, e.g. springs.1.rate=1200.0 "
+                        "or 'cams.*.sensitivity_weights=[0, 0]' (repeatable)")
+    p.add_argument("--ipopt", action="append", metavar="NAME=VALUE",
+                   help="an IPOPT option, e.g. mu_strategy=monotone or print_level=5 (repeatable; "
+                        "merged into the spec's [solver.ipopt])")
 
-    def common(p):
-        p.add_argument("spec", nargs="?", help="problem spec (TOML) or a cadcam result.json")
-        p.add_argument("--example", metavar="NAME", help="use an example spec installed with cadcam instead "
-                       "of SPEC: " + ", ".join(examples.names()))
-        p.add_argument("--torque-model", choices=TORQUE_MODELS,
-                       help="override the spec's torque model (energy: ∂V/∂θ, the default; "
-                            "force, force-as-printed: Johnston2023 Eq. 19–21 for wire cams)")
-        p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
-        p.add_argument("--variant", help="apply the spec's [variants.NAME] overrides")
-        p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                       help="override a spec value by dotted key, e.g. springs.1.rate=1200.0 "
-                            "or 'cams.*.sensitivity_weights=[0, 0]' (repeatable)")
-        p.add_argument("--ipopt", action="append", metavar="NAME=VALUE",
-                       help="an IPOPT option, e.g. mu_strategy=monotone or print_level=5 (repeatable; "
-                            "merged into the spec's [solver.ipopt])")
 
+def _add_design_command(sub) -> None:
+    """``cadcam design``: its spec, output folder, starts, figures and workshop file sizes."""
     p = sub.add_parser("design", help="optimise a cam system and re-check it")
-    common(p)
+    _add_spec_arguments(p)
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--multistart", type=int, help="extra random starts")
     p.add_argument("--no-figures", dest="figures", action="store_false",
@@ -370,12 +365,16 @@ def main(argv=None) -> int:
     w.add_argument("--groove-pitch", type=float,
                    help="rise per turn of a helical groove's centre line (default 0.004)")
     p.set_defaults(run=cmd_design)
+
+
+def _add_design_file_commands(sub) -> None:
+    """``cadcam evaluate``, ``check`` and ``export``: commands on a given (or the start) design."""
     p = sub.add_parser("evaluate", help="metrics of a given design, as JSON")
-    common(p)
+    _add_spec_arguments(p)
     p.add_argument("--design", required=True, help="design or result JSON")
     p.set_defaults(run=cmd_evaluate)
     p = sub.add_parser("check", help="automatic derivatives against finite differences, as a table")
-    common(p)
+    _add_spec_arguments(p)
     p.add_argument("--design", help="design or result JSON to check at (default: cadcam's start design)")
     p.add_argument("--points", type=int, default=3, help="random poses of the torque model (default 3)")
     p.add_argument("--tol", type=float, default=1e-6, help="largest relative error accepted (default 1e-6)")
@@ -383,7 +382,7 @@ def main(argv=None) -> int:
     p.add_argument("--json", action="store_true", help="print the table as JSON")
     p.set_defaults(run=cmd_check)
     p = sub.add_parser("export", help="the model or the NLP as C, a shared library, .casadi")
-    common(p)
+    _add_spec_arguments(p)
     p.add_argument("--design", required=True, help="design or result JSON")
     p.add_argument("--what", choices=("model", "problem"), default="model",
                    help="model: torque, extensions, tangency and Jacobians; problem: the NLP")
@@ -392,6 +391,10 @@ def main(argv=None) -> int:
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.set_defaults(run=cmd_export)
 
+
+def _add_study_commands(sub) -> None:
+    """``cadcam sweep``, ``sweep-export`` and ``plot-study``: parameter studies and their
+    databases."""
     p = sub.add_parser("sweep", help="run a parameter study, recorded to SQLite (resumable)")
     p.add_argument("study", help="study file (TOML)")
     p.add_argument("-o", "--output", required=True, help="study database (SQLite)")
@@ -411,10 +414,30 @@ def main(argv=None) -> int:
     p.add_argument("--pareto", action="store_true", help="mark the front minimising both x and y")
     p.add_argument("-o", "--output", required=True, help="PNG file")
     p.set_defaults(run=cmd_plot_study)
+
+
+def _parser() -> _Parser:
+    """The command line's parser: every command, each running its ``cmd_*`` function."""
+    parser = _Parser(prog="cadcam", description="Design wire-wrapped cams and noncircular pulleys with "
+                     "CasADi and IPOPT, re-check them, export them for a controller or a workshop.",
+                     epilog="Exit codes: 0 success; 1 a failed solve, re-check or derivative check, or the "
+                     "environment failed after work began; 2 bad input (one line on stderr); 130 interrupted. "
+                     "Run 'cadcam COMMAND --help' for a command's options.")
+    parser.add_argument("--version", action="version", version=f"cadcam {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_design_command(sub)
+    _add_design_file_commands(sub)
+    _add_study_commands(sub)
     p = sub.add_parser("cache", help="the compiled NLP libraries cached on disk: where, how many, how large")
     p.add_argument("--clear", action="store_true", help="remove them (each is compiled again when next needed)")
     p.set_defaults(run=cmd_cache)
+    return parser
 
+
+def main(argv=None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code (module
+    docstring): every input error as one line on stderr."""
+    parser = _parser()
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
     try:

@@ -323,7 +323,47 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     source = top.get("source", lambda v: isinstance(v, str), "a string citing the source")
     notes = top.get("notes", lambda v: isinstance(v, str), "a string", "")
     torque_model = _torque_model(top, data)
-    sol = _Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}), "solver")
+    options = _options(_Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}),
+                               "solver"))
+    n_joints = len(data["joints"]) if isinstance(data.get("joints"), list) else 0
+    too_big = size_error(options, max(n_joints, 1))
+    if too_big:
+        raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
+    arm = _top_arm(top, data, n_joints)
+    raw_joints = top.get("joints", lambda v: isinstance(v, list) and v,
+                         "a non-empty array of [[joints]] tables (or of [[cams]], the wire cams' shorthand)")
+    raw_mechs = top.get("mechanisms", lambda v: isinstance(v, list) and v,
+                        "a non-empty array of [[mechanisms]] tables")
+    raw_springs = top.get("springs", lambda v: isinstance(v, list), "an array of [[springs]] tables", [])
+    top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
+    workshop = _workshop(_Reader(origin, top.get("workshop", lambda v: isinstance(v, dict),
+                                                 "a [workshop] table of lengths [m]", {}), "workshop"))
+    top.done()
+
+    read = [_joint(_Reader(origin, raw, f"{joint_label}[{i + 1}]"), i, len(raw_springs), n_joints, arm,
+                   base, joint_label) for i, raw in enumerate(raw_joints)]
+    joints, targets = [joint for joint, _ in read], [target for _, target in read]
+    mechanisms = _mechanisms(origin, raw_mechs, joints, base, mech_label)
+    springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
+               for j, raw in enumerate(raw_springs)]
+    _check_output_laws(origin, mechanisms)
+    _check_method(origin, options.method, mechanisms)
+    if not springs and any(c["tracking_weight"] > 0 for c in joints):
+        raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
+                        "tables (or kind = \"none\" on every joint's target, for output laws only)")
+    ranges = [c["theta_range"] for c in joints]
+    for i, t in enumerate(targets):
+        _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
+    try:
+        return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
+                       options=options, workshop=workshop, springs=tuple(springs), mechanisms=tuple(mechanisms),
+                       joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
+    except ValueError as exc:
+        raise SpecError(f"{origin}: torque_model: {exc}") from None
+
+
+def _options(sol: _Reader) -> Options:
+    """The ``[solver]`` table as :class:`Options`, its defaults where a key is missing."""
     options = Options(
         grid=sol.get("grid", lambda v: _posint(v) and v >= 3, "an integer ≥ 3", 46),
         quadrature_order=sol.get("quadrature_order", _posint, "a positive integer", 2),
@@ -350,79 +390,65 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         functions=sol.get("functions", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}", "expanded"),
     )
     sol.done()
+    return options
 
-    n_joints = len(data["joints"]) if isinstance(data.get("joints"), list) else 0
-    too_big = size_error(options, max(n_joints, 1))
-    if too_big:
-        raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
-    arm = None
-    if "arm" in data:
-        ra = _Reader(origin, top.get("arm", lambda v: isinstance(v, dict), "an [arm] table"), "arm")
-        arm = _arm(ra, max(n_joints, 1))
-        ra.done()
-    raw_joints = top.get("joints", lambda v: isinstance(v, list) and v,
-                         "a non-empty array of [[joints]] tables (or of [[cams]], the wire cams' shorthand)")
-    raw_mechs = top.get("mechanisms", lambda v: isinstance(v, list) and v,
-                        "a non-empty array of [[mechanisms]] tables")
-    raw_springs = top.get("springs", lambda v: isinstance(v, list), "an array of [[springs]] tables", [])
-    top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
-    workshop = _workshop(_Reader(origin, top.get("workshop", lambda v: isinstance(v, dict),
-                                                 "a [workshop] table of lengths [m]", {}), "workshop"))
-    top.done()
-    n_springs = len(raw_springs)
 
-    joints, targets = [], []
-    for i, raw in enumerate(raw_joints):
-        where = f"{joint_label}[{i + 1}]"
-        r = _Reader(origin, raw, where)
-        rng = r.get("theta_range_deg", _list_of(_number, 2), "[min, max] joint angles [deg]")
-        if not 0 < rng[1] - rng[0] <= MAX_JOINT_SPAN_DEG:
-            r.fail(r.key("theta_range_deg"), rng, f"[min, max], a non-empty range with max − min ≤ "
-                   f"{MAX_JOINT_SPAN_DEG:g}° (ten turns of a helical groove)")
-        if not max(abs(rng[0]), abs(rng[1])) <= MAX_JOINT_SPAN_DEG:
-            r.fail(r.key("theta_range_deg"), rng, f"[min, max] joint angles within ±{MAX_JOINT_SPAN_DEG:g}° "
-                   "(ten turns either way from the reference pose)")
-        sens = r.get("sensitivity_weights", _list_of(_nonneg, n_springs),
-                     f"a list of {n_springs} weights ≥ 0, one per spring", [0.0] * n_springs)
-        joints.append(dict(
-            name=r.get("name", lambda v: isinstance(v, str), "a string", f"joint {i + 1}"),
-            theta_range=(math.radians(rng[0]), math.radians(rng[1])),
-            tracking_weight=float(r.get("tracking_weight", _nonneg, "a weight ≥ 0", 1.0)),
-            sensitivity_weights=tuple(float(w) for w in sens),
-            acceptance=_acceptance(r)))
-        targets.append(_target(_Reader(origin, r.get("target", lambda v: isinstance(v, dict),
-                                                     f"a [{joint_label}.target] table"), f"{where}.target"),
-                               base, n_joints, arm))
-        if targets[-1].kind == "none":  # no torque goal: nothing to weigh
-            joints[-1]["tracking_weight"] = 0.0
-        r.done()
+def _top_arm(top: _Reader, data: dict, n_joints: int) -> dict | None:
+    """The spec's shared ``[arm]`` table (what an ``arm`` target uses unless it gives its own),
+    or None."""
+    if "arm" not in data:
+        return None
+    ra = _Reader(top.origin, top.get("arm", lambda v: isinstance(v, dict), "an [arm] table"), "arm")
+    arm = _arm(ra, max(n_joints, 1))
+    ra.done()
+    return arm
 
-    mechanisms = []
-    for u, raw in enumerate(raw_mechs):
-        mechanisms.append(_mechanism(_Reader(origin, raw, f"{mech_label}[{u + 1}]"), u, joints, base))
+
+def _theta_range(r: _Reader) -> tuple[float, float]:
+    """A joint's ``theta_range_deg`` as (min, max) [rad]: a non-empty range at most
+    :data:`MAX_JOINT_SPAN_DEG` wide, within ±:data:`MAX_JOINT_SPAN_DEG` of the reference pose."""
+    rng = r.get("theta_range_deg", _list_of(_number, 2), "[min, max] joint angles [deg]")
+    if not 0 < rng[1] - rng[0] <= MAX_JOINT_SPAN_DEG:
+        r.fail(r.key("theta_range_deg"), rng, f"[min, max], a non-empty range with max − min ≤ "
+               f"{MAX_JOINT_SPAN_DEG:g}° (ten turns of a helical groove)")
+    if not max(abs(rng[0]), abs(rng[1])) <= MAX_JOINT_SPAN_DEG:
+        r.fail(r.key("theta_range_deg"), rng, f"[min, max] joint angles within ±{MAX_JOINT_SPAN_DEG:g}° "
+               "(ten turns either way from the reference pose)")
+    return math.radians(rng[0]), math.radians(rng[1])
+
+
+def _joint(r: _Reader, i: int, n_springs: int, n_joints: int, arm: dict | None, base: Path,
+           label: str) -> tuple[dict, Target]:
+    """One [[joints]] table: the keyword arguments of its :class:`Joint` but the target, and its
+    target (a joint without a torque goal weighs no tracking error)."""
+    theta_range = _theta_range(r)
+    sens = r.get("sensitivity_weights", _list_of(_nonneg, n_springs),
+                 f"a list of {n_springs} weights ≥ 0, one per spring", [0.0] * n_springs)
+    joint = dict(
+        name=r.get("name", lambda v: isinstance(v, str), "a string", f"joint {i + 1}"),
+        theta_range=theta_range,
+        tracking_weight=float(r.get("tracking_weight", _nonneg, "a weight ≥ 0", 1.0)),
+        sensitivity_weights=tuple(float(w) for w in sens),
+        acceptance=_acceptance(r))
+    target = _target(_Reader(r.origin, r.get("target", lambda v: isinstance(v, dict),
+                                             f"a [{label}.target] table"), r.key("target")),
+                     base, n_joints, arm)
+    if target.kind == "none":  # no torque goal: nothing to weigh
+        joint["tracking_weight"] = 0.0
+    r.done()
+    return joint, target
+
+
+def _mechanisms(origin, raw_mechs: list, joints: list[dict], base: Path, label: str) -> list:
+    """The [[mechanisms]] tables, refusing a joint that no mechanism turns with."""
+    mechanisms = [_mechanism(_Reader(origin, raw, f"{label}[{u + 1}]"), u, joints, base)
+                  for u, raw in enumerate(raw_mechs)]
     on_joint = {m.joint for m in mechanisms}
-    for i in range(n_joints):
+    for i in range(len(joints)):
         if i not in on_joint:
             raise SpecError(f"{origin}: joints[{i + 1}] has no mechanism; expected a "
                             f"[[mechanisms]] table with joint = {i + 1}")
-
-    springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
-               for j, raw in enumerate(raw_springs)]
-    _check_output_laws(origin, mechanisms)
-    _check_method(origin, options.method, mechanisms)
-    if not springs and any(c["tracking_weight"] > 0 for c in joints):
-        raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
-                        "tables (or kind = \"none\" on every joint's target, for output laws only)")
-
-    ranges = [c["theta_range"] for c in joints]
-    for i, t in enumerate(targets):
-        _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
-    try:
-        return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
-                       options=options, workshop=workshop, springs=tuple(springs), mechanisms=tuple(mechanisms),
-                       joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
-    except ValueError as exc:
-        raise SpecError(f"{origin}: torque_model: {exc}") from None
+    return mechanisms
 
 
 def _check_output_laws(origin, mechanisms) -> None:

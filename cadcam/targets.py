@@ -71,6 +71,13 @@ def parse_expression(text: str, names: dict[str, object], guards: list | None = 
     ExpressionError
         For anything else: attribute access, subscripts, other calls, strings, keywords…
     """
+    tree = _syntax_tree(text)
+    guard = guards.append if guards is not None else (lambda item: None)
+    return ca.SX(_Builder({**CONSTANTS, **names}, guard).build(tree.body))
+
+
+def _syntax_tree(text: str) -> ast.Expression:
+    """The :mod:`ast` tree of the expression ``text``, refused when empty, too long or too deep."""
     if not isinstance(text, str) or not text.strip():
         raise ExpressionError("an expression must be a non-empty string")
     if len(text) > MAX_EXPRESSION_LENGTH:
@@ -81,49 +88,67 @@ def parse_expression(text: str, names: dict[str, object], guards: list | None = 
         raise ExpressionError(f"not a valid expression ({getattr(exc, 'msg', 'too deeply nested')})") from None
     if _depth(tree) > MAX_EXPRESSION_DEPTH:
         raise ExpressionError(f"expression nested deeper than {MAX_EXPRESSION_DEPTH} levels")
-    scope = {**CONSTANTS, **names}
-    guard = guards.append if guards is not None else (lambda item: None)
+    return tree
 
-    def walk(node):
-        if isinstance(node, ast.Expression):
-            return walk(node.body)
+
+#: The guard (:data:`GUARDS`) of each function whose argument(s) it checks; ``tan``'s divisor
+#: is the cosine of its argument.
+_CALL_GUARDS = {"tan": "denominator", "log": "log", "sqrt": "sqrt", "asin": "asin", "acos": "asin",
+                "atan2": "atan2"}
+
+
+class _Builder:
+    """Builds the CasADi expression of a syntax tree over the names of ``scope``, passing each
+    guard of :func:`parse_expression` to ``guard``."""
+
+    def __init__(self, scope: dict, guard: Callable):
+        self.scope, self.guard = scope, guard
+
+    def build(self, node):
+        """The value of ``node``: a float, a name's value or an SX."""
         if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-            try:
-                value = float(node.value)
-            except OverflowError:
-                value = np.inf
-            if not np.isfinite(value):
-                raise ExpressionError(f"the number {ast.unparse(node)[:20]}… is too large for a float")
-            return value
+            return _finite_number(node)
         if isinstance(node, ast.Name):
-            if node.id in scope:
-                return scope[node.id]
-            raise ExpressionError(f"unknown name {node.id!r}; allowed: {sorted(scope)}")
+            if node.id in self.scope:
+                return self.scope[node.id]
+            raise ExpressionError(f"unknown name {node.id!r}; allowed: {sorted(self.scope)}")
         if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-            left, right = ca.SX(walk(node.left)), walk(node.right)
+            left, right = ca.SX(self.build(node.left)), self.build(node.right)
             if isinstance(node.op, ast.Div):
-                guard(("denominator", (right,)))
+                self.guard(("denominator", (right,)))
             if isinstance(node.op, ast.Pow):
-                guard(("power", (left, right)))
+                self.guard(("power", (left, right)))
             return _BINARY[type(node.op)](left, right)
         if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
-            return _UNARY[type(node.op)](ca.SX(walk(node.operand)))
+            return _UNARY[type(node.op)](ca.SX(self.build(node.operand)))
         if isinstance(node, ast.Call):
-            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-                raise ExpressionError(f"call of {ast.unparse(node.func)!r} is not allowed; "
-                                      f"allowed functions: {sorted(FUNCTIONS)}")
-            arity = 2 if node.func.id == "atan2" else 1
-            if node.keywords or len(node.args) != arity:
-                raise ExpressionError(f"{node.func.id}() takes {arity} positional argument(s)")
-            args = [ca.SX(walk(a)) for a in node.args]
-            kind = {"tan": "denominator", "log": "log", "sqrt": "sqrt", "asin": "asin",
-                    "acos": "asin", "atan2": "atan2"}.get(node.func.id)
-            if kind:
-                guard((kind, (ca.cos(args[0]),) if node.func.id == "tan" else tuple(args)))
-            return FUNCTIONS[node.func.id](*args)
+            return self.call(node)
         raise ExpressionError(f"{type(node).__name__} {ast.unparse(node)!r} is not allowed")
 
-    return ca.SX(walk(tree))
+    def call(self, node: ast.Call):
+        """A call of one of :data:`FUNCTIONS` with its positional arguments, and its guard."""
+        if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
+            raise ExpressionError(f"call of {ast.unparse(node.func)!r} is not allowed; "
+                                  f"allowed functions: {sorted(FUNCTIONS)}")
+        arity = 2 if node.func.id == "atan2" else 1
+        if node.keywords or len(node.args) != arity:
+            raise ExpressionError(f"{node.func.id}() takes {arity} positional argument(s)")
+        args = [ca.SX(self.build(a)) for a in node.args]
+        kind = _CALL_GUARDS.get(node.func.id)
+        if kind:
+            self.guard((kind, (ca.cos(args[0]),) if node.func.id == "tan" else tuple(args)))
+        return FUNCTIONS[node.func.id](*args)
+
+
+def _finite_number(node: ast.Constant) -> float:
+    """A numeric literal as a float, refused when too large for one."""
+    try:
+        value = float(node.value)
+    except OverflowError:
+        value = np.inf
+    if not np.isfinite(value):
+        raise ExpressionError(f"the number {ast.unparse(node)[:20]}… is too large for a float")
+    return value
 
 
 def _depth(tree) -> int:
@@ -224,11 +249,12 @@ def serial_arm_torques(thetas, masses, lengths, com, g):
 FIVE_BAR_LENGTHS = ("upper", "crank", "fore", "com")
 
 
-def five_bar_torques(theta1, theta2, masses, lengths, g):
-    """Gravity-balancing torques [N·m] of Endo2010's parallel five-bar arm (Sec. III, Fig. 7).
+def _five_bar_points(q, lengths) -> list:
+    """Positions [m] of the six point masses of Endo2010's five-bar arm (Fig. 7, the
+    "six-point-mass system") at the angles ``q`` = (θ1, θ2) [rad].
 
-    Geometry (x forwards, y up; angles [rad] from the upward vertical, positive towards +x,
-    both measured at the base O as in Endo2010 Eq. 4), with u(θ) = (sin θ, cos θ):
+    Geometry (x forwards, y up; angles from the upward vertical, positive towards +x, both
+    measured at the base O as in Endo2010 Eq. 4), with u(θ) = (sin θ, cos θ):
 
     * link 1 (upper arm, length l_u) from O at θ1 to the elbow E = l_u u(θ1);
     * the crank (link 2, length l_c) from O at θ2 to C = l_c u(θ2);
@@ -237,16 +263,36 @@ def five_bar_torques(theta1, theta2, masses, lengths, g):
       T = E − l_a u(θ2) beyond the elbow (Endo2010 Eq. 4:
       p6 = (l_u sin θ1 − l_a sin θ2, l_u cos θ1 − l_a cos θ2)).
 
-    Six point masses model the links (Endo2010 Fig. 7, "six-point-mass system"):
-    p1 = l1 u(θ1) on link 1; p2 = l2 u(θ2) on the crank; p3 = C + l3 u(θ1) on the coupler;
-    p4 = E at the elbow; p5 = E + l5 u(θ2) on the forearm's rear part (from E towards D);
-    p6 = T at the tip.
+    The masses: p1 = l1 u(θ1) on link 1; p2 = l2 u(θ2) on the crank; p3 = C + l3 u(θ1) on the
+    coupler; p4 = E at the elbow; p5 = E + l5 u(θ2) on the forearm's rear part (from E towards
+    D); p6 = T at the tip. ``lengths`` as for :func:`five_bar_torques`.
+    """
+    l_u, l_c, l_a = (float(lengths[k]) for k in ("upper", "crank", "fore"))
+    l1, l2, l3, l5 = (float(v) for v in lengths["com"])
 
-    With F_k = (0, −m_k g) and J_k = ∂p_k/∂(θ1, θ2) (Endo2010 Eq. 5), τ = Σ_k J_kᵀ F_k
-    (Endo2010 Eq. 3, 6–7) is the generalised force of gravity, i.e. −∂V/∂θ with
-    V = g Σ m_k y_k, the torque a balancer must supply (the convention of
-    :func:`serial_arm_torques`). Summed, it takes the form of Endo2010 Eq. 8, each joint's
-    torque depending on its own angle only::
+    def u(t):
+        return ca.vertcat(ca.sin(t), ca.cos(t))
+
+    elbow, crank_end = l_u * u(q[0]), l_c * u(q[1])
+    return [l1 * u(q[0]),                 # m1 on link 1
+            l2 * u(q[1]),                 # m2 on the crank
+            crank_end + l3 * u(q[0]),     # m3 on the coupler
+            elbow,                        # m4 at the elbow
+            elbow + l5 * u(q[1]),         # m5 on the forearm's rear part
+            elbow - l_a * u(q[1])]        # m6 at the tip, Endo2010 Eq. 4
+
+
+def five_bar_torques(theta1, theta2, masses, lengths, g):
+    """Gravity-balancing torques [N·m] of Endo2010's parallel five-bar arm (Sec. III, Fig. 7).
+
+    Angles [rad] are measured at the base from the upward vertical, positive forwards
+    (Endo2010 Eq. 4): θ1 of link 1 (the upper arm), θ2 of the crank, which the forearm stays
+    parallel to; six point masses p_k model the links (Endo2010 Fig. 7; the geometry and
+    their positions: :func:`_five_bar_points`). With F_k = (0, −m_k g) and J_k = ∂p_k/∂(θ1, θ2)
+    (Endo2010 Eq. 5), τ = Σ_k J_kᵀ F_k (Endo2010 Eq. 3, 6–7) is the generalised force of
+    gravity, i.e. −∂V/∂θ with V = g Σ m_k y_k, the torque a balancer must supply (the
+    convention of :func:`serial_arm_torques`). Summed, it takes the form of Endo2010 Eq. 8,
+    each joint's torque depending on its own angle only::
 
         τ1 = g (m1 l1 + m3 l3 + (m4 + m5 + m6) l_u) sin θ1
         τ2 = g (m2 l2 + m3 l_c + m5 l5 − m6 l_a) sin θ2
@@ -272,22 +318,9 @@ def five_bar_torques(theta1, theta2, masses, lengths, g):
     m = [float(v) for v in masses]
     if len(m) != 6:
         raise ValueError(f"five_bar_torques needs 6 masses, got {len(m)}")
-    l_u, l_c, l_a = (float(lengths[k]) for k in ("upper", "crank", "fore"))
-    l1, l2, l3, l5 = (float(v) for v in lengths["com"])
     q = ca.SX.sym("q", 2)
-
-    def u(t):
-        return ca.vertcat(ca.sin(t), ca.cos(t))
-
-    elbow, crank_end = l_u * u(q[0]), l_c * u(q[1])
-    points = [l1 * u(q[0]),                 # m1 on link 1
-              l2 * u(q[1]),                 # m2 on the crank
-              crank_end + l3 * u(q[0]),     # m3 on the coupler
-              elbow,                        # m4 at the elbow
-              elbow + l5 * u(q[1]),         # m5 on the forearm's rear part
-              elbow - l_a * u(q[1])]        # m6 at the tip, Endo2010 Eq. 4
     tau = ca.SX.zeros(2)
-    for m_k, p_k in zip(m, points):
+    for m_k, p_k in zip(m, _five_bar_points(q, lengths)):
         J_k = ca.jacobian(p_k, q)  # Endo2010 Eq. 5
         tau = tau + ca.mtimes(J_k.T, ca.vertcat(0, -m_k * g))  # Endo2010 Eq. 3, 6–7
     out = ca.Function("five_bar_torques", [q], [tau])(ca.vertcat(theta1, theta2))

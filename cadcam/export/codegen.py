@@ -314,61 +314,32 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
     """The files of :func:`export` written into ``out`` (a staging folder); the manifest."""
     if what == "model":
         functions, extra = model_functions(problem, design), {}
+        layouts = {"tangency": {"method": "unrolled Newton from each mechanism's closed-form guess",
+                                "steps": NEWTON_STEPS, "accuracy_rad": 1e-12},
+                   "z_layout": [{"mechanism": mech.name, "unknown": name, "unit": unit}
+                                for mech in problem.mechanisms
+                                for name, unit in zip(mech.unknowns, mech.unknown_units)]}
     else:
         functions, tr = problem_functions(problem)
-        lbg, ubg = tr.bounds(problem)
-        lbx, ubx = tr.variable_bounds(problem)
-        extra = {"problem_data.json": {
-            "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},
-            "parameters_layout": {k: {"offset": a, "size": n} for k, (a, n) in tr.p.blocks.items()},
-            "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(problem, design, tr.n, tr.start_order())).tolist(),
-            "lbx": lbx.tolist(), "ubx": ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
-            "note": "lengths in the NLP vector are in mm (manifest.json's x_layout gives each "
-                    "block's unit); infinite bounds are written as ±Infinity"}}
+        extra = {"problem_data.json": _problem_data(problem, design, tr)}
+        layouts = {"x_layout": _layout(tr.v.blocks, _x_labels(problem), problem),
+                   "p_layout": _layout(tr.p.blocks, _p_labels(problem), problem)}
     stem = f"cadcam_{what}"
     manifest = {"cadcam_version": __version__, "casadi_version": ca.__version__, "what": what,
                 "torque_model": problem.torque_model, "problem": problem.name,
                 "storage": "dense inputs and outputs, column-major (CasADi order)",
-                "design": design.to_dict(), "files": [], "functions": []}
-    if what == "model":
-        manifest["tangency"] = {"method": "unrolled Newton from each mechanism's closed-form guess",
-                                "steps": NEWTON_STEPS, "accuracy_rad": 1e-12}
-        manifest["z_layout"] = [{"mechanism": mech.name, "unknown": name, "unit": unit}
-                                for mech in problem.mechanisms
-                                for name, unit in zip(mech.unknowns, mech.unknown_units)]
-    else:
-        manifest["x_layout"] = _layout(tr.v.blocks, _x_labels(problem), problem)
-        manifest["p_layout"] = _layout(tr.p.blocks, _p_labels(problem), problem)
+                "design": design.to_dict(), "files": [], "functions": [], **layouts}
     labels = _MODEL_LABELS if what == "model" else _PROBLEM_LABELS
     for f in functions:
         manifest["functions"].append({"name": f.name(), "inputs": _io(f, "in", labels),
                                       "outputs": _io(f, "out", labels)})
     if "c" in formats or "shared" in formats:
-        with tempfile.TemporaryDirectory(dir=out) as tmp:
-            # without CasADi's comment per operation, which doubled the problem's C
-            cg = ca.CodeGenerator(f"{stem}.c", {"with_header": True, "verbose": False})
-            for f in functions:
-                cg.add(f)
-            cg.generate(tmp + "/")
-            source = _mark_unused((Path(tmp) / f"{stem}.c").read_text())
-            header = (Path(tmp) / f"{stem}.h").read_text()
-        write_text(out / f"{stem}.c", source)
-        write_text(out / f"{stem}.h", header)
-        manifest["files"] += [f"{stem}.c", f"{stem}.h"]
+        manifest["files"] += _write_c(functions, stem, out)
         if what == "model":
             write_text(out / "cadcam_design.h", _design_header(problem, design))
             manifest["files"].append("cadcam_design.h")
     if "shared" in formats:
-        lib = out / f"lib{stem}.so"
-        with atomic_path(lib) as tmp:
-            try:
-                command = shared_library_command(out / f"{stem}.c", tmp)
-            except CompileError:
-                raise ExportError("--format shared needs a C compiler (cc or gcc) on PATH") from None
-            run = subprocess.run(command, capture_output=True, text=True)
-            if run.returncode != 0:
-                raise ExportError(f"compiling {stem}.c failed: {run.stderr.strip()[:500]}")
-        manifest["files"].append(lib.name)
+        manifest["files"].append(_write_shared_library(stem, out))
     if "casadi" in formats:
         for f in functions:
             with atomic_path(out / f"{f.name()}.casadi") as tmp:
@@ -379,3 +350,47 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
         manifest["files"].append(name)
     write_json(out / "manifest.json", manifest)
     return manifest
+
+
+def _problem_data(problem: Problem, design: Design, tr) -> dict:
+    """``problem_data.json``: the NLP's vector layouts, parameter vector, bounds and the
+    starting point of ``design``, from its transcription ``tr``."""
+    lbg, ubg = tr.bounds(problem)
+    lbx, ubx = tr.variable_bounds(problem)
+    return {
+        "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},
+        "parameters_layout": {k: {"offset": a, "size": n} for k, (a, n) in tr.p.blocks.items()},
+        "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(problem, design, tr.n, tr.start_order())).tolist(),
+        "lbx": lbx.tolist(), "ubx": ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
+        "note": "lengths in the NLP vector are in mm (manifest.json's x_layout gives each "
+                "block's unit); infinite bounds are written as ±Infinity"}
+
+
+def _write_c(functions: list[ca.Function], stem: str, out: Path) -> list[str]:
+    """``functions`` as C source ``<stem>.c`` and header ``<stem>.h`` in ``out``, every
+    parameter marked used (:func:`_mark_unused`); the names of the files."""
+    with tempfile.TemporaryDirectory(dir=out) as tmp:
+        # without CasADi's comment per operation, which doubled the problem's C
+        cg = ca.CodeGenerator(f"{stem}.c", {"with_header": True, "verbose": False})
+        for f in functions:
+            cg.add(f)
+        cg.generate(tmp + "/")
+        source = _mark_unused((Path(tmp) / f"{stem}.c").read_text())
+        header = (Path(tmp) / f"{stem}.h").read_text()
+    write_text(out / f"{stem}.c", source)
+    write_text(out / f"{stem}.h", header)
+    return [f"{stem}.c", f"{stem}.h"]
+
+
+def _write_shared_library(stem: str, out: Path) -> str:
+    """``lib<stem>.so`` compiled in ``out`` from ``<stem>.c`` there; its name."""
+    lib = out / f"lib{stem}.so"
+    with atomic_path(lib) as tmp:
+        try:
+            command = shared_library_command(out / f"{stem}.c", tmp)
+        except CompileError:
+            raise ExportError("--format shared needs a C compiler (cc or gcc) on PATH") from None
+        run = subprocess.run(command, capture_output=True, text=True)
+        if run.returncode != 0:
+            raise ExportError(f"compiling {stem}.c failed: {run.stderr.strip()[:500]}")
+    return lib.name

@@ -192,6 +192,16 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
         raise ValueError(f"free = {free!r} must be at least 1")
     profile = profile_function(basis)
     _check_designed_arc(profile, coefficients, phi_max)
+    closing = _closing_polynomial(profile, coefficients, phi_max, rho_bounds, free)
+    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
+    _check_closing_arc(outline)
+    return outline
+
+
+def _closing_polynomial(profile, coefficients, phi_max: float, rho_bounds, free: int) -> Polynomial:
+    """u = 1/ρ [1/m] of the closing arc of :func:`closed_outline` as a polynomial in
+    x = (φ − φ_max)/(2π − φ_max): its Hermite part and ``free`` bubble terms, weighted by the
+    two programs of :func:`_closure_coefficients`."""
     span = TWO_PI - phi_max
     ends = [_u_from_rho(*designed_values(profile, coefficients, phi)[:3, 0]) * span ** np.arange(3)
             for phi in (phi_max, 0.0)]  # u, du/dx, d²u/dx² at x = 0 and x = 1
@@ -201,10 +211,7 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
     terms = [bubble * Legendre.basis(j, domain=[0, 1]).convert(kind=Polynomial)
              for j in range(free)]
     a = _closure_coefficients(hermite, terms, span, _u_bounds(rho_bounds, scale))
-    closing = scale * (hermite + sum((aj * t for aj, t in zip(a, terms)), Polynomial([0.0])))
-    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
-    _check_closing_arc(outline)
-    return outline
+    return scale * (hermite + sum((aj * t for aj, t in zip(a, terms)), Polynomial([0.0])))
 
 
 def chord_outline(basis: Basis, coefficients, phi_max: float) -> Outline:

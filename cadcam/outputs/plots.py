@@ -191,7 +191,7 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                for _, lo, hi in rows]
     fig = Figure(figsize=(width * ncols + 0.4, sum(heights) + 1.2), layout="constrained")
     axes = fig.subplots(len(mechs), ncols, squeeze=False, gridspec_kw={"height_ratios": heights})
-    seen = {"rho": False, "convexity": False, "idler": False, "end": False}
+    seen = set()  # what the legend explains, beyond what every view draws
     for row, (mech, (panels, lo, hi)) in enumerate(zip(mechs, rows)):
         limits = sorted({(MM * pr.rho_min, "ρ_min") for pr in mech.profiles}
                         | {(MM * pr.rho_max, "ρ_max") for pr in mech.profiles})
@@ -203,48 +203,8 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                 ax.set_axis_off()
                 continue
             th, prof, spans, circles, wraps = panels[col]
-            for r, _ in limits:
-                ax.add_patch(Circle((0, 0), r, fill=False, **LIMIT))
-            for ctr, r in circles:
-                if r > 0:
-                    seen["idler"] = True
-                    ax.add_patch(Circle(tuple(ctr), r, fill=False, **IDLER))
-                    ax.plot(*ctr, marker="+", color="0.25", ms=8, ls="none")
-                else:
-                    seen["end"] |= _inside(lo, hi, ctr)
-                    ax.plot(*ctr, **SPRING_END)
-            for a, b in spans:
-                ax.plot([a[0], b[0]], [a[1], b[1]], **CABLE)
-            for wrap in wraps:
-                ax.plot(*wrap, **CABLE)
-            for i, (x, y, wrapped, dep, anchor, bind) in enumerate(prof):
-                colour = PROFILE_COLOURS[i % len(PROFILE_COLOURS)]
-                ax.plot(x, y, color=colour, lw=0.9, alpha=0.55)
-                ax.plot(x[wrapped], y[wrapped], color=colour, lw=3.0, solid_capstyle="butt")
-                ax.plot(*anchor, **ANCHOR)
-                ax.plot(*dep, **DEPARTURE)
-                for kind, pt in bind:
-                    seen[kind] = True
-                    ax.plot(*pt, **(RHO_BINDING if kind == "rho" else CONVEXITY_BINDING))
-            ax.plot(0, 0, marker="+", color="black", ms=10, mew=1.2, ls="none")
-            ax.set_xlim(lo[0], hi[0])
-            ax.set_ylim(lo[1], hi[1])
-            ax.set_aspect("equal", adjustable="box")
-            # what lies off the view is named at its edge: an idler once (not the cable's
-            # tangent points on it), a spring end where its cable leaves the view
-            away = [(ctr, r) for ctr, r in circles if not _inside(lo, hi, ctr)]
-            for a, b in spans:
-                on_idler = any(r > 0 and np.hypot(*(b - ctr)) <= 1.01 * r for ctr, r in away)
-                if not _inside(lo, hi, b) and _inside(lo, hi, a) and not on_idler:
-                    is_end = any(r == 0 and np.allclose(ctr, b) for ctr, r in circles)
-                    what = "spring end" if is_end else "cable end"
-                    _edge_label(ax, lo, hi, a, b, f"{what} ({b[0]:.0f}, {b[1]:.0f}) mm")
-            for ctr, r in away:
-                if r > 0:
-                    _edge_label(ax, lo, hi, np.zeros(2), ctr,
-                                f"idler: centre ({ctr[0]:.0f}, {ctr[1]:.0f}) mm, r {r:.3g} mm")
-                elif not any(np.allclose(ctr, b) for _, b in spans):
-                    _edge_label(ax, lo, hi, np.zeros(2), ctr, f"spring end ({ctr[0]:.0f}, {ctr[1]:.0f}) mm")
+            seen |= _draw_pose(ax, lo, hi, [r for r, _ in limits], prof, spans, circles, wraps)
+            _label_off_view(ax, lo, hi, spans, circles)
             angle = f"θ{mech.joint + 1}" if len(problem.joints) > 1 else "θ"
             ax.set_title(f"{mech.name}: {angle} = {np.degrees(th):.0f}°", fontsize=9)
             ax.tick_params(labelsize=7)
@@ -254,7 +214,84 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                 if off:
                     ax.text(0.02, 0.02, "off view: " + ", ".join(off), transform=ax.transAxes,
                             fontsize=7, color="0.35", va="bottom")
-    pairs = max(len(mech.profiles) for mech in mechs)
+    handles = _profile_legend(max(len(mech.profiles) for mech in mechs), seen)
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8,
+               frameon=False)
+    fig.suptitle(f"{problem.name}: profiles and cable at {ncols} joint angles (+: joint axis)", fontsize=10)
+    return fig
+
+
+def _draw_pose(ax, lo, hi, limits, prof, spans, circles, wraps) -> set[str]:
+    """Draw one pose of a mechanism (a panel of :func:`_row`) on ``ax``, viewing the box
+    (``lo``, ``hi``) [mm], with the circles of radii ``limits`` [mm] about the joint axis.
+
+    Returns
+    -------
+    set of str
+        The optional legend entries the panel shows: ``"idler"``, ``"end"`` (a spring end or
+        point idler in view), ``"rho"`` and ``"convexity"`` (a binding limit).
+    """
+    seen = set()
+    for r in limits:
+        ax.add_patch(Circle((0, 0), r, fill=False, **LIMIT))
+    for ctr, r in circles:
+        if r > 0:
+            seen.add("idler")
+            ax.add_patch(Circle(tuple(ctr), r, fill=False, **IDLER))
+            ax.plot(*ctr, marker="+", color="0.25", ms=8, ls="none")
+        else:
+            if _inside(lo, hi, ctr):
+                seen.add("end")
+            ax.plot(*ctr, **SPRING_END)
+    for a, b in spans:
+        ax.plot([a[0], b[0]], [a[1], b[1]], **CABLE)
+    for wrap in wraps:
+        ax.plot(*wrap, **CABLE)
+    for i, (x, y, wrapped, dep, anchor, bind) in enumerate(prof):
+        colour = PROFILE_COLOURS[i % len(PROFILE_COLOURS)]
+        ax.plot(x, y, color=colour, lw=0.9, alpha=0.55)
+        ax.plot(x[wrapped], y[wrapped], color=colour, lw=3.0, solid_capstyle="butt")
+        ax.plot(*anchor, **ANCHOR)
+        ax.plot(*dep, **DEPARTURE)
+        for kind, pt in bind:
+            seen.add(kind)
+            ax.plot(*pt, **(RHO_BINDING if kind == "rho" else CONVEXITY_BINDING))
+    ax.plot(0, 0, marker="+", color="black", ms=10, mew=1.2, ls="none")
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal", adjustable="box")
+    return seen
+
+
+def _label_off_view(ax, lo, hi, spans, circles) -> None:
+    """Name at the edge of the view (``lo``, ``hi``) [mm] what lies off it: an idler once (not
+    the cable's tangent points on it), a spring end where its cable leaves the view."""
+    away = [(ctr, r) for ctr, r in circles if not _inside(lo, hi, ctr)]
+    for a, b in spans:
+        on_idler = any(r > 0 and np.hypot(*(b - ctr)) <= 1.01 * r for ctr, r in away)
+        if not _inside(lo, hi, b) and _inside(lo, hi, a) and not on_idler:
+            is_end = any(r == 0 and np.allclose(ctr, b) for ctr, r in circles)
+            what = "spring end" if is_end else "cable end"
+            _edge_label(ax, lo, hi, a, b, f"{what} ({b[0]:.0f}, {b[1]:.0f}) mm")
+    for ctr, r in away:
+        if r > 0:
+            _edge_label(ax, lo, hi, np.zeros(2), ctr,
+                        f"idler: centre ({ctr[0]:.0f}, {ctr[1]:.0f}) mm, r {r:.3g} mm")
+        elif not any(np.allclose(ctr, b) for _, b in spans):
+            _edge_label(ax, lo, hi, np.zeros(2), ctr, f"spring end ({ctr[0]:.0f}, {ctr[1]:.0f}) mm")
+
+
+#: The optional entries of the profile view's legend, in their order: (key of what
+#: :func:`_draw_pose` returns, label, style).
+OPTIONAL_LEGEND = (("idler", "idler (+ centre)", IDLER),
+                   ("end", "spring end / point idler", SPRING_END),
+                   ("rho", "ρ at its limit", RHO_BINDING),
+                   ("convexity", "convexity margin binding", CONVEXITY_BINDING))
+
+
+def _profile_legend(pairs: int, seen: set[str]) -> list[Line2D]:
+    """The profile view's legend handles: the profiles (one colour, or one per profile of a
+    mechanism with ``pairs`` of them), the marks every view draws, and those in ``seen``."""
     if pairs == 1:
         handles = [Line2D([], [], color=PROFILE_COLOURS[0], lw=0.9, alpha=0.55, label="profile (designed range)"),
                    Line2D([], [], color=PROFILE_COLOURS[0], lw=3.0, label="cable wrapped on it")]
@@ -265,18 +302,8 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                 Line2D([], [], label="departure point", **DEPARTURE),
                 Line2D([], [], label="anchor", **ANCHOR),
                 Line2D([], [], label="ρ_min, ρ_max", **LIMIT)]
-    if seen["idler"]:
-        handles.append(Line2D([], [], label="idler (+ centre)", **IDLER))
-    if seen["end"]:
-        handles.append(Line2D([], [], label="spring end / point idler", **SPRING_END))
-    if seen["rho"]:
-        handles.append(Line2D([], [], label="ρ at its limit", **RHO_BINDING))
-    if seen["convexity"]:
-        handles.append(Line2D([], [], label="convexity margin binding", **CONVEXITY_BINDING))
-    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8,
-               frameon=False)
-    fig.suptitle(f"{problem.name}: profiles and cable at {ncols} joint angles (+: joint axis)", fontsize=10)
-    return fig
+    return handles + [Line2D([], [], label=label, **style) for key, label, style in OPTIONAL_LEGEND
+                      if key in seen]
 
 
 # -------------------------------------------------------------------------------------- torque
@@ -373,13 +400,40 @@ def springs_figure(ev: Evaluation) -> Figure:
     """
     problem = ev.problem
     springs, m, n = problem.springs, len(ev.tau), ev.grid
-    net = problem.network()
     grids = [np.degrees(j.grid(n)) for j in problem.joints]
     S = len(springs)
     detail = 1 if m == 1 else S
     fig = Figure(figsize=(max(8.0, 4.6 * detail), 1.4 + 0.5 * S + 3.6), layout="constrained")
     gs = fig.add_gridspec(2, detail, height_ratios=[0.6 + 0.5 * S, 3.6])
-    top = fig.add_subplot(gs[0, :])
+    _extension_ranges(fig.add_subplot(gs[0, :]), ev)
+    if m == 1:
+        ax = fig.add_subplot(gs[1, 0])
+        for j, s in enumerate(springs):
+            _extension_line(ax, grids[0], MM * ev.x[j], MM * s.travel, _spring_colour(j), _short(s.name))
+            _mark_extremes(ax, grids[0], MM * ev.x[j], MM * s.travel)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel("θ [deg]")
+        ax.set_ylabel("extension [mm] (dotted: travel)")
+        ax.legend(fontsize=8)
+        return fig
+    net = problem.network()
+    for j, s in enumerate(springs):
+        ax = fig.add_subplot(gs[1, j])
+        cams = net.joints_of(j)
+        x = MM * ev.x[j].reshape((n,) * m)
+        if len(cams) == 1:
+            _spring_over_one_joint(ax, grids, x, cams[0], MM * s.travel, _spring_colour(j))
+        else:
+            _spring_over_two_joints(fig, ax, grids, x, cams[:2], MM * s.travel)
+        ax.set_title(_wrap(s.name, 40), fontsize=8)
+    return fig
+
+
+def _extension_ranges(top, ev: Evaluation) -> None:
+    """On ``top``, each spring's extension range over the grid inside [0, travel] [mm], the
+    limits it reaches marked in red, and its range and limits named on the right."""
+    springs, m, n = ev.problem.springs, len(ev.tau), ev.grid
+    S = len(springs)
     xmin, xmax = MM * ev.x.min(axis=1), MM * ev.x.max(axis=1)
     notes_all = []
     for j, s in enumerate(springs):
@@ -408,49 +462,44 @@ def springs_figure(ev: Evaluation) -> Figure:
     top.set_ylim(-0.6, S - 0.4)
     top.set_xlabel("extension [mm] (grey: allowed, 0 to travel; red: a limit reached)", fontsize=8)
     grid = " × ".join([str(n)] * m) if m > 1 else f"{n}-angle"
-    top.set_title(f"spring extensions over the {grid} grid ({problem.torque_model} model)", fontsize=10)
-    if m == 1:
-        ax = fig.add_subplot(gs[1, 0])
-        for j, s in enumerate(springs):
-            ax.plot(grids[0], MM * ev.x[j], color=_spring_colour(j), label=_short(s.name))
-            ax.axhline(MM * s.travel, color=_spring_colour(j), ls=":", lw=1)
-            _mark_extremes(ax, grids[0], MM * ev.x[j], MM * s.travel)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_xlabel("θ [deg]")
-        ax.set_ylabel("extension [mm] (dotted: travel)")
-        ax.legend(fontsize=8)
-        return fig
-    for j, s in enumerate(springs):
-        ax = fig.add_subplot(gs[1, j])
-        cams = net.joints_of(j)
-        x = MM * ev.x[j].reshape((n,) * m)
-        travel = MM * s.travel
-        if len(cams) == 1:
-            c = cams[0]
-            line = x[tuple(slice(None) if a == c else 0 for a in range(m))]
-            ax.plot(grids[c], line, color=_spring_colour(j))
-            ax.axhline(travel, color=_spring_colour(j), ls=":", lw=1)
-            ax.axhline(0, color="k", lw=0.5)
-            _mark_extremes(ax, grids[c], line, travel)
-            ax.set_xlabel(f"θ{c + 1} [deg]")
-            ax.set_ylabel("extension [mm] (dotted: travel)")
-        else:
-            a, b = cams[:2]
-            sl = x[tuple(slice(None) if k in (a, b) else 0 for k in range(m))]
-            if a > b:
-                sl = sl.T
-            im = ax.pcolormesh(grids[b], grids[a], sl, shading="nearest", cmap="viridis")
-            fig.colorbar(im, ax=ax, label="extension [mm]")
-            if sl.max() >= 0.99 * travel:
-                cs = ax.contour(grids[b], grids[a], sl, levels=[0.99 * travel], colors="r", linewidths=1.2)
-                ax.clabel(cs, fmt=lambda v: "99 % of travel", fontsize=7)
-            ia, ib = np.unravel_index(int(np.argmax(sl)), sl.shape)
-            if limit_state(travel - sl.max(), travel):
-                ax.plot(grids[b][ib], grids[a][ia], marker="X", color="red", ms=9, ls="none")
-            ax.set_xlabel(f"θ{b + 1} [deg]")
-            ax.set_ylabel(f"θ{a + 1} [deg]")
-        ax.set_title(_wrap(s.name, 40), fontsize=8)
-    return fig
+    top.set_title(f"spring extensions over the {grid} grid ({ev.problem.torque_model} model)", fontsize=10)
+
+
+def _extension_line(ax, th, x, travel, colour, label=None) -> None:
+    """A spring's extension ``x`` [mm] over the angles ``th`` [deg], its ``travel`` dotted."""
+    ax.plot(th, x, color=colour, label=label)
+    ax.axhline(travel, color=colour, ls=":", lw=1)
+
+
+def _spring_over_one_joint(ax, grids, x, c: int, travel: float, colour) -> None:
+    """The extension [mm] on the grid ``x`` of a spring that only joint ``c`` stretches, over
+    that joint's angle (the others at the first angle of their grid)."""
+    line = x[tuple(slice(None) if a == c else 0 for a in range(x.ndim))]
+    _extension_line(ax, grids[c], line, travel, colour)
+    ax.axhline(0, color="k", lw=0.5)
+    _mark_extremes(ax, grids[c], line, travel)
+    ax.set_xlabel(f"θ{c + 1} [deg]")
+    ax.set_ylabel("extension [mm] (dotted: travel)")
+
+
+def _spring_over_two_joints(fig, ax, grids, x, cams, travel: float) -> None:
+    """The extension [mm] on the grid ``x`` of a spring joining joints ``cams`` = (a, b), as a
+    map over their angles (further joints at the first angle of their grid), with a contour at
+    99 % of its ``travel`` where it comes that close."""
+    a, b = cams
+    sl = x[tuple(slice(None) if k in (a, b) else 0 for k in range(x.ndim))]
+    if a > b:
+        sl = sl.T
+    im = ax.pcolormesh(grids[b], grids[a], sl, shading="nearest", cmap="viridis")
+    fig.colorbar(im, ax=ax, label="extension [mm]")
+    if sl.max() >= 0.99 * travel:
+        cs = ax.contour(grids[b], grids[a], sl, levels=[0.99 * travel], colors="r", linewidths=1.2)
+        ax.clabel(cs, fmt=lambda v: "99 % of travel", fontsize=7)
+    ia, ib = np.unravel_index(int(np.argmax(sl)), sl.shape)
+    if limit_state(travel - sl.max(), travel):
+        ax.plot(grids[b][ib], grids[a][ia], marker="X", color="red", ms=9, ls="none")
+    ax.set_xlabel(f"θ{b + 1} [deg]")
+    ax.set_ylabel(f"θ{a + 1} [deg]")
 
 
 def _mark_extremes(ax, th, x, travel):

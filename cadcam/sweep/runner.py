@@ -379,53 +379,7 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
         release_stale_claims(db)
         done_ids = {r[0] for r in db.execute("SELECT case_id FROM cases")}
         todo = [(i, c) for i, c in enumerate(cases) if Study.case_id(c) not in done_ids]
-        numeric = {k: [c[k] for c in cases if isinstance(c[k], (int, float))] for k in cases[0]}
-        scales = {k: (max(v) - min(v)) or 1.0 if v else 1.0 for k, v in numeric.items()}
-        solved, seen = [], 0  # warm starts: successful cases, by any runner, up to rowid ``seen``
-
-        def learn():
-            nonlocal seen
-            for rowid, params, design, metrics in db.execute(
-                    "SELECT rowid, params, design, metrics FROM cases WHERE status = 'success' AND rowid > ?",
-                    (seen,)):
-                params = json.loads(params)
-                solved.append((params, json.loads(design), json.loads(metrics)["objective"],
-                               Study.case_id(params)))
-                seen = max(seen, rowid)
-        ran, elapsed = 0, 0.0
-        if todo:
-            executor = _Dask(dask, max(workers, 1)) if dask else _Local(workers) if workers else _Serial()
-            report, finish = (_reporter(len(cases), len(cases) - len(todo)) if progress
-                              else (lambda r: None, lambda: None))
-            definition = study.to_dict()
-            t0 = time.perf_counter()
-            if workers and not dask:  # a local pool's workers would each compile the same library
-                compile_structures(definition, [c for _, c in todo])
-            pending, queue = {}, list(todo)
-            # two cases per worker keep a pool busy; serially a case is solved when submitted,
-            # so one at a time lets the next warm-start from it
-            room = 2 * max(workers, 1) if dask or workers else 1
-            try:
-                while queue or pending:
-                    while queue and len(pending) < room:
-                        idx, case = queue.pop(0)
-                        if not claim(db, Study.case_id(case)):  # recorded or held by another runner
-                            continue
-                        if study.warm_start:
-                            learn()
-                        start = _nearest(case, solved, scales) if study.warm_start else (None,) * 3
-                        pending[executor.submit(definition, case, *start)] = idx
-                    for fut in executor.wait(list(pending)):
-                        row = {**fut.result(), "idx": pending.pop(fut)}
-                        record(db, row)
-                        ran += 1
-                        report(row)
-            finally:
-                finish()
-                executor.close()
-                with db:  # cases this runner claimed but did not finish (an interrupt) are free again
-                    db.execute("DELETE FROM claims WHERE host = ? AND pid = ?", runner())
-            elapsed = time.perf_counter() - t0
+        ran, elapsed = _run_todo(db, study, cases, todo, workers, dask, progress) if todo else (0, 0.0)
         statuses = dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall())
         elsewhere = db.execute("SELECT COUNT(*) FROM claims").fetchone()[0]
     finally:
@@ -433,6 +387,74 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
     return {"cases": len(cases), "ran": ran, "skipped": len(cases) - len(todo), "elsewhere": elsewhere,
             "wall_time_s": elapsed, "statuses": statuses,
             "cases_per_min": 60 * ran / elapsed if ran and elapsed > 0 else float("nan")}
+
+
+def _run_todo(db: sqlite3.Connection, study: Study, cases: list[dict], todo: list[tuple[int, dict]],
+              workers: int, dask: str | None, progress: bool) -> tuple[int, float]:
+    """Claim, run and record the cases ``todo`` ((index, case) pairs of the study's ``cases``)
+    on the executor :func:`run_sweep` names; return how many this runner ran and its time [s]."""
+    warm = _WarmStarts(db, cases) if study.warm_start else None
+    executor = _Dask(dask, max(workers, 1)) if dask else _Local(workers) if workers else _Serial()
+    report, finish = (_reporter(len(cases), len(cases) - len(todo)) if progress
+                      else (lambda r: None, lambda: None))
+    definition = study.to_dict()
+    t0 = time.perf_counter()
+    if workers and not dask:  # a local pool's workers would each compile the same library
+        compile_structures(definition, [c for _, c in todo])
+    # two cases per worker keep a pool busy; serially a case is solved when submitted,
+    # so one at a time lets the next warm-start from it
+    room = 2 * max(workers, 1) if dask or workers else 1
+    try:
+        ran = _submit_and_record(db, executor, definition, list(todo), room, warm, report)
+    finally:
+        finish()
+        executor.close()
+        with db:  # cases this runner claimed but did not finish (an interrupt) are free again
+            db.execute("DELETE FROM claims WHERE host = ? AND pid = ?", runner())
+    return ran, time.perf_counter() - t0
+
+
+def _submit_and_record(db: sqlite3.Connection, executor, definition: dict, queue: list, room: int,
+                       warm: _WarmStarts | None, report) -> int:
+    """Keep up to ``room`` cases of ``queue`` ((index, case) pairs, consumed) that this runner
+    claims running on ``executor``, each warm-started by ``warm`` if given, and record each
+    as it finishes; return how many were run."""
+    pending, ran = {}, 0
+    while queue or pending:
+        while queue and len(pending) < room:
+            idx, case = queue.pop(0)
+            if not claim(db, Study.case_id(case)):  # recorded or held by another runner
+                continue
+            start = warm.nearest(case) if warm else (None,) * 3
+            pending[executor.submit(definition, case, *start)] = idx
+        for fut in executor.wait(list(pending)):
+            row = {**fut.result(), "idx": pending.pop(fut)}
+            record(db, row)
+            ran += 1
+            report(row)
+    return ran
+
+
+class _WarmStarts:
+    """The successful cases recorded in a study database by any runner, read as they appear,
+    and the scale of each numeric parameter over the study's ``cases`` (its range, or 1)."""
+
+    def __init__(self, db: sqlite3.Connection, cases: list[dict]):
+        numeric = {k: [c[k] for c in cases if isinstance(c[k], (int, float))] for k in cases[0]}
+        self.scales = {k: (max(v) - min(v)) or 1.0 if v else 1.0 for k, v in numeric.items()}
+        self.db, self.solved, self.seen = db, [], 0  # solved cases up to rowid ``seen``
+
+    def nearest(self, case: dict):
+        """(design, objective, case id) of the recorded successful case nearest to ``case``
+        (:func:`_nearest`), or three Nones."""
+        for rowid, params, design, metrics in self.db.execute(
+                "SELECT rowid, params, design, metrics FROM cases WHERE status = 'success' AND rowid > ?",
+                (self.seen,)):
+            params = json.loads(params)
+            self.solved.append((params, json.loads(design), json.loads(metrics)["objective"],
+                                Study.case_id(params)))
+            self.seen = max(self.seen, rowid)
+        return _nearest(case, self.solved, self.scales)
 
 
 def sweep_and_read(study: Study, db_path, workers: int | None = None) -> tuple[dict, list[dict]]:

@@ -217,16 +217,7 @@ def load_study(path) -> Study:
     """Read and check a study file; raises :class:`StudyError` with one line."""
     path = Path(path)
     origin = str(path)
-    try:
-        raw = loads_toml(read_input(path))
-    except InputFileError as exc:
-        raise StudyError(f"{origin}: the study: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{origin}: not valid TOML ({exc})") from None
-    allowed = {"name", "base", "variant", "design", "samples", "seed", "record", "warm_start",
-               "parameters", "notes"}
-    if extra := sorted(set(raw) - allowed):
-        raise StudyError(f"{origin}: unknown key '{extra[0]}'; allowed: {', '.join(sorted(allowed))}")
+    raw = _read_study_table(path)
 
     def need(key, ok, form, default=None):
         if key not in raw:
@@ -237,42 +228,9 @@ def load_study(path) -> Study:
             raise StudyError(f"{origin}: {key} = {raw[key]!r}: expected {form}")
         return raw[key]
 
-    params = []
-    for k, p in enumerate(need("parameters", lambda v: isinstance(v, list), "an array of [[parameters]]", [])):
-        where = f"parameters[{k + 1}]"
-        if not isinstance(p, dict) or not isinstance(p.get("key"), str) or not p["key"]:
-            raise StudyError(f"{origin}: {where}.key: expected a dotted key such as 'springs.1.rate'")
-        if extra := sorted(set(p) - {"key", "values", "range", "num", "log", "integer", "catalogue"}):
-            raise StudyError(f"{origin}: unknown key '{where}.{extra[0]}'")
-        given = [k2 for k2 in ("values", "range", "catalogue") if k2 in p]
-        if len(given) != 1:
-            raise StudyError(f"{origin}: {where} ({p['key']}): give exactly one of values, range, catalogue")
-        values, rng, num = (), None, 0
-        if "values" in p:
-            if not isinstance(p["values"], list) or not p["values"]:
-                raise StudyError(f"{origin}: {where}.values: expected a non-empty list")
-            values = tuple(p["values"])
-        elif "catalogue" in p:
-            if not isinstance(p["catalogue"], str) or not p["catalogue"]:
-                raise StudyError(f"{origin}: {where}.catalogue = {p['catalogue']!r}: expected the path of a "
-                                 "spring catalogue (CSV) relative to the study")
-            try:
-                values = read_catalogue(path.parent / p["catalogue"])
-            except (OSError, ValueError) as exc:
-                raise StudyError(f"{origin}: {where}.catalogue: {exc}") from None
-        else:
-            r = p["range"]
-            if not (isinstance(r, list) and len(r) == 2 and all(_number(x) for x in r) and r[1] > r[0]):
-                raise StudyError(f"{origin}: {where}.range = {r!r}: expected [low, high] numbers with high > low")
-            if p.get("log") and r[0] <= 0:
-                raise StudyError(f"{origin}: {where}.range: a log range needs low > 0")
-            num = p.get("num", 0)
-            design = raw.get("design", "factorial")
-            if design != "latin_hypercube" and not (isinstance(num, int) and not isinstance(num, bool) and num >= 2):
-                raise StudyError(f"{origin}: {where}.num = {num!r}: expected an integer ≥ 2 for a range")
-            rng = (float(r[0]), float(r[1]))
-        params.append(Parameter(p["key"], values, rng, num, bool(p.get("log", False)),
-                                bool(p.get("integer", False))))
+    design = raw.get("design", "factorial")
+    params = [_parameter(p, f"parameters[{k + 1}]", design, path)
+              for k, p in enumerate(need("parameters", lambda v: isinstance(v, list), "an array of [[parameters]]", []))]
     study = Study(
         name=need("name", lambda v: isinstance(v, str) and v, "a non-empty string"),
         base=path.parent / need("base", lambda v: isinstance(v, str) and v, "a spec path relative to the study"),
@@ -291,3 +249,72 @@ def load_study(path) -> Study:
                          "(fewer values, a smaller num or fewer samples; or raise the cap deliberately "
                          "with the environment variable CADCAM_CAP_CASES)")
     return study
+
+
+#: The keys of a study file.
+STUDY_KEYS = {"name", "base", "variant", "design", "samples", "seed", "record", "warm_start",
+              "parameters", "notes"}
+
+
+def _read_study_table(path: Path) -> dict:
+    """The study file at ``path`` as a TOML table holding no key but :data:`STUDY_KEYS`."""
+    origin = str(path)
+    try:
+        raw = loads_toml(read_input(path))
+    except InputFileError as exc:
+        raise StudyError(f"{origin}: the study: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{origin}: not valid TOML ({exc})") from None
+    if extra := sorted(set(raw) - STUDY_KEYS):
+        raise StudyError(f"{origin}: unknown key '{extra[0]}'; allowed: {', '.join(sorted(STUDY_KEYS))}")
+    return raw
+
+
+def _parameter(p, where: str, design: str, path: Path) -> Parameter:
+    """One [[parameters]] table ``p`` (``where`` in the study file at ``path``): its key and
+    exactly one of values, catalogue (read relative to the study) and range; ``design`` is the
+    study's (a range needs ``num`` unless it is sampled by a Latin hypercube)."""
+    origin = str(path)
+    if not isinstance(p, dict) or not isinstance(p.get("key"), str) or not p["key"]:
+        raise StudyError(f"{origin}: {where}.key: expected a dotted key such as 'springs.1.rate'")
+    if extra := sorted(set(p) - {"key", "values", "range", "num", "log", "integer", "catalogue"}):
+        raise StudyError(f"{origin}: unknown key '{where}.{extra[0]}'")
+    given = [k for k in ("values", "range", "catalogue") if k in p]
+    if len(given) != 1:
+        raise StudyError(f"{origin}: {where} ({p['key']}): give exactly one of values, range, catalogue")
+    values, rng, num = (), None, 0
+    if "values" in p:
+        if not isinstance(p["values"], list) or not p["values"]:
+            raise StudyError(f"{origin}: {where}.values: expected a non-empty list")
+        values = tuple(p["values"])
+    elif "catalogue" in p:
+        values = _catalogue_values(p["catalogue"], where, path)
+    else:
+        rng, num = _parameter_range(p, where, design, origin)
+    return Parameter(p["key"], values, rng, num, bool(p.get("log", False)), bool(p.get("integer", False)))
+
+
+def _catalogue_values(name, where: str, path: Path) -> tuple[dict, ...]:
+    """The spring tables of a parameter's ``catalogue`` file ``name``, relative to the study
+    file at ``path``."""
+    if not isinstance(name, str) or not name:
+        raise StudyError(f"{path}: {where}.catalogue = {name!r}: expected the path of a "
+                         "spring catalogue (CSV) relative to the study")
+    try:
+        return read_catalogue(path.parent / name)
+    except (OSError, ValueError) as exc:
+        raise StudyError(f"{path}: {where}.catalogue: {exc}") from None
+
+
+def _parameter_range(p: dict, where: str, design: str, origin: str) -> tuple[tuple[float, float], int]:
+    """A parameter's ``range`` (low, high) and its ``num`` (at least 2, unless ``design`` is a
+    Latin hypercube, which samples the range itself)."""
+    r = p["range"]
+    if not (isinstance(r, list) and len(r) == 2 and all(_number(x) for x in r) and r[1] > r[0]):
+        raise StudyError(f"{origin}: {where}.range = {r!r}: expected [low, high] numbers with high > low")
+    if p.get("log") and r[0] <= 0:
+        raise StudyError(f"{origin}: {where}.range: a log range needs low > 0")
+    num = p.get("num", 0)
+    if design != "latin_hypercube" and not (isinstance(num, int) and not isinstance(num, bool) and num >= 2):
+        raise StudyError(f"{origin}: {where}.num = {num!r}: expected an integer ≥ 2 for a range")
+    return (float(r[0]), float(r[1])), num

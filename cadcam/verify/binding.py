@@ -58,52 +58,76 @@ def binding_constraints(metrics: dict, problem, rtol: float = RTOL) -> list[str]
         32.00 mm of 32.00 mm"``; springs first, then profiles, then mechanisms. Values that are
         not finite are left to the evaluation's violations.
     """
+    out = _spring_sentences(metrics, problem.springs, rtol)
+    out += _profile_sentences(metrics, problem.profiles, problem.options.convexity_epsilon, rtol)
+    own = metrics.get("margins", {}).get("mechanism", [])
+    for mech, margins in zip(problem.mechanisms, own):
+        out += _mechanism_sentences(mech, margins, rtol)
+    return out
+
+
+def _measured(values: list, i: int) -> bool:
+    """Whether ``values`` holds a finite measurement at index ``i``."""
+    return i < len(values) and _finite(values[i])
+
+
+def _spring_sentences(metrics: dict, springs, rtol: float) -> list[str]:
+    """The binding sentences of each spring: its travel limit, then its zero extension."""
     out = []
     xmin, xmax = metrics.get("extension_min", []), metrics.get("extension_max", [])
-    for j, s in enumerate(problem.springs):
-        if j < len(xmax) and _finite(xmax[j]):
+    for j, s in enumerate(springs):
+        if _measured(xmax, j):
             state = limit_state(s.travel - xmax[j], s.travel, rtol)
             if state:
                 out.append(f"{s.name} {state} its travel limit: {MM * xmax[j]:.2f} mm of "
                            f"{MM * s.travel:.2f} mm")
-        if j < len(xmin) and _finite(xmin[j]):
+        if _measured(xmin, j):
             state = limit_state(xmin[j], s.travel, rtol)
             if state == "at":
                 out.append(f"{s.name} at zero extension: least extension {MM * xmin[j]:.3f} mm "
                            f"(travel {MM * s.travel:.2f} mm)")
             elif state:
                 out.append(f"{s.name} in compression: {MM * xmin[j]:.3f} mm (must stay ≥ 0)")
-    eps = problem.options.convexity_epsilon
+    return out
+
+
+def _profile_sentences(metrics: dict, profiles, eps: float, rtol: float) -> list[str]:
+    """The binding sentences of each profile: ρ_min, ρ_max, the convexity margin (the NLP
+    asks ≥ ``eps``·ρ_min²) and the minimum radius of curvature."""
+    out = []
     lo, hi = metrics.get("rho_min", []), metrics.get("rho_max", [])
     conv, curv = metrics.get("convexity_min", []), metrics.get("curvature_radius_min", [])
-    for k, p in enumerate(problem.profiles):
-        if k < len(lo) and _finite(lo[k]):
+    for k, p in enumerate(profiles):
+        if _measured(lo, k):
             state = limit_state(lo[k] - p.rho_min, p.rho_min, rtol)
             if state:
                 out.append(f"{p.name} {state} ρ_min: ρ down to {MM * lo[k]:.2f} mm, "
                            f"ρ_min {MM * p.rho_min:.2f} mm")
-        if k < len(hi) and _finite(hi[k]):
+        if _measured(hi, k):
             state = limit_state(p.rho_max - hi[k], p.rho_max, rtol)
             if state:
                 out.append(f"{p.name} {state} ρ_max: ρ up to {MM * hi[k]:.2f} mm, "
                            f"ρ_max {MM * p.rho_max:.2f} mm")
-        if k < len(conv) and _finite(conv[k]):
-            need = eps * p.rho_min ** 2  # the NLP's required margin; convexity itself is > 0
-            state = "beyond" if limit_state(conv[k], p.rho_min ** 2, rtol) == "beyond" else (
-                "at" if limit_state(conv[k] - need, p.rho_min ** 2, rtol) else None)
-            if state:
-                word = "convexity margin near zero" if state == "at" else "not convex"
-                out.append(f"{p.name} {word}: ρ² + 2ρ′² − ρρ″ down to {MM**2 * conv[k]:.3g} mm² "
-                           f"(the NLP asks ≥ {MM**2 * need:.3g} mm², ρ_min² = {MM**2 * p.rho_min**2:.3g} mm²)")
-        if p.min_curvature_radius > 0 and k < len(curv) and _finite(curv[k]):
+        if _measured(conv, k):
+            out += _convexity_sentences(p, conv[k], eps * p.rho_min ** 2, rtol)
+        if p.min_curvature_radius > 0 and _measured(curv, k):
             state = limit_state(curv[k] - p.min_curvature_radius, p.min_curvature_radius, rtol)
             if state:
                 out.append(f"{p.name} {state} its minimum radius of curvature: {MM * curv[k]:.2f} mm "
                            f"of {MM * p.min_curvature_radius:.2f} mm")
-    own = metrics.get("margins", {}).get("mechanism", [])
-    for mech, margins in zip(problem.mechanisms, own):
-        out += _mechanism_sentences(mech, margins, rtol)
     return out
+
+
+def _convexity_sentences(p, conv: float, need: float, rtol: float) -> list[str]:
+    """The binding sentence, if any, of profile ``p``'s least convexity margin ``conv`` [m²]:
+    near the NLP's required ``need`` [m²] (convexity itself only needs > 0), or below zero."""
+    state = "beyond" if limit_state(conv, p.rho_min ** 2, rtol) == "beyond" else (
+        "at" if limit_state(conv - need, p.rho_min ** 2, rtol) else None)
+    if not state:
+        return []
+    word = "convexity margin near zero" if state == "at" else "not convex"
+    return [f"{p.name} {word}: ρ² + 2ρ′² − ρρ″ down to {MM**2 * conv:.3g} mm² "
+            f"(the NLP asks ≥ {MM**2 * need:.3g} mm², ρ_min² = {MM**2 * p.rho_min**2:.3g} mm²)"]
 
 
 def _mechanism_sentences(mech, margins: dict, rtol: float) -> list[str]:
