@@ -16,7 +16,7 @@ import threading
 from dataclasses import replace
 from pathlib import Path
 
-from .mechanisms.base import TORQUE_MODELS
+from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
 from .version import __version__
@@ -331,9 +331,11 @@ def _add_spec_arguments(p) -> None:
     p.add_argument("spec", nargs="?", help="problem spec (TOML) or a cadcam result.json")
     p.add_argument("--example", metavar="NAME", help="use an example spec installed with cadcam instead "
                    "of SPEC: " + ", ".join(examples.names()))
-    p.add_argument("--torque-model", choices=TORQUE_MODELS,
-                   help="override the spec's torque model (energy: ∂V/∂θ, the default; "
-                        "force, force-as-printed: Johnston2023 Eq. 19–21 for wire cams)")
+    offered = "; ".join(f"{', '.join(mechanism_class(kind).force_models)} for {kind}"
+                        for kind in mechanism_kinds() if mechanism_class(kind).force_models)
+    p.add_argument("--torque-model", choices=torque_models(),
+                   help=f"override the spec's torque model (energy: ∂V/∂θ, the default; the papers' "
+                        f"force models: {offered})")
     p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
     p.add_argument("--variant", help="apply the spec's [variants.NAME] overrides")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",

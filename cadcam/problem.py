@@ -229,7 +229,7 @@ class Joint:
 @dataclass(frozen=True)
 class Problem:
     """A design problem: joints, mechanisms on them, springs joining their ports, the torque
-    model (``energy`` by default; see :data:`cadcam.mechanisms.base.TORQUE_MODELS`), options
+    model (``energy`` by default; see :func:`cadcam.mechanisms.base.torque_models`), options
     and the sizes of the workshop files.
 
     Raises ValueError if a mechanism cannot compute ``torque_model``.

@@ -22,8 +22,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .mechanisms.base import (ENERGY, design_methods, LEGACY_TORQUE_MODELS, TORQUE_MODELS, Profile,
-                              mechanism_class, mechanism_kinds)
+from .mechanisms.base import (ENERGY, Profile, design_methods, legacy_torque_models, mechanism_class,
+                              mechanism_kinds, torque_models)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
@@ -294,10 +294,10 @@ def _torque_model(top: "_Reader", data: dict) -> str:
         top.fail("friction_model", data["friction_model"],
                  "nothing: it is the old name of torque_model; give only torque_model")
     if "friction_model" in data:
-        legacy = top.get("friction_model", lambda v: v in LEGACY_TORQUE_MODELS,
-                         f"one of {tuple(LEGACY_TORQUE_MODELS)} (old name of torque_model)")
-        return LEGACY_TORQUE_MODELS[legacy]
-    return top.get("torque_model", lambda v: v in TORQUE_MODELS, f"one of {TORQUE_MODELS}",
+        legacy = top.get("friction_model", lambda v: v in legacy_torque_models(),
+                         f"one of {tuple(legacy_torque_models())} (old name of torque_model)")
+        return legacy_torque_models()[legacy]
+    return top.get("torque_model", lambda v: v in torque_models(), f"one of {torque_models()}",
                    ENERGY)
 
 

@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from cadcam import Design, evaluate, load_spec, optimize
-from cadcam.mechanisms.base import TORQUE_MODELS
+from cadcam.mechanisms.base import torque_models
 from cadcam.verify.evaluate import rate_deviation
 from cadcam.files import write_json
 from reporting import figures as shared_figures, finish, limit_lines, provenance, provenance_info
@@ -58,7 +58,7 @@ def main() -> None:
         problem = load_spec(SPEC, variant)
         design = Design.from_dict(data, problem)
         pub = data["published"]
-        for model in TORQUE_MODELS:
+        for model in torque_models():
             ev = evaluate(problem.with_torque_model(model), design)
             lines.append(f"| {title.split(' (')[0]} | {model} | {fmt(ev.metrics['rmse'])} | "
                          f"{fmt(ev.metrics['max_abs_error'])} | {' / '.join(map(str, pub['rmse_Nmm']))} | "
@@ -87,7 +87,7 @@ def main() -> None:
     results = {}
     optimum_checks = []
     for stem, variant, design_file, title in CASES:
-        for model in TORQUE_MODELS:
+        for model in torque_models():
             problem = load_spec(SPEC, variant).with_torque_model(model)
             published = Design.from_dict(json.loads((ROOT / "models" / design_file).read_text()), problem)
             r = optimize(problem)

@@ -18,6 +18,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Rectangle
 
 from ..files import atomic_path
+from ..mechanisms.base import Picture
 from ..version import __version__
 from .workshop import MM, Outline, holes
 
@@ -76,7 +77,7 @@ def _sheet_format(path) -> str:
 
 def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
                  rho_max: float, title: str, *, spec: str = "", drawing: str = "",
-                 date: str | None = None) -> tuple[Figure, int]:
+                 date: str | None = None, words: Picture = Picture()) -> tuple[Figure, int]:
     """The workshop sheet of one cam as a Figure, 1 mm of paper per mm of cam when it fits.
 
     The designed (wrapped) arc is drawn thick and red, the closing arc thin and black; the bore,
@@ -101,6 +102,9 @@ def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float,
         The drawing number (``cam1``; the file's stem when written by :func:`draw_sheet`).
     date : str, optional
         ISO date on the title block; default today.
+    words : Picture
+        The mechanism's words: the notes call the red arc ``words.arc`` and say
+        ``words.runs_on`` of it (a cable's by default).
 
     Returns
     -------
@@ -124,7 +128,7 @@ def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float,
     taken = _dimensions(ax, outline, circles, n)
     shown = _draw_limits(ax, centre, half, {"ρ_min": rho_min, "ρ_max": rho_max}, taken)
     _frame(fig)
-    _notes(fig, outline, circles, rho_min, rho_max, shown)
+    _notes(fig, outline, rho_min, rho_max, shown, words)
     _title_block(fig, title, spec, drawing, n, date or datetime.date.today().isoformat())
     return fig, n
 
@@ -250,15 +254,15 @@ def _frame(fig):
                              1 - 2 * MARGIN / SHEET[1], transform=fig.transFigure, fill=False, lw=0.8))
 
 
-def _notes(fig, outline, circles, rho_min, rho_max, shown):
+def _notes(fig, outline, rho_min, rho_max, shown, words):
     """Notes and a 10 mm scale bar in the band at the foot of the sheet, left of the title
-    block."""
+    block; ``words`` names the red arc and says what runs on it."""
     lo, hi = outline.rho_range
     off = [name for name in ("ρ_min", "ρ_max") if name not in shown]
     lines = [
-        "Dimensions in mm. Red: designed (wrapped) arc, "
+        f"Dimensions in mm. Red: {words.arc}, "
         f"φ = 0° to {np.degrees(outline.phi_end):.1f}° from the anchor point; black: closing arc.",
-        f"Outline radius {lo * MM:.2f} to {hi * MM:.2f}; the cable runs on the red arc only.",
+        f"Outline radius {lo * MM:.2f} to {hi * MM:.2f}; {words.runs_on}.",
         f"Dashed: radius limits ρ_min = {rho_min * MM:.2f}, ρ_max = {rho_max * MM:.2f}"
         + (f" ({', '.join(off)} off the sheet)." if off else "."),
         "The outline's full definition: camN_points.csv / camN.dxf (this sheet is for checking).",

@@ -20,11 +20,9 @@ import numpy as np
 from ..physics.profile import Basis, profile_function
 from ..physics.wrap import arc_length_density, length_function, wound_length
 
-#: Torque models: ``energy`` for every mechanism; force models where a mechanism offers them.
+#: The torque model of every mechanism; others are force models a mechanism offers
+#: (:attr:`Mechanism.force_models`, :func:`torque_models`).
 ENERGY = "energy"
-TORQUE_MODELS = (ENERGY, "force", "force-as-printed")
-#: Names cadcam used before the energy model (friction_model = ...), read from old files.
-LEGACY_TORQUE_MODELS = {"exact": "force", "as-printed": "force-as-printed"}
 
 _REGISTRY: dict[str, type] = {}
 
@@ -45,6 +43,16 @@ def mechanism_class(kind: str):
 def mechanism_kinds() -> tuple[str, ...]:
     """Names of the registered mechanisms."""
     return tuple(sorted(_REGISTRY))
+
+
+def torque_models() -> tuple[str, ...]:
+    """``energy`` and every force model a registered mechanism offers."""
+    return tuple(dict.fromkeys([ENERGY] + [m for kind in mechanism_kinds() for m in _REGISTRY[kind].force_models]))
+
+
+def legacy_torque_models() -> dict[str, str]:
+    """Old names of force models (a spec's ``friction_model``) → their names today."""
+    return {old: new for kind in mechanism_kinds() for old, new in _REGISTRY[kind].legacy_force_models.items()}
 
 
 @dataclass(frozen=True)
@@ -157,6 +165,21 @@ class Named:
 
 
 @dataclass(frozen=True)
+class Picture:
+    """The words the figures and drawing sheets use for a mechanism's parts; a cable's by
+    default. ``wound`` = "" draws no thick arc for the part of a profile up to the contact."""
+
+    title: str = "profiles and cable"
+    wound: str = "cable wrapped on it"
+    free: str = "cable off the profile"
+    contact: str = "departure point"
+    anchor: str = "anchor"
+    circle: str = "idler (+ centre)"
+    arc: str = "designed (wrapped) arc"
+    runs_on: str = "the cable runs on the red arc only"
+
+
+@dataclass(frozen=True)
 class Profile:
     """One designed profile ρ(φ) of a mechanism, with its radius and curvature limits [m]."""
 
@@ -201,6 +224,8 @@ class Mechanism:
     #: Their names (derived from :attr:`limits`).
     margin_names: ClassVar[tuple[str, ...]] = ()
     force_models: ClassVar[tuple[str, ...]] = ()
+    #: Old names of its force models (cadcam ≤ 0.1's ``friction_model``) → their names.
+    legacy_force_models: ClassVar[dict[str, str]] = {}
     #: Joint angle [rad] at which the port displacements are zero.
     reference_angle: ClassVar[float] = 0.0
     #: Number of profiles the mechanism owns.
@@ -214,6 +239,8 @@ class Mechanism:
     #: it should follow (a :class:`cadcam.targets.Target` of the joint angle, or None).
     output: ClassVar[str] = ""
     output_target: ClassVar[object] = None
+    #: The words its pictures use (:class:`Picture`).
+    picture: ClassVar[Picture] = Picture()
     #: A spec's top-level list of this mechanism, one per joint (a shorthand), or "".
     shorthand: ClassVar[str] = ""
     #: SI unit ("m", "rad", "N/m", "N", "-") of each of its own spec keys, for labels.

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 import textwrap
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import matplotlib
 import numpy as np
@@ -24,7 +24,7 @@ from matplotlib.patches import Circle
 from ..verify.binding import limit_state
 from ..verify.evaluate import Evaluation, output_error, output_law
 from ..files import atomic_path
-from ..mechanisms.base import mechanism_class, mechanism_kinds
+from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
 
 MM = 1e3
@@ -153,7 +153,8 @@ def _row(ev: Evaluation, u: int, n_poses: int):
             dep = MM * np.array(mech.world_points(th, alpha, float(_rho_at(ev, p, alpha)[0]), kk), dtype=float)
             anchor = MM * np.array(mech.world_points(th, 0.0, float(rho[0]), kk), dtype=float)
             bind = [(kind, MM * np.array(mech.world_points(th, f, r, kk), dtype=float)) for kind, f, r in marks[p]]
-            prof.append((x, y, phi <= alpha, dep, anchor, bind))
+            wound = phi <= alpha if mech.picture.wound else np.zeros(phi.shape, dtype=bool)
+            prof.append((x, y, wound, dep, anchor, bind))
         spans = [(MM * np.asarray(a, float), MM * np.asarray(b, float)) for a, b in mech.segments(th, z, c)]
         circles = [(MM * np.asarray(ctr, float), MM * float(r)) for ctr, r in mech.circles(th, z, c)]
         wraps = [(MM * np.asarray(x, float), MM * np.asarray(y, float)) for x, y in mech.wraps(th, z, c)]
@@ -214,10 +215,11 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                 if off:
                     ax.text(0.02, 0.02, "off view: " + ", ".join(off), transform=ax.transAxes,
                             fontsize=7, color="0.35", va="bottom")
-    handles = _profile_legend(max(len(mech.profiles) for mech in mechs), seen)
+    words = _words(mechs)
+    handles = _profile_legend(max(len(mech.profiles) for mech in mechs), seen, words)
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8,
                frameon=False)
-    fig.suptitle(f"{problem.name}: profiles and cable at {ncols} joint angles (+: joint axis)", fontsize=10)
+    fig.suptitle(f"{problem.name}: {words.title} at {ncols} joint angles (+: joint axis)", fontsize=10)
     return fig
 
 
@@ -282,28 +284,37 @@ def _label_off_view(ax, lo, hi, spans, circles) -> None:
 
 
 #: The optional entries of the profile view's legend, in their order: (key of what
-#: :func:`_draw_pose` returns, label, style).
-OPTIONAL_LEGEND = (("idler", "idler (+ centre)", IDLER),
+#: :func:`_draw_pose` returns, its label (None: the mechanisms' word for their circles), style).
+OPTIONAL_LEGEND = (("idler", None, IDLER),
                    ("end", "spring end / point idler", SPRING_END),
                    ("rho", "ρ at its limit", RHO_BINDING),
                    ("convexity", "convexity margin binding", CONVEXITY_BINDING))
 
 
-def _profile_legend(pairs: int, seen: set[str]) -> list[Line2D]:
+def _words(mechs) -> Picture:
+    """The words of the mechanisms' pictures, each joined with " / " where kinds differ."""
+    pictures = list(dict.fromkeys(m.picture for m in mechs))
+    return Picture(**{f.name: " / ".join(dict.fromkeys(w for w in (getattr(p, f.name) for p in pictures) if w))
+                      for f in fields(Picture)})
+
+
+def _profile_legend(pairs: int, seen: set[str], words: Picture) -> list[Line2D]:
     """The profile view's legend handles: the profiles (one colour, or one per profile of a
-    mechanism with ``pairs`` of them), the marks every view draws, and those in ``seen``."""
+    mechanism with ``pairs`` of them), the marks every view draws, and those in ``seen``, in
+    the mechanisms' ``words``."""
     if pairs == 1:
-        handles = [Line2D([], [], color=PROFILE_COLOURS[0], lw=0.9, alpha=0.55, label="profile (designed range)"),
-                   Line2D([], [], color=PROFILE_COLOURS[0], lw=3.0, label="cable wrapped on it")]
+        handles = [Line2D([], [], color=PROFILE_COLOURS[0], lw=0.9, alpha=0.55, label="profile (designed range)")]
+        if words.wound:
+            handles.append(Line2D([], [], color=PROFILE_COLOURS[0], lw=3.0, label=words.wound))
     else:
         handles = [Line2D([], [], color=PROFILE_COLOURS[k], lw=3.0, label=f"profile {k + 1} (thick: wrapped)")
                    for k in range(pairs)]
-    handles += [Line2D([], [], label="cable off the profile", **CABLE),
-                Line2D([], [], label="departure point", **DEPARTURE),
-                Line2D([], [], label="anchor", **ANCHOR),
+    handles += [Line2D([], [], label=words.free, **CABLE),
+                Line2D([], [], label=words.contact, **DEPARTURE),
+                Line2D([], [], label=words.anchor, **ANCHOR),
                 Line2D([], [], label="ρ_min, ρ_max", **LIMIT)]
-    return handles + [Line2D([], [], label=label, **style) for key, label, style in OPTIONAL_LEGEND
-                      if key in seen]
+    return handles + [Line2D([], [], label=label or words.circle, **style)
+                      for key, label, style in OPTIONAL_LEGEND if key in seen]
 
 
 # -------------------------------------------------------------------------------------- torque

@@ -120,20 +120,21 @@ def write_workshop_files(ev, out: Path, args: Workshop, sheets: bool = True,
                 notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
                              f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
             else:
-                notes.append(_write_outline_files(ev, i, out, args, sheets, mech.outline_closure, drawings))
+                notes.append(_write_outline_files(ev, i, out, args, sheets, mech, drawings))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     return notes
 
 
-def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, closure: str,
+def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, mech,
                          drawings: list[Drawing] | None) -> str:
-    """The workshop files of profile ``i`` closed into a planar outline (see
+    """The workshop files of profile ``i`` of mechanism ``mech``, closed into a planar outline
+    its way (:attr:`~cadcam.mechanisms.base.Mechanism.outline_closure`; see
     :func:`write_workshop_files`); returns its line of the summary."""
     from ..make.workshop import chord_outline, closed_outline, polyline, write_dxf, write_points_csv, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
-    close = chord_outline if closure == "chord" else closed_outline
+    close = chord_outline if mech.outline_closure == "chord" else closed_outline
     outline = close(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()))
     stem = out / f"cam{i + 1}"
     write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
@@ -143,7 +144,8 @@ def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, cl
         from ..make.drawing import save_sheet, sheet_figure
 
         fig, _ = sheet_figure(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max,
-                              cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}")
+                              cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}",
+                              words=mech.picture)
         # one figure, drawn into both formats
         _drawn(functools.partial(save_sheet, fig, out / f"cam{i + 1}_sheet.pdf", out / f"cam{i + 1}_sheet.png"),
                drawings)

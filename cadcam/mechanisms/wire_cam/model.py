@@ -58,6 +58,7 @@ class WireCam(Mechanism):
     residual_rows = (Quantity("tangency", "-", "the wire tangent to cam and idler (Eq. 6, a cross product)"),
                      Quantity("closure", "m", "the idler on its platform (Eq. 7)"))
     force_models = ("force", "force-as-printed")
+    legacy_force_models = {"exact": "force", "as-printed": "force-as-printed"}
 
     @classmethod
     def residual(cls, bases, theta, z, c, q):
