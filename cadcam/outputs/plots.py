@@ -22,7 +22,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from ..verify.binding import limit_state
-from ..verify.evaluate import Evaluation, output_error, output_law
+from ..verify.evaluate import METRICS, Evaluation, output_error, output_law
 from ..files import atomic_path
 from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
@@ -605,26 +605,12 @@ def pareto_front(points: np.ndarray) -> np.ndarray:
     return np.array(front, dtype=int)
 
 
-#: Metric (:data:`cadcam.verify.evaluate.METRIC_NAMES`) → (label, what its index counts, unit,
+#: How a quantity in SI is shown: (unit, factor from SI); a unit not listed is shown as it is.
+SHOWN_AS = {"m": ("mm", MM), "rad": ("deg", 180 / np.pi), "N/m": ("N/mm", 1 / MM), "N": ("N", 1.0),
+            "N·m": ("N·mm", MM), "m²": ("mm²", MM**2), "ratio": ("%", 100.0), "-": ("-", 1.0)}
+#: Metric (:data:`cadcam.verify.evaluate.METRICS`) → (label, what its index counts, unit,
 #: factor from SI to the unit drawn).
-METRIC_LABELS = {
-    "grid": ("grid angles per joint", None, "", 1.0),
-    "output_rmse": ("output RMSE", "mechanism", "mm", MM),
-    "output_max_abs_error": ("output max |x − x_d|", "mechanism", "mm", MM),
-    "rmse": ("RMSE", "joint", "N·mm", MM),
-    "relative_rmse": ("RMSE / RMS target", "joint", "%", 100.0),
-    "max_abs_error": ("max |τ − τ_d|", "joint", "N·mm", MM),
-    "extension_min": ("least extension", "spring", "mm", MM),
-    "extension_max": ("largest extension", "spring", "mm", MM),
-    "convexity_min": ("least convexity margin", "profile", "mm²", MM**2),
-    "rho_min": ("least ρ", "profile", "mm", MM),
-    "rho_max": ("largest ρ", "profile", "mm", MM),
-    "curvature_radius_min": ("least radius of curvature", "profile", "mm", MM),
-    "alpha_max": ("largest wrap α", "profile", "deg", 180 / np.pi),
-    "tangency_residual_max": ("largest departure residual", None, "-", 1.0),
-    "sensitivity_integral": ("∫|∂τ/∂k|", ("joint", "spring"), "m²·rad^m", 1.0),
-    "objective": ("objective (Eq. 46/47)", None, "-", 1.0),
-}
+METRIC_LABELS = {name: (m.label, m.per, *SHOWN_AS.get(m.unit, (m.unit, 1.0))) for name, m in METRICS.items()}
 #: Run facts of a study table (:func:`cadcam.sweep.runner.flat_table`).
 RUN_LABELS = {
     "iterations": ("IPOPT iterations", "", 1.0), "solve_time_s": ("solve time", "s", 1.0),
@@ -643,9 +629,6 @@ SPEC_UNITS = {
     "tracking_weight": ("-", 1.0), "sensitivity_weights": ("-", 1.0), "order": ("", 1.0),
     "grid": ("", 1.0), "convexity_epsilon": ("-", 1.0), "limit_margin": ("-", 1.0),
 }
-#: How a mechanism's spec key in SI (:attr:`cadcam.mechanisms.base.Mechanism.spec_units`) is shown.
-SHOWN_AS = {"m": ("mm", MM), "rad": ("deg", 180 / np.pi), "N/m": ("N/mm", 1 / MM), "N": ("N", 1.0),
-            "-": ("-", 1.0)}
 
 
 def spec_unit(key: str) -> tuple[str, float]:

@@ -693,10 +693,41 @@ def output_error(mech, unit: UnitSamples):
 
 #: The names of an evaluation's metrics (the keys of :attr:`Evaluation.metrics`), which a
 #: study may ``record``.
-METRIC_NAMES = ("grid", "output_rmse", "output_max_abs_error", "rmse", "relative_rmse", "max_abs_error",
-                "extension_min", "extension_max", "convexity_min", "rho_min", "rho_max",
-                "curvature_radius_min", "alpha_max", "tangency_residual_max", "sensitivity_integral",
-                "objective", "margins", "violations")
+@dataclass(frozen=True)
+class Metric:
+    """One number (or list) of an evaluation's metrics, declared once: labels, units and the
+    study tables read it.
+
+    ``per`` says what its index counts (``"joint"``, ``("joint", "spring")``, None for one
+    number); ``unit`` is SI (``"ratio"`` for a fraction, ``""`` for a count).
+    """
+
+    label: str
+    per: str | tuple[str, ...] | None
+    unit: str
+
+
+#: The evaluation's numeric metrics, in the order :func:`evaluate` reports them.
+METRICS = {
+    "grid": Metric("grid angles per joint", None, ""),
+    "output_rmse": Metric("output RMSE", "mechanism", "m"),
+    "output_max_abs_error": Metric("output max |x − x_d|", "mechanism", "m"),
+    "rmse": Metric("RMSE", "joint", "N·m"),
+    "relative_rmse": Metric("RMSE / RMS target", "joint", "ratio"),
+    "max_abs_error": Metric("max |τ − τ_d|", "joint", "N·m"),
+    "extension_min": Metric("least extension", "spring", "m"),
+    "extension_max": Metric("largest extension", "spring", "m"),
+    "convexity_min": Metric("least convexity margin", "profile", "m²"),
+    "rho_min": Metric("least ρ", "profile", "m"),
+    "rho_max": Metric("largest ρ", "profile", "m"),
+    "curvature_radius_min": Metric("least radius of curvature", "profile", "m"),
+    "alpha_max": Metric("largest wrap α", "profile", "rad"),
+    "tangency_residual_max": Metric("largest departure residual", None, "-"),
+    "sensitivity_integral": Metric("∫|∂τ/∂k|", ("joint", "spring"), "m²·rad^m"),
+    "objective": Metric("objective (Eq. 46/47)", None, "-"),
+}
+#: Every key of an evaluation's metrics: the numbers, then the margins and the violations.
+METRIC_NAMES = (*METRICS, "margins", "violations")
 
 
 def _streamed(tensor: TensorGrid) -> dict:
