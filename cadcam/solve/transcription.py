@@ -30,12 +30,13 @@ import numpy as np
 
 from ..designs import Design
 from . import compiled
-from ..mechanisms.base import (margin_function, port_function, pose_residual_function,
-                               split_coefficients, wound_lengths)
+from ..mechanisms.base import (Mechanism, margin_function, port_function,
+                               pose_residual_function, split_coefficients, wound_lengths)
 from ..physics.profile import profile_function
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
+from ..physics.springs import Network
 from ..physics.wrap import length_function, segment_lengths
-from ..problem import Problem
+from ..problem import Options, Problem
 
 LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
 #: m²: scale of the sensitivities ∂τ/∂k = x·a in the NLP (a few hundred units at most). Measured
@@ -135,6 +136,7 @@ class Transcription:
     """
 
     def __init__(self, problem: Problem):
+        """Build the NLP of ``problem``'s structure, step by step, and its IPOPT solver."""
         t0 = time.perf_counter()
         self.problem = problem
         opt = problem.options
@@ -145,202 +147,47 @@ class Transcription:
         self.pairs = [(i, j) for i, c in enumerate(problem.joints)
                       for j, w in enumerate(c.sensitivity_weights)
                       if w > 0 and i in net.joints_of(j)]  # others have ∂τ_i/∂k_j ≡ 0
-        v, p = _Vars("w"), _Vars("p")
-        self.v, self.p = v, p
-        for i in range(m):
-            for name, size in (("theta", n), ("weights", 1), ("wsens", S), ("rt", n), ("td2", 1)):
-                p.add(f"{name}{i}", size)
-            if opt.objective == "minimax":
-                p.add(f"td{i}", n)
-            for c in range(m):
-                if c != i:
-                    p.add(f"Mt{i}_{c}", n * n)
-        for u, mech in enumerate(problem.mechanisms):
-            p.add(f"q{u}", len(mech.parameter_names))
-            if mech.output_target is not None:  # the output law's samples and scale
-                p.add(f"xd{u}", n)
-                p.add(f"xs{u}", 1)
-        p.add("k", S)
-        p.add("F0", S)
-        p.add("obj_scale", 1)
-        L = LENGTH_SCALE
-        g, self._bounds, self._lifted = [], [], []
-
-        def constrain(expr, bounds):
-            """Add constraint rows; ``bounds(problem) -> (lo, hi)`` gives their numbers at
-            solve time, so limits change between cases without a rebuild."""
-            g.append(expr)
-            self._bounds.append((expr.shape[0], bounds))
-
-        zero = lambda pr: (0.0, 0.0)  # noqa: E731
-
-        def lift(name, expr, scale):
-            """A new variable tied to ``expr`` by an equality: keeps the Hessian sparse where
-            ``expr`` would couple many variables through a large graph."""
-            var = v.add(name, expr.shape[0])
-            constrain(var - expr / scale, zero)
-            self._lifted.append((name, expr / scale))
-            return scale * var
+        self.v, self.p = _Vars("w"), _parameter_blocks(problem)
+        rows = _Rows(self.v)
 
         # -- per mechanism and per angle: O(n) --------------------------------------------------
-        d = [[] for _ in range(m)]
-        arm = [[] for _ in range(m)]
-        outputs = []  # (mechanism, its joint, the output unknown on the grid)
+        d, arm, outputs = [[] for _ in range(m)], [[] for _ in range(m)], []
         for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
-            i = mech.joint
-            joint = problem.joints[i]
-            bases = mech.bases
-            structure = mech.structure()
-            c = ca.vertcat(*[L * v.add(f"c{k}", b.size) for k, b in zip(range(sl.start, sl.stop), bases)])
-            Z = ca.vertcat(*[v.add(f"z{u}_{name}", n).T for name in mech.unknowns])
-            ref = v.add(f"ref{u}", len(mech.unknowns))
-            if mech.output_target is not None:
-                outputs.append((u, i, Z[mech.unknowns.index(mech.output), :].T))
-            theta, q = p[f"theta{i}"], p[f"q{u}"]
-            h = (joint.theta_range[1] - joint.theta_range[0]) / (n - 1)
-            first = min(FIRST_SEGMENT_MAX_ORDER, opt.quadrature_order * int(np.ceil(max(
-                abs(joint.theta_range[0] - mech.reference_angle) / h, 1))))
-            # wrapped lengths are lifted to variables, tied segment by segment (Johnston2023
-            # Eq. 10, 14), which keeps the Lagrangian Hessian banded instead of dense
-            wrapped = []
-            for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
-                lk = L * v.add(f"len{sl.start + k}", n)
-                seg = segment_lengths(b, opt.quadrature_order, first, ref[k], Z[k, :].T, ck)
-                constrain((lk - ca.vertcat(0, lk[:n - 1]) - seg) / L, zero)
-                wrapped.append(lk.T)
-            wrapped = ca.vertcat(*wrapped)
-            # lengths wound from each anchor, for closure rows (a constant cable length): the
-            # wound length at the reference pose plus the lifted wrapped lengths
-            wound_ref = (lift(f"wound{u}", wound_lengths(bases, ref, c), L) if mech.closure_rows
-                         else ca.MX.zeros(len(bases)))
-            ports = port_function(structure, problem.torque_model,
-                                  FRICTION_ORDER * opt.quadrature_order, "closed-form").map(n)
-            du, au, res, _ = ports(theta.T, Z, ref, wrapped, ca.repmat(wound_ref, 1, n) + wrapped, c, q)
-            res_ref = pose_residual_function(structure)(mech.reference_angle, ref, wound_ref, c, q)[0]
-            for r, unit in enumerate(mech.residual_units):  # the mechanism's R = 0 everywhere
-                constrain(ca.vertcat(res[r, :].T, res_ref[r]) / (L if unit == "m" else 1.0), zero)
-            # convexity and ρ bounds over each wrapped range [0, α(most wound)] (Johnston2023
-            # Eq. 40), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
-            M = opt.convexity_points
-            for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
-                phi = mech.wrap_end(Z[k, 0], Z[k, n - 1], q) * ca.DM(np.linspace(0, 1, M)).T
-                rho, drho, _, conv = profile_function(b).map(M)(phi, ck)
-                pk = sl.start + k
-                constrain(conv.T / L**2, lambda pr, pk=pk: (
-                    pr.options.convexity_epsilon * (pr.profiles[pk].rho_min / L) ** 2, np.inf))
-                constrain(rho.T / L, lambda pr, pk=pk: (
-                    pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
-                    pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
-                if mech.profiles[k].min_curvature_radius > 0:
-                    rc = p.add(f"rc{pk}", 1)
-                    constrain(((rho**2 + drho**2) ** 1.5 - rc * conv).T / L**3,
-                              lambda pr: (0.0, np.inf))
-            if mech.limits:  # the mechanism's own per-pose limits (moment arm, span…)
-                marg = margin_function(structure).map(n)(theta.T, Z, c, q, au)
-                scale = ca.DM([lim.nlp_scale for lim in mech.limits])
-                constrain(ca.vec((marg / ca.repmat(scale, 1, n)).T), lambda pr: (0.0, np.inf))
-            d[i] += [du[r, :].T for r in range(du.shape[0])]
-            arm[i] += [au[r, :].T for r in range(au.shape[0])]
-        w = [trapezoid_weights_sx(p[f"theta{i}"]).T for i in range(m)]
-        x0 = L * v.add("x0", S)
+            du, au, output = _mechanism_rows(rows, self.p, problem, u, sl.start)
+            d[mech.joint] += [du[r, :].T for r in range(du.shape[0])]
+            arm[mech.joint] += [au[r, :].T for r in range(au.shape[0])]
+            if output is not None:
+                outputs.append((u, mech.joint, output))
+        w = [trapezoid_weights_sx(self.p[f"theta{i}"]).T for i in range(m)]
+        x0 = LENGTH_SCALE * self.v.add("x0", S)
 
         # -- the spring network over the grid of all joints: still O(n) -------------------------
-        # Every spring's extension is a sum of one-angle shares e_jc(θ_c) (Network.term), so its
-        # range over the tensor grid is the sum of the shares' ranges, and every joint torque is
-        # τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (Network.torque_terms). Shares of springs that
-        # join several joints, and the terms that couple joints, are lifted.
-        e = net.shares(d)
-        terms = [net.torque_terms(i, p["k"], p["F0"], x0, arm[i], e) for i in range(m)]
-        for j in range(S):
-            joints = net.joints_of(j)
-            if len(joints) == 1:  # Johnston2023 Eq. 46: 0 ≤ x_j ≤ x_j,max on the grid
-                constrain((x0[j] + e[j, joints[0]]) / L, lambda pr, j=j: _travel(pr, j))
-                continue
-            for c in joints:
-                e[j, c] = lift(f"e{j}_{c}", e[j, c], L)
-            hi, lo = v.add(f"hi{j}", len(joints)), v.add(f"lo{j}", len(joints))  # share ranges
-            for k, c in enumerate(joints):
-                constrain(ca.vertcat(L * hi[k] - e[j, c], e[j, c] - L * lo[k]) / L,
-                          lambda pr: (0.0, np.inf))
-            constrain(ca.vertcat(x0[j] / L + ca.sum1(lo), x0[j] / L + ca.sum1(hi)),
-                      lambda pr, j=j: ([_travel(pr, j)[0], -np.inf], [np.inf, _travel(pr, j)[1]]))
-        for i, (U, V) in enumerate(terms):
-            if V:
-                terms[i] = (lift(f"U{i}", U, TORQUE_SCALE),
-                            {q: lift(f"V{i}_{q[0]}_{q[1]}", Vq, FORCE_SCALE) for q, Vq in V.items()})
+        e, terms = _spring_network_rows(rows, self.p, net, x0, d, arm)
 
+        # -- the objective: tracking, rate sensitivity, output laws -----------------------------
         span = [ca.sum1(wc) for wc in w]
+        tracking = _tracking_terms(rows, self.p, problem, terms, e, w, span)
+        sens, sensitivity = _sensitivity_rows(rows, self.p, net, self.pairs, x0, e, arm, w, span)
+        # summed one term at a time, in this order: the graph, and so the compiled library's
+        # cache key and IPOPT's iterates, depend on it
         objective = 0
-        for i in range(m):  # Johnston2023 Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
-            U, V = terms[i]
-            if opt.objective == "minimax":  # max |τ_i − τ_d,i| over the grid: an epigraph t_i
-                if problem.joints[i].tracking_weight == 0:
-                    continue  # no torque goal on this joint (an output law may drive it)
-                if V:
-                    raise ValueError(f"objective 'minimax' needs joint torques that each depend "
-                                     f"on their own joint's angle; {problem.joints[i].name!r} is "
-                                     f"coupled to other joints by a spring: use 'least_squares'")
-                t = v.add(f"t{i}", 1)
-                err = (U - p[f"td{i}"]) / TORQUE_SCALE
-                constrain(ca.vertcat(t - err, t + err), lambda pr: (0.0, np.inf))
-                objective += p[f"weights{i}"] * TORQUE_SCALE * t
-                continue
-            mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
-            objective += p[f"weights{i}"] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
-                                                           p[f"td2{i}"], lift)
-
-        # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i), and the integral over the other
-        # joints' angles of |x_j a_ij| = x_j |a_ij| (x_j ≥ 0 is a constraint) is separable: x̄_j
-        # |a_ij| with x̄_j the mean of x_j = x₀_j + Σ_c e_jc over the other joints' grids. Its
-        # value is split, x̄_j a_ij = s⁺ − s⁻ with s± ≥ 0, and s⁺ + s⁻ is minimised (no abs). The
-        # split is of the product, not of a_ij weighted by x̄_j: where x̄_j reaches 0 (a spring
-        # slack at some angle), s± of a_ij alone cost nothing, and IPOPT's barrier drove both up
-        # together (steps of 10⁷ on the 1-DOF spec).
-        sens = []
-        for i, j in self.pairs:
-            sp, sn = v.add(f"sp{i}_{j}", n), v.add(f"sn{i}_{j}", n)
-            others = [c for c in range(m) if c != i]
-            x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
-                                           for c in others if (j, c) in e)
-            s_ij = x_mean * net.term(j, i, arm[i]) / SENSITIVITY_SCALE
-            constrain(sp - sn - s_ij, zero)
-            sens.append(s_ij)
-            integral = SENSITIVITY_SCALE * ca.dot(w[i], sp + sn)
-            for c in others:
-                integral = integral * span[c]
-            objective += p[f"wsens{i}"][j] * integral  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
-
+        for term in tracking + sensitivity:
+            objective += term
         torque_objective = objective
-        # a mechanism's output law x_d(θ): ∫(x − x_d)² or max |x − x_d| (mm in the NLP), scaled
-        # by its own parameter so that it weighs as much as a torque term whatever the units
         scaled = 0
-        for u, i, xu in outputs:
-            err = (xu - p[f"xd{u}"]) / L
-            if opt.objective == "minimax":
-                t = v.add(f"to{u}", 1)
-                constrain(ca.vertcat(t - err, t + err), lambda pr: (0.0, np.inf))
-                objective += L * t
-                scaled += p[f"xs{u}"] * t
-            else:
-                sq = ca.dot(w[i], err * err)
-                objective += L**2 * sq
-                scaled += p[f"xs{u}"] * sq
-        x, P = v.vector(), p.vector()
+        for term, weighted in _output_law_terms(rows, self.p, opt.objective == "minimax", outputs, w):
+            objective += term
+            scaled += weighted
+
+        x, P = self.v.vector(), self.p.vector()
         self.objective = ca.Function("objective", [x, P], [objective])
         self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
-                           for name, expr in self._lifted]
+                           for name, expr in rows.lifted]
         self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
-        self.nlp = {"x": x, "p": P, "f": torque_objective * p["obj_scale"] + scaled, "g": ca.vertcat(*g)}
-        ipopt = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-                 "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-                 "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}}
-        self.compiled_now = False
-        if opt.functions == "compiled":
-            lib, self.compiled_now = compiled.library(self.nlp)
-            self.solver = ca.nlpsol("cadcam", "ipopt", str(lib), ipopt)
-        else:
-            self.solver = ca.nlpsol("cadcam", "ipopt", self.nlp,
-                                    {**ipopt, "expand": opt.functions == "expanded"})
+        self._bounds = rows.bounds
+        self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
+                    "g": ca.vertcat(*rows.g)}
+        self.solver, self.compiled_now = _ipopt_solver(self.nlp, opt)
         self.build_time_s = time.perf_counter() - t0
 
     # -- numbers of a case -------------------------------------------------------------------
@@ -509,6 +356,341 @@ class Transcription:
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
             history=iteration_history(stats))
+
+
+# -- building the NLP, step by step (Transcription.__init__ calls them in this order) ----------
+def _equal(problem: Problem) -> tuple[float, float]:
+    """Bounds of equality rows."""
+    return 0.0, 0.0
+
+
+def _nonnegative(problem: Problem) -> tuple[float, float]:
+    """Bounds of rows that are margins, met when ≥ 0."""
+    return 0.0, np.inf
+
+
+class _Rows:
+    """The NLP's constraint rows in the order they were added, with their bounds, and the
+    definitions of the lifted variables (in the order they were lifted).
+
+    Parameters
+    ----------
+    v : _Vars
+        The decision variables, to which :meth:`lift` adds.
+    """
+
+    def __init__(self, v: _Vars):
+        self.v, self.g, self.bounds, self.lifted = v, [], [], []
+
+    def constrain(self, expr, bounds):
+        """Add constraint rows; ``bounds(problem) -> (lo, hi)`` gives their numbers at
+        solve time, so limits change between cases without a rebuild."""
+        self.g.append(expr)
+        self.bounds.append((expr.shape[0], bounds))
+
+    def lift(self, name: str, expr, scale: float):
+        """A new variable tied to ``expr`` by an equality: keeps the Hessian sparse where
+        ``expr`` would couple many variables through a large graph. Returns it in ``expr``'s
+        units (the variable is ``expr / scale``)."""
+        var = self.v.add(name, expr.shape[0])
+        self.constrain(var - expr / scale, _equal)
+        self.lifted.append((name, expr / scale))
+        return scale * var
+
+
+def _parameter_blocks(problem: Problem) -> _Vars:
+    """The NLP's parameters, in the order :meth:`Transcription.parameters` fills them: per joint
+    its grid, weights and target marginals, per mechanism its numbers q and output law, the
+    springs' rates and preloads and the objective's scale (the curvature limits ``rc`` follow,
+    added by :func:`_profile_rows`)."""
+    opt, m, S = problem.options, len(problem.joints), len(problem.springs)
+    n = opt.grid
+    p = _Vars("p")
+    for i in range(m):
+        for name, size in (("theta", n), ("weights", 1), ("wsens", S), ("rt", n), ("td2", 1)):
+            p.add(f"{name}{i}", size)
+        if opt.objective == "minimax":
+            p.add(f"td{i}", n)
+        for c in range(m):
+            if c != i:
+                p.add(f"Mt{i}_{c}", n * n)
+    for u, mech in enumerate(problem.mechanisms):
+        p.add(f"q{u}", len(mech.parameter_names))
+        if mech.output_target is not None:  # the output law's samples and scale
+            p.add(f"xd{u}", n)
+            p.add(f"xs{u}", 1)
+    p.add("k", S)
+    p.add("F0", S)
+    p.add("obj_scale", 1)
+    return p
+
+
+@dataclass(frozen=True)
+class _MechanismSymbols:
+    """One mechanism's symbols in the NLP: its profiles' stacked coefficients ``c`` [m], its
+    departure unknowns ``z`` at its joint's grid angles ``theta`` [rad] (unknowns × n) and
+    ``ref`` at its reference angle, and its numbers ``q`` (SI)."""
+
+    c: ca.MX
+    z: ca.MX
+    ref: ca.MX
+    theta: ca.MX
+    q: ca.MX
+
+
+def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profile: int):
+    """Variables and rows of mechanism ``u``, whose profiles start at ``first_profile``.
+
+    Returns
+    -------
+    d, arm : casadi.MX
+        Its port displacements and moment arms [m] on the grid (ports × n).
+    output : casadi.MX or None
+        Its output unknown on the grid (n), where it has an output law.
+    """
+    mech, n, v = problem.mechanisms[u], problem.options.grid, rows.v
+    c = ca.vertcat(*[LENGTH_SCALE * v.add(f"c{first_profile + k}", b.size)
+                     for k, b in enumerate(mech.bases)])
+    z = ca.vertcat(*[v.add(f"z{u}_{name}", n).T for name in mech.unknowns])
+    s = _MechanismSymbols(c, z, v.add(f"ref{u}", len(mech.unknowns)),
+                          p[f"theta{mech.joint}"], p[f"q{u}"])
+    output = z[mech.unknowns.index(mech.output), :].T if mech.output_target is not None else None
+    wrapped = _wrapped_length_rows(rows, problem, mech, first_profile, s)
+    # lengths wound from each anchor, for closure rows (a constant cable length): the
+    # wound length at the reference pose plus the lifted wrapped lengths
+    wound_ref = (rows.lift(f"wound{u}", wound_lengths(mech.bases, s.ref, c), LENGTH_SCALE)
+                 if mech.closure_rows else ca.MX.zeros(len(mech.bases)))
+    d, arm = _departure_rows(rows, problem, mech, s, wrapped, wound_ref)
+    _profile_rows(rows, p, problem, mech, first_profile, s)
+    if mech.limits:
+        _limit_rows(rows, n, mech, s, arm)
+    return d, arm, output
+
+
+def _first_segment_order(problem: Problem, mech: Mechanism) -> int:
+    """Gauss–Legendre order of the segment from ``mech``'s reference angle to its joint's first
+    grid angle: the per-step order times that span in grid steps, at most
+    :data:`FIRST_SEGMENT_MAX_ORDER`."""
+    opt, joint = problem.options, problem.joints[mech.joint]
+    h = (joint.theta_range[1] - joint.theta_range[0]) / (opt.grid - 1)
+    return min(FIRST_SEGMENT_MAX_ORDER, opt.quadrature_order * int(np.ceil(max(
+        abs(joint.theta_range[0] - mech.reference_angle) / h, 1))))
+
+
+def _wrapped_length_rows(rows: _Rows, problem: Problem, mech: Mechanism, first_profile: int,
+                         s: _MechanismSymbols):
+    """Each profile's wrapped length [m] at the grid angles (profiles × n) as lifted variables,
+    the running sum of Gauss–Legendre segment lengths (Johnston2023 Eq. 10, 14)."""
+    n, L = problem.options.grid, LENGTH_SCALE
+    first = _first_segment_order(problem, mech)
+    # wrapped lengths are lifted to variables, tied segment by segment (Johnston2023
+    # Eq. 10, 14), which keeps the Lagrangian Hessian banded instead of dense
+    wrapped = []
+    for k, (b, ck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c))):
+        lk = L * rows.v.add(f"len{first_profile + k}", n)
+        seg = segment_lengths(b, problem.options.quadrature_order, first, s.ref[k], s.z[k, :].T, ck)
+        rows.constrain((lk - ca.vertcat(0, lk[:n - 1]) - seg) / L, _equal)
+        wrapped.append(lk.T)
+    return ca.vertcat(*wrapped)
+
+
+def _departure_rows(rows: _Rows, problem: Problem, mech: Mechanism, s: _MechanismSymbols,
+                    wrapped, wound_ref):
+    """The mechanism's residuals R = 0 at every grid angle and at its reference pose, given its
+    ``wrapped`` lengths on the grid and its wound lengths ``wound_ref`` at the reference pose.
+
+    Returns
+    -------
+    d, arm : casadi.MX
+        The port displacements and moment arms [m] on the grid (ports × n).
+    """
+    n, structure = problem.options.grid, mech.structure()
+    ports = port_function(structure, problem.torque_model,
+                          FRICTION_ORDER * problem.options.quadrature_order, "closed-form").map(n)
+    d, arm, res, _ = ports(s.theta.T, s.z, s.ref, wrapped, ca.repmat(wound_ref, 1, n) + wrapped,
+                           s.c, s.q)
+    res_ref = pose_residual_function(structure)(mech.reference_angle, s.ref, wound_ref, s.c, s.q)[0]
+    for r, unit in enumerate(mech.residual_units):  # the mechanism's R = 0 everywhere
+        rows.constrain(ca.vertcat(res[r, :].T, res_ref[r]) / (LENGTH_SCALE if unit == "m" else 1.0),
+                       _equal)
+    return d, arm
+
+
+def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, first_profile: int,
+                  s: _MechanismSymbols):
+    """Convexity, ρ-bound and curvature rows of the mechanism's profiles (Johnston2023
+    Eq. 40); a profile with a curvature limit adds it as a parameter ``rc``."""
+    n, M, L = problem.options.grid, problem.options.convexity_points, LENGTH_SCALE
+    # convexity and ρ bounds over each wrapped range [0, α(most wound)] (Johnston2023
+    # Eq. 40), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
+    for k, (b, ck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c))):
+        phi = mech.wrap_end(s.z[k, 0], s.z[k, n - 1], s.q) * ca.DM(np.linspace(0, 1, M)).T
+        rho, drho, _, conv = profile_function(b).map(M)(phi, ck)
+        pk = first_profile + k
+        rows.constrain(conv.T / L**2, lambda pr, pk=pk: (
+            pr.options.convexity_epsilon * (pr.profiles[pk].rho_min / L) ** 2, np.inf))
+        rows.constrain(rho.T / L, lambda pr, pk=pk: (
+            pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
+            pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
+        if mech.profiles[k].min_curvature_radius > 0:
+            rc = p.add(f"rc{pk}", 1)
+            rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv).T / L**3, _nonnegative)
+
+
+def _limit_rows(rows: _Rows, n: int, mech: Mechanism, s: _MechanismSymbols, arm):
+    """The mechanism's own per-pose limits (moment arm, span…) at the ``n`` grid angles, given
+    its moment arms ``arm`` there; each margin ≥ 0 in units of its limit's scale."""
+    marg = margin_function(mech.structure()).map(n)(s.theta.T, s.z, s.c, s.q, arm)
+    scale = ca.DM([lim.nlp_scale for lim in mech.limits])
+    rows.constrain(ca.vec((marg / ca.repmat(scale, 1, n)).T), _nonnegative)
+
+
+def _spring_network_rows(rows: _Rows, p: _Vars, net: Network, x0, d: list, arm: list):
+    """Travel rows of every spring and the torque terms of every joint, given the pre-extensions
+    ``x0`` [m] and per joint its ports' displacements ``d`` and moment arms ``arm`` [m].
+
+    Returns
+    -------
+    e : dict
+        (spring j, joint c) → e_jc(θ_c) [m], joint c's share of spring j's extension.
+    terms : list
+        Per joint i, (U_i, {(j, c): V_ij}) of τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c).
+    """
+    # Every spring's extension is a sum of one-angle shares e_jc(θ_c) (Network.term), so its
+    # range over the tensor grid is the sum of the shares' ranges, and every joint torque is
+    # τ_i = U_i(θ_i) + Σ V_ij(θ_i) e_jc(θ_c) (Network.torque_terms). Shares of springs that
+    # join several joints, and the terms that couple joints, are lifted.
+    e = net.shares(d)
+    terms = [net.torque_terms(i, p["k"], p["F0"], x0, arm[i], e) for i in range(net.m)]
+    for j in range(net.S):
+        joints = net.joints_of(j)
+        if len(joints) == 1:  # Johnston2023 Eq. 46: 0 ≤ x_j ≤ x_j,max on the grid
+            rows.constrain((x0[j] + e[j, joints[0]]) / LENGTH_SCALE, lambda pr, j=j: _travel(pr, j))
+        else:
+            e.update(_coupled_travel_rows(rows, j, joints, x0, e))
+    for i, (U, V) in enumerate(terms):
+        if V:
+            terms[i] = (rows.lift(f"U{i}", U, TORQUE_SCALE),
+                        {q: rows.lift(f"V{i}_{q[0]}_{q[1]}", Vq, FORCE_SCALE) for q, Vq in V.items()})
+    return e, terms
+
+
+def _coupled_travel_rows(rows: _Rows, j: int, joints: list, x0, e: dict) -> dict:
+    """Travel rows of spring ``j`` that joins several ``joints``: its extension ranges over
+    x₀ + Σ_c [lo_c, hi_c] on the tensor grid, with lifted bounds lo_c ≤ e_jc ≤ hi_c of its
+    shares (Johnston2023 Eq. 46). Returns its shares in ``e`` lifted, by (j, c)."""
+    L = LENGTH_SCALE
+    lifted = {(j, c): rows.lift(f"e{j}_{c}", e[j, c], L) for c in joints}
+    hi, lo = rows.v.add(f"hi{j}", len(joints)), rows.v.add(f"lo{j}", len(joints))  # share ranges
+    for k, c in enumerate(joints):
+        rows.constrain(ca.vertcat(L * hi[k] - lifted[j, c], lifted[j, c] - L * lo[k]) / L,
+                       _nonnegative)
+    rows.constrain(ca.vertcat(x0[j] / L + ca.sum1(lo), x0[j] / L + ca.sum1(hi)),
+                   lambda pr: ([_travel(pr, j)[0], -np.inf], [np.inf, _travel(pr, j)[1]]))
+    return lifted
+
+
+def _tracking_terms(rows: _Rows, p: _Vars, problem: Problem, terms: list, e: dict, w: list,
+                    span: list) -> list:
+    """The objective's torque-tracking term of each joint (Johnston2023 Eq. 46 term 1, Eq. 47
+    term 1), given its torque ``terms``, the spring shares ``e``, the joints' trapezoidal
+    weights ``w`` and their sums ``span``: ∫(τ_d,i − τ_i)² exactly, or for objective
+    ``minimax`` max |τ_i − τ_d,i| over the grid as an epigraph variable t_i."""
+    n, m = problem.options.grid, len(problem.joints)
+    out = []
+    for i in range(m):  # Johnston2023 Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
+        U, V = terms[i]
+        if problem.options.objective == "minimax":  # max |τ_i − τ_d,i| over the grid: an epigraph t_i
+            if problem.joints[i].tracking_weight == 0:
+                continue  # no torque goal on this joint (an output law may drive it)
+            if V:
+                raise ValueError(f"objective 'minimax' needs joint torques that each depend "
+                                 f"on their own joint's angle; {problem.joints[i].name!r} is "
+                                 f"coupled to other joints by a spring: use 'least_squares'")
+            t = rows.v.add(f"t{i}", 1)
+            err = (U - p[f"td{i}"]) / TORQUE_SCALE
+            rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)
+            out.append(p[f"weights{i}"] * TORQUE_SCALE * t)
+            continue
+        mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
+        out.append(p[f"weights{i}"] * _squared_error(U, V, e, w, span, i, p[f"rt{i}"], mt,
+                                                     p[f"td2{i}"], rows.lift))
+    return out
+
+
+def _sensitivity_rows(rows: _Rows, p: _Vars, net: Network, pairs: list, x0, e: dict, arm: list,
+                      w: list, span: list) -> tuple[list, list]:
+    """The rate-sensitivity split rows of each (joint i, spring j) in ``pairs`` and their
+    objective terms (Johnston2023 Eq. 46 terms 2–3, Eq. 47 terms 2–7), given the
+    pre-extensions ``x0`` [m], the spring shares ``e``, the joints' moment arms ``arm``, their
+    trapezoidal weights ``w`` and the sums ``span``.
+
+    Returns
+    -------
+    sens : list
+        x̄_j a_ij per pair, in units of :data:`SENSITIVITY_SCALE` (the start of s±).
+    terms : list
+        The objective's term of each pair.
+    """
+    # Eq. 46/47 sensitivity terms: ∂τ_i/∂k_j = x_j a_ij(θ_i), and the integral over the other
+    # joints' angles of |x_j a_ij| = x_j |a_ij| (x_j ≥ 0 is a constraint) is separable: x̄_j
+    # |a_ij| with x̄_j the mean of x_j = x₀_j + Σ_c e_jc over the other joints' grids. Its
+    # value is split, x̄_j a_ij = s⁺ − s⁻ with s± ≥ 0, and s⁺ + s⁻ is minimised (no abs). The
+    # split is of the product, not of a_ij weighted by x̄_j: where x̄_j reaches 0 (a spring
+    # slack at some angle), s± of a_ij alone cost nothing, and IPOPT's barrier drove both up
+    # together (steps of 10⁷ on the 1-DOF spec).
+    sens, terms = [], []
+    for i, j in pairs:
+        n = w[i].numel()
+        sp, sn = rows.v.add(f"sp{i}_{j}", n), rows.v.add(f"sn{i}_{j}", n)
+        others = [c for c in range(net.m) if c != i]
+        x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
+                                       for c in others if (j, c) in e)
+        s_ij = x_mean * net.term(j, i, arm[i]) / SENSITIVITY_SCALE
+        rows.constrain(sp - sn - s_ij, _equal)
+        sens.append(s_ij)
+        integral = SENSITIVITY_SCALE * ca.dot(w[i], sp + sn)
+        for c in others:
+            integral = integral * span[c]
+        terms.append(p[f"wsens{i}"][j] * integral)  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
+    return sens, terms
+
+
+def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: list) -> list:
+    """The objective's term of each mechanism's output law x_d(θ), given ``outputs`` (mechanism,
+    its joint, its output unknown on the grid) and the joints' trapezoidal weights ``w``:
+    ∫(x − x_d)², or with ``minimax`` max |x − x_d| as an epigraph variable (mm in the NLP).
+
+    Returns
+    -------
+    list of (casadi.MX, casadi.MX)
+        Per output law, its term in SI units and its term scaled by the law's own parameter.
+    """
+    # scaled by its own parameter so that it weighs as much as a torque term whatever the units
+    L = LENGTH_SCALE
+    out = []
+    for u, i, xu in outputs:
+        err = (xu - p[f"xd{u}"]) / L
+        if minimax:
+            t = rows.v.add(f"to{u}", 1)
+            rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)
+            out.append((L * t, p[f"xs{u}"] * t))
+        else:
+            sq = ca.dot(w[i], err * err)
+            out.append((L**2 * sq, p[f"xs{u}"] * sq))
+    return out
+
+
+def _ipopt_solver(nlp: dict, opt: Options) -> tuple[ca.Function, bool]:
+    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says, and whether this
+    call compiled their library (False: found in the cache, or functions not ``compiled``)."""
+    ipopt = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+             "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
+             "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}}
+    if opt.functions == "compiled":
+        lib, compiled_now = compiled.library(nlp)
+        return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), compiled_now
+    return ca.nlpsol("cadcam", "ipopt", nlp, {**ipopt, "expand": opt.functions == "expanded"}), False
 
 
 @contextlib.contextmanager
