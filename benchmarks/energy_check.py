@@ -3,7 +3,7 @@
     python benchmarks/energy_check.py        # or: make check-energy
 
 Prints, for `make demo`'s design (re-solved here), the largest difference over the fine re-check
-grid between the reported torque and dV/dθ of tests/independent_wire_cam.py (a model sharing no
+grid between the reported torque and dV/dθ of tests/mechanisms/wire_cam/independent_wire_cam.py (a model sharing no
 code with cadcam), under the energy and the force model, and the same for the force model's own optimum; and, on Johnston2023's Table 3 design
 over the 46 × 46 grid, the largest energy − force torque difference per joint, the torque range
 and the largest difference of the two models' port arms.
@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from cadcam import Design, evaluate, load_spec, optimize  # noqa: E402
-from tests import independent_wire_cam as independent  # noqa: E402
+from tests.mechanisms.wire_cam import independent_wire_cam as independent  # noqa: E402
 
 MM = 1e3
 

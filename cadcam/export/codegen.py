@@ -44,7 +44,7 @@ WHATS = ("model", "problem")
 FORMATS = ("c", "shared", "casadi")
 #: The C standard of the generated code.
 STANDARD = "-std=c99"
-#: Flags the generated C is tested to compile with warning-free, at -O1 and -O2 (tests/test_export.py).
+#: Flags the generated C is tested to compile with warning-free, at -O1 and -O2 (tests/export/test_export.py).
 WARNINGS = [STANDARD, "-Wall", "-Wextra", "-Werror"]
 #: The flags of ``--format shared`` (with ``-fPIC -shared``): the standard without the
 #: warnings, which the tests check and which made Sec. 10.4's exported problem compile in 22.8 s

@@ -57,7 +57,7 @@ def departure_moments(theta, alpha, rho, drho):
     arm_t = ρ, arm_n = 0) but not in general — Eq. 20 leaves out the wire tension's pull on the
     idler and takes the normal as horizontal (on Table 3's cam 1 the wire arms differ by up to
     0.89 mm, the platform arms by 0.06 mm). cadcam uses them as the named ``force`` model and
-    as a check (tests/test_tangency.py, tests/test_energy.py).
+    as a check (tests/mechanisms/wire_cam/test_tangency.py, tests/mechanisms/wire_cam/test_energy.py).
     """
     w = alpha - theta
     px, py = rho * ca.cos(w), rho * ca.sin(w)  # Johnston2023 Eq. 2: r_p/o

@@ -1,11 +1,11 @@
 """The anchored-spring pulley (cadcam/mechanisms/anchored_pulley/model.py; Ludovico2021 Sec. II after
 Kim & Deshpande, Endo2010 Sec. II) against closed forms, world geometry, virtual work, the
 paper's closed-form pulley, solved designs and an independent model fed only the files
-``cadcam design`` writes (tests/independent_anchored_pulley.py).
+``cadcam design`` writes (tests/mechanisms/anchored_pulley/independent_anchored_pulley.py).
 
 Ludovico2021's closed-form infeasibility findings for the generic torque (Eq. 39: pulley 2
 non-regular at 0.916 rad, pulley 1's curvature zero at π − 0.546 rad) are asserted to ±0.01 rad
-by tests/test_kim_deshpande.py (test_generic_torque_closed_form_is_infeasible_where_the_paper_says)
+by tests/mechanisms/anchored_pulley/test_kim_deshpande.py (test_generic_torque_closed_form_is_infeasible_where_the_paper_says)
 and are not repeated here.
 
 SI units throughout: m, N, N/m, rad, N·m.
@@ -27,7 +27,7 @@ from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form
 
 from . import independent_anchored_pulley as ind
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 PENDULUM = ROOT / "models" / "ludovico2021_pendulum.toml"
 ENDO = ROOT / "models" / "endo2010_inverted.toml"
 
@@ -47,7 +47,7 @@ def circle_spec(turning, winding, sense, radius, end=END, theta_deg=(-20.0, 60.0
     """A one-pulley spec dict: a circular pulley of ``radius`` [m] (initial_radius = radius, so
     the default anchor leaves ANCHOR_WRAP = 0.3 rad of wrap at the least-wound end)."""
     return {
-        "name": "circular anchored pulley", "source": "tests/test_anchored_pulley.py",
+        "name": "circular anchored pulley", "source": "tests/mechanisms/anchored_pulley/test_anchored_pulley.py",
         "torque_model": "energy", "solver": {"grid": 21},
         "joints": [{"name": "joint", "theta_range_deg": list(theta_deg),
                     "target": {"kind": "expression", "expression": "0*theta"}}],

@@ -12,7 +12,7 @@ import pytest
 from cadcam.sweep.study import Study, StudyError, load_study
 from cadcam.sweep.runner import read_rows, run_sweep, runner
 
-from .conftest import SPEC_1DOF, check_output_file
+from ..conftest import SPEC_1DOF, check_output_file
 
 STUDY = f'''
 name = "small"

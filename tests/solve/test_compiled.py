@@ -17,7 +17,7 @@ from cadcam.solve import compiled
 from cadcam.solve.transcription import Transcription
 from cadcam.optimize import default_start, solve
 
-from .conftest import SPEC_1DOF
+from ..conftest import SPEC_1DOF
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                               reason="no C compiler on this machine")

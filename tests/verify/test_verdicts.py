@@ -14,7 +14,7 @@ from cadcam.cli import main
 from cadcam.optimize import optimize, verdict
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
 
-from .conftest import SPEC_1DOF
+from ..conftest import SPEC_1DOF
 
 
 def _one_dof(**target):

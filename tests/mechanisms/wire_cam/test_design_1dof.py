@@ -11,7 +11,7 @@ from cadcam import Design, evaluate, load_spec
 from cadcam.cli import main
 from cadcam.verify.evaluate import LENGTH_TOL
 
-from .conftest import SPEC_1DOF, check_output_file
+from ...conftest import SPEC_1DOF, check_output_file
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ import pytest
 
 from cadcam.verify.evaluate import evaluate
 
-from .conftest import circle_design
+from ...conftest import circle_design
 
 
 @pytest.mark.parametrize("model", ["energy", "force", "force-as-printed"])

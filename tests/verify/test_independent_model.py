@@ -1,4 +1,4 @@
-"""Tests of the independent wire-cam reference model itself (tests/independent_wire_cam.py).
+"""Tests of the independent wire-cam reference model itself (tests/mechanisms/wire_cam/independent_wire_cam.py).
 
 Nothing here imports cadcam or compares against cadcam's torque: these tests establish that the
 reference model is right on its own terms (closed forms, two derivative paths, geometry).
@@ -6,7 +6,7 @@ reference model is right on its own terms (closed forms, two derivative paths, g
 import numpy as np
 import pytest
 
-from .independent_wire_cam import (contact, energy, energy_torque, extensions, load_design,
+from ..mechanisms.wire_cam.independent_wire_cam import (contact, energy, energy_torque, extensions, load_design,
                                    make_design)
 
 R_IDLER, A0 = 0.020, 0.015

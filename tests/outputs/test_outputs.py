@@ -21,7 +21,7 @@ from cadcam.solve.transcription import Transcription
 from cadcam.optimize import optimize
 from cadcam.spec import load_spec
 
-from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
+from ..conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
 
 
 @pytest.fixture(scope="module")
@@ -229,7 +229,7 @@ def test_a_rerun_removes_the_earlier_runs_files_it_does_not_write_and_nothing_el
     assert {"result.json", "cam1.dxf", "notes.txt", "cam1_notes.txt"} <= names
 
 
-# -- figures and sheets drawn side by side (tests/test_forked.py tests the drawing processes)
+# -- figures and sheets drawn side by side (tests/outputs/test_forked.py tests the drawing processes)
 def test_figures_drawn_side_by_side_are_the_figures_drawn_one_after_another(tmp_path):
     code = ("from cadcam import load_spec; from cadcam.optimize import optimize; "
             f"r = optimize(load_spec({str(SPEC_1DOF)!r})); "

@@ -18,7 +18,7 @@ from cadcam import SpecError
 from cadcam.mechanisms.base import departure_solver, guess_function, mechanism_class, residual_function
 from cadcam.physics.profile import Basis
 
-from .conftest import ROOT
+from ...conftest import ROOT
 from .independent_roller_follower import RollerCam, chebyshev_values
 
 SPEC = ROOT / "models" / "roller_follower_pendulum.toml"

@@ -17,7 +17,7 @@ from cadcam.problem import Options, size_error
 from cadcam.spec import read_spec_data
 from cadcam.outputs.run_files import TABLE_POINTS, write_torque_csv
 
-from .conftest import ROOT, SPEC_RR
+from ..conftest import ROOT, SPEC_RR
 
 SPEC_3 = ROOT / "models" / "johnston2023_three_cam_arm.toml"
 

@@ -104,7 +104,7 @@ def demo(problem_1dof):
 
 def test_demo_torque_is_the_energy_derivative_of_an_independent_model(demo):
     """At every angle of the fine re-check, the reported torque equals dV/dθ of a model that
-    shares no code with cadcam (tests/independent_wire_cam.py) within 0.05 N·mm; the force
+    shares no code with cadcam (tests/mechanisms/wire_cam/independent_wire_cam.py) within 0.05 N·mm; the force
     model misses by more than 1 N·mm somewhere on the same design."""
     result, data = demo
     assert result.status == "success" and data["torque_model"] == "energy"

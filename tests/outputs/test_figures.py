@@ -24,7 +24,7 @@ from cadcam.outputs.plots import (METRIC_LABELS, axis_label, convergence_figure,
                                 study_figure)
 from cadcam.make.workshop import closed_outline
 
-from .conftest import ROOT, check_output_file, circle_design
+from ..conftest import ROOT, check_output_file, circle_design
 
 HISTORY = {"iteration": [0, 1, 2, 3], "objective": [100.0, 3.0, 1.0, 0.9],
            "inf_pr": [1e-1, 1e-3, 1e-6, 1e-9], "inf_du": [1.0, 1e-2, 1e-5, 1e-8],

@@ -32,7 +32,7 @@ from cadcam.physics.profile import Basis
 from cadcam.sweep import runner as sweep
 from cadcam.sweep.study import Parameter, Study, StudyError, load_study
 
-from .conftest import SPEC_1DOF, circle_design
+from ..conftest import SPEC_1DOF, circle_design
 
 
 def _cli(*argv):

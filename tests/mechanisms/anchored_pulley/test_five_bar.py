@@ -13,7 +13,7 @@ import pytest
 from cadcam.spec import SpecError, parse_spec
 from cadcam.targets import Target, five_bar_torques
 
-from .conftest import SPEC_RR
+from ...conftest import SPEC_RR
 
 G = 9.81
 # Endo2010 Sec. IV.B / Table I: l_u = l_a = 0.5 m; the masses and short crank are our choice,

@@ -12,7 +12,7 @@ from cadcam.targets import serial_arm_torques
 from cadcam.solve.transcription import FRICTION_ORDER, Transcription
 from cadcam.mechanisms.base import port_function
 
-from .conftest import SPEC_RR, TABLE3, TABLE4
+from ...conftest import SPEC_RR, TABLE3, TABLE4
 
 ARM = dict(m1=0.5, m2=0.5, lc1=0.25, l1=0.5, lc2=0.25, g=9.81)  # Johnston2023, Table 1
 

@@ -14,7 +14,7 @@ from cadcam.mechanisms.base import DepartureSolver, newton_function
 from cadcam.export.codegen import WARNINGS, export, model_functions
 from cadcam.verify.model import NEWTON_STEPS, torque_function
 
-from .conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
+from ..conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
 
 GCC = shutil.which("gcc") or shutil.which("cc")
 needs_gcc = pytest.mark.skipif(GCC is None, reason="no C compiler on this machine")
