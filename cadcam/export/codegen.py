@@ -37,6 +37,7 @@ from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
 from ..verify.evaluate import start_samples
 from ..verify.model import NEWTON_STEPS, torque_function, torque_jacobian_function
+from ..solve.blocks import P_BLOCKS, X_BLOCKS, describe
 from ..solve.compiled import CompileError, compiler, oracle_functions
 from ..problem import Problem
 
@@ -140,117 +141,14 @@ def _io(f: ca.Function, side: str, labels: dict[str, tuple[str, str]]) -> list[d
     return out
 
 
-def _length_unit(scale: float) -> str:
-    return "mm" if scale == 1e-3 else f"{scale:g} m"
-
-
-def _rad(power: int) -> str:
-    """rad, rad², rad³, … (the trapezoidal weights of ``power`` joints' angles)."""
-    return "rad" + ("" if power == 1 else "⁰¹²³⁴⁵⁶⁷⁸⁹"[power] if power < 10 else f"^{power}")
-
-
-def _x_labels(problem: Problem) -> list[tuple[str, str, str, str]]:
-    """(name pattern, unit, description, role) of the transcription's variable blocks; the
-    pattern's groups are 0-based indices, shown 1-based as ``{1}``, ``{2}``, … and a
-    mechanism's unknown as ``{name}``."""
-    from ..solve.transcription import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE
-
-    mm, rad_m = _length_unit(LENGTH_SCALE), _rad(len(problem.joints))
-    force = "N" if FORCE_SCALE == 1 else f"{FORCE_SCALE:g} N"
-    torque = "N·m" if TORQUE_SCALE == 1 else f"{TORQUE_SCALE:g} N·m"
-    return [
-        (r"c(\d+)", mm, "ρ coefficients of profile {1} in its basis", "design"),
-        (r"x0", mm, "spring pre-extensions at the reference pose, one per spring", "design"),
-        (r"z(\d+)_(\w+)", "", "departure unknown {name} of mechanism {1} at each grid angle of its joint",
-         "departure"),
-        (r"ref(\d+)", "", "departure unknowns of mechanism {1} at its reference angle", "departure"),
-        (r"len(\d+)", mm, "wrapped length of profile {1} at each grid angle (Johnston2023 Eq. 10)",
-         "auxiliary"),
-        (r"wound(\d+)", mm, "length wound from each anchor of mechanism {1} at its reference pose",
-         "auxiliary"),
-        (r"e(\d+)_(\d+)", mm, "share of spring {1}'s extension from joint {2}'s angle, at each of its "
-         "grid angles", "auxiliary"),
-        (r"hi(\d+)", mm, "largest share of spring {1}'s extension from each of its joints", "auxiliary"),
-        (r"lo(\d+)", mm, "smallest share of spring {1}'s extension from each of its joints", "auxiliary"),
-        (r"U(\d+)", torque, "joint {1}'s torque terms that depend on its own angle only, at each grid "
-         "angle", "auxiliary"),
-        (r"V(\d+)_(\d+)_(\d+)", force, "joint {1}'s torque per unit of spring {2}'s extension share "
-         "from joint {3} (k·a, the coupling term), at each grid angle", "auxiliary"),
-        (r"t(\d+)", torque, "bound on joint {1}'s largest |τ − τ_d| (minimax epigraph)", "auxiliary"),
-        (r"sp(\d+)_(\d+)", f"{SENSITIVITY_SCALE:g} m²", "positive part of joint {1}'s torque per unit "
-         "of spring {2}'s rate (∂τ/∂k = x·a, x averaged over the other joints' angles), at each grid "
-         "angle", "auxiliary"),
-        (r"sn(\d+)_(\d+)", f"{SENSITIVITY_SCALE:g} m²", "negative part of joint {1}'s torque per unit "
-         "of spring {2}'s rate, at each grid angle", "auxiliary"),
-        (r"to(\d+)", mm, "bound on mechanism {1}'s largest |x − x_d| (minimax epigraph)", "auxiliary"),
-        (r"mom(\d+)_(\d+)_(\d+)", f"{mm}·rad", "∫ of spring {2}'s share from joint {3} over that "
-         "joint's angle (in joint {1}'s squared error)", "auxiliary"),
-        (r"Me(\d+)_(\d+)_(\d+)", f"N·m·{mm}·{rad_m}", "target marginal of joint {1} times spring "
-         "{2}'s share from joint {3} (in joint {1}'s squared error)", "auxiliary"),
-        (r"UV(\d+)_(\d+)_(\d+)", "N²·m·rad", "∫ U·V of joint {1} for spring {2}'s share from joint "
-         "{3} (in its squared error)", "auxiliary"),
-        (r"VV(\d+)_(\d+)_(\d+)_(\d+)_(\d+)", f"({force})²·rad", "∫ V·V of joint {1} for the shares "
-         "({2}, {3}) and ({4}, {5}) (spring, joint) (in its squared error)", "auxiliary"),
-        (r"ee(\d+)_(\d+)_(\d+)_(\d+)_(\d+)", f"{mm}²·rad", "∫ of the product of the shares ({2}, "
-         "{3}) and ({4}, {5}) (spring, joint) (in joint {1}'s squared error)", "auxiliary"),
-    ]
-
-
-def _p_labels(problem: Problem) -> list[tuple[str, str, str, str]]:
-    """(name pattern, unit, description, role) of the transcription's parameter blocks."""
-    rad_m = _rad(len(problem.joints))
-    minimax = problem.options.objective == "minimax"
-    return [
-        (r"theta(\d+)", "rad", "grid angles of joint {1}", "grid"),
-        (r"weights(\d+)", "1", "tracking weight of joint {1}", "weights"),
-        (r"wsens(\d+)", "1", "sensitivity weights of joint {1}, one per spring", "weights"),
-        (r"rt(\d+)", f"N·m·{rad_m}", "joint {1}'s target summed over the other joints' angles "
-         "with the quadrature weights, at each of its grid angles", "target"),
-        (r"td2(\d+)", f"N²·m²·{rad_m}", "∫τ_d² of joint {1} over the grid", "target"),
-        (r"td(\d+)", "N·m", "joint {1}'s target at each of its grid angles (minimax)", "target"),
-        (r"Mt(\d+)_(\d+)", f"N·m·{rad_m}", "joint {1}'s target summed over all but joints {1} and "
-         "{2}, with the quadrature weights (rows joint {1}'s angles, column-major)", "target"),
-        (r"q(\d+)", "SI", "mechanism {1}'s parameters", "mechanism"),
-        (r"xd(\d+)", "m", "mechanism {1}'s output law x_d at each grid angle", "target"),
-        (r"xs(\d+)", "1/mm" if minimax else "1/(mm²·rad)",
-         "scale of mechanism {1}'s output error in the objective", "weights"),
-        (r"rc(\d+)", "m", "smallest radius of curvature of profile {1}, with the limit margin",
-         "limits"),
-        (r"k", "N/m", "spring rates", "springs"),
-        (r"F0", "N", "spring preloads", "springs"),
-        (r"obj_scale", "1/(N·m)" if minimax else f"1/(N²·m²·{rad_m})", "scale of the torque "
-         "objective (OBJECTIVE_SCALE over its value at zero torque)", "weights"),
-    ]
-
-
-def _layout(blocks: dict[str, tuple[int, int]], labels, problem: Problem) -> list[dict]:
-    """The blocks of a transcription vector in order, each with offset, size, unit, description
-    and role (``"unlabelled"`` for a block this module does not know yet)."""
+def _layout(v, families, problem: Problem) -> list[dict]:
+    """The blocks of a transcription vector ``v`` in order, each with offset, size, and the
+    unit, description and role its family declares (:mod:`cadcam.solve.blocks`)."""
     out = []
-    for name, (offset, size) in sorted(blocks.items(), key=lambda item: item[1][0]):
-        entry = {"name": name, "offset": offset, "size": size, "unit": "unknown",
-                 "description": "a block cadcam.export.codegen does not describe", "role": "unlabelled"}
-        for pattern, unit, text, role in labels:
-            if not (m := re.fullmatch(pattern, name)):
-                continue
-            numbers = [int(g) for g in m.groups() if g.isdigit()]
-            unknown = ""
-            if pattern in (r"z(\d+)_(\w+)", r"ref(\d+)"):  # a mechanism's unknowns: their units
-                mech = problem.mechanisms[numbers[0]]
-                units = dict(zip(mech.unknowns, mech.unknown_units))
-                if m.lastindex == 2:
-                    unknown = m[2]
-                    unit = units[unknown]
-                else:
-                    unit = (next(iter(units.values())) if len(set(units.values())) == 1
-                            else "; ".join(f"{k} {u}" for k, u in units.items()))
-            elif pattern == r"q(\d+)":
-                names = problem.mechanisms[numbers[0]].parameter_names
-                text = f"{text} ({', '.join(names)})"
-            entry.update(unit=unit, role=role,
-                         description=text.format(None, *(n + 1 for n in numbers), name=unknown))
-            break
-        out.append(entry)
+    for name, (offset, size) in sorted(v.blocks.items(), key=lambda item: item[1][0]):
+        unit, text, role = describe(families, *v.families[name], problem)
+        out.append({"name": name, "offset": offset, "size": size, "unit": unit, "description": text,
+                    "role": role})
     return out
 
 
@@ -322,8 +220,8 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
     else:
         functions, tr = problem_functions(problem)
         extra = {"problem_data.json": _problem_data(problem, design, tr)}
-        layouts = {"x_layout": _layout(tr.v.blocks, _x_labels(problem), problem),
-                   "p_layout": _layout(tr.p.blocks, _p_labels(problem), problem)}
+        layouts = {"x_layout": _layout(tr.v, X_BLOCKS, problem),
+                   "p_layout": _layout(tr.p, P_BLOCKS, problem)}
     stem = f"cadcam_{what}"
     manifest = {"cadcam_version": __version__, "casadi_version": ca.__version__, "what": what,
                 "torque_model": problem.torque_model, "problem": problem.name,

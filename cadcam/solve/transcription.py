@@ -30,6 +30,7 @@ import numpy as np
 
 from ..designs import Design
 from . import compiled
+from .blocks import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from ..mechanisms.base import (Mechanism, margin_function, port_function,
                                pose_residual_function, split_coefficients, wound_lengths)
 from ..physics.profile import profile_function
@@ -38,18 +39,11 @@ from ..physics.springs import Network
 from ..physics.wrap import length_function, segment_lengths
 from ..problem import Options, Problem
 
-LENGTH_SCALE = 1e-3  # m: NLP lengths are in millimetres
-#: m²: scale of the sensitivities ∂τ/∂k = x·a in the NLP (a few hundred units at most). Measured
-#: on the 60-case 1-DOF sweep of ``make bench`` against 1e-4 and 1e-3: the fewest iterations
-#: (median 26 against 48 and 44); the local optimum IPOPT reaches changes with the scale.
-SENSITIVITY_SCALE = 1e-5
 FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8× the points
 #: Gauss–Legendre points of the segment from the reference pose to the grid's first angle, at
 #: most: the rule grows with that segment's length in grid steps, which a narrow range far from
 #: the reference pose would make unbounded (the re-check's own quadrature judges the accuracy).
 FIRST_SEGMENT_MAX_ORDER = 256
-TORQUE_SCALE = 1.0   # N·m: scale of lifted one-angle torque terms
-FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
 #: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from Johnston2023's
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
@@ -84,12 +78,16 @@ class Solve:
 
 
 class _Vars:
-    """Named blocks of symbols, stacked into one vector in the order they were added."""
+    """Named blocks of symbols, stacked into one vector in the order they were added; each
+    block is a family of :mod:`cadcam.solve.blocks` and an index (``families``)."""
 
     def __init__(self, kind: str):
-        self.kind, self.blocks, self.syms, self.size = kind, {}, {}, 0
+        self.kind, self.blocks, self.families, self.syms, self.size = kind, {}, {}, {}, 0
 
-    def add(self, name: str, n: int):
+    def add(self, family: str, n: int, *index):
+        """A block of ``n`` symbols of ``family`` at ``index`` (named by :func:`block_name`)."""
+        name = block_name(family, index)
+        self.families[name] = (family, index)
         self.blocks[name] = (self.size, n)
         self.syms[name] = ca.MX.sym(f"{self.kind}_{name}", n)
         self.size += n
@@ -388,11 +386,12 @@ class _Rows:
         self.g.append(expr)
         self.bounds.append((expr.shape[0], bounds))
 
-    def lift(self, name: str, expr, scale: float):
-        """A new variable tied to ``expr`` by an equality: keeps the Hessian sparse where
-        ``expr`` would couple many variables through a large graph. Returns it in ``expr``'s
-        units (the variable is ``expr / scale``)."""
-        var = self.v.add(name, expr.shape[0])
+    def lift(self, family: str, expr, scale: float, *index):
+        """A new variable of ``family`` at ``index`` tied to ``expr`` by an equality: keeps the
+        Hessian sparse where ``expr`` would couple many variables through a large graph.
+        Returns it in ``expr``'s units (the variable is ``expr / scale``)."""
+        var = self.v.add(family, expr.shape[0], *index)
+        name = block_name(family, index)
         self.constrain(var - expr / scale, _equal)
         self.lifted.append((name, expr / scale))
         return scale * var
@@ -408,17 +407,17 @@ def _parameter_blocks(problem: Problem) -> _Vars:
     p = _Vars("p")
     for i in range(m):
         for name, size in (("theta", n), ("weights", 1), ("wsens", S), ("rt", n), ("td2", 1)):
-            p.add(f"{name}{i}", size)
+            p.add(name, size, i)
         if opt.objective == "minimax":
-            p.add(f"td{i}", n)
+            p.add("td", n, i)
         for c in range(m):
             if c != i:
-                p.add(f"Mt{i}_{c}", n * n)
+                p.add("Mt", n * n, i, c)
     for u, mech in enumerate(problem.mechanisms):
-        p.add(f"q{u}", len(mech.parameter_names))
+        p.add("q", len(mech.parameter_names), u)
         if mech.output_target is not None:  # the output law's samples and scale
-            p.add(f"xd{u}", n)
-            p.add(f"xs{u}", 1)
+            p.add("xd", n, u)
+            p.add("xs", 1, u)
     p.add("k", S)
     p.add("F0", S)
     p.add("obj_scale", 1)
@@ -449,16 +448,16 @@ def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profi
         Its output unknown on the grid (n), where it has an output law.
     """
     mech, n, v = problem.mechanisms[u], problem.options.grid, rows.v
-    c = ca.vertcat(*[LENGTH_SCALE * v.add(f"c{first_profile + k}", b.size)
+    c = ca.vertcat(*[LENGTH_SCALE * v.add("c", b.size, first_profile + k)
                      for k, b in enumerate(mech.bases)])
-    z = ca.vertcat(*[v.add(f"z{u}_{name}", n).T for name in mech.unknowns])
-    s = _MechanismSymbols(c, z, v.add(f"ref{u}", len(mech.unknowns)),
+    z = ca.vertcat(*[v.add("z", n, u, name).T for name in mech.unknowns])
+    s = _MechanismSymbols(c, z, v.add("ref", len(mech.unknowns), u),
                           p[f"theta{mech.joint}"], p[f"q{u}"])
     output = z[mech.unknowns.index(mech.output), :].T if mech.output_target is not None else None
     wrapped = _wrapped_length_rows(rows, problem, mech, first_profile, s)
     # lengths wound from each anchor, for closure rows (a constant cable length): the
     # wound length at the reference pose plus the lifted wrapped lengths
-    wound_ref = (rows.lift(f"wound{u}", wound_lengths(mech.bases, s.ref, c), LENGTH_SCALE)
+    wound_ref = (rows.lift("wound", wound_lengths(mech.bases, s.ref, c), LENGTH_SCALE, u)
                  if mech.closure_rows else ca.MX.zeros(len(mech.bases)))
     d, arm = _departure_rows(rows, problem, mech, s, wrapped, wound_ref)
     _profile_rows(rows, p, problem, mech, first_profile, s)
@@ -487,7 +486,7 @@ def _wrapped_length_rows(rows: _Rows, problem: Problem, mech: Mechanism, first_p
     # Eq. 10, 14), which keeps the Lagrangian Hessian banded instead of dense
     wrapped = []
     for k, (b, ck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c))):
-        lk = L * rows.v.add(f"len{first_profile + k}", n)
+        lk = L * rows.v.add("len", n, first_profile + k)
         seg = segment_lengths(b, problem.options.quadrature_order, first, s.ref[k], s.z[k, :].T, ck)
         rows.constrain((lk - ca.vertcat(0, lk[:n - 1]) - seg) / L, _equal)
         wrapped.append(lk.T)
@@ -533,7 +532,7 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
             pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
             pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
         if mech.profiles[k].min_curvature_radius > 0:
-            rc = p.add(f"rc{pk}", 1)
+            rc = p.add("rc", 1, pk)
             rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv).T / L**3, _nonnegative)
 
 
@@ -570,8 +569,8 @@ def _spring_network_rows(rows: _Rows, p: _Vars, net: Network, x0, d: list, arm: 
             e.update(_coupled_travel_rows(rows, j, joints, x0, e))
     for i, (U, V) in enumerate(terms):
         if V:
-            terms[i] = (rows.lift(f"U{i}", U, TORQUE_SCALE),
-                        {q: rows.lift(f"V{i}_{q[0]}_{q[1]}", Vq, FORCE_SCALE) for q, Vq in V.items()})
+            terms[i] = (rows.lift("U", U, TORQUE_SCALE, i),
+                        {q: rows.lift("V", Vq, FORCE_SCALE, i, *q) for q, Vq in V.items()})
     return e, terms
 
 
@@ -580,8 +579,8 @@ def _coupled_travel_rows(rows: _Rows, j: int, joints: list, x0, e: dict) -> dict
     x₀ + Σ_c [lo_c, hi_c] on the tensor grid, with lifted bounds lo_c ≤ e_jc ≤ hi_c of its
     shares (Johnston2023 Eq. 46). Returns its shares in ``e`` lifted, by (j, c)."""
     L = LENGTH_SCALE
-    lifted = {(j, c): rows.lift(f"e{j}_{c}", e[j, c], L) for c in joints}
-    hi, lo = rows.v.add(f"hi{j}", len(joints)), rows.v.add(f"lo{j}", len(joints))  # share ranges
+    lifted = {(j, c): rows.lift("e", e[j, c], L, j, c) for c in joints}
+    hi, lo = rows.v.add("hi", len(joints), j), rows.v.add("lo", len(joints), j)  # share ranges
     for k, c in enumerate(joints):
         rows.constrain(ca.vertcat(L * hi[k] - lifted[j, c], lifted[j, c] - L * lo[k]) / L,
                        _nonnegative)
@@ -607,7 +606,7 @@ def _tracking_terms(rows: _Rows, p: _Vars, problem: Problem, terms: list, e: dic
                 raise ValueError(f"objective 'minimax' needs joint torques that each depend "
                                  f"on their own joint's angle; {problem.joints[i].name!r} is "
                                  f"coupled to other joints by a spring: use 'least_squares'")
-            t = rows.v.add(f"t{i}", 1)
+            t = rows.v.add("t", 1, i)
             err = (U - p[f"td{i}"]) / TORQUE_SCALE
             rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)
             out.append(p[f"weights{i}"] * TORQUE_SCALE * t)
@@ -642,7 +641,7 @@ def _sensitivity_rows(rows: _Rows, p: _Vars, net: Network, pairs: list, x0, e: d
     sens, terms = [], []
     for i, j in pairs:
         n = w[i].numel()
-        sp, sn = rows.v.add(f"sp{i}_{j}", n), rows.v.add(f"sn{i}_{j}", n)
+        sp, sn = rows.v.add("sp", n, i, j), rows.v.add("sn", n, i, j)
         others = [c for c in range(net.m) if c != i]
         x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
                                        for c in others if (j, c) in e)
@@ -672,7 +671,7 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     for u, i, xu in outputs:
         err = (xu - p[f"xd{u}"]) / L
         if minimax:
-            t = rows.v.add(f"to{u}", 1)
+            t = rows.v.add("to", 1, u)
             rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)
             out.append((L * t, p[f"xs{u}"] * t))
         else:
@@ -788,20 +787,19 @@ def _squared_error(U, V, e, w, span, i, rt, mt, td2, lift):
         return out
 
     wi = w[i]
-    tag = lambda *parts: "_".join(str(x) for x in (i,) + parts)  # noqa: E731
-    moment = {q: lift(f"mom{tag(*q)}", ca.dot(w[q[1]], e[q]), LENGTH_SCALE) for q in V}
+    moment = {q: lift("mom", ca.dot(w[q[1]], e[q]), LENGTH_SCALE, i, *q) for q in V}
     total = td2 - 2 * ca.dot(U, rt) + others() * ca.dot(wi, U * U)
     for q, Vq in V.items():
         c = q[1]
-        y = lift(f"Me{tag(*q)}", ca.mtimes(mt[c], e[q]), LENGTH_SCALE)
+        y = lift("Me", ca.mtimes(mt[c], e[q]), LENGTH_SCALE, i, *q)
         total += -2 * ca.dot(Vq, y)
-        total += 2 * others(c) * lift(f"UV{tag(*q)}", ca.dot(wi, U * Vq), 1.0) * moment[q]
+        total += 2 * others(c) * lift("UV", ca.dot(wi, U * Vq), 1.0, i, *q) * moment[q]
         for r, Vr in V.items():
             cr = r[1]
-            vv = lift(f"VV{tag(*q, *r)}", ca.dot(wi, Vq * Vr), FORCE_SCALE**2)
+            vv = lift("VV", ca.dot(wi, Vq * Vr), FORCE_SCALE**2, i, *q, *r)
             if cr == c:
-                total += others(c) * vv * lift(f"ee{tag(*q, *r)}", ca.dot(w[c], e[q] * e[r]),
-                                               LENGTH_SCALE**2)
+                total += others(c) * vv * lift("ee", ca.dot(w[c], e[q] * e[r]), LENGTH_SCALE**2,
+                                               i, *q, *r)
             else:
                 total += others(c, cr) * vv * moment[q] * moment[r]
     return total

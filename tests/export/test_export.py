@@ -184,13 +184,17 @@ def test_model_manifest_labels_every_input_and_output(rr, exported):
     assert signature in (ROOT / "README.md").read_text()
 
 
+#: The roles a block of the NLP's vectors may have (cadcam.solve.blocks).
+ROLES = {"design", "departure", "auxiliary", "grid", "weights", "target", "mechanism", "limits", "springs"}
+
+
 def _check_layout(layout, size):
     """Blocks in offset order, without gaps or overlaps, covering the vector, each described."""
     offset = 0
     for block in layout:
         assert block["offset"] == offset, block
         assert block["size"] > 0 and block["unit"] and block["description"], block
-        assert block["role"] != "unlabelled", f"{block['name']}: give it a label in export/codegen.py"
+        assert block["role"] in ROLES, block
         offset += block["size"]
     assert offset == size
 
@@ -242,9 +246,10 @@ def test_every_block_of_the_transcription_has_a_label(spec):
     """Coupled springs (RR arm), minimax epigraphs and curvature limits (Ludovico2021), a
     differential pair's closure and output law (Fedorov2018): no block goes undescribed."""
     from cadcam.solve.transcription import Transcription
-    from cadcam.export.codegen import _layout, _p_labels, _x_labels
+    from cadcam.export.codegen import _layout
+    from cadcam.solve.blocks import P_BLOCKS, X_BLOCKS
 
     problem = load_spec(ROOT / "models" / f"{spec}.toml").with_options(grid=6, convexity_points=10)
     tr = Transcription(problem)
-    _check_layout(_layout(tr.v.blocks, _x_labels(problem), problem), tr.v.size)
-    _check_layout(_layout(tr.p.blocks, _p_labels(problem), problem), tr.p.size)
+    _check_layout(_layout(tr.v, X_BLOCKS, problem), tr.v.size)
+    _check_layout(_layout(tr.p, P_BLOCKS, problem), tr.p.size)
