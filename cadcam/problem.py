@@ -92,7 +92,7 @@ class Options:
     """Transcription and solver options.
 
     grid : int
-        Cam angles per cam on the uniform design grid (including both ends).
+        Angles per joint on the uniform design grid (including both ends).
     quadrature_order : int
         Gauss–Legendre points per segment of the wrapped length between neighbouring grid
         contacts, and 8× that over the whole wrap for the as-printed friction integral.

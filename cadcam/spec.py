@@ -101,10 +101,10 @@ class _Reader:
                             f"here: {', '.join(sorted(self.seen))}")
 
 
-def _arm(r: _Reader, n_cams: int) -> dict:
+def _arm(r: _Reader, n_joints: int) -> dict:
     """An arm table: masses, lengths, com (one per joint) and g."""
-    n = r.get("masses", lambda v: isinstance(v, list) and 1 <= len(v) <= n_cams and all(
-        _positive(x) for x in v), f"a list of 1…{n_cams} positive link masses [kg]")
+    n = r.get("masses", lambda v: isinstance(v, list) and 1 <= len(v) <= n_joints and all(
+        _positive(x) for x in v), f"a list of 1…{n_joints} positive link masses [kg]")
     arm = {"masses": [float(v) for v in n],
            "lengths": [float(v) for v in r.get("lengths", _list_of(_nonneg, len(n)),
                                                f"a list of {len(n)} link lengths ≥ 0 [m]")],
@@ -114,11 +114,11 @@ def _arm(r: _Reader, n_cams: int) -> dict:
     return arm
 
 
-def _five_bar(r: _Reader, n_cams: int) -> dict:
+def _five_bar(r: _Reader, n_joints: int) -> dict:
     """A ``five_bar`` target (Endo2010 Sec. III): joint, six masses, upper, crank, fore, com, g."""
-    if n_cams != 2:
+    if n_joints != 2:
         r.fail(r.key("kind"), "five_bar", f"a five_bar target only in a problem of 2 joints "
-               f"(theta1 = link 1, theta2 = crank); this one has {n_cams}")
+               f"(theta1 = link 1, theta2 = crank); this one has {n_joints}")
     return {"joint": r.get("joint", lambda v: _posint(v) and v <= 2,
                            "1 (link 1, theta1) or 2 (crank, theta2)"),
             "masses": [float(v) for v in r.get("masses", _list_of(_positive, 6),
@@ -153,7 +153,7 @@ def _acceptance(r: _Reader) -> tuple:
 
 
 
-def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool = False,
+def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: bool = False,
             theta_range=None) -> Target:
     """A joint's torque law, or (``output``) a mechanism's output law x(θ) [m] over its
     joint's ``theta_range`` [rad]."""
@@ -179,12 +179,12 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool 
     elif kind == "arm":
         inline = {k: r.table[k] for k in ("masses", "lengths", "com", "g") if k in r.table}
         if inline or arm is None:
-            arm = _arm(r, n_cams)
+            arm = _arm(r, n_joints)
         joint = r.get("joint", lambda v: _posint(v) and v <= len(arm["masses"]),
                       f"a joint number between 1 and {len(arm['masses'])}")
         data = {"joint": joint, **arm}
     elif kind == "five_bar":
-        data = _five_bar(r, n_cams)
+        data = _five_bar(r, n_joints)
     elif kind == "none":
         data = {}
     else:
@@ -209,24 +209,24 @@ def _target(r: _Reader, base: Path, n_cams: int, arm: dict | None, output: bool 
 GUARD_SAMPLES = {1: 4001, 2: 201, 3: 41}
 
 
-def _check_target(origin, where, target: Target, cams_ranges, cam: int, unit: str = "torque [N·m]"):
+def _check_target(origin, where, target: Target, joint_ranges, joint: int, unit: str = "torque [N·m]"):
     """Refuse a target that is malformed or not finite over the angle ranges."""
     try:
-        f = target.function(len(cams_ranges), cam)
+        f = target.function(len(joint_ranges), joint)
     except ExpressionError as exc:
         raise SpecError(f"{origin}: {where}.expression: {exc}") from None
     if target.kind == "table":
         s = np.asarray(target.data["samples"])
-        lo, hi = cams_ranges[cam]
+        lo, hi = joint_ranges[joint]
         if s[0, 0] > lo + 1e-12 or s[-1, 0] < hi - 1e-12:
             raise SpecError(f"{origin}: {where}: the table covers [{s[0, 0]:.4g}, "
-                            f"{s[-1, 0]:.4g}] rad but the cam turns over [{lo:.4g}, {hi:.4g}] rad")
-    fine = GUARD_SAMPLES.get(len(cams_ranges), GUARD_SAMPLES[3])
-    failure = target.guard_failure([np.linspace(lo, hi, fine) for lo, hi in cams_ranges], cam)
+                            f"{s[-1, 0]:.4g}] rad but the joint turns over [{lo:.4g}, {hi:.4g}] rad")
+    fine = GUARD_SAMPLES.get(len(joint_ranges), GUARD_SAMPLES[3])
+    failure = target.guard_failure([np.linspace(lo, hi, fine) for lo, hi in joint_ranges], joint)
     if failure:
         raise SpecError(f"{origin}: {where}.expression: {failure}; expected a {unit} that is finite "
                         "and continuous over the whole angle range (change the expression or the range)")
-    axes = [np.linspace(lo, hi, 41 if len(cams_ranges) < 3 else 9) for lo, hi in cams_ranges]
+    axes = [np.linspace(lo, hi, 41 if len(joint_ranges) < 3 else 9) for lo, hi in joint_ranges]
     pts = np.array(list(product(*axes))).T
     values = np.asarray(f.map(pts.shape[1])(pts)).ravel()
     if not np.all(np.isfinite(values)):
@@ -575,7 +575,7 @@ def _optional_float(v):
 
 
 def _shorthand_table(data) -> str:
-    """The mechanism shorthand (:attr:`Mechanism.shorthand`: ``[[cams]]`` for the wire cam,
+    """The mechanism shorthand (:attr:`Mechanism.shorthand`: ``[[cams]]`` for the wire joint,
     cadcam ≤ 0.1) a spec is written in, or ""."""
     if not isinstance(data, dict) or "joints" in data:
         return ""

@@ -1,4 +1,4 @@
-"""Target torque laws τ_d [N·m] of the cam angles [rad].
+"""Target torque laws τ_d [N·m] of the joint angles [rad].
 
 A spec is data: target expressions are parsed with :mod:`ast` into a tree that is walked
 against a whitelist of names, functions and operators and turned into a CasADi expression.
@@ -216,10 +216,10 @@ def reserved_name(name: str) -> bool:
     return name in FUNCTIONS or name in CONSTANTS or re.fullmatch(r"theta\d*", name) is not None
 
 
-def angle_names(thetas, cam: int) -> dict:
-    """Names an expression may use for the angles: ``theta`` (own cam) and ``theta1…thetaM``."""
+def angle_names(thetas, joint: int) -> dict:
+    """Names an expression may use for the angles: ``theta`` (own joint) and ``theta1…thetaM``."""
     out = {f"theta{i + 1}": t for i, t in enumerate(thetas)}
-    out["theta"] = thetas[cam]
+    out["theta"] = thetas[joint]
     return out
 
 
@@ -337,8 +337,8 @@ class TargetKind:
     name : str
         The spec's ``kind``.
     law : callable
-        ``law(data, thetas, cam)``: the law as a CasADi expression of the joint angles
-        ``thetas`` (a list of SX) for joint ``cam``, from the kind's ``data``.
+        ``law(data, thetas, joint)``: the law as a CasADi expression of the joint angles
+        ``thetas`` (a list of SX) for the joint numbered ``joint`` (0-based), from the kind's ``data``.
     torque, output : bool
         Whether it may be a joint's torque law [N·m], a mechanism's output law [m].
     read : callable or None
@@ -382,32 +382,32 @@ def target_kinds(output: bool = False) -> tuple[str, ...]:
     return tuple(k.name for k in _KINDS.values() if (k.output if output else k.torque))
 
 
-def _expression_names(data: dict, thetas, cam: int) -> dict:
+def _expression_names(data: dict, thetas, joint: int) -> dict:
     """An ``expression``'s names: its numeric ``parameters`` and the angles."""
-    return {**{k: float(v) for k, v in data.get("parameters", {}).items()}, **angle_names(thetas, cam)}
+    return {**{k: float(v) for k, v in data.get("parameters", {}).items()}, **angle_names(thetas, joint)}
 
 
-def _expression_law(data, thetas, cam):
-    return parse_expression(data["expression"], _expression_names(data, thetas, cam))
+def _expression_law(data, thetas, joint):
+    return parse_expression(data["expression"], _expression_names(data, thetas, joint))
 
 
-def _pendulum_law(d, thetas, cam):
-    return d["mass"] * d["g"] * d["length"] * ca.sin(thetas[cam] + d["phase"])
+def _pendulum_law(d, thetas, joint):
+    return d["mass"] * d["g"] * d["length"] * ca.sin(thetas[joint] + d["phase"])
 
 
-def _arm_law(d, thetas, cam):
+def _arm_law(d, thetas, joint):
     joints = serial_arm_torques(thetas[:len(d["masses"])], d["masses"], d["lengths"], d["com"], d["g"])
     return joints[d["joint"] - 1]
 
 
-def _five_bar_law(d, thetas, cam):
+def _five_bar_law(d, thetas, joint):
     joints = five_bar_torques(thetas[0], thetas[1], d["masses"], {k: d[k] for k in FIVE_BAR_LENGTHS}, d["g"])
     return joints[d["joint"] - 1]
 
 
-def _table_law(d, thetas, cam):
+def _table_law(d, thetas, joint):
     s = np.asarray(d["samples"], dtype=float)
-    return ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])(thetas[cam])
+    return ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])(thetas[joint])
 
 
 for _kind in (TargetKind("expression", _expression_law, output=True),
@@ -415,23 +415,23 @@ for _kind in (TargetKind("expression", _expression_law, output=True),
               TargetKind("table", _table_law, output=True),
               TargetKind("arm", _arm_law),
               TargetKind("five_bar", _five_bar_law),
-              TargetKind("none", lambda d, thetas, cam: ca.SX(0))):
+              TargetKind("none", lambda d, thetas, joint: ca.SX(0))):
     register_target_kind(_kind)
 
 
 @dataclass
 class Target:
-    """A target torque τ_d [N·m] for one cam.
+    """A target torque τ_d [N·m] for one joint.
 
     ``kind`` is ``expression`` (``expression`` with optional numeric ``parameters``),
     ``pendulum`` (τ = m g l sin(θ + phase): ``mass`` [kg], ``length`` [m] to the centre of
     mass, ``g`` [m/s²], ``phase`` [rad]) or ``table`` (``samples`` of (θ [rad], τ [N·m]),
-    interpolated by a cubic B-spline in the cam's own angle) or ``arm`` (joint ``joint``'s
+    interpolated by a cubic B-spline in the joint's own angle) or ``arm`` (joint ``joint``'s
     gravity torque of a planar serial arm with ``masses`` [kg], ``lengths`` [m], ``com`` [m]
-    and ``g``, the cam angles being the joint angles; see :func:`serial_arm_torques`) or
+    and ``g``, its joints being the problem's joints; see :func:`serial_arm_torques`) or
     ``five_bar`` (joint ``joint``'s gravity torque of Endo2010's parallel five-bar arm with
     six ``masses`` [kg], lengths ``upper``, ``crank``, ``fore`` and ``com`` = [l1, l2, l3, l5]
-    [m] and ``g``; cam angles θ1 (link 1) and θ2 (crank); see :func:`five_bar_torques`) or
+    [m] and ``g``; joint angles θ1 (link 1) and θ2 (crank); see :func:`five_bar_torques`) or
     ``none`` (no torque goal: τ_d = 0 with no weight in the objective).
 
     A mechanism's output law x(θ) [m] (:attr:`cadcam.mechanisms.base.Mechanism.output_target`)
@@ -442,11 +442,11 @@ class Target:
     kind: str
     data: dict = field(default_factory=dict)
 
-    def expression(self, thetas, cam: int):
-        """τ_d as a CasADi expression of the cam angles ``thetas`` (a list of SX)."""
-        return target_kind(self.kind).law(self.data, thetas, cam)
+    def expression(self, thetas, joint: int):
+        """τ_d as a CasADi expression of the joint angles ``thetas`` (a list of SX)."""
+        return target_kind(self.kind).law(self.data, thetas, joint)
 
-    def guard_failure(self, axes, cam: int) -> str | None:
+    def guard_failure(self, axes, joint: int) -> str | None:
         """For an ``expression``: where it has a pole, leaves its functions' domains or jumps
         on the tensor grid of the angle ``axes`` [rad] (:func:`check_guards`); else None."""
         if self.kind != "expression":
@@ -454,13 +454,13 @@ class Target:
         th = ca.SX.sym("theta", len(axes))
         thetas = [th[i] for i in range(len(axes))]
         guards = []
-        parse_expression(self.data["expression"], _expression_names(self.data, thetas, cam), guards)
+        parse_expression(self.data["expression"], _expression_names(self.data, thetas, joint), guards)
         return check_guards(guards, thetas, axes)
 
-    def function(self, n_cams: int, cam: int) -> ca.Function:
-        """``target(theta[n_cams]) -> tau_d`` [N·m]."""
-        th = ca.SX.sym("theta", n_cams)
-        return ca.Function("target", [th], [self.expression([th[i] for i in range(n_cams)], cam)])
+    def function(self, n_joints: int, joint: int) -> ca.Function:
+        """``target(theta[n_joints]) -> tau_d`` [N·m]."""
+        th = ca.SX.sym("theta", n_joints)
+        return ca.Function("target", [th], [self.expression([th[i] for i in range(n_joints)], joint)])
 
     def to_dict(self) -> dict:
         """Resolved form (tables inlined as samples) in the spec's format."""
