@@ -347,6 +347,9 @@ class TargetKind:
     check : callable or None
         ``check(datas) -> str or None``: given the data of every output law of this kind in
         one problem, ``"key: what is wrong"`` where they contradict each other.
+    schema : dict or None
+        The JSON Schema of its keys in ``result.json`` (:mod:`cadcam.outputs.schema`), for a
+        kind the shipped schema does not describe itself.
     """
 
     name: str
@@ -355,6 +358,7 @@ class TargetKind:
     output: bool = False
     read: Callable | None = None
     check: Callable | None = None
+    schema: dict | None = None
 
 
 _KINDS: dict[str, TargetKind] = {}

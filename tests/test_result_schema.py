@@ -14,7 +14,7 @@ from jsonschema import Draft202012Validator
 
 import cadcam
 from cadcam.cli import main
-from cadcam.mechanisms.base import torque_models
+from cadcam.mechanisms.base import mechanism_kinds, torque_models
 from cadcam.solve.transcription import IPOPT_STATUS
 from cadcam.optimize import VERDICTS
 
@@ -127,6 +127,16 @@ def test_closed_sets_agree_with_the_code(schema):
     trial_status = schema["$defs"]["trial"]["properties"]["status"]["enum"]
     assert set(trial_status) == set(IPOPT_STATUS.values()) | {"solver_error"}
     assert tuple(schema["$defs"]["torque_model"]["enum"]) == torque_models()
+
+
+def test_the_shipped_schema_is_what_the_declarations_make_of_it(schema):
+    """The torque models, design methods, target kinds and each mechanism's own keys come from
+    the registries and the mechanisms' folders: `make schema` writes them into the file."""
+    from cadcam.outputs.schema import result_schema
+
+    assert result_schema(schema) == schema, "the declarations changed: run `make schema`"
+    kinds = [b["if"]["properties"]["kind"]["const"] for b in schema["$defs"]["mechanism"]["allOf"]]
+    assert set(kinds) == set(mechanism_kinds())
 
 
 def test_every_top_level_field_is_documented(schema, result):

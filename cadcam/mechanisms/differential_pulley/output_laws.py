@@ -6,6 +6,9 @@ for a mechanism's ``output_target``.
 """
 from __future__ import annotations
 
+import json
+from importlib import resources
+
 import casadi as ca
 import numpy as np
 
@@ -115,8 +118,11 @@ def _spring_balance_law(d, thetas, cam):
                                                 d["g"], d["rate"], d["preload"])
 
 
+#: The JSON Schema of both laws' keys in result.json, by kind.
+SCHEMAS = json.loads((resources.files(__package__) / "output_laws.schema.json").read_text(encoding="utf-8"))
+
 register_target_kind(TargetKind("spring_balance", _spring_balance_law, torque=False, output=True,
-                                read=read_spring_balance))
+                                read=read_spring_balance, schema=SCHEMAS["spring_balance"]))
 def one_path(datas) -> str | None:
     """The cables of one cable robot follow one path: the first path key two laws differ in."""
     for key in SHARED_PATH_KEYS:
@@ -127,4 +133,5 @@ def one_path(datas) -> str | None:
 
 
 register_target_kind(TargetKind("cable_robot", lambda d, thetas, cam: cable_robot_slider(thetas[cam], d),
-                                torque=False, output=True, read=read_cable_robot, check=one_path))
+                                torque=False, output=True, read=read_cable_robot, check=one_path,
+                                schema=SCHEMAS["cable_robot"]))
