@@ -12,6 +12,8 @@ Examples
 """
 from __future__ import annotations
 
+from typing import Any
+
 import copy
 import json
 import os
@@ -243,8 +245,8 @@ def _torque_model_partials(problem: Problem, start: Design, points: int, rng: np
     exported Jacobian (Newton tangency, implicit function theorem by hand) against central
     differences, at ``points`` random poses in the joints' ranges."""
     model = torque_function(problem, start.bases)
-    point = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
-             "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
+    point: dict[str, Any] = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
+                             "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
     lo = np.array([j.theta_range[0] for j in problem.joints])
     hi = np.array([j.theta_range[1] for j in problem.joints])
     newton = torque_function(problem, start.bases, tangency="newton")

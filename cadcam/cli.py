@@ -20,7 +20,7 @@ from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
 from .version import __version__
-from .problem import WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
+from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
 from .sweep.study import StudyError
 from .sweep.runner import SweepError
@@ -81,12 +81,11 @@ def _problem(args, design_grid: bool = True):
             problem = problem.with_torque_model(args.torque_model)
         except ValueError as exc:
             raise InputError(f"--torque-model: {exc}") from None
-    if getattr(args, "grid", None) is not None and args.grid < 3:
-        raise InputError("--grid must be at least 3")
-    changes = {k: getattr(args, k) for k in (("grid", "multistart") if design_grid else ("multistart",))
-               if getattr(args, k, None) is not None}
-    if changes.get("multistart", 0) < 0:
-        raise InputError("--multistart must be ≥ 0 (extra random starts)")
+    given = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
+    for name, value in given.items():
+        if not SOLVER[name].ok(value):
+            raise InputError(f"--{name} = {value}: expected {SOLVER[name].form}")
+    changes = {k: v for k, v in given.items() if design_grid or k != "grid"}
     problem = problem.with_options(**changes) if changes else problem
     too_big = size_error(problem.options, len(problem.joints))
     if too_big:
@@ -336,7 +335,7 @@ def _add_spec_arguments(p) -> None:
     p.add_argument("--torque-model", choices=torque_models(),
                    help=f"override the spec's torque model (energy: ∂V/∂θ, the default; the papers' "
                         f"force models: {offered})")
-    p.add_argument("--grid", type=int, help="cam angles per cam on the grid")
+    p.add_argument("--grid", type=int, help=SOLVER["grid"].description)
     p.add_argument("--variant", help="apply the spec's [variants.NAME] overrides")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a spec value by dotted key, e.g. springs.1.rate=1200.0 "
@@ -351,7 +350,7 @@ def _add_design_command(sub) -> None:
     p = sub.add_parser("design", help="optimise a cam system and re-check it")
     _add_spec_arguments(p)
     p.add_argument("-o", "--output", required=True, help="output folder")
-    p.add_argument("--multistart", type=int, help="extra random starts")
+    p.add_argument("--multistart", type=int, help=SOLVER["multistart"].description)
     p.add_argument("--no-figures", dest="figures", action="store_false",
                    help="write no PNG figures and no drawing sheets (what matplotlib draws: most of a "
                         "small design's time); the tables, outlines and result.json as usual")

@@ -6,7 +6,9 @@ problem it solved and can be re-evaluated without the original file.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
+from typing import Any, Callable
 
 import numpy as np
 
@@ -87,69 +89,96 @@ def evaluation_size_error(grid: int, n_joints: int) -> str | None:
     return None
 
 
+def _integer(v, least: int) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= least
+
+
+def _real(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One ``[solver]`` option, declared once: its default, the values it may take (``ok``, and
+    ``form`` in words; None where the spec reader checks it itself) and its meaning. The spec
+    reader, the CLI's flags, the API and :class:`Options` read it."""
+
+    default: Any
+    ok: Callable[[Any], bool] | None
+    form: str
+    description: str
+
+
+#: The ``[solver]`` options, in the order a spec's table is read.
+SOLVER = {
+    "grid": Setting(46, lambda v: _integer(v, 3), "an integer ≥ 3",
+                    "Angles per joint on the uniform design grid (including both ends)."),
+    "quadrature_order": Setting(2, lambda v: _integer(v, 1), "a positive integer",
+                                "Gauss–Legendre points per segment of the wrapped length between "
+                                "neighbouring grid contacts, and 8× that over the whole wrap for the "
+                                "as-printed friction integral."),
+    "convexity_points": Setting(120, lambda v: _integer(v, 2), "an integer ≥ 2",
+                                "Profile samples, spread over the whole wrapped range [0, α(θ_max)], at "
+                                "which convexity and ρ bounds are imposed."),
+    "convexity_epsilon": Setting(1e-3, lambda v: _real(v) and v >= 0, "a number ≥ 0",
+                                 "Required convexity margin as a fraction of ρ_min² (Eq. 40 asks for > 0)."),
+    "limit_margin": Setting(1e-4, lambda v: _real(v) and 0 <= v < 0.1, "a fraction in [0, 0.1)",
+                            "Fraction of every limit (spring travel, ρ_min, ρ_max) the NLP keeps in "
+                            "reserve, so that what happens between grid points stays inside the limit "
+                            "on the re-check."),
+    "multistart": Setting(0, lambda v: _integer(v, 0), "an integer ≥ 0",
+                          "Extra randomised starts besides the default one (0 = single start)."),
+    "seed": Setting(0, lambda v: _integer(v, 0) and v < 2**32,
+                    "an integer from 0 to 2**32 − 1 (the multistart generator's seed)",
+                    "Seed of the multistart generator."),
+    "max_iter": Setting(500, lambda v: _integer(v, 1), "a positive integer", "IPOPT iteration limit."),
+    "tol": Setting(1e-8, lambda v: _real(v) and v > 0, "a positive number", "IPOPT tolerance."),
+    "recheck_factor": Setting(10, lambda v: _integer(v, 2), "an integer ≥ 2",
+                              "The re-check grid is this many times finer than the design grid."),
+    "objective": Setting("least_squares", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
+                         "``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. "
+                         "46/47); ``minimax``: the largest |τ − τ_d| over the grid, by an epigraph "
+                         "variable per joint (for problems whose joint torques and targets each "
+                         "depend on their own joint's angle)."),
+    "ipopt": Setting((), None, "a table of IPOPT options such as mu_init = 1e-6",
+                     "Further IPOPT options (name without the ``ipopt.`` prefix, value), e.g. a warm "
+                     "start (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a start "
+                     "that is already close to the optimum."),
+    "method": Setting("nlp", None, "nlp or a mechanism's own design method",
+                      "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
+                      "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, "
+                      "re-checked like an optimum (no NLP is built)."),
+    "functions": Setting("expanded", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}",
+                         "How IPOPT's functions of the NLP are evaluated. ``expanded``: expanded "
+                         "into scalar (SX) graphs when the solver is built, whose time grows with "
+                         "the grid; ``mapped``: the graph of mapped per-angle functions as built, "
+                         "flat in the grid, evaluated more slowly; ``compiled``: that graph as C, "
+                         "compiled once per problem structure and cached on disk "
+                         "(:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, "
+                         "then the fastest to build and to solve. The three give the same optimum "
+                         "up to rounding (the iteration count may differ by a few)."),
+}
+
+
 @dataclass(frozen=True)
 class Options:
-    """Transcription and solver options.
+    """Transcription and solver options: each field is a ``[solver]`` key of :data:`SOLVER`,
+    which declares its default, its values and its meaning."""
 
-    grid : int
-        Angles per joint on the uniform design grid (including both ends).
-    quadrature_order : int
-        Gauss–Legendre points per segment of the wrapped length between neighbouring grid
-        contacts, and 8× that over the whole wrap for the as-printed friction integral.
-    convexity_points : int
-        Profile samples, spread over the whole wrapped range [0, α(θ_max)], at which convexity
-        and ρ bounds are imposed.
-    convexity_epsilon : float
-        Required convexity margin as a fraction of ρ_min² (Eq. 40 asks for > 0).
-    limit_margin : float
-        Fraction of every limit (spring travel, ρ_min, ρ_max) the NLP keeps in reserve, so
-        that what happens between grid points stays inside the limit on the re-check.
-    multistart : int
-        Extra randomised starts besides the default one (0 = single start).
-    seed : int
-        Seed of the multistart generator.
-    max_iter : int
-        IPOPT iteration limit.
-    tol : float
-        IPOPT tolerance.
-    recheck_factor : int
-        The re-check grid is this many times finer than the design grid.
-    objective : str
-        ``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47);
-        ``minimax``: the largest |τ − τ_d| over the grid, by an epigraph variable per joint
-        (for problems whose joint torques and targets each depend on their own joint's angle).
-    ipopt : tuple of (str, object)
-        Further IPOPT options (name without the ``ipopt.`` prefix, value), e.g. a warm start
-        (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a start that is already
-        close to the optimum.
-    method : str
-        ``nlp``: cadcam's NLP from the start design; ``envelope``: the start design itself,
-        Fedorov's envelope synthesis (Fedorov2018 Sec. 2.2) of every differential pair for its
-        output law, re-checked like an optimum (no NLP is built).
-    functions : str
-        How IPOPT's functions of the NLP are evaluated. ``expanded``: expanded into scalar
-        (SX) graphs when the solver is built, whose time grows with the grid; ``mapped``: the
-        graph of mapped per-angle functions as built, flat in the grid, evaluated more slowly;
-        ``compiled``: that graph as C, compiled once per problem structure and cached on disk
-        (:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, then the
-        fastest to build and to solve. The three give the same optimum up to rounding (the
-        iteration count may differ by a few).
-    """
-
-    grid: int = 46
-    quadrature_order: int = 2
-    convexity_points: int = 120
-    convexity_epsilon: float = 1e-3
-    limit_margin: float = 1e-4
-    multistart: int = 0
-    seed: int = 0
-    max_iter: int = 500
-    tol: float = 1e-8
-    recheck_factor: int = 10
-    objective: str = "least_squares"
-    ipopt: tuple = ()
-    method: str = "nlp"
-    functions: str = "expanded"
+    grid: int = SOLVER["grid"].default
+    quadrature_order: int = SOLVER["quadrature_order"].default
+    convexity_points: int = SOLVER["convexity_points"].default
+    convexity_epsilon: float = SOLVER["convexity_epsilon"].default
+    limit_margin: float = SOLVER["limit_margin"].default
+    multistart: int = SOLVER["multistart"].default
+    seed: int = SOLVER["seed"].default
+    max_iter: int = SOLVER["max_iter"].default
+    tol: float = SOLVER["tol"].default
+    recheck_factor: int = SOLVER["recheck_factor"].default
+    objective: str = SOLVER["objective"].default
+    ipopt: tuple = SOLVER["ipopt"].default
+    method: str = SOLVER["method"].default
+    functions: str = SOLVER["functions"].default
 
     @property
     def recheck_grid(self) -> int:

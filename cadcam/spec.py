@@ -18,6 +18,7 @@ import tomllib
 from dataclasses import replace
 from itertools import product
 from pathlib import Path
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -27,7 +28,7 @@ from .mechanisms.base import (ENERGY, Profile, design_methods, legacy_torque_mod
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import FUNCTIONS, OBJECTIVES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
+from .problem import SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
 from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
 _REQUIRED = object()
@@ -160,8 +161,9 @@ def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: boo
     kinds = target_kinds(output)
     unit, column = ("m", "x_m") if output else ("N·m", "torque_Nm")
     kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
-    if target_kind(kind).read is not None:  # a kind a mechanism brings reads its own keys
-        data = target_kind(kind).read(r, theta_range)
+    read = target_kind(kind).read
+    if read is not None:  # a kind a mechanism brings reads its own keys
+        data = read(r, theta_range)
     elif kind == "expression":
         example = "'0.15 + 0.01*cos(theta)'" if output else "'0.08*theta**2'"
         data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
@@ -363,34 +365,21 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
 
 
 def _options(sol: _Reader) -> Options:
-    """The ``[solver]`` table as :class:`Options`, its defaults where a key is missing."""
-    options = Options(
-        grid=sol.get("grid", lambda v: _posint(v) and v >= 3, "an integer ≥ 3", 46),
-        quadrature_order=sol.get("quadrature_order", _posint, "a positive integer", 2),
-        convexity_points=sol.get("convexity_points", lambda v: _posint(v) and v >= 2,
-                                 "an integer ≥ 2", 120),
-        convexity_epsilon=sol.get("convexity_epsilon", _nonneg, "a number ≥ 0", 1e-3),
-        limit_margin=sol.get("limit_margin", lambda v: _nonneg(v) and v < 0.1,
-                              "a fraction in [0, 0.1)", 1e-4),
-        multistart=sol.get("multistart", lambda v: type(v) is int and v >= 0,
-                           "an integer ≥ 0", 0),
-        seed=sol.get("seed", lambda v: type(v) is int and 0 <= v < 2**32,
-                     "an integer from 0 to 2**32 − 1 (the multistart generator's seed)", 0),
-        max_iter=sol.get("max_iter", _posint, "a positive integer", 500),
-        tol=sol.get("tol", _positive, "a positive number", 1e-8),
-        recheck_factor=sol.get("recheck_factor", lambda v: _posint(v) and v >= 2,
-                               "an integer ≥ 2", 10),
-        objective=sol.get("objective", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
-                          "least_squares"),
-        ipopt=_ipopt_options(sol, sol.get("ipopt", lambda v: isinstance(v, dict) and all(
-            re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
-            for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
-            "in the IPOPT documentation, numbers or strings)", {})),
-        method=sol.get("method", lambda v: v in _methods(), f"one of {_methods()}", "nlp"),
-        functions=sol.get("functions", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}", "expanded"),
-    )
+    """The ``[solver]`` table as :class:`Options`, each key read as :data:`SOLVER` declares it
+    (its default where it is missing)."""
+    values: dict[str, Any] = {}
+    for name, setting in SOLVER.items():
+        if name == "ipopt":
+            values[name] = _ipopt_options(sol, sol.get("ipopt", lambda v: isinstance(v, dict) and all(
+                re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
+                for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
+                "in the IPOPT documentation, numbers or strings)", {}))
+        elif name == "method":
+            values[name] = sol.get("method", lambda v: v in _methods(), f"one of {_methods()}", setting.default)
+        else:
+            values[name] = sol.get(name, setting.ok, setting.form, setting.default)
     sol.done()
-    return options
+    return Options(**values)
 
 
 def _top_arm(top: _Reader, data: dict, n_joints: int) -> dict | None:
@@ -459,7 +448,8 @@ def _check_output_laws(origin, mechanisms) -> None:
         if m.output_target is not None:
             laws.setdefault(m.output_target.kind, []).append(m.output_target.data)
     for kind, datas in laws.items():
-        problem = target_kind(kind).check(datas) if target_kind(kind).check else None
+        check = target_kind(kind).check
+        problem = check(datas) if check is not None else None
         if problem:
             raise SpecError(f"{origin}: mechanisms' output_target.{problem}")
 

@@ -83,7 +83,7 @@ def design_methods() -> dict[str, DesignMethod]:
     return {m.name: m for cls in _REGISTRY.values() for m in cls.methods}
 
 
-def kinds_in(mechanisms) -> list[type]:
+def kinds_in(mechanisms) -> list[type[Mechanism]]:
     """The distinct mechanism classes of ``mechanisms``, in order of first appearance."""
     return list(dict.fromkeys(type(m) for m in mechanisms))
 

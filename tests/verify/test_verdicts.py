@@ -124,7 +124,7 @@ def test_a_cap_can_be_raised_deliberately(monkeypatch):
 
 
 @pytest.mark.parametrize("argv,message", [
-    (["--multistart", "-1"], "--multistart must be ≥ 0"),
+    (["--multistart", "-1"], "--multistart = -1: expected an integer ≥ 0"),
     (["--multistart", "10000"], "--multistart: 10000 exceeds the cap 100"),
 ])
 def test_flags_are_capped_before_work(tmp_path, capsys, argv, message):
