@@ -5,7 +5,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench clean schema study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
+.PHONY: demo test lint bench clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
@@ -36,10 +36,11 @@ bench: $(STAMP)
 	took=$$(( $$(date +%s) - start )) && \
 	echo && echo "| \`make bench\` ≤ 5 min | $$took s | $$([ $$took -le 300 ] && echo met || echo '**missed**') |"
 
-# result.schema.json's declared parts (torque models, design methods, target kinds, each
-# mechanism's own keys) written anew from the registries and the mechanisms' folders
-schema: $(STAMP)
+# the files written from declarations in the code: result.schema.json's declared parts (torque
+# models, design methods, target kinds, each mechanism's own keys) and docs/spec_reference.md
+generated: $(STAMP)
 	$(PY) -m cadcam.outputs.schema
+	$(PY) -m cadcam.outputs.spec_reference
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info

@@ -131,12 +131,21 @@ def test_closed_sets_agree_with_the_code(schema):
 
 def test_the_shipped_schema_is_what_the_declarations_make_of_it(schema):
     """The torque models, design methods, target kinds and each mechanism's own keys come from
-    the registries and the mechanisms' folders: `make schema` writes them into the file."""
+    the registries and the mechanisms' folders: `make generated` writes them into the file."""
     from cadcam.outputs.schema import result_schema
 
-    assert result_schema(schema) == schema, "the declarations changed: run `make schema`"
+    assert result_schema(schema) == schema, "the declarations changed: run `make generated`"
     kinds = [b["if"]["properties"]["kind"]["const"] for b in schema["$defs"]["mechanism"]["allOf"]]
     assert set(kinds) == set(mechanism_kinds())
+
+
+def test_the_spec_reference_page_is_what_the_declarations_make():
+    from cadcam.outputs.spec_reference import REFERENCE_FILE, reference
+
+    page = REFERENCE_FILE.read_text(encoding="utf-8")
+    assert page == reference(), "the declarations changed: run `make generated`"
+    for kind in mechanism_kinds():
+        assert f'### `kind = "{kind}"`' in page
 
 
 def test_every_top_level_field_is_documented(schema, result):

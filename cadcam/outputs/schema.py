@@ -3,7 +3,7 @@ written in the file, and the parts that the registries declare are generated fro
 torque models, the design methods, the target kinds, and each mechanism's own keys (the
 ``spec.schema.json`` beside its model) and each target kind's keys (:attr:`TargetKind.schema`).
 
-``python -m cadcam.outputs.schema`` writes the file anew (``make schema``); the tests check that
+``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
 the shipped file is what this module makes of it.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ def _declared(blocks: list[dict], declared: dict[str, dict]) -> list[dict]:
     return out + [_kind_block(k, then) for k, then in declared.items() if k not in kinds]
 
 
-def _mechanism_schemas() -> dict[str, dict]:
+def mechanism_schemas() -> dict[str, dict]:
     """Each registered mechanism's schema of its own keys, read from its folder."""
     out = {}
     for kind in mechanism_kinds():
@@ -59,7 +59,7 @@ def result_schema(schema: dict) -> dict:
     defs["target"]["properties"]["kind"]["enum"] = kinds
     defs["target"]["allOf"] = _declared(defs["target"]["allOf"], {
         k: target_kind(k).schema for k in kinds if target_kind(k).schema is not None})
-    defs["mechanism"]["allOf"] = _declared(defs["mechanism"]["allOf"], _mechanism_schemas())
+    defs["mechanism"]["allOf"] = _declared(defs["mechanism"]["allOf"], mechanism_schemas())
     return out
 
 
