@@ -33,8 +33,8 @@ def default_start(problem: Problem) -> Design:
 
 def start_design(problem: Problem) -> tuple[Problem, Design]:
     """The default start design: :func:`default_start`'s circles, then each mechanism kind's
-    own start (:meth:`~cadcam.mechanisms.base.Mechanism.prepare_start`: Fedorov's envelope
-    pulleys for differential pairs, which also set their cable lengths). Returns the problem
+    own start (:meth:`~cadcam.mechanisms.base.Mechanism.prepare_start`: a synthesis the
+    mechanism knows, which may also complete its numbers). Returns the problem
     those starts complete and the design."""
     design = default_start(problem)
     for kind in kinds_in(problem.mechanisms):
@@ -112,8 +112,8 @@ def _recheck(problem: Problem, design: Design, seeds=None):
 
 
 def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Result:
-    """The start design re-checked as the answer (a mechanism's own design method, e.g.
-    ``method = "envelope"``): its evaluation on
+    """The start design re-checked as the answer (a mechanism's own design method,
+    :class:`~cadcam.mechanisms.base.DesignMethod`): its evaluation on
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
     objective is the largest output error on the design grid [m]."""
     on_grid = evaluate(problem, design)
@@ -140,7 +140,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         A solver built for a problem of the same structure (reused across sweep cases).
     start : Design, optional
         First initial guess (default :func:`start_design`, which may also complete the
-        problem: the cable lengths of differential pairs);
+        problem's mechanisms);
         ``problem.options.multistart`` random starts follow, and the best converged one is
         kept.
 
@@ -148,9 +148,8 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     -------
     Result
         ``status`` is ``success`` only for a converged optimum whose fine re-check passed.
-        With a mechanism's own ``problem.options.method`` (not ``"nlp"``: ``"envelope"`` for
-        differential pairs) the start design is the answer: no NLP is built, and ``success``
-        means that it passed the fine re-check.
+        With a mechanism's own ``problem.options.method`` (not ``"nlp"``) the start design is
+        the answer: no NLP is built, and ``success`` means that it passed the fine re-check.
     """
     t0 = time.perf_counter()
     if start is None:
