@@ -77,7 +77,7 @@ def bench(problem, runs: int) -> dict:
         total = time.perf_counter() - t0
         rows.append({"build": result.build_time_s, "solve": result.solve.solve_time_s,
                      "iterations": result.solve.iterations, "recheck": result.recheck_time_s,
-                     "total": total, "status": result.status, "rmse": result.recheck.metrics["rmse"]})
+                     "total": total, "status": result.status, "rmse": result.recheck.metrics.rmse})
     out = {k: statistics.median(r[k] for r in rows) for k in ("build", "solve", "iterations", "recheck", "total")}
     out["status"] = "/".join(sorted({r["status"] for r in rows}))
     out["rmse"] = [statistics.median(r["rmse"][i] for r in rows) for i in range(len(rows[0]["rmse"]))]

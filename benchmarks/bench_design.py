@@ -79,7 +79,7 @@ def bench(problem, runs: int) -> dict:
     return {"build": statistics.median(builds), "solve": statistics.median(solves),
             "iterations": statistics.median(iters), "recheck": statistics.median(rechecks),
             "status": sol.status, "n_var": tr.v.size, "n_con": tr.bounds(problem)[0].size,
-            "objective": evaluate(problem, sol.design).metrics["objective"],
+            "objective": evaluate(problem, sol.design).metrics.objective,
             "feasible": not fine.violations, "violations": fine.violations}
 
 
@@ -311,7 +311,7 @@ def baseline_table(args, root: str) -> dict[str, tuple[str, bool]]:
     design, _, nit, elapsed, finished, message = baseline.solve(default_start(problem), time_cap=args.baseline_cap)
     ev = evaluate(problem, design)
     fine = evaluate(problem, design, grid=problem.options.recheck_grid)
-    gap = ev.metrics["objective"] / ours["objective"] - 1
+    gap = ev.metrics.objective / ours["objective"] - 1
     print(f"\nSec. 10.4 (cubic cams, 46 × 46 grid) under the `{BASELINE_MODEL}` torque model for both: same "
           "start, same limits, same objective (Eq. 47, evaluated by cadcam's re-check for both designs):\n")
     print("| approach | time [s] | iterations | model evaluations | LM tangency solves | objective | status | feasible on the fine re-check |")
@@ -322,12 +322,12 @@ def baseline_table(args, root: str) -> dict[str, tuple[str, bool]]:
               f"{r['iterations']:.0f} | – | 0 | {r['objective']:.4f} | {r['status']} | "
               f"{'yes' if r['feasible'] else 'no: ' + '; '.join(r['violations'][:2])} |")
     print(f"| nested SLSQP + FD + LM (one run) | {elapsed:.1f} | {nit} | {baseline.evaluations} | "
-          f"{baseline.lm_solves} | {ev.metrics['objective']:.4f} | {message} | "
+          f"{baseline.lm_solves} | {ev.metrics.objective:.4f} | {message} | "
           f"{'yes' if not fine.violations else 'no: ' + '; '.join(fine.violations[:2])} |")
     ratios = {}
     for label, r in rows.items():
         ratio = elapsed / (r["build"] + r["solve"])
-        gap = ev.metrics["objective"] / r["objective"] - 1
+        gap = ev.metrics.objective / r["objective"] - 1
         if not finished:
             verdict = (f"≥ {ratio:.0f}×, a lower bound: the baseline hit its {args.baseline_cap:g} s cap at an "
                        f"objective {100 * gap:+.1f} % from cadcam's")

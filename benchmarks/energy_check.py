@@ -32,14 +32,14 @@ def main() -> None:
     ref = independent.energy_torque(independent.load_design(json.loads(json.dumps(result.to_dict()))),
                                     fine.theta[0])
     force = evaluate(problem.with_torque_model("force"), result.design, grid=fine.grid, profile=False)
-    print(f"1-DOF demo design ({result.status}, RMSE {MM * result.evaluation.metrics['rmse'][0]:.3f} N·mm), "
+    print(f"1-DOF demo design ({result.status}, RMSE {MM * result.evaluation.metrics.rmse[0]:.3f} N·mm), "
           f"{fine.grid} re-check angles, max |τ − dV/dθ (independent)| [N·mm]: "
           f"energy {MM * np.abs(fine.tau[0] - ref).max():.2g}, force {MM * np.abs(force.tau[0] - ref).max():.3g}")
 
     forced = optimize(problem.with_torque_model("force"))
     ref = independent.energy_torque(independent.load_design(json.loads(json.dumps(forced.to_dict()))),
                                     forced.recheck.theta[0])
-    print(f"1-DOF optimum of the force model (RMSE {MM * forced.evaluation.metrics['rmse'][0]:.3f} N·mm "
+    print(f"1-DOF optimum of the force model (RMSE {MM * forced.evaluation.metrics.rmse[0]:.3f} N·mm "
           f"under that model): its torque against the independent dV/dθ, max "
           f"{MM * np.abs(forced.recheck.tau[0] - ref).max():.2f}, RMS "
           f"{MM * np.sqrt(np.mean((forced.recheck.tau[0] - ref) ** 2)):.2f} N·mm")

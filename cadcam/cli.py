@@ -230,7 +230,7 @@ def cmd_evaluate(args) -> int:
     design = _design(args, problem)
     ev = evaluate(problem, design, grid=args.grid)
     print(json.dumps({"torque_model": problem.torque_model, "design": design.to_dict(),
-                      "metrics": ev.metrics}, indent=2))
+                      "metrics": ev.metrics.to_dict()}, indent=2))
     return 0
 
 

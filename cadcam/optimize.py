@@ -82,10 +82,10 @@ def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
     m = fine.metrics
     if solve.status != "converged":
         return solve.status, f"IPOPT stopped: {solve.return_status}"
-    numbers = [m[k] for k in ("rmse", "max_abs_error", "extension_min", "extension_max", "rho_min",
-                              "rho_max", "curvature_radius_min", "alpha_max")]
-    numbers += [v for v in m["output_max_abs_error"] if v is not None]
-    if not np.all(np.isfinite(np.concatenate([np.ravel(v) for v in numbers] + [[m["objective"]]]))):
+    numbers = [m.rmse, m.max_abs_error, m.extension_min, m.extension_max, m.rho_min, m.rho_max,
+               m.curvature_radius_min, m.alpha_max]
+    numbers += [v for v in m.output_max_abs_error if v is not None]
+    if not np.all(np.isfinite(np.concatenate([np.ravel(v) for v in numbers] + [[m.objective]]))):
         return "not_finite", "the re-check has NaN or infinite values: the design cannot be trusted"
     if fine.violations:
         return "recheck_failed", f"{what}, but it violates constraints on the fine re-check grid"
@@ -118,7 +118,7 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
     objective is the largest output error on the design grid [m]."""
     on_grid = evaluate(problem, design)
     fine, recheck_s = _recheck(problem, design)
-    errors = [e for e in on_grid.metrics["output_max_abs_error"] if e is not None]
+    errors = [e for e in on_grid.metrics.output_max_abs_error if e is not None]
     method = design_methods()[problem.options.method]
     solve = Solve(design=design, status="converged", return_status=method.title,
                   iterations=0, solve_time_s=seconds, objective=max(errors),

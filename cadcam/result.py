@@ -98,13 +98,13 @@ class Result:
         path errors, violated and binding constraints."""
         metrics, fine = self.evaluation.metrics, self.recheck.metrics
         rmse = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS)" if r is not None else "")
-                for v, r in zip(metrics["rmse"], metrics["relative_rmse"])]
+                for v, r in zip(metrics.rmse, metrics.relative_rmse)]
         lines = [f"{self.status}: {self.message}",
                  f"  {self.problem.name}: RMSE per joint [N·mm]: {', '.join(rmse) or 'none (no torque goal)'}; "
                  f"iterations {self.nit}, build {self.build_time_s:.3f} s, "
                  f"solve {self.solve.solve_time_s if self.solve is not None else float('nan'):.3f} s, "
                  f"fine re-check {self.recheck_time_s:.3f} s"]
-        outs = [f"{1e3 * v:.3g}" for v in fine["output_max_abs_error"] if v is not None]
+        outs = [f"{1e3 * v:.3g}" for v in fine.output_max_abs_error if v is not None]
         if outs:
             lines.append(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)}")
         for kind in kinds_in(self.problem.mechanisms):
@@ -200,8 +200,8 @@ class Result:
             "torque_model": self.problem.torque_model,
             "friction_model": self.problem.torque_model,  # the field's old name, kept for readers
             "design": self.design.to_dict(),
-            "metrics": ev.metrics,
-            "recheck": fine.metrics,
+            "metrics": ev.metrics.to_dict(),
+            "recheck": fine.metrics.to_dict(),
             "violations": fine.violations if self.status != "success" else [],
             "target_samples": target_samples(ev),
             "target_samples_grid": target_samples_grid(ev),

@@ -136,13 +136,13 @@ def main() -> None:
             except Exception as exc:  # noqa: BLE001 - a failing start is counted in the report
                 start_errors.append(f"{type(exc).__name__}: {exc}")
                 continue
-            if res.status == "success" and (best is None or res.evaluation.metrics["objective"] < best[1].evaluation.metrics["objective"]):
+            if res.status == "success" and (best is None or res.evaluation.metrics.objective < best[1].evaluation.metrics.objective):
                 best = (label, res)
-        if best and best[1].evaluation.metrics["objective"] < c["objective"] * (1 - 1e-6):
+        if best and best[1].evaluation.metrics.objective < c["objective"] * (1 - 1e-6):
             label, res = best
-            c.update(source=f"re-solve from {label}", ok=True, objective=res.evaluation.metrics["objective"],
-                     rmse=MM * res.evaluation.metrics["rmse"][0],
-                     conv=1e6 * res.recheck.metrics["convexity_min"][0], recheck=res.recheck.metrics,
+            c.update(source=f"re-solve from {label}", ok=True, objective=res.evaluation.metrics.objective,
+                     rmse=MM * res.evaluation.metrics.rmse[0],
+                     conv=1e6 * res.recheck.metrics.convexity_min[0], recheck=res.recheck.metrics,
                      design=res.design.to_dict())
         resolves.append(((i, k), before, len(starts), c["source"], c["objective"], c["rmse"]))
     t_re = time.perf_counter() - t_re

@@ -60,14 +60,14 @@ def main() -> None:
         pub = data["published"]
         for model in torque_models():
             ev = evaluate(problem.with_torque_model(model), design)
-            lines.append(f"| {title.split(' (')[0]} | {model} | {fmt(ev.metrics['rmse'])} | "
-                         f"{fmt(ev.metrics['max_abs_error'])} | {' / '.join(map(str, pub['rmse_Nmm']))} | "
-                         f"{' / '.join(map(str, pub['max_abs_error_Nmm']))} | {fmt(ev.metrics['extension_max'], 2)} |")
+            lines.append(f"| {title.split(' (')[0]} | {model} | {fmt(ev.metrics.rmse)} | "
+                         f"{fmt(ev.metrics.max_abs_error)} | {' / '.join(map(str, pub['rmse_Nmm']))} | "
+                         f"{' / '.join(map(str, pub['max_abs_error_Nmm']))} | {fmt(ev.metrics.extension_max, 2)} |")
             if model == PAPER_MODEL:
                 figures(ev, f"{stem}_published")
                 checks += limit_lines(f"{title.split(' (')[0]}, published", ev)
                 summary[f"{stem}_published_limits"] = {"violations": ev.violations,
-                                                       "extension_max_mm": [MM * v for v in ev.metrics["extension_max"]]}
+                                                       "extension_max_mm": [MM * v for v in ev.metrics.extension_max]}
     lines += ["", "The β of Tables 3–4 are rounded to 0.1 mm, which alone moves the RMSE by several "
               "percent; the as-printed model reproduces Table 3 to about 10 % (joint 1) and 3 % (joint 2).", "",
               "### The published designs against their own limits", "",
@@ -95,24 +95,24 @@ def main() -> None:
                 results[stem] = (problem, r, published)
                 figures(r.evaluation, f"{stem}_cadcam")
             write_json(OUT / f"{stem}_{model}_result.json", r.to_dict())
-            mg = r.recheck.metrics["margins"]
+            mg = r.recheck.metrics.margins
             margins = (f"travel {MM * min(mg['travel']):.3f} mm, convexity {min(mg['convexity']):.2e} m², "
                        f"ρ_min {MM * min(mg['rho_min']):.3f} mm")
-            theirs = evaluate(problem, published).metrics["objective"]
+            theirs = evaluate(problem, published).metrics.objective
             ev = r.evaluation
             if model == "energy":
                 optimum_checks += limit_lines(f"cadcam's {title.split(' (')[1].rstrip(')').split(',')[0]} optimum, "
                                               "fine re-check", r.recheck)
-            real = evaluate(problem.with_torque_model("energy"), r.design, profile=False).metrics["rmse"]
-            lines.append(f"| {title} | {model} | {r.status} | {fmt(ev.metrics['rmse'])} | "
-                         f"{fmt(ev.metrics['max_abs_error'])} | {ev.metrics['objective']:.4g} ({theirs:.4g}) | "
-                         f"{fmt(real)} | {fmt(ev.metrics['extension_max'], 2)} | {margins} | "
+            real = evaluate(problem.with_torque_model("energy"), r.design, profile=False).metrics.rmse
+            lines.append(f"| {title} | {model} | {r.status} | {fmt(ev.metrics.rmse)} | "
+                         f"{fmt(ev.metrics.max_abs_error)} | {ev.metrics.objective:.4g} ({theirs:.4g}) | "
+                         f"{fmt(real)} | {fmt(ev.metrics.extension_max, 2)} | {margins} | "
                          f"{r.solve.iterations} | {r.build_time_s:.2f} + {r.solve.solve_time_s:.2f} |")
             summary[f"{stem}_{model}"] = {
-                "status": r.status, "rmse_Nmm": [MM * v for v in ev.metrics["rmse"]],
-                "max_abs_error_Nmm": [MM * v for v in ev.metrics["max_abs_error"]],
+                "status": r.status, "rmse_Nmm": [MM * v for v in ev.metrics.rmse],
+                "max_abs_error_Nmm": [MM * v for v in ev.metrics.max_abs_error],
                 "rmse_under_energy_Nmm": [MM * v for v in real],
-                "objective": ev.metrics["objective"], "published_objective": theirs,
+                "objective": ev.metrics.objective, "published_objective": theirs,
                 "iterations": r.solve.iterations, "build_s": r.build_time_s, "solve_s": r.solve.solve_time_s}
     lines += ["", "The paper reports 8.60 min and 5.67 min for its two runs (MATLAB fmincon, i7-7700).", "",
               "Where cadcam's energy-model optima sit against their limits (each limit the NLP keeps "

@@ -60,14 +60,14 @@ def score(problem, design) -> dict:
     all_rates = rate_deviation(problem, design, FACTOR)
     single = [rate_deviation(problem, design, FACTOR, {j}) for j in range(len(problem.springs))]
     single_rms = [rms(s) for s in single]
-    return {"rmse": nominal.metrics["rmse"], "rmse_rms": rms(nominal.metrics["rmse"]),
-            "max_abs_error": nominal.metrics["max_abs_error"],
+    return {"rmse": nominal.metrics.rmse, "rmse_rms": rms(nominal.metrics.rmse),
+            "max_abs_error": nominal.metrics.max_abs_error,
             "all_rates": all_rates.tolist(), "all_rates_rms": rms(all_rates),
             "single": [s.tolist() for s in single], "single_rms": single_rms,
             "worst_single_rms": max(single_rms), "worst_spring": int(np.argmax(single_rms)) + 1,
             # τ is linear in k: the all-rates deviation is (FACTOR − 1) × the RMS torque
             "linearity": float(rms(all_rates) / ((FACTOR - 1) * rms(np.sqrt(np.mean(nominal.tau ** 2, axis=1))))),
-            "extension_max": nominal.metrics["extension_max"]}
+            "extension_max": nominal.metrics.extension_max}
 
 
 def weight_of(params) -> float:

@@ -43,14 +43,14 @@ def main() -> None:
             if other == w or ro.status != "success":
                 continue
             rs = optimize(p.with_options(multistart=0), start=ro.design)
-            if rs.status == "success" and (r.status != "success" or rs.evaluation.metrics["objective"]
-                                           < r.evaluation.metrics["objective"] * (1 - 1e-6)):
+            if rs.status == "success" and (r.status != "success" or rs.evaluation.metrics.objective
+                                           < r.evaluation.metrics.objective * (1 - 1e-6)):
                 r, source = rs, f"from the w = {other:g} optimum"
         ev = r.evaluation
         d = [1e3 * rate_deviation(p, r.design, 1.05, {j})[0] for j in range(2)]
         d.append(1e3 * rate_deviation(p, r.design, 1.05)[0])
-        rows.append(f"| {w:g} | {r.status} | {ev.metrics['objective']:.4g} | {source} | "
-                    f"{1e3 * ev.metrics['rmse'][0]:.3f} | {wire_torque(p, ev):.3f} | "
+        rows.append(f"| {w:g} | {r.status} | {ev.metrics.objective:.4g} | {source} | "
+                    f"{1e3 * ev.metrics.rmse[0]:.3f} | {wire_torque(p, ev):.3f} | "
                     + " | ".join(f"{v:.2f}" for v in d) + " |")
     intro = (f"Torque model: `{base.torque_model}`. Per weight: the default start and four random "
              "ones, then one start from each other weight's optimum (the problem has distinct local "

@@ -53,7 +53,7 @@ def test_the_result_times_its_build_solve_and_fine_recheck():
 def test_the_repr_is_a_short_summary(small):
     text = repr(small)
     assert len(text) < 2000 and text.count("\n") < 15
-    assert text.startswith("success: ") and f"{1e3 * small.evaluation.metrics['rmse'][0]:.4g}" in text
+    assert text.startswith("success: ") and f"{1e3 * small.evaluation.metrics.rmse[0]:.4g}" in text
     assert text == small.summary()
 
 
@@ -85,8 +85,8 @@ def test_evaluate_takes_files_and_equals_the_check_layer():
     design = cadcam.Design.from_dict(json.loads(TABLE3.read_text()), problem)
     by_files = cadcam.evaluate(SPEC_RR, TABLE3, grid=12, torque_model="force-as-printed")
     direct = check_evaluate(problem.with_torque_model("force-as-printed"), design, grid=12)
-    assert by_files.metrics["rmse"] == direct.metrics["rmse"]
-    assert by_files.metrics["extension_max"] == direct.metrics["extension_max"]
+    assert by_files.metrics.rmse == direct.metrics.rmse
+    assert by_files.metrics.extension_max == direct.metrics.extension_max
 
 
 def test_plot_returns_figures_and_leaves_the_backend_alone(small):
@@ -190,7 +190,7 @@ def test_the_readme_api_example_runs_as_written(tmp_path, monkeypatch, capsys):
 def test_an_installed_example_is_a_spec(capsys):
     assert main(["evaluate", "--example", "johnston2023_rr_arm", "--design", str(TABLE3), "--grid", "12"]) == 0
     by_example = json.loads(capsys.readouterr().out)["metrics"]["rmse"]
-    assert by_example == cadcam.evaluate(SPEC_RR, TABLE3, grid=12).metrics["rmse"]
+    assert by_example == cadcam.evaluate(SPEC_RR, TABLE3, grid=12).metrics.rmse
     assert main(["evaluate", "--example", "no_such_spec", "--design", str(TABLE3)]) == 2
     assert "johnston2023_1dof" in capsys.readouterr().err
     assert main(["evaluate", str(SPEC_RR), "--example", "johnston2023_rr_arm", "--design", str(TABLE3)]) == 2

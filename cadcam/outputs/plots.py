@@ -335,8 +335,8 @@ def torque_figure(ev: Evaluation) -> Figure:
         a2.axhline(0, color="0.5", lw=0.6)
         a2.set_ylabel("τ − τ_d [N·mm]")
         a2.set_xlabel("θ [deg]")
-        a1.set_title(f"{ev.problem.joints[0].name}: RMSE {MM * metrics['rmse'][0]:.3g} N·mm, "
-                     f"max |τ − τ_d| {MM * metrics['max_abs_error'][0]:.3g} N·mm", fontsize=10)
+        a1.set_title(f"{ev.problem.joints[0].name}: RMSE {MM * metrics.rmse[0]:.3g} N·mm, "
+                     f"max |τ − τ_d| {MM * metrics.max_abs_error[0]:.3g} N·mm", fontsize=10)
         return fig
     n = ev.grid
     fig = Figure(figsize=(5.4 * m, 4.6), layout="constrained")
@@ -350,8 +350,8 @@ def torque_figure(ev: Evaluation) -> Figure:
         fig.colorbar(im, ax=ax, label="τ − τ_d [N·mm]")
         ax.set_xlabel("θ₂ [deg]")
         ax.set_ylabel("θ₁ [deg]")
-        ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * metrics['rmse'][i]:.3g}, "
-                     f"max {MM * metrics['max_abs_error'][i]:.3g} N·mm", fontsize=10)
+        ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * metrics.rmse[i]:.3g}, "
+                     f"max {MM * metrics.max_abs_error[i]:.3g} N·mm", fontsize=10)
     fig.suptitle(f"torque error ({ev.problem.torque_model} model)", fontsize=10)
     return fig
 

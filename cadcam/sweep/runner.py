@@ -115,10 +115,10 @@ def run_case(study: dict, case: dict, start: dict | None = None,
             result = optimize(problem, transcription=tr)
             result.message += " (from the default start, after a failed warm start)"
         elif start and start_objective is not None and \
-                result.evaluation.metrics["objective"] > (1 + WARM_GUARD) * start_objective:
+                result.evaluation.metrics.objective > (1 + WARM_GUARD) * start_objective:
             cold = optimize(problem, transcription=tr)  # a worse basin? compare with a cold start
-            warm_objective = result.evaluation.metrics["objective"]
-            if cold.success and cold.evaluation.metrics["objective"] < warm_objective:
+            warm_objective = result.evaluation.metrics.objective
+            if cold.success and cold.evaluation.metrics.objective < warm_objective:
                 result = cold
                 result.message += (f" (from the default start: the warm start from case {start_case} "
                                    f"reached a worse objective, {warm_objective:.6g})")

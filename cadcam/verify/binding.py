@@ -18,6 +18,7 @@ the limit and the mechanism's ρ_min (a limit of zero has no size of its own).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 import numbers
 
 from ..mechanisms.base import LIMIT_UNITS
@@ -37,7 +38,7 @@ def limit_state(margin: float, scale: float, rtol: float = RTOL) -> str | None:
     return "at" if margin >= -rtol * scale else "beyond"
 
 
-def binding_constraints(metrics: dict, problem, rtol: float = RTOL) -> list[str]:
+def binding_constraints(metrics: Mapping, problem, rtol: float = RTOL) -> list[str]:
     """The constraints of ``problem`` that bind in an evaluation's ``metrics``.
 
     Parameters
@@ -71,7 +72,7 @@ def _measured(values: list, i: int) -> bool:
     return i < len(values) and _finite(values[i])
 
 
-def _spring_sentences(metrics: dict, springs, rtol: float) -> list[str]:
+def _spring_sentences(metrics: Mapping, springs, rtol: float) -> list[str]:
     """The binding sentences of each spring: its travel limit, then its zero extension."""
     out = []
     xmin, xmax = metrics.get("extension_min", []), metrics.get("extension_max", [])
@@ -91,7 +92,7 @@ def _spring_sentences(metrics: dict, springs, rtol: float) -> list[str]:
     return out
 
 
-def _profile_sentences(metrics: dict, profiles, eps: float, rtol: float) -> list[str]:
+def _profile_sentences(metrics: Mapping, profiles, eps: float, rtol: float) -> list[str]:
     """The binding sentences of each profile: ρ_min, ρ_max, the convexity margin (the NLP
     asks ≥ ``eps``·ρ_min²) and the minimum radius of curvature."""
     out = []

@@ -22,6 +22,7 @@ numbers equal a point-by-point evaluation of the tensor grid to rounding (tested
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -525,13 +526,14 @@ class Evaluation:
     units: list[UnitSamples]
     profiles: list[ProfileSamples]
     tensor: TensorGrid
-    metrics: dict = field(default_factory=dict)
-    worst: list = field(default_factory=list)
+    #: Set by :func:`evaluate`.
+    metrics: Metrics = field(init=False)
+    worst: list = field(init=False)
 
     @property
     def violations(self) -> list[str]:
         """Human-readable constraint violations beyond the check tolerances."""
-        return self.metrics["violations"]
+        return self.metrics.violations
 
     @cached_property
     def _sample(self) -> dict:
@@ -730,6 +732,49 @@ METRICS = {
 METRIC_NAMES = (*METRICS, "margins", "violations")
 
 
+@dataclass(frozen=True, eq=False)
+class Metrics(Mapping):
+    """An evaluation's metrics, typed: each number of :data:`METRICS` (per joint, spring,
+    profile or mechanism as it declares; SI units), the ``margins`` (each ≥ 0 when met: the
+    generic ones of :data:`MARGINS` and each mechanism's own limits) and the ``violations``
+    (one sentence each). Read by attribute; as a mapping too, in the form of ``result.json``'s
+    ``metrics`` (:meth:`to_dict`)."""
+
+    grid: int
+    output_rmse: list
+    output_max_abs_error: list
+    rmse: list
+    relative_rmse: list
+    max_abs_error: list
+    extension_min: list
+    extension_max: list
+    convexity_min: list
+    rho_min: list
+    rho_max: list
+    curvature_radius_min: list
+    alpha_max: list
+    tangency_residual_max: float
+    sensitivity_integral: list
+    objective: float
+    margins: dict
+    violations: list
+
+    def __getitem__(self, name: str):
+        if name not in METRIC_NAMES:
+            raise KeyError(name)
+        return getattr(self, name)
+
+    def __iter__(self):
+        return iter(METRIC_NAMES)
+
+    def __len__(self) -> int:
+        return len(METRIC_NAMES)
+
+    def to_dict(self) -> dict:
+        """The metrics as plain data (``result.json``'s ``metrics`` and ``recheck``)."""
+        return {name: getattr(self, name) for name in METRIC_NAMES}
+
+
 def _streamed(tensor: TensorGrid) -> dict:
     """The metrics that need every point of the tensor grid, exactly and in bounded memory.
 
@@ -828,7 +873,7 @@ def _violations(p: Problem, margins: dict) -> list[str]:
     return violations
 
 
-def _metrics(ev: Evaluation) -> tuple[dict, list]:
+def _metrics(ev: Evaluation) -> tuple[Metrics, list]:
     """The metrics of :func:`evaluate` and, per joint, the grid indices of its worst point."""
     p = ev.problem
     grid = _streamed(ev.tensor)
@@ -839,23 +884,23 @@ def _metrics(ev: Evaluation) -> tuple[dict, list]:
     margins = _margins(ev, ext)
     violations = _violations(p, margins)
     out_err = [output_error(mech, u) for mech, u in zip(p.mechanisms, ev.units)]
-    return {
-        "grid": ev.grid,
-        "output_rmse": [None if e is None else float(np.sqrt(np.mean(e**2))) for e in out_err],
-        "output_max_abs_error": [None if e is None else float(np.abs(e).max()) for e in out_err],
-        "rmse": np.sqrt(grid["sq"]).tolist(),
-        "relative_rmse": _relative(np.sqrt(grid["sq"]), np.sqrt(grid["td2"])),
-        "max_abs_error": grid["max"],
-        "extension_min": ext[:, 0].tolist(),
-        "extension_max": ext[:, 1].tolist(),
-        "convexity_min": margins["convexity"],
-        "rho_min": [c.rho_lo for c in ev.profiles],
-        "rho_max": [c.rho_hi for c in ev.profiles],
-        "curvature_radius_min": [c.curvature_radius_min for c in ev.profiles],
-        "alpha_max": [float(c.alpha.max()) for c in ev.profiles],
-        "tangency_residual_max": float(max(u.residual.max() for u in ev.units)),
-        "sensitivity_integral": sens.tolist(),
-        "objective": objective,
-        "margins": margins,
-        "violations": violations,
-    }, grid["worst"]
+    return Metrics(
+        grid=ev.grid,
+        output_rmse=[None if e is None else float(np.sqrt(np.mean(e**2))) for e in out_err],
+        output_max_abs_error=[None if e is None else float(np.abs(e).max()) for e in out_err],
+        rmse=np.sqrt(grid["sq"]).tolist(),
+        relative_rmse=_relative(np.sqrt(grid["sq"]), np.sqrt(grid["td2"])),
+        max_abs_error=grid["max"],
+        extension_min=ext[:, 0].tolist(),
+        extension_max=ext[:, 1].tolist(),
+        convexity_min=margins["convexity"],
+        rho_min=[c.rho_lo for c in ev.profiles],
+        rho_max=[c.rho_hi for c in ev.profiles],
+        curvature_radius_min=[c.curvature_radius_min for c in ev.profiles],
+        alpha_max=[float(c.alpha.max()) for c in ev.profiles],
+        tangency_residual_max=float(max(u.residual.max() for u in ev.units)),
+        sensitivity_integral=sens.tolist(),
+        objective=objective,
+        margins=margins,
+        violations=violations,
+    ), grid["worst"]

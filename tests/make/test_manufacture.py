@@ -30,12 +30,12 @@ def optimum_1dof(problem_1dof):
 def cam_1dof(optimum_1dof):
     d = optimum_1dof.design
     return closed_outline(d.bases[0], d.coefficients[0],
-                          optimum_1dof.evaluation.metrics["alpha_max"][0])
+                          optimum_1dof.evaluation.metrics.alpha_max[0])
 
 
 @pytest.fixture(scope="module")
 def cams_table3(rr_problem, table3):
-    alpha = evaluate(rr_problem, table3).metrics["alpha_max"]
+    alpha = evaluate(rr_problem, table3).metrics.alpha_max
     return [closed_outline(b, c, a) for b, c, a in zip(table3.bases, table3.coefficients, alpha)]
 
 

@@ -177,14 +177,14 @@ def test_design_and_evaluate(design_spec):
     assert known.violations == []
     result = cadcam.optimize(problem)
     assert result.status == "success", (result.message, result.recheck.violations)
-    rmse = result.evaluation.metrics["rmse"][0]
+    rmse = result.evaluation.metrics.rmse[0]
     # The known pulley is a feasible point of this NLP (its limits hold, the sensitivity
     # weights are 0) and misses the fitted law by its fit residual only. The objective is the
     # trapezoidal ∫(τ − τ_d)² over the design grid, which lies between n/(2(n − 1)) and
     # n/(n − 1) times the span × the plain mean square that RMSE reports; so an optimum at
     # least as good as that feasible point has RMSE ≤ √2 × the known pulley's.
-    assert 0 < known.metrics["rmse"][0] < 1e-5  # the law is close to the known pulley's
-    assert rmse <= np.sqrt(2) * known.metrics["rmse"][0]
+    assert 0 < known.metrics.rmse[0] < 1e-5  # the law is close to the known pulley's
+    assert rmse <= np.sqrt(2) * known.metrics.rmse[0]
     # cadcam.evaluate of the design reproduces the reported metrics (rootfinder from its own
     # guess instead of the NLP's angles) on the design grid and on the re-check grid. The RMSE
     # is ~1e-8 of torques ~1 N·m, so errors are compared to 1e-12 N·m, not relatively.
@@ -216,5 +216,5 @@ def test_cli_design(design_spec, tmp_path):
     again = cadcam.load_spec(out / "result.json")
     assert again.mechanisms[0].parameter_values() == ANCHOR
     ev = cadcam.evaluate(again, cadcam.Design.from_dict(data, again))
-    np.testing.assert_allclose(ev.metrics["rmse"], data["metrics"]["rmse"], rtol=1e-9, atol=1e-12)
-    assert ev.metrics["rmse"][0] < 1e-6  # N·m: the same problem as test_design_and_evaluate
+    np.testing.assert_allclose(ev.metrics.rmse, data["metrics"]["rmse"], rtol=1e-9, atol=1e-12)
+    assert ev.metrics.rmse[0] < 1e-6  # N·m: the same problem as test_design_and_evaluate

@@ -63,7 +63,7 @@ def _objective(problem):
     tr = Transcription(problem)
     sol = solve(tr, problem, default_start(problem))
     assert sol.status == "converged"
-    return evaluate(problem, sol.design).metrics["objective"], tr
+    return evaluate(problem, sol.design).metrics.objective, tr
 
 
 @needs_cc

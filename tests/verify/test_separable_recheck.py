@@ -87,7 +87,7 @@ def test_table3_rr_arm_equals_brute_force(rr_problem, table3):
         ev = evaluate(problem, table3, grid=46)
         assert_matches(ev, brute_force(problem, table3, 46))
     # Johnston2023 Table 3 under the printed model (README): RMSE 270.5 and 128.4 N·mm
-    np.testing.assert_allclose(1e3 * np.array(ev.metrics["rmse"]), [270.5, 128.4], atol=0.05)
+    np.testing.assert_allclose(1e3 * np.array(ev.metrics.rmse), [270.5, 128.4], atol=0.05)
 
 
 @pytest.mark.parametrize("target1,target2", [
@@ -143,7 +143,7 @@ def test_torque_csv_is_the_whole_grid_or_the_lines_through_the_worst_points(thre
     for i in range(3):
         block = table[3 * n * i:3 * n * (i + 1)]
         error = block[:, header.index(f"error{i + 1}_Nm")]
-        assert np.abs(error).max() == pytest.approx(fine.metrics["max_abs_error"][i], rel=1e-12)
+        assert np.abs(error).max() == pytest.approx(fine.metrics.max_abs_error[i], rel=1e-12)
         for axis in range(3):  # the line along joint axis + 1's angle: the other angles fixed
             line = block[axis * n:(axis + 1) * n, :3]
             np.testing.assert_allclose(line[:, axis], problem.joints[axis].grid(n))
@@ -154,7 +154,7 @@ def test_torque_csv_is_the_whole_grid_or_the_lines_through_the_worst_points(thre
             point, np.concatenate(design.coefficients), [s.rate for s in problem.springs],
             design.preextension, [s.preload for s in problem.springs])[0]).ravel()
         tau_d = float(problem.joints[i].target.function(3, i)(point))
-        assert abs(tau[i] - tau_d) == pytest.approx(fine.metrics["max_abs_error"][i], rel=1e-9)
+        assert abs(tau[i] - tau_d) == pytest.approx(fine.metrics.max_abs_error[i], rel=1e-9)
 
 
 def test_a_three_joint_recheck_at_grid_46_runs_in_bounded_memory(three_cam):
@@ -172,9 +172,9 @@ def test_a_three_joint_recheck_at_grid_46_runs_in_bounded_memory(three_cam):
     assert all(np.isfinite(m[k]).all() for k in ("rmse", "max_abs_error", "sensitivity_integral", "objective"))
     # the fine grid holds the coarse one (451 = 10·45 + 1): its largest error is at least as
     # large, and the spring extremes too; the RMS moves by a fraction
-    assert all(f >= c - 1e-12 for f, c in zip(m["max_abs_error"], coarse.metrics["max_abs_error"]))
-    assert all(f <= c + 1e-12 for f, c in zip(m["extension_min"], coarse.metrics["extension_min"]))
-    np.testing.assert_allclose(m["rmse"], coarse.metrics["rmse"], rtol=0.05)
+    assert all(f >= c - 1e-12 for f, c in zip(m["max_abs_error"], coarse.metrics.max_abs_error))
+    assert all(f <= c + 1e-12 for f, c in zip(m["extension_min"], coarse.metrics.extension_min))
+    np.testing.assert_allclose(m["rmse"], coarse.metrics.rmse, rtol=0.05)
     # the tensor itself is not materialised on demand beyond the cap
     with pytest.raises(ValueError, match="materialised"):
         _ = ev.tau

@@ -152,8 +152,8 @@ def test_the_travel_detector_uses_the_largest_extension(problem_1dof):
     travel = problem_1dof.springs[0].travel
     x1 = ev.x[0]
     assert x1.min() < travel - 0.01 and x1.max() > travel + 0.01  # premise
-    assert ev.metrics["margins"]["travel"][0] == pytest.approx(travel - x1.max(), rel=1e-12)
-    assert ev.metrics["extension_max"][0] == pytest.approx(x1.max(), rel=1e-12)
+    assert ev.metrics.margins["travel"][0] == pytest.approx(travel - x1.max(), rel=1e-12)
+    assert ev.metrics.extension_max[0] == pytest.approx(x1.max(), rel=1e-12)
     _only_violation(ev, f"spring above its travel: {problem_1dof.springs[0].name}")
 
 
@@ -163,7 +163,7 @@ def test_the_compression_detector_uses_the_smallest_extension(problem_1dof):
     ev = evaluate(problem_1dof, _monomial_design(problem_1dof, [0.025, -0.005], [0.01, 0.005]))
     x2 = ev.x[1]
     assert x2.max() > 0.004 and x2.min() < -0.001  # premise
-    assert ev.metrics["margins"]["extension_lower"][1] == pytest.approx(x2.min(), rel=1e-12)
+    assert ev.metrics.margins["extension_lower"][1] == pytest.approx(x2.min(), rel=1e-12)
     assert np.all(ev.design.preextension >= 0)  # not the pre-extension detector
     _only_violation(ev, f"spring in compression: {problem_1dof.springs[1].name}")
 
@@ -173,12 +173,12 @@ def test_the_rho_min_detector_finds_an_interior_minimum(problem_1dof):
     it around φ = 1."""
     m = [0.0095 + 0.002, -0.004, 0.002]
     ev = evaluate(problem_1dof, _monomial_design(problem_1dof, m, [0.005, 0.01]))
-    alpha_max = ev.metrics["alpha_max"][0]
+    alpha_max = ev.metrics.alpha_max[0]
     phi, rho, _ = _dense_rho(m, alpha_max)
     rho_min = problem_1dof.profiles[0].rho_min
     assert rho[0] > rho_min and rho[-1] > rho_min and rho.min() < rho_min - 1e-4  # premise
-    assert ev.metrics["rho_min"][0] == pytest.approx(rho.min(), abs=1e-9)
-    assert ev.metrics["margins"]["rho_min"][0] == pytest.approx(rho.min() - rho_min, abs=1e-9)
+    assert ev.metrics.rho_min[0] == pytest.approx(rho.min(), abs=1e-9)
+    assert ev.metrics.margins["rho_min"][0] == pytest.approx(rho.min() - rho_min, abs=1e-9)
     _only_violation(ev, "radius below rho_min: cam")
 
 
@@ -188,12 +188,12 @@ def test_the_rho_max_detector_scans_to_the_end_of_the_wrap():
     problem = load_spec(SPEC_1DOF, None, [("springs.1.travel", 0.5)])
     m = [0.09, 0.01]
     ev = evaluate(problem, _monomial_design(problem, m, [0.005, 0.01]))
-    alpha_max = ev.metrics["alpha_max"][0]
+    alpha_max = ev.metrics.alpha_max[0]
     phi, rho, _ = _dense_rho(m, alpha_max)
     rho_max = problem.profiles[0].rho_max
     assert rho[0] < rho_max < rho.max() - 1e-3  # premise
-    assert ev.metrics["rho_max"][0] == pytest.approx(rho.max(), abs=1e-9)
-    assert ev.metrics["margins"]["rho_max"][0] == pytest.approx(rho_max - rho.max(), abs=1e-9)
+    assert ev.metrics.rho_max[0] == pytest.approx(rho.max(), abs=1e-9)
+    assert ev.metrics.margins["rho_max"][0] == pytest.approx(rho_max - rho.max(), abs=1e-9)
     _only_violation(ev, "radius above rho_max: cam")
 
 
@@ -213,7 +213,7 @@ def test_the_convexity_detector_scans_between_the_contact_points(problem_1dof, m
     ev = evaluate(problem, Design([basis], [np.array(m)], np.array([0.005, 0.01])))
     prof = ev.profiles[0]
     contacts = np.sort(np.append(prof.alpha, prof.alpha_ref))
-    alpha_max = ev.metrics["alpha_max"][0]
+    alpha_max = ev.metrics.alpha_max[0]
     phi, _, conv = _dense_rho(m, alpha_max)
     bad = phi[conv < 0]
     # premise: convex at every contact point, not convex only strictly between two of them
@@ -225,8 +225,8 @@ def test_the_convexity_detector_scans_between_the_contact_points(problem_1dof, m
         j = int(np.argmin(np.interp(coarse, phi, conv)))
         near = (phi >= coarse[max(j - 1, 0)]) & (phi <= coarse[min(j + 1, coarse.size - 1)])
         assert conv[near].min() > 1e-5
-    assert ev.metrics["convexity_min"][0] == pytest.approx(conv.min(), rel=1e-6)
-    assert ev.metrics["convexity_min"][0] < -1e-5
+    assert ev.metrics.convexity_min[0] == pytest.approx(conv.min(), rel=1e-6)
+    assert ev.metrics.convexity_min[0] < -1e-5
     _only_violation(ev, "profile not convex: cam")
 
 

@@ -165,13 +165,13 @@ def test_a_missed_acceptance_limit_is_its_own_status_and_exit_1(tmp_path, capsys
     data = _one_dof(**read_spec_data(SPEC_1DOF)["joints" if "joints" in read_spec_data(SPEC_1DOF)
                                                   else "cams"][0]["target"])
     joints = data["joints"] if "joints" in data else data["cams"]
-    achieved = demo.recheck.metrics["max_abs_error"][0]
+    achieved = demo.recheck.metrics.max_abs_error[0]
     joints[0]["acceptance"] = {"max_abs_error": achieved / 2}
     problem = parse_spec(data, "x.toml")
     result = optimize(problem)
     assert result.status == "target_missed" and not result.success
     assert "max abs error" in result.message and f"{achieved / 2:.4g}" in result.message
-    joints[0]["acceptance"] = {"max_abs_error": 2 * achieved, "rmse": 2 * demo.recheck.metrics["rmse"][0]}
+    joints[0]["acceptance"] = {"max_abs_error": 2 * achieved, "rmse": 2 * demo.recheck.metrics.rmse[0]}
     assert optimize(parse_spec(data, "x.toml")).status == "success"
 
 
@@ -231,5 +231,9 @@ def test_a_study_recording_an_unknown_metric_is_refused(tmp_path):
 
 
 def test_the_recordable_metric_names_are_exactly_an_evaluations_metrics(demo):
-    from cadcam.verify.evaluate import METRIC_NAMES
+    from dataclasses import fields
+
+    from cadcam.verify.evaluate import METRIC_NAMES, Metrics
     assert sorted(METRIC_NAMES) == sorted(demo.recheck.metrics)
+    assert [f.name for f in fields(Metrics)] == list(METRIC_NAMES)  # typed, in the declared order
+    assert demo.recheck.metrics.to_dict() == {k: demo.recheck.metrics[k] for k in METRIC_NAMES}

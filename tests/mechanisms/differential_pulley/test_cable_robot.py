@@ -96,7 +96,7 @@ def test_envelope_pulleys_trace_the_path_within_a_millimetre(robot):
     assert ev.violations == []
     path = robot_path(ev)
     assert path.error.max() < 1e-3
-    assert min(ev.metrics["alpha_max"]) > 4 * np.pi  # helical: more than two turns each
+    assert min(ev.metrics.alpha_max) > 4 * np.pi  # helical: more than two turns each
     # the path is symmetric about the frame's middle: the right cable's pulleys are the left's
     left, right = design.coefficients[:2], design.coefficients[2:]
     assert np.abs(left[0] - right[1]).max() < 1e-9 and np.abs(left[1] - right[0]).max() < 1e-9

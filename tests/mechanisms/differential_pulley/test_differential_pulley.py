@@ -210,7 +210,7 @@ def test_balancer_result_recomputes_from_its_json(balancer, tmp_path):
     problem = parse_spec(data["problem"])
     design = Design.from_dict(data, problem, "result.json")
     again = evaluate(problem, design, grid=121)
-    assert again.metrics["output_max_abs_error"][0] < 1e-5
+    assert again.metrics.output_max_abs_error[0] < 1e-5
     assert problem.mechanisms[0].cable_length == balancer.problem.mechanisms[0].cable_length
 
 

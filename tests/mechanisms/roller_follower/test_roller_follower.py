@@ -60,11 +60,11 @@ def test_independent_envelope_reproduces_travel_and_torque(result, cam):
     np.testing.assert_allclose(s - s_ref, unit.d[0], rtol=0, atol=1e-11)
     np.testing.assert_allclose(s, unit.z[1], rtol=0, atol=1e-11)
     np.testing.assert_allclose(phi, unit.z[0], rtol=0, atol=1e-6)
-    assert phi.max() <= fine.metrics["alpha_max"][0] + 1e-9  # on the arc the workshop files keep
+    assert phi.max() <= fine.metrics.alpha_max[0] + 1e-9  # on the arc the workshop files keep
     np.testing.assert_allclose(cam.torque(theta), fine.tau[0], rtol=0, atol=1e-8)
     # and the torque is the pendulum's to the design's own accuracy
     np.testing.assert_allclose(cam.torque(theta), MASS * G * LENGTH * np.sin(theta), rtol=0,
-                               atol=2 * fine.metrics["max_abs_error"][0] + 1e-6)
+                               atol=2 * fine.metrics.max_abs_error[0] + 1e-6)
 
 
 def test_independent_pressure_angle_matches_the_declared_margins(result, cam):
@@ -192,7 +192,7 @@ def test_pressure_angle_limit_binds_and_holds():
     assert on_grid["pressure_angle_max"].min() > 0.1             # the other side is slack
     assert -1e-4 <= fine["pressure_angle_min"].min() <= 1e-6
     assert any("pressure angle" in b and "lower limit" in b for b in result.binding)
-    assert result.recheck.metrics["relative_rmse"][0] < 1e-2     # the target still met to 1 %
+    assert result.recheck.metrics.relative_rmse[0] < 1e-2     # the target still met to 1 %
 
 
 def test_pitch_curvature_limit_binds_and_holds():

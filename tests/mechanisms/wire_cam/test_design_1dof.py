@@ -68,7 +68,7 @@ def test_reported_metrics_survive_the_interchange_form_and_match_the_nlp_objecti
     # from its own guess here, not from the NLP's angles, so the roots agree to its tolerance
     problem = load_spec(out / "result.json")
     ev = evaluate(problem, Design.from_dict(res, problem))
-    np.testing.assert_allclose(ev.metrics["rmse"], res["metrics"]["rmse"], rtol=1e-9)
+    np.testing.assert_allclose(ev.metrics.rmse, res["metrics"]["rmse"], rtol=1e-9)
     # the NLP's own objective (its segment quadrature, its tangency variables, its split
     # s⁺ + s⁻ ≥ |x̄·a|) agrees with the independent evaluation
     assert res["solver"]["objective"] == pytest.approx(res["metrics"]["objective"], rel=1e-5)
@@ -91,7 +91,7 @@ def test_optimum_beats_the_circular_start_and_tracks_the_target(run):
     from cadcam.optimize import default_start
     problem = load_spec(SPEC_1DOF)
     start = evaluate(problem, default_start(problem))
-    assert res["metrics"]["objective"] < 0.01 * start.metrics["objective"]
+    assert res["metrics"]["objective"] < 0.01 * start.metrics.objective
     # τ_d reaches 0.08·(π/2)² ≈ 197 N·mm; the optimum tracks it to ~1 %
     assert res["metrics"]["rmse"][0] < 2e-3
 

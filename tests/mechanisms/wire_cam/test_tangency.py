@@ -65,13 +65,13 @@ def test_eq43_sensitivities_equal_the_automatic_derivative(rr_problem, table3):
 ])
 def test_table3_design_reproduces_reference_values(rr_problem, table3, model, expected):
     ev = evaluate(rr_problem.with_torque_model(model), table3, grid=46)
-    np.testing.assert_allclose(np.array(ev.metrics["rmse"]) * 1e3, expected["rmse"], rtol=0.01)
-    np.testing.assert_allclose(np.array(ev.metrics["max_abs_error"]) * 1e3, expected["max"], rtol=0.01)
+    np.testing.assert_allclose(np.array(ev.metrics.rmse) * 1e3, expected["rmse"], rtol=0.01)
+    np.testing.assert_allclose(np.array(ev.metrics.max_abs_error) * 1e3, expected["max"], rtol=0.01)
     # docs/physics.md (independent): spring 1 reaches 57.9 mm, spring 2 stays in [9.3, 30.1] mm
-    assert ev.metrics["extension_max"][0] * 1e3 == pytest.approx(57.9, abs=0.05)
-    assert ev.metrics["extension_min"][1] * 1e3 == pytest.approx(9.33, abs=0.01)
-    assert ev.metrics["extension_max"][1] * 1e3 == pytest.approx(30.1, abs=0.05)
-    assert ev.metrics["convexity_min"][0] == pytest.approx(2.3e-6, rel=0.05)
+    assert ev.metrics.extension_max[0] * 1e3 == pytest.approx(57.9, abs=0.05)
+    assert ev.metrics.extension_min[1] * 1e3 == pytest.approx(9.33, abs=0.01)
+    assert ev.metrics.extension_max[1] * 1e3 == pytest.approx(30.1, abs=0.05)
+    assert ev.metrics.convexity_min[0] == pytest.approx(2.3e-6, rel=0.05)
 
 
 def test_a_cam_the_idler_cannot_reach_gives_violations_not_an_exception(problem_1dof):
@@ -81,4 +81,4 @@ def test_a_cam_the_idler_cannot_reach_gives_violations_not_an_exception(problem_
     problem = dataclasses.replace(problem_1dof, mechanisms=(cam,))
     ev = evaluate(problem, circle_design(problem, 0.010, [0.0, 0.0]), grid=12)
     assert any(v.startswith("departure not solved") for v in ev.violations)
-    assert not np.isfinite(ev.metrics["rmse"][0])
+    assert not np.isfinite(ev.metrics.rmse[0])

@@ -101,7 +101,7 @@ def test_optimum_without_spring2_equals_the_two_one_dof_optima(rr_problem):
     assert two.status == "success"
     assert two.solve.objective == pytest.approx(np.pi / 2 * sum(o.solve.objective for o in ones), rel=1e-6)
     for cam, (spring, one) in enumerate(zip((0, 2), ones)):
-        np.testing.assert_allclose(two.evaluation.metrics["rmse"][cam], one.evaluation.metrics["rmse"][0],
+        np.testing.assert_allclose(two.evaluation.metrics.rmse[cam], one.evaluation.metrics.rmse[0],
                                    rtol=1e-4)
         np.testing.assert_allclose(two.design.monomial(cam), one.design.monomial(0), rtol=1e-3, atol=1e-7)
         assert two.design.preextension[spring] == pytest.approx(one.design.preextension[0], abs=1e-7)
@@ -125,13 +125,13 @@ def test_two_dof_optimum_is_verified_and_beats_the_published_design(solved, vari
     fine = result.recheck
     assert fine.grid == 10 * (problem.options.grid - 1) + 1
     assert fine.violations == []
-    for s, hi in zip(problem.springs, fine.metrics["extension_max"]):
+    for s, hi in zip(problem.springs, fine.metrics.extension_max):
         assert hi <= s.travel
-    assert min(fine.metrics["extension_min"]) >= 0
-    assert min(fine.metrics["convexity_min"]) > 0
-    assert min(fine.metrics["rho_min"]) >= problem.profiles[0].rho_min
-    theirs = evaluate(problem, published).metrics["objective"]  # same (energy) torque model
-    assert result.evaluation.metrics["objective"] < theirs
+    assert min(fine.metrics.extension_min) >= 0
+    assert min(fine.metrics.convexity_min) > 0
+    assert min(fine.metrics.rho_min) >= problem.profiles[0].rho_min
+    theirs = evaluate(problem, published).metrics.objective  # same (energy) torque model
+    assert result.evaluation.metrics.objective < theirs
 
 
 def test_sec10_4_optimum_under_the_force_model_matches_an_independent_solve():
@@ -140,7 +140,7 @@ def test_sec10_4_optimum_under_the_force_model_matches_an_independent_solve():
     cam 2 ≈ 130 N·mm."""
     result = optimize(load_spec(SPEC_RR).with_torque_model("force"))
     assert result.status == "success"
-    np.testing.assert_allclose(np.array(result.evaluation.metrics["rmse"]) * 1e3, [320, 130], rtol=0.02)
+    np.testing.assert_allclose(np.array(result.evaluation.metrics.rmse) * 1e3, [320, 130], rtol=0.02)
 
 
 def _trig(f) -> int:
