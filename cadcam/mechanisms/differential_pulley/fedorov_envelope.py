@@ -26,7 +26,6 @@ import casadi as ca
 import numpy as np
 
 from ..base import residual_function, split_coefficients, wound_lengths
-from .model import DifferentialPulley
 from ...physics.profile import fit_profile, profile_function
 
 #: Wrap [rad] left between the anchor and the least-wound departure point of the start design.
@@ -99,9 +98,11 @@ def envelope(theta, x, dx, dl, chi0: float, sigma: float, q: float) -> Envelope:
     return Envelope(theta, psi, h, pts, psi + np.arctan2(dh, h), np.hypot(pts[0], pts[1]), h + ddh)
 
 
-def differential_envelopes(mech: DifferentialPulley, theta, x, dx, rolling_radius: float):
-    """Both pulleys of a differential pair for the law x(θ), with anchors placed so that the
-    least-wound departure point sits :data:`ANCHOR_WRAP` after each anchor.
+def differential_envelopes(mech, theta, x, dx, rolling_radius: float):
+    """Both pulleys of a differential pair ``mech`` (a
+    :class:`~cadcam.mechanisms.differential_pulley.model.DifferentialPulley`) for the law x(θ),
+    with anchors placed so that the least-wound departure point sits :data:`ANCHOR_WRAP` after
+    each anchor.
 
     Returns the mechanism with those anchor angles and the two :class:`Envelope` (canonical
     frames, polar angles measured from the anchors).
@@ -141,7 +142,7 @@ def fit_pulley(basis, env: Envelope, samples: int = 600) -> np.ndarray:
                                        values[-1] + slopes[1] * (tail - phi[-1])]))
 
 
-def cable_length(mech: DifferentialPulley, coefficients, theta: float, x: float, alpha0) -> float:
+def cable_length(mech, coefficients, theta: float, x: float, alpha0) -> float:
     """The anchor-to-anchor cable length [m] of a pair with the idler at ``x`` at joint angle
     ``theta``: both tangencies solved by Newton from ``alpha0`` with x held, then Fedorov2018
     Eq. 6a–6c."""
@@ -160,6 +161,6 @@ def cable_length(mech: DifferentialPulley, coefficients, theta: float, x: float,
                             for v in profile_function(b)(a0, ck)[:2]]
     sol = np.asarray(rf(start, np.concatenate([[theta, x], c_num, q_num]))).ravel()
     zs, cs, qs = ca.SX.sym("z", len(mech.unknowns)), ca.SX.sym("c", nc), ca.SX.sym("q", q.shape[0])
-    path = ca.Function("path", [zs, cs, qs], [DifferentialPulley.cable_path(
+    path = ca.Function("path", [zs, cs, qs], [type(mech).cable_path(
         bases, theta, zs, wound_lengths(bases, zs, cs), cs, qs)])
     return float(path(np.r_[sol[:2], x, sol[2:]], c_num, q_num))

@@ -45,6 +45,8 @@ import numpy as np
 
 from ...physics.profile import profile_function
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register, split_coefficients
+from .robot_path import robot_path
+from .starts import envelope_start
 
 WINDING = {"ccw": 1.0, "cw": -1.0}
 GROOVES = ("flat", "helical")
@@ -174,15 +176,11 @@ class DifferentialPulley(Mechanism):
     def prepare_start(cls, problem, design):
         """Fedorov's envelope pulleys for every pair without a cable length
         (:func:`.starts.envelope_start`), which also sets it."""
-        from .starts import envelope_start  # the start imports this model
-
-        return envelope_start(problem, design)
+        return envelope_start(cls, problem, design)
 
     @classmethod
     def summary_lines(cls, evaluation) -> list[str]:
         """A cable robot's end-effector deviation from its path (:func:`.robot_path.robot_path`)."""
-        from .robot_path import robot_path  # the check imports this model's laws
-
         path = robot_path(evaluation)
         if path is None:
             return []

@@ -8,12 +8,11 @@ import casadi as ca
 import numpy as np
 
 from .fedorov_envelope import cable_length, differential_envelopes, fit_pulley
-from .model import DifferentialPulley
 
 
-def envelope_start(problem, design, samples: int = 2001):
+def envelope_start(kind, problem, design, samples: int = 2001):
     """Fedorov's envelope pulleys (Fedorov2018 Sec. 2.2) as the start of every differential pair
-    without a ``cable_length``: shaped for its output law (or, without one, circles at its
+    (a mechanism of ``kind``) without a ``cable_length``: shaped for its output law (or, without one, circles at its
     start distance), transferring cable at its rolling radius
     (:meth:`~cadcam.mechanisms.differential_pulley.model.DifferentialPulley.start_radius`).
 
@@ -22,7 +21,7 @@ def envelope_start(problem, design, samples: int = 2001):
     """
     mechanisms, coefs = list(problem.mechanisms), list(design.coefficients)
     for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
-        if not isinstance(mech, DifferentialPulley) or mech.cable_length > 0:
+        if not isinstance(mech, kind) or mech.cable_length > 0:
             continue
         theta = np.linspace(*problem.joints[mech.joint].theta_range, samples)
         x, dx = _law(mech, theta)
@@ -36,7 +35,7 @@ def envelope_start(problem, design, samples: int = 2001):
             replace(design, coefficients=coefs))
 
 
-def _law(mech: DifferentialPulley, theta: np.ndarray):
+def _law(mech, theta: np.ndarray):
     """x(θ) [m] and dx/dθ [m/rad] of a pair's output law (constant without one)."""
     if mech.output_target is None:
         return np.full_like(theta, mech.slider_start()), np.zeros_like(theta)
