@@ -80,6 +80,9 @@ def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
     fails: the solver's status, ``not_finite``, ``recheck_failed`` or ``target_missed``.
     """
     m = fine.metrics
+    if solve.status == "acceptable":
+        return solve.status, (f"IPOPT stopped at its acceptable level ({solve.return_status}), not at its "
+                              "tolerance: the design is not an optimum; tighten or drop the acceptable_* options")
     if solve.status != "converged":
         return solve.status, f"IPOPT stopped: {solve.return_status}"
     numbers = [m.rmse, m.max_abs_error, m.extension_min, m.extension_max, m.rho_min, m.rho_max,

@@ -22,6 +22,8 @@ from .targets import Target
 OBJECTIVES = ("least_squares", "minimax")
 #: How IPOPT's functions are evaluated (:attr:`Options.functions`).
 FUNCTIONS = ("expanded", "mapped", "compiled")
+#: Loosest IPOPT tolerance ``[solver] tol`` may set.
+TOL_CAP = 1e-4
 
 
 #: Caps on every size a spec, study or flag controls, checked before any work. Raise one
@@ -132,7 +134,8 @@ SOLVER = {
                     "an integer from 0 to 2**32 − 1 (the multistart generator's seed)",
                     "Seed of the multistart generator."),
     "max_iter": Setting(500, lambda v: _integer(v, 1), "a positive integer", "IPOPT iteration limit."),
-    "tol": Setting(1e-8, lambda v: _real(v) and v > 0, "a positive number", "IPOPT tolerance."),
+    "tol": Setting(1e-8, lambda v: _real(v) and 0 < v <= TOL_CAP, f"a positive number ≤ {TOL_CAP:g}",
+                   "IPOPT tolerance; a looser one would stop short of the optimum and call it converged."),
     "recheck_factor": Setting(10, lambda v: _integer(v, 2), "an integer ≥ 2",
                               "The re-check grid is this many times finer than the design grid."),
     "objective": Setting("least_squares", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
@@ -141,9 +144,9 @@ SOLVER = {
                          "variable per joint (for problems whose joint torques and targets each "
                          "depend on their own joint's angle)."),
     "ipopt": Setting((), None, "a table of IPOPT options such as mu_init = 1e-6",
-                     "Further IPOPT options (name without the ``ipopt.`` prefix, value), e.g. a warm "
-                     "start (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a start "
-                     "that is already close to the optimum."),
+                     "Further IPOPT options (name without the ``ipopt.`` prefix, value), each one of "
+                     ":data:`IPOPT_OPTIONS`, e.g. a warm start (``mu_init``, ``bound_push``, "
+                     "``warm_start_init_point``) from a start that is already close to the optimum."),
     "method": Setting("nlp", None, "nlp or a mechanism's own design method",
                       "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
                       "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, "
@@ -157,6 +160,62 @@ SOLVER = {
                          "(:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, "
                          "then the fastest to build and to solve. The three give the same optimum "
                          "up to rounding (the iteration count may differ by a few)."),
+}
+
+
+def _choice(*values):
+    return Setting(None, lambda v: v in values, "one of " + ", ".join(f'"{v}"' for v in values), "")
+
+
+def _between(lo: float, hi: float, open_lo: bool = True, text: str = "") -> Setting:
+    above = (lambda v: v > lo) if open_lo else (lambda v: v >= lo)
+    return Setting(None, lambda v: _real(v) and above(v) and v <= hi,
+                   text or f"a number in {'(' if open_lo else '['}{lo:g}, {hi:g}]", "")
+
+
+def _count(hi: int) -> Setting:
+    return Setting(None, lambda v: _integer(v, 0) and v <= hi, f"an integer from 0 to {hi}", "")
+
+
+#: The IPOPT options a spec's ``[solver.ipopt]``, ``--ipopt`` or ``ipopt=`` may set, each with
+#: the values cadcam passes on (IPOPT's defaults apply where one is not given). Nothing else
+#: reaches IPOPT: not the options that name files or libraries (``output_file``,
+#: ``option_file_name``, ``hsllib``, ``pardisolib``, …), not a linear solver that is not
+#: installed, and not a tolerance looser than IPOPT's own default (``tol`` and ``max_iter`` are
+#: ``[solver]`` keys with caps). A stop at IPOPT's acceptable level has its own status
+#: (``acceptable``), never ``success``.
+IPOPT_OPTIONS = {
+    "print_level": _count(12),
+    "sb": _choice("yes", "no"),
+    "print_timing_statistics": _choice("yes", "no"),
+    "mu_strategy": _choice("monotone", "adaptive"),
+    "mu_oracle": _choice("quality-function", "probing", "loqo"),
+    "mu_init": _between(0, 1e3),
+    "bound_push": _between(0, 1),
+    "bound_frac": _between(0, 0.5),
+    "bound_mult_init_val": _between(0, 1e3),
+    "warm_start_init_point": _choice("yes", "no"),
+    "warm_start_bound_push": _between(0, 1),
+    "warm_start_bound_frac": _between(0, 0.5),
+    "warm_start_mult_bound_push": _between(0, 1),
+    "warm_start_slack_bound_push": _between(0, 1),
+    "warm_start_slack_bound_frac": _between(0, 0.5),
+    "nlp_scaling_method": _choice("none", "gradient-based"),
+    "nlp_scaling_max_gradient": _between(0, 1e10),
+    "hessian_approximation": _choice("exact", "limited-memory"),
+    "limited_memory_max_history": _count(1000),
+    "linear_solver": _choice("mumps", "spral"),
+    "dual_inf_tol": _between(0, 1),
+    "constr_viol_tol": _between(0, 1e-4),
+    "compl_inf_tol": _between(0, 1e-4),
+    "acceptable_tol": _between(0, 1e10),
+    "acceptable_iter": _count(1000),
+    "acceptable_dual_inf_tol": _between(0, 1e10),
+    "acceptable_constr_viol_tol": _between(0, 1e10),
+    "acceptable_compl_inf_tol": _between(0, 1e10),
+    "acceptable_obj_change_tol": _between(0, 1e10, open_lo=False),
+    "max_cpu_time": _between(0, 1e6),
+    "max_wall_time": _between(0, 1e6),
 }
 
 

@@ -28,7 +28,7 @@ from .mechanisms.base import (ENERGY, Profile, design_methods, legacy_torque_mod
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
+from .problem import IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
 from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
 _REQUIRED = object()
@@ -238,20 +238,23 @@ def _check_target(origin, where, target: Target, joint_ranges, joint: int, unit:
                         f"over the whole angle range")
 
 
-#: IPOPT options cadcam sets from [solver] (under its caps) or that read or write files.
-IPOPT_REFUSED = {"max_iter": "solver.max_iter", "tol": "solver.tol", "output_file": None,
-                 "option_file_name": None}
+#: IPOPT options cadcam sets from [solver], under its caps.
+IPOPT_FROM_SOLVER = {"max_iter": "solver.max_iter", "tol": "solver.tol"}
 
 
 def _ipopt_options(sol: "_Reader", options: dict) -> tuple:
-    """[solver.ipopt] as sorted (name, value) pairs, each tried on IPOPT itself so that an unknown
-    name or a value out of its range is one line now, not a failure after the build."""
+    """[solver.ipopt] as sorted (name, value) pairs: each an option of
+    :data:`cadcam.problem.IPOPT_OPTIONS` with a value it allows, then tried on IPOPT itself, so
+    that anything else is one line now, not a failure (or a library loaded) after the build."""
     key = sol.key("ipopt")
     for name, value in sorted(options.items()):
-        if name in IPOPT_REFUSED:
-            instead = IPOPT_REFUSED[name]
-            sol.fail(f"{key}.{name}", value, f"nothing: give {instead} instead (it has a cap)" if instead
-                     else "nothing: cadcam reads and writes no IPOPT files")
+        if name in IPOPT_FROM_SOLVER:
+            sol.fail(f"{key}.{name}", value, f"nothing: give {IPOPT_FROM_SOLVER[name]} instead (it has a cap)")
+        if name not in IPOPT_OPTIONS:
+            sol.fail(f"{key}.{name}", value, "one of the IPOPT options cadcam passes on ("
+                     + ", ".join(IPOPT_OPTIONS) + "); options that name files or libraries never are")
+        if not IPOPT_OPTIONS[name].ok(value):
+            sol.fail(f"{key}.{name}", value, IPOPT_OPTIONS[name].form)
         reason = _ipopt_refusal(name, value)
         if reason:
             sol.fail(f"{key}.{name}", value, f"an IPOPT option with a valid value ({reason}; see the "
@@ -262,16 +265,22 @@ def _ipopt_options(sol: "_Reader", options: dict) -> tuple:
 @functools.lru_cache(maxsize=256)
 def _ipopt_refusal(name: str, value) -> str | None:
     """Why IPOPT refuses option ``name`` = ``value``, or None: asked once per pair (a study
-    parses its spec for every case)."""
+    parses its spec for every case). A linear solver is tried on a small problem: one that is
+    not installed fails only when it solves."""
     x = ca.SX.sym("x")
     try:
         with _quiet_stdout():  # IPOPT prints its option documentation for a bad value
-            ca.nlpsol("probe", "ipopt", {"x": x, "f": x**2},
-                      {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", f"ipopt.{name}": value})
+            probe = ca.nlpsol("probe", "ipopt", {"x": x, "f": (x - 1) ** 2},
+                              {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+                               f"ipopt.{name}": value, "error_on_fail": False})
+            if name == "linear_solver":
+                probe(x0=0)
     except RuntimeError as exc:
         lines = str(exc).strip().splitlines()
         return "no such IPOPT option" if "No such IPOPT option" in str(exc) else (
             "a value of another type" if "type mismatch" in lines[-1] else "a value IPOPT refuses")
+    if name == "linear_solver" and probe.stats()["return_status"] != "Solve_Succeeded":
+        return "a linear solver that is not installed here"
     return None
 
 

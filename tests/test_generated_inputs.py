@@ -1126,6 +1126,13 @@ FOUND = {  # name: (spec tree or None for the fast 1-DOF spec, design maker or N
     "an IPOPT value out of range": (_spec_with(ipopt={"mu_init": -1.0}), None, "mu_init"),
     "an IPOPT iteration limit past the cap": (_spec_with(ipopt={"max_iter": 10**9}), None, "max_iter"),
     "an IPOPT output file": (_spec_with(ipopt={"output_file": "ipopt.out"}), None, "output_file"),
+    "an HSL library named by the spec (IPOPT loaded it)": (
+        _spec_with(ipopt={"linear_solver": "ma27", "hsllib": "libcoinhsl.so"}), None, "hsllib"),
+    "a linear solver that is not installed (valid, failed after the build)": (
+        _spec_with(ipopt={"linear_solver": "ma57"}), None, "linear_solver"),
+    "a dual infeasibility tolerance of 1e10 (success far from the optimum)": (
+        _spec_with(ipopt={"dual_inf_tol": 1e10}), None, "dual_inf_tol"),
+    "a solver tolerance of 1 (success far from the optimum)": (_spec_with(tol=1.0), None, "tol"),
     "a wire cam whose profile interval is empty": (_cam_with(theta_range_deg=[-200.0, -100.0]), None,
                                                    "theta_range_deg"),
     "a joint range a million degrees out": (_cam_with(theta_range_deg=[1e6, 1e6 + 90]), None, "theta_range_deg"),

@@ -1,5 +1,6 @@
 """``docs/spec_reference.md``: the spec keys that cadcam declares in one place, as tables —
-the ``[solver]`` options (:data:`cadcam.problem.SOLVER`), the ``[workshop]`` sizes
+the ``[solver]`` options (:data:`cadcam.problem.SOLVER`) and the IPOPT options cadcam passes on
+(:data:`cadcam.problem.IPOPT_OPTIONS`), the ``[workshop]`` sizes
 (:class:`cadcam.problem.Workshop`, :data:`cadcam.problem.WORKSHOP_LIMITS`), the target kinds
 (:func:`cadcam.targets.target_kinds`) and each mechanism's own keys (the ``spec.schema.json``
 beside its model, with its ports, parameters and limits).
@@ -16,7 +17,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import mechanism_class
-from ..problem import SOLVER, WORKSHOP_LIMITS, Workshop
+from ..problem import IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Workshop
 from ..targets import target_kinds
 from .schema import mechanism_schemas
 
@@ -41,6 +42,15 @@ def _solver() -> list[str]:
     for name, s in SOLVER.items():
         rows.append(f"| `{name}` | `{s.default!r}` | {_cell(s.form)} | {_cell(s.description)} |")
     return rows
+
+
+def _ipopt() -> list[str]:
+    rows = ["## `[solver.ipopt]`", "", "The IPOPT options cadcam passes on, and the values it allows (IPOPT's own "
+            "documentation describes each; IPOPT's default applies where one is not given). Any other option is "
+            "refused before work, those naming files or libraries among them; `max_iter` and `tol` are "
+            "`[solver]` keys. A stop at IPOPT's acceptable level has its own status, `acceptable`.", "",
+            "| option | values |", "|---|---|"]
+    return rows + [f"| `{name}` | {_cell(s.form)} |" for name, s in IPOPT_OPTIONS.items()]
 
 
 def _workshop() -> list[str]:
@@ -88,7 +98,7 @@ def _mechanism(kind: str, schema: dict) -> list[str]:
 
 def reference() -> str:
     """The page's text."""
-    rows = [HEADER, *_solver(), "", *_workshop(), "", *_targets(), "", "## Mechanisms", "",
+    rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_targets(), "", "## Mechanisms", "",
             "Keys every `[[mechanisms]]` table has: `kind`, `name`, `joint` (1-based), the profile's "
             "`basis`, `order`, `rho_min`, `rho_max` and optional `min_curvature_radius`; then its own:"]
     for kind, schema in mechanism_schemas().items():

@@ -51,7 +51,7 @@ FIRST_SEGMENT_MAX_ORDER = 256
 OBJECTIVE_SCALE = 1000.0
 
 IPOPT_STATUS = {
-    "Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "converged",
+    "Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "acceptable",
     "Infeasible_Problem_Detected": "infeasible", "Maximum_Iterations_Exceeded": "max_iterations",
     "Restoration_Failed": "restoration_failed", "Maximum_CpuTime_Exceeded": "max_time",
     "Diverging_Iterates": "diverging", "Search_Direction_Becomes_Too_Small": "stalled",
