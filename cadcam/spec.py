@@ -431,8 +431,11 @@ def _joint(r: _Reader, i: int, n_springs: int, n_joints: int, arm: dict | None, 
     target = _target(_Reader(r.origin, r.get("target", lambda v: isinstance(v, dict),
                                              f"a [{label}.target] table"), r.key("target")),
                      base, n_joints, arm)
-    if target.kind == "none":  # no torque goal: nothing to weigh
+    if target.kind == "none":  # no torque goal: nothing to weigh, nothing to accept
         joint["tracking_weight"] = 0.0
+        if joint["acceptance"]:
+            r.fail(r.key("acceptance"), r.table["acceptance"], 'nothing: a joint whose target is kind = "none" '
+                   "has no torque to accept; remove the table or give the joint a torque target")
     r.done()
     return joint, target
 

@@ -95,3 +95,16 @@ def test_no_traceback_from_the_command(tmp_path):
                        capture_output=True, text=True)
     assert p.returncode == 2
     assert "Traceback" not in p.stderr and p.stderr.count("\n") == 1
+
+
+def test_acceptance_on_a_joint_without_a_torque_target_is_refused(tmp_path, capsys):
+    """[joints.acceptance] on a joint whose target is kind = "none" was ignored: refused now."""
+    robot = SPEC_1DOF.parent / "fedorov2018_cable_robot.toml"
+    spec = tmp_path / "robot.toml"
+    spec.write_text(robot.read_text().replace('[joints.target]\nkind = "none"',
+                                              '[joints.acceptance]\nrmse = 1.0\n\n[joints.target]\nkind = "none"'))
+    assert "[joints.acceptance]" in spec.read_text()
+    assert main(["design", str(spec), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "joints[1].acceptance" in err and 'kind = "none"' in err
+    assert not (tmp_path / "out").exists()

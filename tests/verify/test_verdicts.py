@@ -10,6 +10,8 @@ import os
 import numpy as np
 import pytest
 
+import cadcam
+
 from cadcam.cli import main
 from cadcam.optimize import optimize, verdict
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
@@ -237,3 +239,20 @@ def test_the_recordable_metric_names_are_exactly_an_evaluations_metrics(demo):
     assert sorted(METRIC_NAMES) == sorted(demo.recheck.metrics)
     assert [f.name for f in fields(Metrics)] == list(METRIC_NAMES)  # typed, in the declared order
     assert demo.recheck.metrics.to_dict() == {k: demo.recheck.metrics[k] for k in METRIC_NAMES}
+
+
+def test_a_design_at_half_its_targets_rms_or_more_is_never_success():
+    """A converged design that meets every constraint but misses the target by half its RMS or
+    more (a spring too weak for the load) is target_missed, whatever its acceptance says."""
+    from cadcam import evaluate as evaluate_spec
+    from cadcam.optimize import RELATIVE_RMSE_LIMIT, default_start, verdict
+    from cadcam.solve.transcription import Solve
+
+    problem = cadcam.load_problem(SPEC_1DOF, grid=12)
+    start = default_start(problem)  # circles: a torque of the wrong shape
+    fine = evaluate_spec(problem, start, grid=23)
+    assert fine.metrics.relative_rmse[0] >= RELATIVE_RMSE_LIMIT and not fine.violations
+    solve = Solve(design=start, status="converged", return_status="Solve_Succeeded", iterations=1,
+                  solve_time_s=0.0, objective=0.0, z=[])
+    status, message = verdict(problem, solve, fine, "converged")
+    assert status == "target_missed" and "% of the target's RMS (at most 50 %" in message
