@@ -119,6 +119,7 @@ def cmd_design(args) -> int:
     writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
     writers.join()  # the drawings are forked from a process of one thread
+    print(result.summary(), flush=True)  # before the files: the verdict is shown whatever they do
     try:
         notes = result.save(out, figures=args.figures, workers=os.cpu_count() or 1)
     except WorkshopError as exc:
@@ -128,7 +129,6 @@ def cmd_design(args) -> int:
         print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are written "
               f"to {out}{'; ' + fix if fix else ''})", file=sys.stderr)
         return 1
-    print(result.summary())
     output = any(m.output_target is not None for m in problem.mechanisms)
     pngs = (f" profile.png{' torque.png springs.png' if problem.springs else ''} convergence.png"
             f"{' output.png' if output else ''}" if args.figures else "")
@@ -456,8 +456,8 @@ def main(argv=None) -> int:
         return 1
     except OSError as exc:  # the environment failed after work began: disk full, permissions…
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left; free "
-              "space or fix the permissions and run again)", file=sys.stderr)
+        fix = "" if isinstance(exc, IsADirectoryError) else "; free space or fix the permissions and run again"
+        print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left{fix})", file=sys.stderr)
         return 1
     finally:
         if in_main:

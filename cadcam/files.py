@@ -8,6 +8,7 @@ is gone (a run killed with SIGKILL) is removed by the next write into the same f
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -155,16 +156,14 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
         try:
             yield stage
             new = set(os.listdir(stage))
+            _refuse_folders_in_the_way(folder, new)
             stale = [] if owned is None else [n for n in os.listdir(folder)
                                               if owned.fullmatch(n) and n not in new and (folder / n).is_file()]
             for name in [*last, *stale]:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(folder / name)
             for name in sorted(new, key=lambda n: (n in last, n)):
-                target = folder / name
-                if target.is_dir() and not target.is_symlink():
-                    shutil.rmtree(target)
-                os.replace(stage / name, target)
+                os.replace(stage / name, folder / name)
             stage.rmdir()
         except OSError as exc:  # name the file the user knows, not its staged copy
             if isinstance(exc.filename, str) and exc.filename.startswith(str(stage)):
@@ -177,6 +176,16 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             with contextlib.suppress(OSError):
                 p.rmdir()
         raise
+
+
+def _refuse_folders_in_the_way(folder: Path, names) -> None:
+    """IsADirectoryError, before anything moves, where a folder (or a link to one) stands under
+    the name of an output: cadcam replaces files it writes, never a folder of the user's."""
+    for name in sorted(names):
+        if (folder / name).is_dir():
+            raise IsADirectoryError(errno.EISDIR, "a folder stands where this output file goes; cadcam "
+                                    "replaces files, never folders: move it or give another output folder",
+                                    str(folder / name))
 
 
 def write_text(path, text: str) -> None:

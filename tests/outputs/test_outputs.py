@@ -161,6 +161,34 @@ def test_a_move_that_fails_leaves_no_final_looking_result(tmp_path, monkeypatch)
     assert sorted(os.listdir(tmp_path)) == ["a.csv"]
 
 
+def test_a_folder_of_the_users_in_the_way_is_never_deleted(tmp_path):
+    """A folder (or a link to one) named like an output stops the move before anything moves;
+    it kept being replaced by the output, with everything in it, before."""
+    (tmp_path / "torque.csv").mkdir()
+    (tmp_path / "torque.csv" / "mine.txt").write_text("the user's")
+    (tmp_path / "result.json").write_text("old")
+    with pytest.raises(IsADirectoryError, match="never folders") as refused:
+        with staged_folder(tmp_path, last=("result.json",)) as stage:
+            (stage / "result.json").write_text("new")
+            (stage / "torque.csv").write_text("new")
+    assert refused.value.filename == str(tmp_path / "torque.csv")
+    assert (tmp_path / "torque.csv" / "mine.txt").read_text() == "the user's"
+    assert (tmp_path / "result.json").read_text() == "old"  # nothing moved
+    assert sorted(os.listdir(tmp_path)) == ["result.json", "torque.csv"]
+
+
+def test_design_into_a_folder_holding_a_users_folder_keeps_it_and_says_so(tmp_path, capsys):
+    from cadcam.cli import main
+
+    (tmp_path / "torque.csv").mkdir()
+    (tmp_path / "torque.csv" / "mine.txt").write_text("the user's")
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 1
+    captured = capsys.readouterr()
+    assert captured.out.startswith("success: ")  # the verdict is shown whatever the files do
+    assert len(captured.err.strip().splitlines()) == 1 and "torque.csv" in captured.err
+    assert (tmp_path / "torque.csv" / "mine.txt").read_text() == "the user's"
+
+
 def _dead_pid():
     proc = subprocess.Popen([sys.executable, "-c", "pass"])
     proc.wait()
