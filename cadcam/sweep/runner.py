@@ -164,6 +164,8 @@ def open_db(path, study: Study) -> sqlite3.Connection:
     study."""
     if Path(path).exists() and not Path(path).is_file():
         raise SweepError(f"{path}: not a file; give the path of a study database (SQLite)")
+    if Path(path).is_file() and Path(path).stat().st_size and not _is_study_database(path):
+        raise SweepError(f"{path}: not a study database that cadcam wrote (left as it is); give a new path")
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     try:
         db = sqlite3.connect(str(path), timeout=60)  # runners sharing the database wait their turn
@@ -182,6 +184,39 @@ def open_db(path, study: Study) -> sqlite3.Connection:
         db.close()
         raise SweepError(f"{path}: holds the results of a different study; use another -o file")
     return db
+
+
+def _close(db: sqlite3.Connection) -> None:
+    """Close a runner's connection, leaving the database in rollback-journal mode if no other
+    runner has it open: WAL serves runners that share it, but a read-only reader of a WAL file
+    must create its ``-wal`` and ``-shm`` files and cannot remove them."""
+    try:
+        db.execute("PRAGMA busy_timeout = 0")  # another runner still at work: leave WAL to it
+        db.execute("PRAGMA journal_mode = DELETE")
+    except sqlite3.OperationalError:
+        pass
+    finally:
+        db.close()
+
+
+def _read_only(path) -> sqlite3.Connection:
+    """A read-only connection to the SQLite file ``path``, its name escaped in the URI (a ``#``,
+    ``?`` or ``%`` in a file name is part of the name)."""
+    return sqlite3.connect(f"{Path(path).resolve().as_uri()}?mode=ro", uri=True)
+
+
+def _is_study_database(path) -> bool:
+    """Whether ``path`` is a SQLite database with cadcam's study tables (read, never written)."""
+    try:
+        db = _read_only(path)
+        try:
+            tables = {name for (name,) in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            columns = {row[1] for row in db.execute("PRAGMA table_info(cases)")}
+        finally:
+            db.close()
+    except sqlite3.Error:
+        return False
+    return {"study", "cases"} <= tables and {"case_id", "params", "status"} <= columns
 
 
 def record(db: sqlite3.Connection, row: dict) -> None:
@@ -225,7 +260,7 @@ def read_rows(path) -> tuple[dict, list[dict]]:
     if not Path(path).is_file():
         raise SweepError(f"{path}: no such study database (a file that `cadcam sweep` wrote)")
     try:
-        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        db = _read_only(path)
         try:
             study = json.loads(db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0])
             if not (isinstance(study, dict) and isinstance(study.get("name"), str)
@@ -383,7 +418,7 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
         statuses = dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall())
         elsewhere = db.execute("SELECT COUNT(*) FROM claims").fetchone()[0]
     finally:
-        db.close()
+        _close(db)
     return {"cases": len(cases), "ran": ran, "skipped": len(cases) - len(todo), "elsewhere": elsewhere,
             "wall_time_s": elapsed, "statuses": statuses,
             "cases_per_min": 60 * ran / elapsed if ran and elapsed > 0 else float("nan")}

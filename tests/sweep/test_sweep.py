@@ -222,3 +222,32 @@ def test_two_runners_on_one_database_finish_the_study_once_between_them(tmp_path
     assert sum(ran) == 8  # no case solved twice, none left out
     _, rows = read_rows(db_path)
     assert len({r["case_id"] for r in rows}) == len(rows) == 8 and {r["status"] for r in rows} == {"success"}
+
+
+def test_a_database_that_is_not_a_study_is_refused_and_left_as_it_is(tmp_path):
+    """`cadcam sweep -o app.db` on another application's SQLite file added cadcam's tables to it."""
+    import sqlite3
+
+    from cadcam.sweep.runner import SweepError
+
+    app = tmp_path / "app.db"
+    db = sqlite3.connect(app)
+    db.execute("CREATE TABLE users (name TEXT)")
+    db.commit()
+    db.close()
+    before = app.read_bytes()
+    with pytest.raises(SweepError, match="not a study database that cadcam wrote"):
+        run_sweep(_study(tmp_path), app, workers=0, progress=False)
+    assert app.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["app.db", "study.toml"]
+
+
+@pytest.mark.parametrize("name", ["run#2.db", "r%41.db", "a?b.db"])
+def test_a_study_reads_back_from_a_file_whose_name_holds_uri_characters(tmp_path, name):
+    """The read-only connection named the file in a URI unescaped: 'run#2.db' read 'run' (a
+    stray empty file), 'r%41.db' read 'rA.db'."""
+    study = _study(tmp_path)
+    run_sweep(study, tmp_path / name, workers=0, progress=False)
+    definition, rows = read_rows(tmp_path / name)
+    assert definition["name"] == "small" and len(rows) == 4
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "study.toml"])
