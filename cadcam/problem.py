@@ -35,13 +35,29 @@ TOL_CAP = 1e-4
 #: grows with their size.
 CAPS = {"grid": 2000, "quadrature_order": 16, "convexity_points": 5000, "multistart": 100,
         "recheck_factor": 100, "max_iter": 100_000, "grid_points": 20_000_000,
-        "recheck_points": 1_000_000_000, "cases": 10_000, "workers": 256}
+        "recheck_points": 1_000_000_000, "cases": 10_000, "workers": 256,
+        "joints": 16, "mechanisms_per_joint": 8, "springs": 128}
+
+
+def count_error(what: str, count: int) -> str | None:
+    """One-line reason why ``count`` tables of ``what`` (a cap of :data:`CAPS`: ``joints``,
+    ``mechanisms_per_joint``, ``springs``) are beyond their cap, or None."""
+    if count <= cap(what):
+        return None
+    return (f"{count} exceed the cap {cap(what)} (raise it deliberately with the environment variable "
+            f"CADCAM_CAP_{what.upper()})")
 
 
 def cap(name: str) -> int:
     """The cap ``name`` of :data:`CAPS`, or its ``CADCAM_CAP_<NAME>`` override (a positive
     integer)."""
     return env_cap(name, CAPS[name])
+
+
+def _how_many(n: int) -> str:
+    """A count in three digits, also one too large for a float (a grid to the power of many
+    joints)."""
+    return f"{n:.3g}" if n < 1e300 else f"about 10^{len(str(n)) - 1}"
 
 
 def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
@@ -55,12 +71,12 @@ def size_error(options: "Options", n_joints: int) -> tuple[str, str] | None:
                           f"environment variable CADCAM_CAP_{name.upper()})")
     points = options.grid ** n_joints
     if points > cap("grid_points"):
-        return "grid", (f"the design grid would hold {points:.3g} points (grid^{n_joints}) in memory, "
+        return "grid", (f"the design grid would hold {_how_many(points)} points (grid^{n_joints}) in memory, "
                         f"beyond the cap {cap('grid_points'):.3g}: lower grid, or raise the cap "
                         "deliberately with CADCAM_CAP_GRID_POINTS")
     points = options.recheck_grid ** n_joints
     if points > cap("recheck_points"):
-        return "grid", (f"the fine re-check would evaluate {points:.3g} points "
+        return "grid", (f"the fine re-check would evaluate {_how_many(points)} points "
                         f"(((grid − 1)·recheck_factor + 1)^{n_joints}, streamed), beyond the cap "
                         f"{cap('recheck_points'):.3g}: lower grid or recheck_factor, or raise the cap "
                         "deliberately with CADCAM_CAP_RECHECK_POINTS")

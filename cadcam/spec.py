@@ -28,7 +28,8 @@ from .mechanisms.base import (ENERGY, Profile, design_methods, legacy_torque_mod
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, size_error
+from .problem import (IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
+                      size_error)
 from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
 _REQUIRED = object()
@@ -337,6 +338,11 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     options = _options(_Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}),
                                "solver"))
     n_joints = len(data["joints"]) if isinstance(data.get("joints"), list) else 0
+    for what, key, count in (("joints", joint_label, n_joints),
+                             ("springs", "springs", len(data["springs"]) if isinstance(data.get("springs"), list) else 0)):
+        too_many = count_error(what, count)
+        if too_many:
+            raise SpecError(f"{origin}: {key}: {too_many}")
     too_big = size_error(options, max(n_joints, 1))
     if too_big:
         raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
@@ -355,6 +361,10 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
                    base, joint_label) for i, raw in enumerate(raw_joints)]
     joints, targets = [joint for joint, _ in read], [target for _, target in read]
     mechanisms = _mechanisms(origin, raw_mechs, joints, base, mech_label)
+    for i in range(len(joints)):
+        too_many = count_error("mechanisms_per_joint", sum(m.joint == i for m in mechanisms))
+        if too_many:
+            raise SpecError(f"{origin}: {mech_label}: the mechanisms on {joint_label}[{i + 1}]: {too_many}")
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
                for j, raw in enumerate(raw_springs)]
     _check_output_laws(origin, mechanisms)

@@ -108,3 +108,39 @@ def test_acceptance_on_a_joint_without_a_torque_target_is_refused(tmp_path, caps
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "joints[1].acceptance" in err and 'kind = "none"' in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("grow, words", [
+    (lambda d: d.update(cams=d["cams"] * 1500), "cams: 1500 exceed the cap 16"),
+    (lambda d: d.update(springs=[d["springs"][0]] * 3000), "springs: 3000 exceed the cap 128"),
+])
+def test_counts_beyond_their_caps_are_refused_before_any_work(grow, words):
+    """1,500 cams crashed formatting the cap's own message; 3,000 springs on one port were
+    still building after 90 s."""
+    import tomllib
+
+    from cadcam.spec import SpecError, parse_spec
+
+    data = tomllib.loads(BASE)
+    grow(data)
+    with pytest.raises(SpecError, match=words):
+        parse_spec(data, "x.toml")
+
+
+def test_mechanisms_on_one_joint_beyond_their_cap_are_refused():
+    """400 anchored pulleys on one joint ended in std::bad_alloc."""
+    import tomllib
+
+    from cadcam.spec import SpecError, parse_spec
+
+    data = tomllib.loads((SPEC_1DOF.parent / "ludovico2021_pendulum.toml").read_text())
+    data["mechanisms"] = [dict(data["mechanisms"][0], name=f"p{i}") for i in range(400)]
+    with pytest.raises(SpecError, match=r"the mechanisms on joints\[1\]: 400 exceed the cap 8"):
+        parse_spec(data, "x.toml")
+
+
+def test_a_size_message_never_fails_to_format():
+    from cadcam.problem import Options, size_error
+
+    name, message = size_error(Options(grid=46), 1500)
+    assert name == "grid" and "about 10^2494 points" in message
