@@ -237,6 +237,38 @@ def _check_target(origin, where, target: Target, joint_ranges, joint: int, unit:
         raise SpecError(f"{origin}: {where} is not finite at theta = "
                         f"{np.round(np.degrees(bad), 3).tolist()} deg; expected a finite {unit} "
                         f"over the whole angle range")
+    pole = _pole(f, joint_ranges)
+    if pole is not None:
+        raise SpecError(f"{origin}: {where} has a pole or a jump near theta = {np.round(np.degrees(pole), 3).tolist()} "
+                        f"deg (its slope grows without bound as the samples get finer); expected a {unit} that is "
+                        "finite and continuous over the whole angle range (change the expression or the range)")
+
+
+#: Samples along each joint's range at which a target's slope is taken for :func:`_pole`, and by
+#: how much the largest slope between neighbours may grow when the samples double: it
+#: converges for a smooth law, doubles across a jump and grows faster near a pole.
+POLE_SAMPLES = 2001
+POLE_GROWTH = 1.8
+
+
+def _pole(f, joint_ranges) -> np.ndarray | None:
+    """The angles [rad] near which the target ``f`` has a pole or a jump along one joint's
+    range (the others at their mid-range), judged by its evaluated values, not its form; else
+    None."""
+    middle = np.array([(lo + hi) / 2 for lo, hi in joint_ranges])
+    for axis, (lo, hi) in enumerate(joint_ranges):
+        steepest = []
+        for n in (POLE_SAMPLES, 2 * POLE_SAMPLES - 1):
+            pts = np.tile(middle[:, None], (1, n))
+            pts[axis] = np.linspace(lo, hi, n)
+            with np.errstate(all="ignore"):
+                slope = np.abs(np.diff(np.asarray(f.map(n)(pts)).ravel())) / np.diff(pts[axis])
+            k = int(np.argmax(slope))
+            steepest.append((slope[k], pts[:, k]))
+        (coarse, _), (fine, where) = steepest
+        if fine > POLE_GROWTH * coarse and fine > 0:
+            return where
+    return None
 
 
 #: IPOPT options cadcam sets from [solver], under its caps.
