@@ -397,6 +397,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         too_many = count_error("mechanisms_per_joint", sum(m.joint == i for m in mechanisms))
         if too_many:
             raise SpecError(f"{origin}: {mech_label}: the mechanisms on {joint_label}[{i + 1}]: {too_many}")
+    _check_spans(origin, joints, mechanisms, joint_label)
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
                for j, raw in enumerate(raw_springs)]
     _check_output_laws(origin, mechanisms)
@@ -492,6 +493,17 @@ def _mechanisms(origin, raw_mechs: list, joints: list[dict], base: Path, label: 
             raise SpecError(f"{origin}: joints[{i + 1}] has no mechanism; expected a "
                             f"[[mechanisms]] table with joint = {i + 1}")
     return mechanisms
+
+
+def _check_spans(origin, joints: list[dict], mechanisms, label: str) -> None:
+    """Refuse a joint range wider than a mechanism on it allows (:meth:`Mechanism.max_span`):
+    a planar profile holds one turn."""
+    for m in mechanisms:
+        lo, hi = joints[m.joint]["theta_range"]
+        if hi - lo > m.max_span() * (1 + 1e-12):
+            raise SpecError(f"{origin}: {label}[{m.joint + 1}].theta_range_deg = [{math.degrees(lo):g}, "
+                            f"{math.degrees(hi):g}]: expected a span of at most {math.degrees(m.max_span()):g}°: "
+                            f"mechanism {m.name!r} ({m.kind}) runs on a planar profile, which holds one turn")
 
 
 def _check_output_laws(origin, mechanisms) -> None:

@@ -164,3 +164,14 @@ def test_a_target_with_a_pole_the_form_hides_is_refused_by_its_values(expression
 def test_a_steep_or_kinked_but_bounded_target_is_accepted(expression):
     problem = cadcam.load_problem(SPEC_1DOF, overrides=[("cams.1.target.expression", expression)])
     assert problem.joints[0].target.data["expression"] == expression
+
+
+def test_a_planar_profile_over_more_than_a_turn_is_refused():
+    """An Endo2010 pulley over [18°, 738°] collapsed to a 5 mm circle and reported success."""
+    with pytest.raises(cadcam.SpecError, match=r"joints\[1\]\.theta_range_deg = \[18, 738\]: expected a span of "
+                                              r"at most 360°: mechanism 'pulley'"):
+        cadcam.load_problem(SPEC_1DOF.parent / "endo2010_ordinary.toml",
+                            overrides=[("joints.1.theta_range_deg", [18.0, 738.0])])
+    robot = cadcam.load_problem(SPEC_1DOF.parent / "fedorov2018_cable_robot.toml")  # helical grooves: 900°
+    lo, hi = robot.joints[0].theta_range
+    assert hi - lo > 2 * 3.1416

@@ -362,6 +362,12 @@ class Mechanism:
         """The mechanism's own keys in the spec form (inverse of :meth:`from_spec`)."""
         return {}
 
+    def max_span(self) -> float:
+        """The widest joint range [rad] this mechanism may turn over: its cable (or contact)
+        runs on a planar profile, which holds at most one turn; a mechanism whose profiles
+        climb a helical groove allows more."""
+        return 2 * np.pi
+
     def offers(self, method: str) -> bool:
         """Whether this mechanism can be designed by its own ``method``."""
         return any(m.name == method for m in self.methods)

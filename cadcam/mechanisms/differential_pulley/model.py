@@ -168,6 +168,10 @@ class DifferentialPulley(Mechanism):
         lo, hi = self.slider_range
         return 0.5 * (lo + hi) if np.isfinite(hi) else 2 * lo
 
+    def max_span(self) -> float:
+        """One turn on a flat groove; a helical groove climbs the drum turn after turn."""
+        return np.inf if self.groove == "helical" else super().max_span()
+
     def offers(self, method: str) -> bool:
         """The envelope method shapes a pair for its output law: only with one."""
         return super().offers(method) and self.output_target is not None
