@@ -20,8 +20,10 @@ from .optimize import optimize  # noqa: E402
 from .problem import Joint, Options, Problem  # noqa: E402
 from .result import Result  # noqa: E402
 from .spec import SpecError, load_spec, parse_spec  # noqa: E402
+from .sweep.study import StudyError  # noqa: E402
 from .version import __version__  # noqa: E402
 
 __all__ = ["DerivativeCheck", "Design", "DesignError", "Joint", "Options", "Problem", "Result", "SpecError",
+           "StudyError",
            "check_derivatives", "design", "evaluate", "load_design", "load_problem", "load_spec", "optimize",
            "parse_spec", "read_study", "__version__"]

@@ -27,13 +27,14 @@ from .verify.evaluate import Evaluation, start_samples
 from .verify.evaluate import evaluate as evaluate_design
 from .verify.model import torque_function, torque_jacobian_function
 from .designs import Design, DesignError
-from .files import InputFileError, read_input
+from .files import InputFileError, read_input, short_repr
 from .solve.transcription import Transcription
 from .optimize import optimize, start_design
-from .problem import Options, Problem, evaluation_size_error, size_error
+from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
 from .sweep.runner import flat_table, read_rows
+from .sweep.study import StudyError
 
 #: The ``[solver]`` keys that may be given as keyword arguments.
 SOLVER_KEYS = tuple(f.name for f in fields(Options) if f.name != "ipopt")
@@ -67,7 +68,10 @@ def load_problem(spec, *, variant: str | None = None, overrides=None, torque_mod
     unknown = sorted(set(solver) - set(SOLVER_KEYS))
     if unknown:
         raise SpecError(f"unknown option {unknown[0]!r}; the [solver] keys are {', '.join(SOLVER_KEYS)}")
-    pairs = list(overrides.items()) if isinstance(overrides, dict) else list(overrides or ())
+    pairs = _override_pairs(overrides)
+    if ipopt is not None and not (isinstance(ipopt, dict) and all(isinstance(k, str) for k in ipopt)):
+        raise SpecError(f"ipopt = {short_repr(ipopt)}: expected a dict of IPOPT option names to values")
+    solver = {k: v.item() if isinstance(v, np.generic) else v for k, v in solver.items()}  # numpy scalars
     if isinstance(spec, Problem):
         if variant is not None:
             raise SpecError("variant: a Problem has no variants; give the spec file instead")
@@ -97,6 +101,19 @@ def load_problem(spec, *, variant: str | None = None, overrides=None, torque_mod
     if too_big:
         raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
     return problem
+
+
+def _override_pairs(overrides) -> list:
+    """``overrides`` (a dict, or (key, value) pairs) as a list of pairs with dotted string keys;
+    SpecError for anything else."""
+    if overrides is None:
+        return []
+    pairs = list(overrides.items()) if isinstance(overrides, dict) else overrides
+    if not (isinstance(pairs, (list, tuple)) and all(
+            isinstance(p, (list, tuple)) and len(p) == 2 and isinstance(p[0], str) for p in pairs)):
+        raise SpecError(f"overrides = {short_repr(overrides)}: expected a dict or a list of (key, value) pairs "
+                        "with dotted string keys such as 'springs.1.rate'")
+    return list(pairs)
 
 
 def load_design(design, problem: Problem) -> Design:
@@ -144,6 +161,9 @@ def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **o
     dense profile scan); ``options`` as for :func:`load_problem`. A ``grid`` beyond
     :func:`cadcam.problem.evaluation_size_error`'s caps raises :class:`SpecError`."""
     problem = load_problem(spec, **options)
+    grid_ok = SOLVER["grid"].ok
+    if grid is not None and grid_ok is not None and not grid_ok(grid):
+        raise SpecError(f"grid = {short_repr(grid)}: expected {SOLVER['grid'].form}")
     too_big = None if grid is None else evaluation_size_error(grid, len(problem.joints))
     if too_big:
         raise SpecError(f"grid: {too_big}")
@@ -214,10 +234,10 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
     seed : int
         Seed of the poses, the multipliers and the columns sampled in large blocks.
     """
-    if not 1 <= points <= 20:
-        raise SpecError(f"points = {points}: give 1 … 20 poses")
-    if not 0 < tol < 1:
-        raise SpecError(f"tol = {tol}: give a relative error between 0 and 1")
+    if not (isinstance(points, int) and not isinstance(points, bool) and 1 <= points <= 20):
+        raise SpecError(f"points = {short_repr(points)}: give 1 … 20 poses")
+    if not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and 0 < tol < 1):
+        raise SpecError(f"tol = {short_repr(tol)}: give a relative error between 0 and 1")
     problem = load_problem(spec, **options)
     if design is None:
         problem, start = start_design(problem)
@@ -300,7 +320,10 @@ def _nlp_partials(problem: Problem, start: Design, rng: np.random.Generator) -> 
 def read_study(path):
     """A study database (``cadcam sweep``) as a table: one row per case with its parameters,
     status and metrics (the columns of ``cadcam sweep-export``). A pandas DataFrame if pandas
-    is installed, else a dict of column name → list."""
+    is installed, else a dict of column name → list. :class:`StudyError` for a path that is not
+    a study database."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise StudyError(f"path = {short_repr(path)}: expected the file name of a study database")
     table = flat_table(*read_rows(path))
     header = dict.fromkeys(k for row in table for k in row)  # every column, in first-seen order
     columns = {name: [row.get(name) for row in table] for name in header}

@@ -8,6 +8,8 @@ import tomllib
 import matplotlib
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import cadcam
 from cadcam.verify import derivatives
@@ -194,3 +196,34 @@ def test_an_installed_example_is_a_spec(capsys):
     assert main(["evaluate", "--example", "no_such_spec", "--design", str(TABLE3)]) == 2
     assert "johnston2023_1dof" in capsys.readouterr().err
     assert main(["evaluate", str(SPEC_RR), "--example", "johnston2023_rr_arm", "--design", str(TABLE3)]) == 2
+
+
+DOCUMENTED = (cadcam.SpecError, cadcam.DesignError, cadcam.StudyError)
+#: Values of every type and shape an API argument might be given.
+ANYTHING = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6), st.floats(allow_nan=True),
+                     st.text(max_size=12), st.binary(max_size=4), st.lists(st.integers(), max_size=3),
+                     st.dictionaries(st.integers(), st.integers(), max_size=2),
+                     st.tuples(st.integers(), st.text(max_size=3)))
+
+
+def _documented_or_fine(call) -> None:
+    try:
+        call()
+    except DOCUMENTED as exc:
+        assert "\n" not in str(exc), str(exc)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(overrides=ANYTHING, ipopt=ANYTHING, grid=ANYTHING)
+def test_load_problem_raises_only_documented_errors_for_any_argument(overrides, ipopt, grid):
+    """The API raised TypeError and AttributeError for arguments of the wrong type or shape."""
+    _documented_or_fine(lambda: cadcam.load_problem(SPEC_1DOF, overrides=overrides, ipopt=ipopt, grid=grid))
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(design=ANYTHING, grid=ANYTHING, points=ANYTHING, path=ANYTHING)
+def test_evaluate_check_and_read_study_raise_only_documented_errors(design, grid, points, path):
+    _documented_or_fine(lambda: cadcam.evaluate(SPEC_1DOF, design, grid=grid, profile=False))
+    _documented_or_fine(lambda: cadcam.check_derivatives(SPEC_1DOF, points=points, nlp=False) if not (
+        isinstance(points, int) and not isinstance(points, bool) and 1 <= points <= 20) else None)
+    _documented_or_fine(lambda: cadcam.read_study(path))

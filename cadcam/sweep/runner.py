@@ -37,7 +37,7 @@ from pathlib import Path
 
 from ..files import process_alive
 from ..version import __version__
-from .study import Study
+from .study import Study, StudyError
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS study (
@@ -59,8 +59,9 @@ COLUMNS = ("case_id", "idx", "params", "status", "message", "metrics", "recheck"
            "cadcam_version", "torque_model", "finished")
 
 
-class SweepError(ValueError):
-    """A sweep that cannot start (a database holding another study, a bad executor)."""
+class SweepError(StudyError):
+    """A sweep that cannot start (a database holding another study, a bad executor), or a
+    study database that cannot be read: a :class:`~cadcam.sweep.study.StudyError`."""
 
 
 # -- worker side ----------------------------------------------------------------------------
