@@ -25,7 +25,6 @@ each generated function so the code compiles warning-free with
 from __future__ import annotations
 
 import re
-import subprocess
 import tempfile
 from pathlib import Path
 
@@ -38,7 +37,7 @@ from ..files import atomic_path, staged_folder, write_json, write_text
 from ..verify.evaluate import start_samples
 from ..verify.model import NEWTON_STEPS, torque_function, torque_jacobian_function
 from ..solve.blocks import P_BLOCKS, X_BLOCKS, describe
-from ..solve.compiled import CompileError, compiler, oracle_functions
+from ..solve.compiled import CompileError, compiler, oracle_functions, run_compiler
 from ..problem import Problem
 
 WHATS = ("model", "problem")
@@ -288,7 +287,7 @@ def _write_shared_library(stem: str, out: Path) -> str:
             command = shared_library_command(out / f"{stem}.c", tmp)
         except CompileError:
             raise ExportError("--format shared needs a C compiler (cc or gcc) on PATH") from None
-        run = subprocess.run(command, capture_output=True, text=True)
+        run = run_compiler(command)
         if run.returncode != 0:
             raise ExportError(f"compiling {stem}.c failed: {run.stderr.strip()[:500]}")
     return lib.name

@@ -17,10 +17,12 @@ moves its library into place with an atomic rename, so a reader sees a whole lib
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import shutil
+import signal
 import subprocess
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
@@ -151,9 +153,25 @@ def _compile(cc: str, source: Path) -> Path:
 
 def _run(command: list[str]) -> None:
     """Run a compiler command; CompileError with its first lines of error if it fails."""
-    run = subprocess.run(command, capture_output=True, text=True)
+    run = run_compiler(command)
     if run.returncode != 0:
         raise CompileError(f"compiling the NLP failed: {run.stderr.strip()[:500]}")
+
+
+def run_compiler(command: list[str]) -> subprocess.CompletedProcess:
+    """Run ``command`` (a compiler driver) in a session of its own, its output captured. Should
+    anything stop the wait (Ctrl-C, SIGTERM), the whole session is killed and waited for: the
+    driver's own children (cc1, as, ld) are not left running as orphans."""
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate()
+    except BaseException:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        raise
+    return subprocess.CompletedProcess(command, proc.returncode, out, err)
 
 
 def cached_libraries() -> list[Path]:

@@ -202,3 +202,31 @@ def test_cache_command_lists_and_clears_the_compiled_libraries(small, empty_cach
     assert capsys.readouterr().out.startswith("removed 1 compiled NLP library")
     assert not library.exists() and (empty_cache / "notes.txt").exists()
     assert Transcription(small.with_options(functions="compiled")).compiled_now  # compiled again
+
+
+def test_an_interrupted_compile_leaves_no_process_of_its_own(monkeypatch):
+    """SIGTERM during `export --format shared` left the compiler's children running (6 of 7
+    runs): the driver runs in a session of its own, killed whole when the wait is stopped."""
+    import os
+    import subprocess
+    import time
+
+    started = []
+    real = subprocess.Popen.communicate
+
+    def interrupted(self, *args, **kwargs):
+        started.append(self.pid)
+        time.sleep(0.3)  # the driver's own child is running by now
+        raise KeyboardInterrupt
+    monkeypatch.setattr(subprocess.Popen, "communicate", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        compiled.run_compiler(["sh", "-c", "sleep 60 & sleep 60"])  # a driver with a child, as cc has
+    monkeypatch.setattr(subprocess.Popen, "communicate", real)
+    deadline = time.monotonic() + 10  # killed at once; reaped (by init, here) within a second or two
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(started[0], 0)
+        except ProcessLookupError:
+            return  # no process of that session is left
+        time.sleep(0.1)
+    pytest.fail("a process of the compiler's session outlived the interrupt (its 60 s sleep)")
