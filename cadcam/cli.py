@@ -19,6 +19,7 @@ from pathlib import Path
 from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
+from .files import FolderBusy, held_folder
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
@@ -106,13 +107,18 @@ def _problem_and_design(args):
 
 
 def cmd_design(args) -> int:
-    from .optimize import optimize
-    from .outputs.run_files import WorkshopError
-
     _check_workshop_args(args)
     problem = _problem(args)
     _check_output_dir(args.output)
-    out = Path(args.output)
+    with held_folder(args.output) as out:
+        return _design_into(args, problem, out)
+
+
+def _design_into(args, problem, out: Path) -> int:
+    """Design ``problem``, print its summary and write its files into ``out`` (held)."""
+    from .optimize import optimize
+    from .outputs.run_files import WorkshopError
+
     # each flag given overrides the spec's [workshop]; result.json records the sizes used
     flags = {name: getattr(args, name) for name in WORKSHOP_FLAGS if getattr(args, name) is not None}
     problem = replace(problem, workshop=replace(problem.workshop, **flags))
@@ -448,7 +454,7 @@ def main(argv=None) -> int:
         print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
         return 130
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError,
-            CompileError) as exc:
+            CompileError, FolderBusy) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # the reader of our output went away (``| head``): stop quietly

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fcntl
 import json
 import os
 import re
@@ -29,6 +30,10 @@ MAX_INPUT_BYTES = 10_000_000
 
 class InputFileError(ValueError):
     """An input file that cannot be read as asked: the message is one line, without the path."""
+
+
+class FolderBusy(ValueError):
+    """Another cadcam run holds the output folder (:func:`held_folder`); one line."""
 
 
 def short_repr(value, limit: int = 80) -> str:
@@ -133,6 +138,33 @@ def atomic_path(path):
         if isinstance(exc, OSError) and exc.filename == tmp:
             exc.filename = str(path)  # name the file the user knows, not the temporary one
         raise
+
+
+@contextlib.contextmanager
+def held_folder(folder):
+    """Hold ``folder`` (created if missing) for this run alone, from its start to its end: a
+    second run into it is refused (:class:`FolderBusy`) rather than replace the first one's
+    files under it. The hold is a lock on the folder itself, released when this process ends
+    however it ends; folders this call created are removed if the run fails and leaves them
+    empty."""
+    folder = Path(folder)
+    created = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.mkdir(parents=True, exist_ok=True)
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusy(f"{folder}: another cadcam run is writing into this folder; wait for it to end "
+                             "or give another output folder") from None
+        yield folder
+    except BaseException:
+        for p in created:  # innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
+        raise
+    finally:
+        os.close(fd)
 
 
 @contextlib.contextmanager

@@ -268,3 +268,19 @@ def test_figures_drawn_side_by_side_are_the_figures_drawn_one_after_another(tmp_
     for name in (n for n in one if n.endswith(".png")):
         a, b = (np.asarray(Image.open(tmp_path / d / name)) for d in ("one", "two"))
         assert np.array_equal(a, b), name
+
+
+def test_a_second_run_into_a_held_folder_is_refused_before_work(tmp_path, capsys):
+    """Two `cadcam design` runs into one folder: the later one replaced the earlier one's files
+    while it reported success. A run holds its folder from start to end; another is refused."""
+    from cadcam.cli import main
+    from cadcam.files import held_folder
+
+    out = tmp_path / "out"
+    with held_folder(out):  # a run under way
+        assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "another cadcam run is writing into this folder" in err
+        assert os.listdir(out) == []  # nothing written by the refused run
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(out)]) == 0
+    assert (out / "result.json").is_file()
