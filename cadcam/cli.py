@@ -19,7 +19,7 @@ from pathlib import Path
 from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
-from .files import FolderBusy, held_folder
+from .files import FolderBusy, files_of_others, held_folder
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
@@ -111,7 +111,19 @@ def cmd_design(args) -> int:
     problem = _problem(args)
     _check_output_dir(args.output)
     with held_folder(args.output) as out:
+        _check_files_are_ours(out)
         return _design_into(args, problem, out)
+
+
+def _check_files_are_ours(out: Path) -> None:
+    """Refuse, before any work, an output folder whose files named like outputs cadcam did not
+    write (it replaces only its own)."""
+    from .outputs.run_files import RUN_FILES
+
+    others = files_of_others(out, [n for n in os.listdir(out) if RUN_FILES.fullmatch(n)], ("result.json",))
+    if others:
+        raise InputError(f"-o {out}: {others[0]} is a file cadcam did not write (no result.json of cadcam's "
+                         "beside it); cadcam replaces only its own files: move it or give another output folder")
 
 
 def _design_into(args, problem, out: Path) -> int:
@@ -462,7 +474,8 @@ def main(argv=None) -> int:
         return 1
     except OSError as exc:  # the environment failed after work began: disk full, permissions…
         where = f"{exc.filename}: " if exc.filename else ""
-        fix = "" if isinstance(exc, IsADirectoryError) else "; free space or fix the permissions and run again"
+        fix = ("" if isinstance(exc, (IsADirectoryError, FileExistsError))
+               else "; free space or fix the permissions and run again")
         print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left{fix})", file=sys.stderr)
         return 1
     finally:

@@ -189,8 +189,10 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             yield stage
             new = set(os.listdir(stage))
             _refuse_folders_in_the_way(folder, new)
-            stale = [] if owned is None else [n for n in os.listdir(folder)
-                                              if owned.fullmatch(n) and n not in new and (folder / n).is_file()]
+            _refuse_files_of_others(folder, new, last)
+            ours = bool(last) and written_by_cadcam(folder / last[0])
+            stale = [] if owned is None or not ours else [
+                n for n in os.listdir(folder) if owned.fullmatch(n) and n not in new and (folder / n).is_file()]
             for name in [*last, *stale]:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(folder / name)
@@ -208,6 +210,35 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             with contextlib.suppress(OSError):
                 p.rmdir()
         raise
+
+
+def written_by_cadcam(marker: Path) -> bool:
+    """Whether ``marker`` (the file a set of outputs writes last: ``result.json``,
+    ``manifest.json``) is cadcam's: JSON naming the ``cadcam_version`` that wrote it."""
+    try:
+        data = json.loads(read_input(marker))
+    except (InputFileError, OSError, ValueError, RecursionError):
+        return False
+    return isinstance(data, dict) and isinstance(data.get("cadcam_version"), str)
+
+
+def files_of_others(folder: Path, names, last: tuple[str, ...]) -> list[str]:
+    """The files among ``names`` in ``folder`` that cadcam did not write: every one that exists,
+    unless the folder holds a set of cadcam's (its ``last[0]``, :func:`written_by_cadcam`)."""
+    existing = [n for n in sorted(names) if (folder / n).is_file()]
+    if not existing or (last and written_by_cadcam(folder / last[0])):
+        return []
+    return existing
+
+
+def _refuse_files_of_others(folder: Path, names, last: tuple[str, ...]) -> None:
+    """FileExistsError, before anything moves, where a file cadcam did not write stands under
+    the name of an output: cadcam replaces only its own files."""
+    others = files_of_others(folder, names, last)
+    if others:
+        raise FileExistsError(errno.EEXIST, f"a file cadcam did not write stands where an output goes (no "
+                              f"{last[0] if last else 'set'} of cadcam's beside it); cadcam replaces only its own "
+                              "files: move it or give another output folder", str(folder / others[0]))
 
 
 def _refuse_folders_in_the_way(folder: Path, names) -> None:

@@ -141,7 +141,7 @@ def test_sigterm_during_the_solve_exits_130_and_leaves_nothing(tmp_path, monkeyp
 
 
 def test_a_move_that_fails_leaves_no_final_looking_result(tmp_path, monkeypatch):
-    (tmp_path / "result.json").write_text("old")
+    (tmp_path / "result.json").write_text('{"cadcam_version": "old"}')  # an earlier set of cadcam's
     (tmp_path / "a.csv").write_text("old")
     real, moved = os.replace, []
 
@@ -284,3 +284,32 @@ def test_a_second_run_into_a_held_folder_is_refused_before_work(tmp_path, capsys
         assert os.listdir(out) == []  # nothing written by the refused run
     assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(out)]) == 0
     assert (out / "result.json").is_file()
+
+
+def test_a_file_cadcam_did_not_write_is_never_replaced(tmp_path, capsys):
+    """A user's own torque.csv in the output folder was overwritten (and a user's cam3.dxf
+    deleted as a stale output): cadcam replaces only files of a folder it wrote a set into."""
+    from cadcam.cli import main
+
+    (tmp_path / "torque.csv").write_text("the user's")
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "torque.csv is a file cadcam did not write" in err
+    assert (tmp_path / "torque.csv").read_text() == "the user's"
+    with pytest.raises(FileExistsError, match="replaces only its own"):  # the same for the API
+        with staged_folder(tmp_path, last=("result.json",)) as stage:
+            (stage / "torque.csv").write_text("new")
+            (stage / "result.json").write_text('{"cadcam_version": "0"}')
+    assert sorted(os.listdir(tmp_path)) == ["torque.csv"]
+    (tmp_path / "cam3.dxf").write_text("the user's")  # named like an output, but not cadcam's
+    (tmp_path / "torque.csv").unlink()
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 2
+    assert (tmp_path / "cam3.dxf").read_text() == "the user's"
+
+
+def test_a_folder_of_cadcams_own_is_written_again(tmp_path):
+    from cadcam.cli import main
+
+    for _ in range(2):
+        assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 0
+    assert (tmp_path / "result.json").is_file()
