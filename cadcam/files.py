@@ -141,30 +141,38 @@ def atomic_path(path):
 
 
 @contextlib.contextmanager
-def held_folder(folder):
-    """Hold ``folder`` (created if missing) for this run alone, from its start to its end: a
-    second run into it is refused (:class:`FolderBusy`) rather than replace the first one's
-    files under it. The hold is a lock on the folder itself, released when this process ends
-    however it ends; folders this call created are removed if the run fails and leaves them
-    empty."""
-    folder = Path(folder)
+def _made_folder(folder: Path):
+    """``folder`` with its missing parents made; those this call made are removed again (if
+    empty) when the block fails."""
     created = [p for p in (folder, *folder.parents) if not p.exists()]
     folder.mkdir(parents=True, exist_ok=True)
-    fd = os.open(folder, os.O_RDONLY)
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise FolderBusy(f"{folder}: another cadcam run is writing into this folder; wait for it to end "
-                             "or give another output folder") from None
         yield folder
     except BaseException:
         for p in created:  # innermost first
             with contextlib.suppress(OSError):
                 p.rmdir()
         raise
-    finally:
-        os.close(fd)
+
+
+@contextlib.contextmanager
+def held_folder(folder):
+    """Hold ``folder`` (created if missing) for this run alone, from its start to its end: a
+    second run into it is refused (:class:`FolderBusy`) rather than replace the first one's
+    files under it. The hold is a lock on the folder itself, released when this process ends
+    however it ends; folders this call created are removed if the run fails and leaves them
+    empty."""
+    with _made_folder(Path(folder)) as folder:
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise FolderBusy(f"{folder}: another cadcam run is writing into this folder; wait for it to "
+                                 "end or give another output folder") from None
+            yield folder
+        finally:
+            os.close(fd)
 
 
 @contextlib.contextmanager
@@ -179,18 +187,16 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
     the staging folder, and the folders this call created, are removed and ``folder``'s
     previous content is left as it was.
     """
-    folder = Path(folder)
-    created = [p for p in (folder, *folder.parents) if not p.exists()]
-    folder.mkdir(parents=True, exist_ok=True)
-    try:
+    with _made_folder(Path(folder)) as folder:
         remove_leftovers(folder)
         stage = Path(tempfile.mkdtemp(prefix=_temp_prefix("stage-"), dir=folder))
         try:
             yield stage
             new = set(os.listdir(stage))
             _refuse_folders_in_the_way(folder, new)
-            _refuse_files_of_others(folder, new, last)
             ours = bool(last) and written_by_cadcam(folder / last[0])
+            if not ours:
+                _refuse_files_of_others(folder, new, last)
             stale = [] if owned is None or not ours else [
                 n for n in os.listdir(folder) if owned.fullmatch(n) and n not in new and (folder / n).is_file()]
             for name in [*last, *stale]:
@@ -205,11 +211,6 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             raise
         finally:
             shutil.rmtree(stage, ignore_errors=True)
-    except BaseException:
-        for p in created:  # innermost first
-            with contextlib.suppress(OSError):
-                p.rmdir()
-        raise
 
 
 def written_by_cadcam(marker: Path) -> bool:
@@ -232,9 +233,9 @@ def files_of_others(folder: Path, names, last: tuple[str, ...]) -> list[str]:
 
 
 def _refuse_files_of_others(folder: Path, names, last: tuple[str, ...]) -> None:
-    """FileExistsError, before anything moves, where a file cadcam did not write stands under
-    the name of an output: cadcam replaces only its own files."""
-    others = files_of_others(folder, names, last)
+    """FileExistsError, before anything moves, where a file stands under the name of an output
+    in a folder that holds no set of cadcam's: cadcam replaces only its own files."""
+    others = [n for n in sorted(names) if (folder / n).is_file()]
     if others:
         raise FileExistsError(errno.EEXIST, f"a file cadcam did not write stands where an output goes (no "
                               f"{last[0] if last else 'set'} of cadcam's beside it); cadcam replaces only its own "
