@@ -10,7 +10,6 @@ import argparse
 import importlib
 import json
 import os
-import signal
 import sys
 import threading
 from dataclasses import replace
@@ -19,6 +18,7 @@ from pathlib import Path
 from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
+from .interrupts import INTERRUPTED, interrupt_arrived, signals_stop_the_run
 from .files import FolderBusy, files_of_others, held_folder
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
@@ -204,6 +204,7 @@ def _check_output_dir(text: str, flag: str = "-o") -> None:
         raise InputError(f"{flag} {text!r}: an empty path; give an output folder")
     path = Path(text)
     for parent in [path, *path.parents]:
+        _refuse_dangling_link(parent, path, flag)
         if parent.exists():
             if not parent.is_dir():
                 raise InputError(f"{flag} {path}: {parent} is a file, not a folder; give a folder")
@@ -218,11 +219,20 @@ def _check_output_file(text: str, flag: str) -> None:
     if not text.strip():
         raise InputError(f"{flag} {text!r}: an empty path; give a file name")
     path = Path(text)
+    _refuse_dangling_link(path, path, flag)
     if path.is_dir():
         raise InputError(f"{flag} {path}: is a folder; give a file name")
     if path.exists() and not os.access(path, os.W_OK):
         raise InputError(f"{flag} {path}: is not writable; give a file you can write to")
     _check_output_dir(str(path.parent), flag)
+
+
+def _refuse_dangling_link(link: Path, path: Path, flag: str) -> None:
+    """InputError if ``link`` (``path`` or one of its folders) is a symbolic link that leads
+    nowhere: to a missing path, or round a loop."""
+    if link.is_symlink() and not link.exists():
+        raise InputError(f"{flag} {path}: {link} is a symbolic link to nothing (a missing path or a loop); "
+                         "remove it, create its target or give another path")
 
 
 def _check_workshop_args(args) -> None:
@@ -334,11 +344,6 @@ def cmd_cache(args) -> int:
     print(f"{cache_dir()}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
           "(solver.functions = 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves the folder)")
     return 0
-
-
-def _terminated(signum, frame):
-    """SIGTERM unwinds like Ctrl-C, so that temporary files and staging folders are removed."""
-    raise KeyboardInterrupt
 
 
 def _add_spec_arguments(p) -> None:
@@ -456,15 +461,18 @@ def _parser() -> _Parser:
 def main(argv=None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code (module
     docstring): every input error as one line on stderr."""
-    parser = _parser()
-    in_main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
+    with signals_stop_the_run():  # handled inside: a signal during the messages is ignored
+        return _run_command(argv)
+
+
+def _run_command(argv) -> int:
+    """:func:`main` with the signals already stopping the run."""
     try:
-        args = parser.parse_args(argv)
-        return args.run(args)
+        args = _parser().parse_args(argv)
+        return _run_interruptible(args)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: temporary files are gone, no partial set is left
         print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
-        return 130
+        return INTERRUPTED
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError,
             CompileError, FolderBusy) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
@@ -478,10 +486,15 @@ def main(argv=None) -> int:
                else "; free space or fix the permissions and run again")
         print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left{fix})", file=sys.stderr)
         return 1
-    finally:
-        if in_main:
-            signal.signal(signal.SIGTERM, previous)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def _run_interruptible(args) -> int:
+    """Run the parsed command; an error raised after a signal arrived is the interrupt (CasADi
+    turns a ``KeyboardInterrupt`` inside a function call into ``RuntimeError``)."""
+    try:
+        return args.run(args)
+    except Exception as exc:
+        if interrupt_arrived():
+            raise KeyboardInterrupt from exc
+        raise
+

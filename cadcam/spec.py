@@ -27,6 +27,7 @@ from .mechanisms.base import (ENERGY, Profile, design_methods, legacy_torque_mod
                               mechanism_kinds, torque_models)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
+from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
 from .problem import (IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
                       size_error)
@@ -34,10 +35,6 @@ from .targets import ExpressionError, Target, read_table, reserved_name, target_
 
 _REQUIRED = object()
 _PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
-
-
-class SpecError(ValueError):
-    """A spec that cannot be used; the message is one line naming file, key and expected form."""
 
 
 def _number(v) -> bool:

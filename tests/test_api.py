@@ -1,6 +1,8 @@
 """The Python API: cadcam.design/evaluate/check_derivatives/read_study, the Result's fields,
 summary, figures and files, and the CLI's check command, --ipopt and --version."""
 import copy
+import subprocess
+import sys
 import json
 import time
 import tomllib
@@ -227,3 +229,27 @@ def test_evaluate_check_and_read_study_raise_only_documented_errors(design, grid
     _documented_or_fine(lambda: cadcam.check_derivatives(SPEC_1DOF, points=points, nlp=False) if not (
         isinstance(points, int) and not isinstance(points, bool) and 1 <= points <= 20) else None)
     _documented_or_fine(lambda: cadcam.read_study(path))
+
+
+def test_every_public_name_resolves_and_type_checkers_see_the_same_names():
+    """``cadcam/__init__`` imports its names on first use; each must resolve to the object its
+    module defines, and the block type checkers read must name the same ones."""
+    import ast
+    import importlib
+    import inspect
+
+    for name in cadcam.__all__:
+        module = importlib.import_module(f"cadcam.{cadcam._MODULE_OF[name]}")
+        assert getattr(cadcam, name) is getattr(module, name)
+    assert callable(cadcam.optimize)  # not the module cadcam.optimize, once that is imported
+    tree = ast.parse(inspect.getsource(cadcam))
+    typed = {a.asname for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.level
+             for a in node.names}
+    assert typed == set(cadcam.__all__)
+
+
+def test_the_command_imports_no_numerical_library_before_its_signal_handler():
+    """The console script installs its handler first (an interrupt at start-up exits 130)."""
+    code = "import sys, cadcam.__main__; print(sorted(m for m in ('numpy', 'casadi') if m in sys.modules))"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "[]"

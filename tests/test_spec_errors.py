@@ -175,3 +175,33 @@ def test_a_planar_profile_over_more_than_a_turn_is_refused():
     robot = cadcam.load_problem(SPEC_1DOF.parent / "fedorov2018_cable_robot.toml")  # helical grooves: 900°
     lo, hi = robot.joints[0].theta_range
     assert hi - lo > 2 * 3.1416
+
+
+def test_minimax_on_joints_coupled_by_a_spring_is_a_spec_error():
+    """The RR arm with solver.objective = "minimax" ended in a ValueError traceback."""
+    with pytest.raises(cadcam.SpecError, match=r"solver.objective = 'minimax' needs joint torques"):
+        cadcam.design(SPEC_1DOF.parent / "johnston2023_rr_arm.toml", overrides={"solver.objective": "minimax"})
+
+
+def test_an_output_law_beyond_the_slider_is_refused_before_the_envelope_start(tmp_path, capsys):
+    """Fedorov's balancer with the pendulum's mass × 100 ended in a rootfinder traceback."""
+    spec = tmp_path / "heavy.toml"
+    spec.write_text((SPEC_1DOF.parent / "fedorov2018_balancer.toml").read_text().replace("mass = 0.17", "mass = 17.0"))
+    assert main(["design", str(spec), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "outside its slider_range [100, 200] mm" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("target", ["missing/folder", "loop"])
+@pytest.mark.parametrize("command", [["design", str(SPEC_1DOF), "-o", "{}"],
+                                     ["design", str(SPEC_1DOF), "-o", "{}/sub"],
+                                     ["sweep", str(SPEC_1DOF.parents[1] / "studies" / "basis_order.toml"), "-o", "{}"]])
+def test_an_output_through_a_link_to_nothing_is_refused_before_work(tmp_path, capsys, target, command):
+    """'-o' at a dangling symbolic link or a loop solved first and failed after."""
+    link = tmp_path / "link"
+    link.symlink_to(tmp_path / target if target != "loop" else link)
+    assert main([a.format(link) for a in command]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "is a symbolic link to nothing" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link"]

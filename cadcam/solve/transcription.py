@@ -38,6 +38,7 @@ from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.springs import Network
 from ..physics.wrap import length_function, segment_lengths
 from ..problem import Options, Problem
+from ..errors import SpecError
 
 FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8× the points
 #: Gauss–Legendre points of the segment from the reference pose to the grid's first angle, at
@@ -243,13 +244,13 @@ class Transcription:
 
     def _own_target(self, vec, i: int, joint, td: np.ndarray) -> float:
         """Put joint i's target samples ``td`` (the tensor grid) on its own angles into ``vec``
-        for the minimax rows; ValueError if it depends on the other joints' angles. Returns its
+        for the minimax rows; SpecError if it depends on the other joints' angles. Returns its
         RMS [N·m], the minimax objective's scale."""
         own = np.moveaxis(td, i, 0).reshape(self.n, -1)
         if np.ptp(own, axis=1).max() > 1e-9 * (1 + np.abs(td).max()):
-            raise ValueError(f"objective 'minimax' needs each target to depend on its own "
-                             f"joint's angle only; {joint.name!r}'s depends on the others: "
-                             f"use 'least_squares'")
+            raise SpecError(f"solver.objective = 'minimax' needs each target to depend on its own "
+                            f"joint's angle only; {joint.name!r}'s depends on the others: "
+                            f"use 'least_squares'")
         self.p.put(vec, f"td{i}", own[:, 0])
         return float(np.sqrt(np.mean(td**2)))
 
@@ -603,9 +604,9 @@ def _tracking_terms(rows: _Rows, p: _Vars, problem: Problem, terms: list, e: dic
             if problem.joints[i].tracking_weight == 0:
                 continue  # no torque goal on this joint (an output law may drive it)
             if V:
-                raise ValueError(f"objective 'minimax' needs joint torques that each depend "
-                                 f"on their own joint's angle; {problem.joints[i].name!r} is "
-                                 f"coupled to other joints by a spring: use 'least_squares'")
+                raise SpecError(f"solver.objective = 'minimax' needs joint torques that each depend "
+                                f"on their own joint's angle; {problem.joints[i].name!r} is coupled "
+                                f"to other joints by a spring: use 'least_squares'")
             t = rows.v.add("t", 1, i)
             err = (U - p[f"td{i}"]) / TORQUE_SCALE
             rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)

@@ -24,6 +24,7 @@ finish, so warm-started sweeps are reproducible only serially.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -31,11 +32,12 @@ import socket
 import sqlite3
 import sys
 import time
+import urllib.parse
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from multiprocessing import get_context
 from pathlib import Path
 
-from ..files import process_alive
+from ..files import process_alive, short_repr
 from ..version import __version__
 from .study import Study, StudyError
 
@@ -54,6 +56,10 @@ CREATE TABLE IF NOT EXISTS claims (
 #: A claim of a runner on another host whose process cannot be checked is taken over when that
 #: runner has recorded no case for this long [s].
 CLAIM_LEASE_S = 3600.0
+#: How long a sweep waits for a Dask scheduler to answer [s].
+DASK_CONNECT_TIMEOUT_S = 10.0
+#: The address schemes of a Dask scheduler cadcam accepts.
+DASK_SCHEMES = ("tcp", "tls", "ws", "wss")
 COLUMNS = ("case_id", "idx", "params", "status", "message", "metrics", "recheck", "design",
            "iterations", "solve_time_s", "build_time_s", "wall_time_s", "error",
            "cadcam_version", "torque_model", "finished")
@@ -200,6 +206,13 @@ def _close(db: sqlite3.Connection) -> None:
         db.close()
 
 
+def _remove_database(path) -> None:
+    """Remove a study database with its SQLite side files."""
+    for suffix in ("", "-wal", "-shm", "-journal"):
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(f"{path}{suffix}")
+
+
 def _read_only(path) -> sqlite3.Connection:
     """A read-only connection to the SQLite file ``path``, its name escaped in the URI (a ``#``,
     ``?`` or ``%`` in a file name is part of the name)."""
@@ -264,8 +277,7 @@ def read_rows(path) -> tuple[dict, list[dict]]:
         db = _read_only(path)
         try:
             study = json.loads(db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0])
-            if not (isinstance(study, dict) and isinstance(study.get("name"), str)
-                    and isinstance(study.get("record"), list)):
+            if not _is_study_definition(study):
                 raise TypeError("not a study definition")
             rows = []
             for r in db.execute(f"SELECT {','.join(COLUMNS)} FROM cases ORDER BY idx"):
@@ -281,6 +293,15 @@ def read_rows(path) -> tuple[dict, list[dict]]:
     except (sqlite3.Error, ValueError, TypeError, RecursionError):
         raise SweepError(f"{path}: not a cadcam study database (give a file that `cadcam sweep` wrote)") from None
     return study, rows
+
+
+def _is_study_definition(study) -> bool:
+    """Whether ``study`` (JSON read from a database) has the shape :meth:`Study.to_dict`
+    gives the parts a reader uses: a name, the names it records, the keys it varies."""
+    return (isinstance(study, dict) and isinstance(study.get("name"), str)
+            and isinstance(study.get("record"), list) and all(isinstance(r, str) for r in study["record"])
+            and isinstance(study.get("parameters"), list)
+            and all(isinstance(p, dict) and isinstance(p.get("key"), str) for p in study["parameters"]))
 
 
 # -- executors --------------------------------------------------------------------------------
@@ -316,7 +337,13 @@ class _Local:
     def wait(self, futures):
         return wait(futures, return_when=FIRST_COMPLETED)[0]
 
-    def close(self):
+    def close(self, interrupted: bool = False):
+        """Wait for the workers to end; after an interrupt, end them first (a signal reaches
+        this process alone, and a worker in the middle of a case would run it to its end)."""
+        if interrupted:
+            # ProcessPoolExecutor has no public way to stop a running worker before Python 3.14
+            for process in list(self.pool._processes.values()):
+                process.terminate()
         self.pool.shutdown(cancel_futures=True)
 
 
@@ -332,7 +359,7 @@ class _Serial:
     def wait(self, futures):
         return futures
 
-    def close(self):
+    def close(self, interrupted: bool = False):
         pass
 
 
@@ -350,7 +377,12 @@ class _Dask:
             self.client = Client(self.cluster)
         else:
             self.cluster = None
-            self.client = Client(address)
+            try:
+                self.client = Client(address, timeout=DASK_CONNECT_TIMEOUT_S)
+            except (OSError, TimeoutError):
+                raise SweepError(f"--dask {address}: no Dask scheduler answered within "
+                                 f"{DASK_CONNECT_TIMEOUT_S:g} s; start it, correct the address or use "
+                                 "--dask local") from None
 
     def submit(self, *args):
         return self.client.submit(run_case, *args, pure=False)
@@ -358,10 +390,31 @@ class _Dask:
     def wait(self, futures):
         return self._wait(list(futures), return_when="FIRST_COMPLETED").done
 
-    def close(self):
+    def close(self, interrupted: bool = False):
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+def check_dask_address(address: str) -> None:
+    """SweepError unless ``address`` is ``local`` or a scheduler address ``[scheme://]host:port``
+    (scheme one of :data:`DASK_SCHEMES`)."""
+    if address != "local" and not _is_scheduler_address(address):
+        raise SweepError(f"--dask {short_repr(address)}: expected 'local' or a scheduler address "
+                         f"[scheme://]host:port with scheme {', '.join(DASK_SCHEMES)} "
+                         "(for example tcp://127.0.0.1:8786)")
+
+
+def _is_scheduler_address(address: str) -> bool:
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    try:
+        parts = urllib.parse.urlsplit(f"//{rest}")
+        return (scheme in DASK_SCHEMES and bool(parts.hostname) and parts.port is not None
+                and not (parts.path or parts.query or parts.fragment or parts.username or parts.password))
+    except ValueError:  # a port that is not a number in 0 … 65535, a bracket left open
+        return False
 
 
 def _nearest(case: dict, solved: list[tuple[dict, dict, float, str]], scales: dict):
@@ -410,6 +463,9 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
     """
     cases = study.validate()
     workers = (os.cpu_count() or 1) if workers is None else workers
+    if dask:
+        check_dask_address(dask)
+    created = not os.path.lexists(db_path)
     db = open_db(db_path, study)
     try:
         release_stale_claims(db)
@@ -418,8 +474,13 @@ def run_sweep(study: Study, db_path, workers: int | None = None, dask: str | Non
         ran, elapsed = _run_todo(db, study, cases, todo, workers, dask, progress) if todo else (0, 0.0)
         statuses = dict(db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status").fetchall())
         elsewhere = db.execute("SELECT COUNT(*) FROM claims").fetchone()[0]
-    finally:
+    except BaseException:
+        empty = created and not db.execute("SELECT COUNT(*) FROM cases").fetchone()[0]
         _close(db)
+        if empty:  # a database this run created and recorded nothing in is not left behind
+            _remove_database(db_path)
+        raise
+    _close(db)
     return {"cases": len(cases), "ran": ran, "skipped": len(cases) - len(todo), "elsewhere": elsewhere,
             "wall_time_s": elapsed, "statuses": statuses,
             "cases_per_min": 60 * ran / elapsed if ran and elapsed > 0 else float("nan")}
@@ -440,11 +501,13 @@ def _run_todo(db: sqlite3.Connection, study: Study, cases: list[dict], todo: lis
     # two cases per worker keep a pool busy; serially a case is solved when submitted,
     # so one at a time lets the next warm-start from it
     room = 2 * max(workers, 1) if dask or workers else 1
+    interrupted = True
     try:
         ran = _submit_and_record(db, executor, definition, list(todo), room, warm, report)
+        interrupted = False
     finally:
         finish()
-        executor.close()
+        executor.close(interrupted)
         with db:  # cases this runner claimed but did not finish (an interrupt) are free again
             db.execute("DELETE FROM claims WHERE host = ? AND pid = ?", runner())
     return ran, time.perf_counter() - t0

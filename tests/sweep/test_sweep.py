@@ -8,9 +8,13 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+import cadcam.sweep.runner as runner_module
+from cadcam.files import short_repr
 from cadcam.sweep.study import Study, StudyError, load_study
-from cadcam.sweep.runner import read_rows, run_sweep, runner
+from cadcam.sweep.runner import SweepError, check_dask_address, read_rows, run_sweep, runner
 
 from ..conftest import SPEC_1DOF, check_output_file
 
@@ -251,3 +255,60 @@ def test_a_study_reads_back_from_a_file_whose_name_holds_uri_characters(tmp_path
     definition, rows = read_rows(tmp_path / name)
     assert definition["name"] == "small" and len(rows) == 4
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "study.toml"])
+
+
+@settings(max_examples=200, deadline=None, derandomize=True, database=None)
+@given(address=st.one_of(st.text(max_size=30),
+                         st.from_regex(r"(tcp|tls|ws|wss|http|inproc)?(://)?[a-z0-9.:\[\]/@%?#-]{0,25}",
+                                       fullmatch=True)))
+def test_any_dask_address_is_either_a_scheduler_address_or_one_line(address):
+    """'--dask ::::x' ended in a traceback; an address is now checked before anything starts."""
+    try:
+        check_dask_address(address)
+    except SweepError as exc:
+        assert "\n" not in str(exc) and str(exc).startswith(f"--dask {short_repr(address)}:")
+    else:
+        assert address == "local" or ":" in address
+
+
+@pytest.mark.parametrize("address, ok", [("local", True), ("127.0.0.1:8786", True), ("tcp://scheduler:8786", True),
+                                         ("tls://[::1]:8786", True), ("::::x", False), ("tcp://host", False),
+                                         ("http://host:80", False), ("host:80/path", False), ("host:99999", False)])
+def test_a_dask_address_is_checked_by_its_form(address, ok):
+    if ok:
+        check_dask_address(address)
+    else:
+        with pytest.raises(SweepError, match="expected 'local' or a scheduler address"):
+            check_dask_address(address)
+
+
+def test_a_scheduler_that_does_not_answer_is_one_line_and_leaves_no_database(tmp_path, monkeypatch):
+    """'--dask tcp://127.0.0.1:9' took 30 s, blamed the disk and left an empty database."""
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(runner_module, "DASK_CONNECT_TIMEOUT_S", 1.0)
+    with pytest.raises(SweepError, match="no Dask scheduler answered within 1 s"):
+        run_sweep(_study(tmp_path), tmp_path / "s.db", dask="tcp://127.0.0.1:9", progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+@pytest.fixture(scope="module")
+def recorded_study(tmp_path_factory):
+    """A database of the small study, run once."""
+    folder = tmp_path_factory.mktemp("recorded")
+    run_sweep(_study(folder), folder / "s.db", workers=0, progress=False)
+    return folder / "s.db"
+
+
+@pytest.mark.parametrize("record", [[1], [None], [["rmse"]], "rmse"])
+def test_a_study_definition_of_the_wrong_shape_is_not_a_study(tmp_path, recorded_study, record):
+    """A database whose definition records a non-string ended 'sweep-export' in a traceback."""
+    import json
+    import shutil
+
+    db = shutil.copy(recorded_study, tmp_path / "s.db")
+    with sqlite3.connect(db) as con:
+        definition = json.loads(con.execute("SELECT definition FROM study").fetchone()[0])
+        con.execute("UPDATE study SET definition = ?", (json.dumps({**definition, "record": record}),))
+    con.close()
+    with pytest.raises(SweepError, match="not a cadcam study database"):
+        read_rows(db)

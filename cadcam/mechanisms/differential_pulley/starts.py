@@ -7,6 +7,7 @@ from dataclasses import replace
 import casadi as ca
 import numpy as np
 
+from ...errors import SpecError
 from .fedorov_envelope import cable_length, differential_envelopes, fit_pulley
 
 
@@ -25,14 +26,31 @@ def envelope_start(kind, problem, design, samples: int = 2001):
             continue
         theta = np.linspace(*problem.joints[mech.joint].theta_range, samples)
         x, dx = _law(mech, theta)
-        mech, envs = differential_envelopes(mech, theta, x, dx, mech.start_radius(mech.profiles[0]))
-        fitted = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
-        k = int(np.argmin(np.abs(theta - mech.reference_angle)))
-        length = cable_length(mech, fitted, theta[k], x[k], [env.phi_polar[k] for env in envs])
+        _check_law_in_slider_range(mech, x)
+        try:
+            mech, envs = differential_envelopes(mech, theta, x, dx, mech.start_radius(mech.profiles[0]))
+            fitted = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
+            k = int(np.argmin(np.abs(theta - mech.reference_angle)))
+            length = cable_length(mech, fitted, theta[k], x[k], [env.phi_polar[k] for env in envs])
+        except (ValueError, RuntimeError) as exc:  # RuntimeError: CasADi's Newton found no tangency
+            reason = str(exc).splitlines()[0] if isinstance(exc, ValueError) else "no cable touches the fitted pulleys"
+            raise SpecError(f"mechanism {mech.name!r}: Fedorov's envelope method finds no start for its "
+                            f"output law ({reason}); change the output law, the rolling radius or the "
+                            "idler's slider range") from None
         mechanisms[u] = replace(mech, cable_length=length)
         coefs[sl] = fitted
     return (replace(problem, mechanisms=tuple(mechanisms)),
             replace(design, coefficients=coefs))
+
+
+def _check_law_in_slider_range(mech, x: np.ndarray) -> None:
+    """SpecError, before any work, when the output law ``x`` [m] leaves the idler's slider."""
+    lo, hi = mech.slider_range
+    if x.min() < lo or x.max() > hi:
+        raise SpecError(f"mechanism {mech.name!r}: its output law moves the idler over "
+                        f"{1e3 * x.min():.4g} … {1e3 * x.max():.4g} mm, outside its slider_range "
+                        f"[{1e3 * lo:.4g}, {1e3 * hi:.4g}] mm; change the law (its mass, springs or "
+                        "slider_zero) or widen the slider range")
 
 
 def _law(mech, theta: np.ndarray):
