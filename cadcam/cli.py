@@ -116,11 +116,17 @@ def cmd_design(args) -> int:
 
 
 def _check_files_are_ours(out: Path) -> None:
-    """Refuse, before any work, an output folder whose files named like outputs cadcam did not
-    write (it replaces only its own)."""
+    """Refuse, before any work, an output folder that holds a folder named like an output, or
+    files named like outputs that cadcam did not write (it replaces only its own files)."""
     from .outputs.run_files import RUN_FILES
 
-    others = files_of_others(out, [n for n in os.listdir(out) if RUN_FILES.fullmatch(n)], ("result.json",))
+    named = [n for n in sorted(os.listdir(out)) if RUN_FILES.fullmatch(n)]
+    in_the_way = [n for n in named if not (out / n).is_file()]
+    if in_the_way:
+        raise InputError(f"-o {out}: {in_the_way[0]} stands where an output file goes and is not a file (a "
+                         "folder, or a link to one or to nothing); cadcam replaces only files: move it or give "
+                         "another output folder")
+    others = files_of_others(out, named, ("result.json",))
     if others:
         raise InputError(f"-o {out}: {others[0]} is a file cadcam did not write (no result.json of cadcam's "
                          "beside it); cadcam replaces only its own files: move it or give another output folder")

@@ -243,12 +243,14 @@ def _refuse_files_of_others(folder: Path, names, last: tuple[str, ...]) -> None:
 
 
 def _refuse_folders_in_the_way(folder: Path, names) -> None:
-    """IsADirectoryError, before anything moves, where a folder (or a link to one) stands under
-    the name of an output: cadcam replaces files it writes, never a folder of the user's."""
+    """IsADirectoryError, before anything moves, where something other than a file stands under
+    the name of an output (a folder, a link to one or to nothing): cadcam replaces files it
+    writes, never a folder or a link of the user's."""
     for name in sorted(names):
-        if (folder / name).is_dir():
-            raise IsADirectoryError(errno.EISDIR, "a folder stands where this output file goes; cadcam "
-                                    "replaces files, never folders: move it or give another output folder",
+        if os.path.lexists(folder / name) and not (folder / name).is_file():
+            raise IsADirectoryError(errno.EISDIR, "something other than a file (a folder, or a link to one "
+                                    "or to nothing) stands where this output file goes; cadcam replaces "
+                                    "only files: move it or give another output folder",
                                     str(folder / name))
 
 

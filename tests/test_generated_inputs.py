@@ -1263,3 +1263,73 @@ def test_an_empty_output_folder_is_refused(tmp_path, capfd):
     (tmp_path / "spec.toml").write_text(FAST_1DOF)
     run = cli(capfd, "design", "spec.toml", "-o", "", "--grid", 5, cwd=tmp_path)
     assert_refused(run, names=["-o"], absent=[tmp_path / "result.json"])
+
+
+# -- output folders that already hold things (issue 29, item 3) -------------------------------------
+#: Entries an output folder may already hold: names cadcam writes, and names it does not.
+OUTPUT_NAMES = ("result.json", "torque.csv", "profile.csv", "cam1.dxf", "cam3.dxf")
+OTHER_NAMES = ("notes.txt", "data", "cam1_notes.txt")
+ENTRY_KINDS = ("file", "folder", "link to a folder", "link to nothing")
+
+
+@st.composite
+def folder_contents(draw):
+    """{name: kind} of what stands in the output folder before the run; ``result.json`` as a
+    file is cadcam's own (a set of an earlier run) or a user's."""
+    names = draw(st.lists(st.sampled_from(OUTPUT_NAMES + OTHER_NAMES), unique=True, max_size=5))
+    contents = {n: draw(st.sampled_from(ENTRY_KINDS)) for n in names}
+    if contents.get("result.json") == "file":
+        contents["result.json"] = draw(st.sampled_from(["cadcam's result.json", "a user's result.json"]))
+    return contents
+
+
+def _fill(folder: Path, contents: dict) -> None:
+    folder.mkdir()
+    for name, kind in contents.items():
+        path = folder / name
+        if kind == "folder":
+            path.mkdir()
+            (path / "mine.txt").write_text("the user's")
+        elif kind == "link to a folder":
+            (folder.parent / f"target-{name}").mkdir()
+            path.symlink_to(folder.parent / f"target-{name}")
+        elif kind == "link to nothing":
+            path.symlink_to(folder.parent / "nothing")
+        elif kind == "cadcam's result.json":
+            path.write_text(json.dumps({"cadcam_version": "0.1.0", "status": "success"}))
+        else:
+            path.write_text("the user's")
+
+
+def _refused_for(contents: dict) -> bool:
+    """Whether cadcam must refuse the folder: something other than a file (a folder, a link to
+    one or to nothing) where an output goes, or output-named files beside no set of cadcam's."""
+    in_the_way = any(contents.get(n) in ("folder", "link to a folder", "link to nothing") for n in OUTPUT_NAMES)
+    ours = contents.get("result.json") == "cadcam's result.json"
+    others = any(contents.get(n) in ("file", "a user's result.json") for n in OUTPUT_NAMES)
+    return in_the_way or (others and not ours)
+
+
+@_settings(24)
+@given(contents=folder_contents())
+def test_a_design_into_a_folder_that_holds_things_replaces_only_cadcams_files(contents, scratch, capfd):
+    """Refused before any work (nothing touched) when the folder holds the user's things where
+    outputs go; otherwise the design is written and every other entry is left as it was."""
+    work = scratch()
+    spec = work / "spec.toml"
+    spec.write_text(FAST_1DOF)
+    out = work / "out"
+    _fill(out, contents)
+    before = snapshot(work)
+    run = cli(capfd, "design", spec, "-o", out, "--no-figures", "--multistart", 0, cwd=work)
+    event(f"folder: {'refused' if _refused_for(contents) else 'written'} -> exit {run.code}")
+    if _refused_for(contents):
+        assert_refused(run, names=[out], root=work, before=before)
+        return
+    assert_design_outcome(run, out)
+    after = snapshot(work)
+    kept = [n for n in contents if n not in OUTPUT_NAMES]
+    for name in kept:  # what is not an output file of cadcam's is left as it was
+        changed = [p for p in set(before) | set(after)
+                   if (p == f"out/{name}" or p.startswith(f"out/{name}/")) and before.get(p) != after.get(p)]
+        assert not changed, f"{name} ({contents[name]}) was changed"

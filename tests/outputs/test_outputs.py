@@ -167,7 +167,7 @@ def test_a_folder_of_the_users_in_the_way_is_never_deleted(tmp_path):
     (tmp_path / "torque.csv").mkdir()
     (tmp_path / "torque.csv" / "mine.txt").write_text("the user's")
     (tmp_path / "result.json").write_text("old")
-    with pytest.raises(IsADirectoryError, match="never folders") as refused:
+    with pytest.raises(IsADirectoryError, match="replaces only files") as refused:
         with staged_folder(tmp_path, last=("result.json",)) as stage:
             (stage / "result.json").write_text("new")
             (stage / "torque.csv").write_text("new")
@@ -177,15 +177,17 @@ def test_a_folder_of_the_users_in_the_way_is_never_deleted(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["result.json", "torque.csv"]
 
 
-def test_design_into_a_folder_holding_a_users_folder_keeps_it_and_says_so(tmp_path, capsys):
+def test_design_into_a_folder_holding_a_users_folder_is_refused_before_work(tmp_path, capsys):
+    """The folder in the way was found at the move, after the solve (exit 1)."""
     from cadcam.cli import main
 
     (tmp_path / "torque.csv").mkdir()
     (tmp_path / "torque.csv" / "mine.txt").write_text("the user's")
-    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 1
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 2
     captured = capsys.readouterr()
-    assert captured.out.startswith("success: ")  # the verdict is shown whatever the files do
+    assert captured.out == ""  # nothing was solved
     assert len(captured.err.strip().splitlines()) == 1 and "torque.csv" in captured.err
+    assert sorted(os.listdir(tmp_path)) == ["torque.csv"]
     assert (tmp_path / "torque.csv" / "mine.txt").read_text() == "the user's"
 
 
