@@ -28,8 +28,9 @@ from .verify.evaluate import evaluate as evaluate_design
 from .verify.model import torque_function, torque_jacobian_function
 from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
+from .solve.builds import built_for, structure_key
 from .solve.transcription import Transcription
-from .optimize import optimize, start_design
+from .optimize import optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
@@ -153,6 +154,40 @@ def design(spec, *, start=None, **options) -> Result:
     """
     problem = load_problem(spec, **options)
     return optimize(problem, start=None if start is None else load_design(start, problem))
+
+
+class Session:
+    """Design again and again after small edits, as a design page does: each problem
+    structure's NLP is built once and kept (:func:`cadcam.solve.builds.built_for`), and each
+    design starts from the last successful answer of the same structure, falling back on the
+    default start when that does worse (:func:`cadcam.optimize.warm_optimize`).
+
+    A mechanism that completes its problem from its own start (a differential pair's cable
+    length from Fedorov's envelope) is always solved from that start.
+
+    >>> session = cadcam.Session()
+    >>> first = session.design("models/johnston2023_1dof.toml")
+    >>> again = session.design("models/johnston2023_1dof.toml", overrides={"springs.1.rate": 1010.0})
+    """
+
+    def __init__(self):
+        self._last: dict[str, Result] = {}
+
+    def design(self, spec, **options) -> Result:
+        """:func:`design` of ``spec`` (``options`` as for :func:`load_problem`), through the
+        NLP kept for its structure and from the last answer of that structure."""
+        problem = load_problem(spec, **options)
+        if problem.options.method != "nlp":
+            return optimize(problem)
+        completed, _ = start_design(problem)
+        transcription, _ = built_for(completed)
+        key = structure_key(completed)
+        last = self._last.get(key) if completed is problem else None
+        result = warm_optimize(completed, transcription, None if last is None else last.design,
+                               None if last is None else last.evaluation.metrics.objective, "the last design")
+        if result.success:
+            self._last[key] = result
+        return result
 
 
 def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **options) -> Evaluation:

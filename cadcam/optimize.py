@@ -189,3 +189,37 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     return Result(status=status, message=message, problem=problem, design=best.design,
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,
                   recheck_time_s=recheck_s)
+
+
+#: A warm-started design whose objective is worse than its start's by more than this fraction
+#: is solved again from the default start, and the better of the two kept: a warm start can
+#: lead IPOPT into a worse basin (measured on the 1-DOF bench sweep: up to +79 %).
+WARM_GUARD = 0.10
+
+
+def warm_optimize(problem: Problem, transcription: Transcription, start: Design | None,
+                  start_objective: float | None, start_name: str) -> Result:
+    """:func:`optimize` from ``start``, the design of a neighbouring problem named
+    ``start_name`` whose objective was ``start_objective`` (a sweep's nearest case, a design
+    session's last answer), and again from the default start when the warm start fails or
+    ends worse than that objective by more than :data:`WARM_GUARD`; the better is kept and
+    its message says which start it came from. Without ``start``, :func:`optimize`."""
+    result = optimize(problem, transcription=transcription, start=start)
+    if start is None:
+        return result
+    if not result.success:  # a warm start that did not help: start afresh
+        result = optimize(problem, transcription=transcription)
+        result.message += " (from the default start, after a failed warm start)"
+    elif start_objective is not None and \
+            result.evaluation.metrics.objective > (1 + WARM_GUARD) * start_objective:
+        cold = optimize(problem, transcription=transcription)  # a worse basin? compare with a cold start
+        warm_objective = result.evaluation.metrics.objective
+        if cold.success and cold.evaluation.metrics.objective < warm_objective:
+            result = cold
+            result.message += (f" (from the default start: the warm start from {start_name} "
+                               f"reached a worse objective, {warm_objective:.6g})")
+        else:
+            result.message += f" (warm start from {start_name} kept: the default start did no better)"
+    else:
+        result.message += f" (warm start from {start_name})"
+    return result

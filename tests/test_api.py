@@ -180,15 +180,19 @@ def test_read_study_returns_one_row_per_case(tmp_path):
     assert all(v > 0 for v in table["rmse_1"])
 
 
-def test_the_readme_api_example_runs_as_written(tmp_path, monkeypatch, capsys):
+def test_the_readme_api_examples_run_as_written(tmp_path, monkeypatch, capsys):
     readme = (SPEC_1DOF.parents[1] / "README.md").read_text()
-    block = readme.split("<!-- api-example -->\n```python\n")[1].split("```\n<!-- /api-example -->")[0]
+    blocks = [part.split("```\n<!-- /api-example -->")[0]
+              for part in readme.split("<!-- api-example -->\n```python\n")[1:]]
+    assert len(blocks) == 2
     (tmp_path / "models").symlink_to(SPEC_1DOF.parent)
     monkeypatch.chdir(tmp_path)
-    exec(compile(block, "README.md api-example", "exec"), {})
+    exec(compile(blocks[0], "README.md api-example", "exec"), {})
     out = capsys.readouterr().out
     assert out.startswith("success: ") and "every block agrees" in out
     assert (tmp_path / "torque.png").stat().st_size > 0 and (tmp_path / "out" / "api_demo" / "result.json").exists()
+    exec(compile(blocks[1], "README.md session example", "exec"), {})
+    assert "(warm start from the last design)" in capsys.readouterr().out
 
 
 def test_an_installed_example_is_a_spec(capsys):
@@ -253,3 +257,22 @@ def test_the_command_imports_no_numerical_library_before_its_signal_handler():
     code = "import sys, cadcam.__main__; print(sorted(m for m in ('numpy', 'casadi') if m in sys.modules))"
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert run.stdout.strip() == "[]"
+
+
+def test_a_session_reuses_the_build_and_warm_starts_a_small_edit():
+    """The design page's loop: an edit of a number re-solves through the kept NLP, from the
+    last answer, in fewer iterations than the default start takes, to no worse an optimum."""
+    from cadcam.solve import builds
+
+    builds.forget_builds()
+    session = cadcam.Session()
+    first = session.design(SPEC_1DOF, grid=12)
+    (kept,) = builds._BUILDS.values()
+    edit = {"springs.1.rate": 1.02 * cadcam.load_spec(SPEC_1DOF).springs[0].rate}
+    warm = session.design(SPEC_1DOF, grid=12, overrides=edit)
+    assert list(builds._BUILDS.values()) == [kept]  # not built again
+    cold = cadcam.design(SPEC_1DOF, grid=12, overrides=edit)
+    assert first.success and warm.success and cold.success
+    assert warm.message.endswith("(warm start from the last design)")
+    assert warm.nit < cold.nit
+    assert warm.fun <= cold.fun * (1 + 1e-6)

@@ -71,39 +71,17 @@ class SweepError(StudyError):
 
 
 # -- worker side ----------------------------------------------------------------------------
-_TRANSCRIPTIONS: dict = {}
-
-
-def structure_key(problem) -> str:
-    """What a built NLP depends on beyond its CasADi parameters and bounds."""
-    o = problem.options
-    return json.dumps([
-        problem.torque_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
-        o.objective, o.functions, [list(x) for x in o.ipopt],
-        [p.min_curvature_radius > 0 for p in problem.profiles],
-        [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights]] for c in problem.joints],
-        [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
-         for m in problem.mechanisms],
-        [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs]])
-
-
-#: A warm-started case whose objective is worse than its start case's by more than this
-#: fraction is solved again from the default start, and the better of the two kept: a warm
-#: start can lead IPOPT into a worse basin (measured on the 1-DOF bench sweep: up to +79 %).
-WARM_GUARD = 0.10
-
-
 def run_case(study: dict, case: dict, start: dict | None = None,
              start_objective: float | None = None, start_case: str | None = None) -> dict:
     """Solve one case and return its database row; never raises (a failure is a row).
 
     ``start`` is the design of the solved case ``start_case`` (its id) to warm-start from,
-    ``start_objective`` that case's objective (see :data:`WARM_GUARD`). A warm-started row's
+    ``start_objective`` that case's objective (see :data:`cadcam.optimize.WARM_GUARD`). A warm-started row's
     message names the case it started from, or says that the default start's answer was kept.
     """
     from ..designs import Design
-    from ..optimize import optimize
-    from ..solve.transcription import Transcription
+    from ..optimize import warm_optimize
+    from ..solve.builds import built_for
 
     t0 = time.perf_counter()
     row = {"case_id": Study.case_id(case), "params": json.dumps(case, sort_keys=True),
@@ -111,28 +89,9 @@ def run_case(study: dict, case: dict, start: dict | None = None,
     try:
         problem = Study.from_dict(study).problem(case)
         row["torque_model"] = problem.torque_model
-        key = structure_key(problem)
-        tr = _TRANSCRIPTIONS.get(key)
-        built = tr is None
-        if built:
-            tr = _TRANSCRIPTIONS[key] = Transcription(problem)
-        result = optimize(problem, transcription=tr,
-                          start=Design.from_dict(start, problem) if start else None)
-        if start and not result.success:  # a warm start that did not help: start afresh
-            result = optimize(problem, transcription=tr)
-            result.message += " (from the default start, after a failed warm start)"
-        elif start and start_objective is not None and \
-                result.evaluation.metrics.objective > (1 + WARM_GUARD) * start_objective:
-            cold = optimize(problem, transcription=tr)  # a worse basin? compare with a cold start
-            warm_objective = result.evaluation.metrics.objective
-            if cold.success and cold.evaluation.metrics.objective < warm_objective:
-                result = cold
-                result.message += (f" (from the default start: the warm start from case {start_case} "
-                                   f"reached a worse objective, {warm_objective:.6g})")
-            else:
-                result.message += f" (warm start from case {start_case} kept: the default start did no better)"
-        elif start:
-            result.message += f" (warm start from case {start_case})"
+        tr, built = built_for(problem)
+        result = warm_optimize(problem, tr, Design.from_dict(start, problem) if start else None,
+                               start_objective, f"case {start_case}")
         d = result.to_dict()
         row.update(status=result.status, message=result.message, metrics=json.dumps(d["metrics"]),
                    recheck=json.dumps(d["recheck"]), design=json.dumps(d["design"]),
@@ -150,6 +109,7 @@ def compile_structures(study: dict, cases: list[dict]) -> int:
     (:mod:`cadcam.solve.compiled`) instead of each compiling it at once. Returns the number of
     structures built; a case whose problem cannot be built is left to its worker, which records
     the error."""
+    from ..solve.builds import structure_key
     from ..solve.transcription import Transcription
 
     built, definition = set(), Study.from_dict(study)

@@ -27,7 +27,8 @@ from cadcam.verify.evaluate import LENGTH_TOL, evaluate
 from cadcam.cli import main
 from cadcam.files import atomic_path, write_csv, write_json, write_text
 from cadcam.solve.transcription import Solve
-from cadcam.optimize import verdict
+from cadcam.optimize import WARM_GUARD, verdict
+from cadcam.solve import builds
 from cadcam.physics.profile import Basis
 from cadcam.sweep import runner as sweep
 from cadcam.sweep.study import Parameter, Study, StudyError, load_study
@@ -336,19 +337,19 @@ def solved_cases():
     the second again through a freshly built NLP."""
     study = _zip_study([1000.0, 1200.0], [0.012, 0.015], [0.010, 0.011]).to_dict()
     first, second = Study.from_dict(study).cases()
-    saved = dict(sweep._TRANSCRIPTIONS)
+    saved = dict(builds._BUILDS)
     try:
-        sweep._TRANSCRIPTIONS.clear()
+        builds.forget_builds()
         row_first = sweep.run_case(study, first)
-        (built,) = sweep._TRANSCRIPTIONS.values()
+        (built,) = builds._BUILDS.values()
         row_reused = sweep.run_case(study, second)
-        reused = list(sweep._TRANSCRIPTIONS.values())
-        sweep._TRANSCRIPTIONS.clear()
+        reused = list(builds._BUILDS.values())
+        builds.forget_builds()
         row_fresh = sweep.run_case(study, second)
-        fresh = list(sweep._TRANSCRIPTIONS.values())
+        fresh = list(builds._BUILDS.values())
     finally:
-        sweep._TRANSCRIPTIONS.clear()
-        sweep._TRANSCRIPTIONS.update(saved)
+        builds.forget_builds()
+        builds._BUILDS.update(saved)
     return dict(study=study, case=second, first=row_first, reused=row_reused, fresh=row_fresh,
                 built=built, reused_nlp=reused, fresh_nlp=fresh)
 
@@ -401,7 +402,7 @@ def test_a_warm_start_that_ends_much_worse_than_its_start_case_is_compared_with_
     design = json.loads(cold["design"])
     quiet = sweep.run_case(s["study"], s["case"], design, objective, "c0")  # no worse: no second solve
     assert quiet["message"] == cold["message"] + " (warm start from case c0)"
-    guarded = sweep.run_case(s["study"], s["case"], design, objective / (1 + 2 * sweep.WARM_GUARD), "c0")
+    guarded = sweep.run_case(s["study"], s["case"], design, objective / (1 + 2 * WARM_GUARD), "c0")
     assert guarded["status"] == "success"
     assert "(warm start from case c0 kept: the default start did no better)" in guarded["message"] or \
         "(from the default start: the warm start from case c0 reached a worse objective" in guarded["message"]

@@ -1,0 +1,91 @@
+"""``make bench``: run every benchmark script, show its tables as they come, and write them all
+to one results file stamped with the machine, the date and the commit they were measured on.
+
+``python benchmarks/run.py [--results benchmarks/results.md]``. The file is written at the end,
+whole (a run stopped midway leaves the previous file as it was); the README links it. The last
+line is the benchmark's own time against its goal of 5 minutes.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+SCRIPTS = ("bench_design.py", "bench_sweep.py", "bench_arms.py", "bench_growth.py")
+#: The goal for the whole benchmark [s] (issue 12).
+GOAL_S = 300
+
+
+def machine_stamp() -> str:
+    """Markdown lines naming where and when the numbers below were measured."""
+    import casadi
+    import numpy
+
+    cpu = next((line.split(":", 1)[1].strip() for line in _lines("/proc/cpuinfo") if line.startswith("model name")),
+               platform.processor() or "unknown CPU")
+    mem = next((f"{int(line.split()[1]) / 2**20:.1f} GiB" for line in _lines("/proc/meminfo")
+                if line.startswith("MemTotal")), "unknown memory")
+    commit = subprocess.run(["git", "describe", "--always", "--dirty"], capture_output=True, text=True,
+                            cwd=ROOT).stdout.strip() or "not a git checkout"
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return (f"# `make bench` results\n\n"
+            f"- measured: {now}, commit {commit}\n"
+            f"- machine: {socket.gethostname()}, {cpu}, {os.cpu_count()} cores, {mem}, "
+            f"{platform.system()} {platform.release()}\n"
+            f"- software: Python {platform.python_version()}, CasADi {casadi.__version__}, NumPy {numpy.__version__}\n"
+            f"- load average at start: {' '.join(f'{v:.2f}' for v in os.getloadavg())} (1, 5, 15 min)\n")
+
+
+def _lines(path: str) -> list[str]:
+    try:
+        return Path(path).read_text().splitlines()
+    except OSError:
+        return []
+
+
+def run_script(name: str) -> tuple[str, int]:
+    """Run one benchmark script, echoing its output; return the output and exit code."""
+    proc = subprocess.Popen([sys.executable, str(HERE / name)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    out = []
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        sys.stdout.write(line)
+        sys.stdout.flush()
+        out.append(line)
+    return "".join(out), proc.wait()
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--results", type=Path, default=HERE / "results.md")
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+    parts = [machine_stamp()]
+    print(parts[0], flush=True)
+    for name in SCRIPTS:
+        out, code = run_script(name)
+        parts.append(f"\n## {name}\n\n{out}")
+        if code != 0:
+            print(f"{name} failed (exit {code}); {args.results} is left as it was", file=sys.stderr)
+            return code
+    took = time.perf_counter() - start
+    verdict = f"| `make bench` ≤ {GOAL_S // 60} min | {took:.0f} s | {'met' if took <= GOAL_S else '**missed**'} |"
+    print(f"\n{verdict}")
+    parts.append(f"\n## the whole benchmark\n\n| goal | measured | verdict |\n|---|---|---|\n{verdict}\n")
+    tmp = args.results.with_name(f".{args.results.name}.tmp")
+    tmp.write_text("".join(parts))
+    os.replace(tmp, args.results)
+    print(f"tables written to {args.results}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
