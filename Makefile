@@ -5,7 +5,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
+.PHONY: demo test lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
@@ -33,6 +33,11 @@ lint: $(STAMP)
 # machine, date and commit, to benchmarks/results.md; the last line is its time against 5 minutes
 bench: $(STAMP)
 	$(PY) benchmarks/run.py
+
+# every shipped spec by the NLP at grids 21/46/91 and its own and twice its order, from the default
+# and random starts (benchmarks/bench_convergence.py; about 15 minutes) → benchmarks/convergence.md
+convergence: $(STAMP)
+	$(PY) benchmarks/run.py --scripts bench_convergence.py --results benchmarks/convergence.md
 
 # the files written from declarations in the code: result.schema.json's declared parts (torque
 # models, design methods, target kinds, each mechanism's own keys) and docs/spec_reference.md

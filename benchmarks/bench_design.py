@@ -59,6 +59,9 @@ EQUAL_OBJECTIVE = 0.01
 RECHECK_RUNS = 3
 #: Grid sizes of the build-time scan (angles per joint, Sec. 10.4).
 SCAN_GRIDS = (24, 46, 91)
+#: A build "flat in the grid" takes at most this many times as long at the last scan grid as
+#: at the first (issue 30; issue 12 allowed 2×).
+FLAT_BUILD = 1.5
 
 
 def bench(problem, runs: int) -> dict:
@@ -184,6 +187,8 @@ def main() -> None:
     one, two = (name for name, _, _ in CASES)
     e2e = results[two, "compiled"]
     e2e_s = e2e["build"] + e2e["solve"] + e2e["recheck"]
+    default = expanded[two]
+    default_s = default["build"] + default["solve"] + default["recheck"]
     best = ratios.get("compiled, from the cache")
     print_goals([
         ("≥ 300× the nested baseline at equal objective (Sec. 10.4, `force`; cadcam compiled, from the cache)",
@@ -191,9 +196,13 @@ def main() -> None:
          best is not None and best >= 300),
         ("Sec. 10.4 end to end ≤ 0.5 s (build from a warm cache + solve + fine re-check)",
          f"{e2e_s:.3f} s ({e2e['build']:.3f} + {e2e['solve']:.3f} + {e2e['recheck']:.3f})", e2e_s <= 0.5),
+        ("Sec. 10.4 end to end ≤ 0.5 s on the default path (functions expanded: build + solve + fine re-check)",
+         f"{default_s:.3f} s ({default['build']:.3f} + {default['solve']:.3f} + {default['recheck']:.3f})",
+         default_s <= 0.5),
         (f"build flat in the grid (Sec. 10.4 mapped, {SCAN_GRIDS[0]} → {SCAN_GRIDS[-1]} angles per joint: "
-         "at most 2× the time for 3.8× the angles)",
-         " → ".join(f"{t:.2f}" for t in mapped) + f" s ({mapped[-1] / mapped[0]:.1f}×)", mapped[-1] <= 2 * mapped[0]),
+         f"at most {FLAT_BUILD}× the time for 3.8× the angles)",
+         " → ".join(f"{t:.2f}" for t in mapped) + f" s ({mapped[-1] / mapped[0]:.1f}×)",
+         mapped[-1] <= FLAT_BUILD * mapped[0]),
         ("1-DOF solve ≤ 30 ms (compiled, from the cache)",
          f"{1e3 * results[one, 'compiled']['solve']:.0f} ms, {results[one, 'compiled']['iterations']:.0f} iterations",
          results[one, "compiled"]["solve"] <= 0.030),

@@ -1,4 +1,4 @@
-"""Issue 12's speed goals as ``make bench`` reports them: one row per goal with the value this
+"""The speed goals (issues 12 and 30) as ``make bench`` reports them: one row per goal with the value this
 run measured and whether it met the goal (each benchmark script prints the goals it measures,
 after its tables)."""
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 def print_goals(rows: list[tuple[str, str, bool]]) -> None:
     """Print ``rows`` (goal, measured value, met) as a table headed "goals"."""
-    print("\nGoals (issue 12), this run on this machine\n")
+    print("\nGoals (issues 12 and 30), this run on this machine\n")
     print("| goal | measured | verdict |")
     print("|---|---|---|")
     for goal, measured, met in rows:
