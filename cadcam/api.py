@@ -179,12 +179,15 @@ class Session:
         problem = load_problem(spec, **options)
         if problem.options.method != "nlp":
             return optimize(problem)
-        completed, _ = start_design(problem)
+        completed, start = start_design(problem)
         transcription, _ = built_for(completed)
         key = structure_key(completed)
         last = self._last.get(key) if completed is problem else None
-        result = warm_optimize(completed, transcription, None if last is None else last.design,
-                               None if last is None else last.evaluation.metrics.objective, "the last design")
+        if last is None:  # the default start, which may have completed the problem
+            result = optimize(completed, transcription=transcription, start=start)
+        else:
+            result = warm_optimize(problem, transcription, last.design, last.evaluation.metrics.objective,
+                                   "the last design")
         if result.success:
             self._last[key] = result
         return result

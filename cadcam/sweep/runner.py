@@ -14,12 +14,13 @@ released when its case is recorded; the claims of a runner that was killed are r
 and taken over by the next run — at once on the same host (its process is gone), after
 :data:`CLAIM_LEASE_S` without a recorded case for a runner on another host.
 
-Workers keep one :class:`~cadcam.solve.transcription.Transcription` per problem structure and
-reuse it for every case that only changes numbers (CasADi parameters), so a sweep builds each
-NLP once per worker. With ``warm_start`` a case starts from the design of the nearest case
-already solved (in normalised parameter space) instead of the default start, and is solved
-again from the default start when it ends much worse than that case (:data:`WARM_GUARD`); its
-row's message names the case it started from. Which case that is depends on the order cases
+Workers keep the NLP of each problem structure (:mod:`cadcam.solve.builds`, up to
+:data:`~cadcam.solve.builds.KEPT_BUILDS` of them) and reuse it for every case that only changes
+numbers (CasADi parameters), so a sweep builds each NLP once per worker. With ``warm_start`` a
+case starts from the design of the nearest case already solved (in normalised parameter space)
+instead of the default start, and is solved again from the default start when it ends much
+worse than that case (:data:`cadcam.optimize.WARM_GUARD`); its row's message names the case it
+started from. Which case that is depends on the order cases
 finish, so warm-started sweeps are reproducible only serially.
 """
 from __future__ import annotations
@@ -76,8 +77,9 @@ def run_case(study: dict, case: dict, start: dict | None = None,
     """Solve one case and return its database row; never raises (a failure is a row).
 
     ``start`` is the design of the solved case ``start_case`` (its id) to warm-start from,
-    ``start_objective`` that case's objective (see :data:`cadcam.optimize.WARM_GUARD`). A warm-started row's
-    message names the case it started from, or says that the default start's answer was kept.
+    ``start_objective`` that case's objective (see :data:`cadcam.optimize.WARM_GUARD`). A
+    warm-started row's message names the case it started from, or says that the default
+    start's answer was kept.
     """
     from ..designs import Design
     from ..optimize import warm_optimize
