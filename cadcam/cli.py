@@ -18,7 +18,7 @@ from pathlib import Path
 from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
-from .interrupts import INTERRUPTED, interrupt_arrived, signals_stop_the_run
+from .interrupts import INTERRUPTED, STOP, interrupt_arrived, signals_stop_the_run
 from .files import FolderBusy, files_of_others, held_folder
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
@@ -477,6 +477,7 @@ def _run_command(argv) -> int:
         args = _parser().parse_args(argv)
         return _run_interruptible(args)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: temporary files are gone, no partial set is left
+        STOP.finished = True  # first, and without a call: a later signal would raise in whatever runs next
         print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
         return INTERRUPTED
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError,

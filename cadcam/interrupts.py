@@ -37,8 +37,10 @@ class _Stop:
             raise KeyboardInterrupt
 
 
-#: The one handler; the command line sets ``STOP.finished`` with an attribute store, which
-#: (unlike a call) Python cannot interrupt to run a handler.
+#: The one handler; the command line sets ``STOP.finished`` once it has handled an interrupt or
+#: ended, with an attribute store, which (unlike a call) Python cannot interrupt to run a
+#: handler. A later signal would otherwise raise in whatever runs next, a weak reference's
+#: callback among them, where Python prints the exception and drops it.
 STOP = _Stop()
 
 
