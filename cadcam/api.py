@@ -17,6 +17,7 @@ from typing import Any
 import copy
 import json
 import os
+from collections import OrderedDict
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -28,7 +29,7 @@ from .verify.evaluate import evaluate as evaluate_design
 from .verify.model import torque_function, torque_jacobian_function
 from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
-from .solve.builds import built_for, structure_key
+from .solve.builds import KEPT_BUILDS, built_for, structure_key
 from .solve.transcription import Transcription
 from .optimize import optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
@@ -171,7 +172,7 @@ class Session:
     """
 
     def __init__(self):
-        self._last: dict[str, Result] = {}
+        self._last: OrderedDict[str, Result] = OrderedDict()  # as many as builds are kept
 
     def design(self, spec, **options) -> Result:
         """:func:`design` of ``spec`` (``options`` as for :func:`load_problem`), through the
@@ -190,6 +191,9 @@ class Session:
                                    "the last design")
         if result.success:
             self._last[key] = result
+            self._last.move_to_end(key)
+            while len(self._last) > KEPT_BUILDS:
+                self._last.popitem(last=False)
         return result
 
 

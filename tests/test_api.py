@@ -276,3 +276,13 @@ def test_a_session_reuses_the_build_and_warm_starts_a_small_edit():
     assert warm.message.endswith("(warm start from the last design)")
     assert warm.nit < cold.nit
     assert warm.fun <= cold.fun * (1 + 1e-6)
+
+
+def test_a_session_keeps_as_many_answers_as_builds():
+    """A page that keeps changing the grid must not keep every structure's answer."""
+    from cadcam.solve.builds import KEPT_BUILDS
+
+    session = cadcam.Session()
+    results = [session.design(SPEC_1DOF, grid=grid) for grid in range(10, 12 + KEPT_BUILDS)]
+    assert sum(r.success for r in results) > KEPT_BUILDS  # premise: more answers than are kept
+    assert len(session._last) == KEPT_BUILDS
