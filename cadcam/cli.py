@@ -19,7 +19,7 @@ from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
 from .interrupts import INTERRUPTED, STOP, interrupt_arrived, signals_stop_the_run
-from .files import FolderBusy, files_of_others, held_folder
+from .files import FolderBusy, files_of_others, held_folder, in_the_way
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
@@ -121,9 +121,9 @@ def _check_files_are_ours(out: Path) -> None:
     from .outputs.run_files import RUN_FILES
 
     named = [n for n in sorted(os.listdir(out)) if RUN_FILES.fullmatch(n)]
-    in_the_way = [n for n in named if not (out / n).is_file()]
-    if in_the_way:
-        raise InputError(f"-o {out}: {in_the_way[0]} stands where an output file goes and is not a file (a "
+    taken = in_the_way(out, named)
+    if taken:
+        raise InputError(f"-o {out}: {taken[0]} stands where an output file goes and is not a file (a "
                          "folder, or a link to one or to nothing); cadcam replaces only files: move it or give "
                          "another output folder")
     others = files_of_others(out, named, ("result.json",))

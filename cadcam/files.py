@@ -242,16 +242,21 @@ def _refuse_files_of_others(folder: Path, names, last: tuple[str, ...]) -> None:
                               "files: move it or give another output folder", str(folder / others[0]))
 
 
+def in_the_way(folder: Path, names) -> list[str]:
+    """The names among ``names`` under which something other than a file stands in ``folder``
+    (a folder, a link to one or to nothing), in name order: cadcam replaces files it writes,
+    never a folder or a link of the user's."""
+    return [n for n in sorted(names) if os.path.lexists(folder / n) and not (folder / n).is_file()]
+
+
 def _refuse_folders_in_the_way(folder: Path, names) -> None:
-    """IsADirectoryError, before anything moves, where something other than a file stands under
-    the name of an output (a folder, a link to one or to nothing): cadcam replaces files it
-    writes, never a folder or a link of the user's."""
-    for name in sorted(names):
-        if os.path.lexists(folder / name) and not (folder / name).is_file():
-            raise IsADirectoryError(errno.EISDIR, "something other than a file (a folder, or a link to one "
-                                    "or to nothing) stands where this output file goes; cadcam replaces "
-                                    "only files: move it or give another output folder",
-                                    str(folder / name))
+    """IsADirectoryError, before anything moves, where :func:`in_the_way` finds an output's
+    name taken."""
+    taken = in_the_way(folder, names)
+    if taken:
+        raise IsADirectoryError(errno.EISDIR, "something other than a file (a folder, or a link to one "
+                                "or to nothing) stands where this output file goes; cadcam replaces "
+                                "only files: move it or give another output folder", str(folder / taken[0]))
 
 
 def write_text(path, text: str) -> None:
