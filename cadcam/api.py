@@ -27,6 +27,7 @@ from .verify import derivatives
 from .verify.evaluate import Evaluation, start_samples
 from .verify.evaluate import evaluate as evaluate_design
 from .verify.model import torque_function, torque_jacobian_function
+from .verify.reachable import unreachable
 from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
@@ -154,7 +155,17 @@ def design(spec, *, start=None, **options) -> Result:
         ``save(directory)``, ``to_dict()``.
     """
     problem = load_problem(spec, **options)
+    refuse_unreachable(problem)
     return optimize(problem, start=None if start is None else load_design(start, problem))
+
+
+def refuse_unreachable(problem: Problem) -> None:
+    """Raise :class:`SpecError`, before any solve, if a joint's target cannot be met within its
+    acceptance limits by any design (:func:`cadcam.verify.reachable.unreachable`: the springs'
+    energy budget, the sign of their pull)."""
+    message = unreachable(problem)
+    if message is not None:
+        raise SpecError(f"{problem.name}: {message}")
 
 
 class Session:
@@ -178,6 +189,7 @@ class Session:
         """:func:`design` of ``spec`` (``options`` as for :func:`load_problem`), through the
         NLP kept for its structure and from the last answer of that structure."""
         problem = load_problem(spec, **options)
+        refuse_unreachable(problem)
         if problem.options.method != "nlp":
             return optimize(problem)
         completed, start = start_design(problem)

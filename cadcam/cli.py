@@ -107,9 +107,12 @@ def _problem_and_design(args):
 
 
 def cmd_design(args) -> int:
+    from .api import refuse_unreachable
+
     _check_workshop_args(args)
     problem = _problem(args)
     _check_output_dir(args.output)
+    refuse_unreachable(problem)
     with held_folder(args.output) as out:
         _check_files_are_ours(out)
         return _design_into(args, problem, out)

@@ -121,3 +121,22 @@ def _numbers(value, where: str, unit: str) -> np.ndarray:
     if not (isinstance(value, list) and value and all(map(_is_number, value))):
         raise DesignError(f"{where} must be a non-empty list of finite numbers {unit}; got {short_repr(value)}")
     return np.asarray(value, dtype=float)
+
+
+def default_start(problem: Problem) -> Design:
+    """Circular profiles of each mechanism's start radius
+    (:meth:`cadcam.mechanisms.base.Mechanism.start_radius`) and pre-extensions at 10 % of travel
+    (or the spring's fixed pre-extension)."""
+    bases, coefs = [], []
+    for mech in problem.mechanisms:
+        for prof in mech.profiles:
+            m = np.zeros(prof.basis.size)
+            m[0] = mech.start_radius(prof)
+            bases.append(prof.basis)
+            coefs.append(prof.basis.from_monomial(m))
+    return Design(bases, coefs, preextensions(problem, lambda s: 0.1 * s.travel))
+
+
+def preextensions(problem: Problem, free) -> np.ndarray:
+    """Each spring's fixed pre-extension, or ``free(spring)`` where it is a design variable."""
+    return np.array([free(s) if s.preextension is None else s.preextension for s in problem.springs])

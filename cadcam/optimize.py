@@ -9,26 +9,12 @@ from __future__ import annotations
 import time
 import numpy as np
 
-from .designs import Design
+from .designs import Design, default_start, preextensions
 from .mechanisms.base import design_methods, kinds_in
 from .verify.evaluate import evaluate, start_samples
-from .problem import Problem
+from .problem import ACCEPTANCE, Problem
 from .result import Result
 from .solve.transcription import Solve, Transcription
-
-
-def default_start(problem: Problem) -> Design:
-    """Circular profiles of each mechanism's start radius
-    (:meth:`cadcam.mechanisms.base.Mechanism.start_radius`) and pre-extensions at 10 % of travel
-    (or the spring's fixed pre-extension)."""
-    bases, coefs = [], []
-    for mech in problem.mechanisms:
-        for prof in mech.profiles:
-            m = np.zeros(prof.basis.size)
-            m[0] = mech.start_radius(prof)
-            bases.append(prof.basis)
-            coefs.append(prof.basis.from_monomial(m))
-    return Design(bases, coefs, _preextensions(problem, lambda s: 0.1 * s.travel))
 
 
 def start_design(problem: Problem) -> tuple[Problem, Design]:
@@ -40,11 +26,6 @@ def start_design(problem: Problem) -> tuple[Problem, Design]:
     for kind in kinds_in(problem.mechanisms):
         problem, design = kind.prepare_start(problem, design)
     return problem, design
-
-
-def _preextensions(problem: Problem, free) -> np.ndarray:
-    """Each spring's fixed pre-extension, or ``free(spring)`` where it is a design variable."""
-    return np.array([free(s) if s.preextension is None else s.preextension for s in problem.springs])
 
 
 def random_start(problem: Problem, rng: np.random.Generator) -> Design:
@@ -60,7 +41,7 @@ def random_start(problem: Problem, rng: np.random.Generator) -> Design:
             m[1] = rng.uniform(0, 0.5 * rho0)
         bases.append(prof.basis)
         coefs.append(prof.basis.from_monomial(m))
-    return Design(bases, coefs, _preextensions(problem, lambda s: rng.uniform(0, 0.9 * s.travel)))
+    return Design(bases, coefs, preextensions(problem, lambda s: rng.uniform(0, 0.9 * s.travel)))
 
 
 def solve(tr: Transcription, problem: Problem, start: Design):
@@ -70,19 +51,15 @@ def solve(tr: Transcription, problem: Problem, start: Design):
 
 #: The statuses :func:`verdict` gives a design whose solve converged.
 VERDICTS = ("success", "not_finite", "recheck_failed", "target_missed")
-#: A joint whose RMSE on the fine re-check is this share of its target's RMS or more misses its
-#: target whatever its own acceptance says: such a design is not what was asked for (a spring
-#: too weak for the load converges at 74 % error), and success means the target was met.
-RELATIVE_RMSE_LIMIT = 0.5
 
 
 def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
     """Status and message of a design from its solve and its fine re-check ``fine``.
 
     ``success`` only if the solve converged, every number of the re-check is finite, no
-    constraint is violated, every joint's ``acceptance`` limits hold and no joint's RMSE is
-    :data:`RELATIVE_RMSE_LIMIT` of its target's RMS or more; else the first that fails: the
-    solver's status, ``not_finite``, ``recheck_failed`` or ``target_missed``.
+    constraint is violated and every joint meets its acceptance limits (:attr:`Joint.limits`:
+    the spec's, and by default an RMSE of at most 5 % of the target's RMS); else the first that
+    fails: the solver's status, ``not_finite``, ``recheck_failed`` or ``target_missed``.
     """
     m = fine.metrics
     if solve.status == "acceptable":
@@ -97,15 +74,19 @@ def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
         return "not_finite", "the re-check has NaN or infinite values: the design cannot be trusted"
     if fine.violations:
         return "recheck_failed", f"{what}, but it violates constraints on the fine re-check grid"
-    missed = [f"{joint.name!r}: {key.replace('_', ' ')} {m[key][i]:.4g} N·m > {limit:.4g}"
-              for i, joint in enumerate(problem.joints) for key, limit in joint.acceptance
-              if not m[key][i] <= limit]
-    missed += [f"{joint.name!r}: RMSE {100 * r:.3g} % of the target's RMS (at most {100 * RELATIVE_RMSE_LIMIT:g} % "
-               "counts as meeting it)" for joint, r in zip(problem.joints, m.relative_rmse)
-               if r is not None and not r < RELATIVE_RMSE_LIMIT]
+    missed = [_missed(joint, key, m[key][i], limit) for i, joint in enumerate(problem.joints)
+              for key, limit in joint.limits.items() if m[key][i] is not None and not m[key][i] <= limit]
     if missed:
         return "target_missed", f"{what}, but the target is missed on the fine re-check: {'; '.join(missed)}"
-    return "success", f"{what}; every constraint holds on the fine re-check grid"
+    return "success", f"{what}; every constraint holds and the target is met on the fine re-check grid"
+
+
+def _missed(joint, key: str, value: float, limit: float) -> str:
+    """One missed acceptance limit in words, with the key that sets it."""
+    a = ACCEPTANCE[key]
+    shown = (f"{100 * value:.3g} %, above its limit {100 * limit:.3g} %" if a.unit == "ratio"
+             else f"{value:.4g} {a.unit}, above its limit {limit:.4g} {a.unit}")
+    return f"{joint.name!r}: {a.label} = {shown} ([joints.acceptance] {key})"
 
 
 def _trial(s: Solve) -> dict:

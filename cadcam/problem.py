@@ -308,14 +308,37 @@ class Workshop:
 
 
 @dataclass(frozen=True)
+class Acceptance:
+    """One ``[joints.acceptance]`` key: a limit on the joint's metric of that name on the fine
+    re-check (:data:`cadcam.verify.evaluate.METRICS`), with the metric's short label, its unit,
+    meaning and default limit (``None``: no limit unless the spec gives one)."""
+
+    label: str
+    unit: str
+    description: str
+    default: float | None = None
+
+
+#: The ``[joints.acceptance]`` keys: what a design must meet on the fine re-check to be a
+#: success (status ``target_missed`` otherwise). The relative RMSE has a default, so that
+#: success means the target was met: a spring too weak for its load converges to a design
+#: that holds every constraint, and only this limit tells that it does not do the job.
+ACCEPTANCE = {
+    "relative_rmse": Acceptance("RMSE / target RMS", "ratio",
+                                "the torque's RMSE over the range as a share of the target's RMS", 0.05),
+    "rmse": Acceptance("RMSE", "N·m", "the torque's RMSE over the range"),
+    "max_abs_error": Acceptance("max |τ − τ_d|", "N·m", "the largest torque error over the range"),
+}
+
+
+@dataclass(frozen=True)
 class Joint:
     """A joint angle with its range, its target and the weights of its objective terms.
 
     ``theta_range`` [rad] is the range to balance; ``tracking_weight`` is w₁ and
     ``sensitivity_weights`` the w of ∫|∂τ/∂k_j| for each spring j (Johnston2023 Eq. 46, 47).
-    The torque on a joint is the sum over the mechanisms on it. ``acceptance``: pairs
-    (``max_abs_error`` or ``rmse``, limit [N·m]) the fine re-check must meet for the design to
-    count as a success (status ``target_missed`` otherwise).
+    The torque on a joint is the sum over the mechanisms on it. ``acceptance``: pairs (a key
+    of :data:`ACCEPTANCE`, limit) the spec gives; :attr:`limits` adds the defaults.
     """
 
     name: str
@@ -324,6 +347,15 @@ class Joint:
     tracking_weight: float
     sensitivity_weights: tuple[float, ...]
     acceptance: tuple = ()
+
+    @property
+    def limits(self) -> dict[str, float]:
+        """The acceptance limits the fine re-check must meet: the spec's, then the defaults of
+        :data:`ACCEPTANCE` for the keys it leaves out (none for a joint with no torque goal)."""
+        if self.target.kind == "none":
+            return {}
+        given = {**{key: a.default for key, a in ACCEPTANCE.items()}, **dict(self.acceptance)}
+        return {key: float(limit) for key, limit in given.items() if limit is not None}
 
     def grid(self, n: int) -> np.ndarray:
         """Uniform grid of ``n`` joint angles [rad] over ``theta_range``."""

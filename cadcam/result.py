@@ -22,6 +22,12 @@ if TYPE_CHECKING:
     from .problem import Problem, Workshop
 
 
+def _limit(joint) -> str:
+    """The joint's relative-RMSE acceptance limit, as the summary shows it."""
+    limit = joint.limits.get("relative_rmse")
+    return "" if limit is None else f", accepted up to {100 * limit:.3g} %"
+
+
 @dataclass(repr=False)
 class Result:
     """What :func:`cadcam.design` (and :func:`cadcam.optimize.optimize`) returns; see
@@ -97,8 +103,8 @@ class Result:
         """A few lines: status and message, RMSE per joint, iterations and times, output and
         path errors, violated and binding constraints."""
         metrics, fine = self.evaluation.metrics, self.recheck.metrics
-        rmse = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS)" if r is not None else "")
-                for v, r in zip(metrics.rmse, metrics.relative_rmse)]
+        rmse = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS{_limit(joint)})" if r is not None else "")
+                for v, r, joint in zip(metrics.rmse, metrics.relative_rmse, self.problem.joints)]
         lines = [f"{self.status}: {self.message}",
                  f"  {self.problem.name}: RMSE per joint [N·mm]: {', '.join(rmse) or 'none (no torque goal)'}; "
                  f"iterations {self.nit}, build {self.build_time_s:.3f} s, "

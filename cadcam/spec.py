@@ -29,7 +29,7 @@ from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import (IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
+from .problem import (ACCEPTANCE, IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
                       size_error)
 from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
@@ -130,20 +130,17 @@ def _five_bar(r: _Reader, n_joints: int) -> dict:
             "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
 
 
-ACCEPTANCE = ("max_abs_error", "rmse")
-
-
 #: Largest span of a joint's angle range [deg]: cables may wrap helical grooves, but not without end.
 MAX_JOINT_SPAN_DEG = 3600.0
 
 
 def _acceptance(r: _Reader) -> tuple:
-    """A joint's optional [joints.acceptance]: the largest |τ − τ_d| and/or RMSE [N·m] its
-    design may keep on the fine re-check."""
-    table = r.get("acceptance", lambda v: isinstance(v, dict) and v, "a table with max_abs_error "
-                  "and/or rmse [N·m]", {})
+    """A joint's optional [joints.acceptance]: limits on its metrics of the fine re-check
+    (:data:`cadcam.problem.ACCEPTANCE`)."""
+    table = r.get("acceptance", lambda v: isinstance(v, dict) and v, "a table of "
+                  + " and/or ".join(ACCEPTANCE), {})
     a = _Reader(r.origin, table, r.key("acceptance"))
-    out = tuple((k, float(a.get(k, _positive, f"a positive {k.replace('_', ' ')} [N·m]")))
+    out = tuple((k, float(a.get(k, _positive, f"a positive limit on {ACCEPTANCE[k].description} [{ACCEPTANCE[k].unit}]")))
                 for k in ACCEPTANCE if k in table)
     a.seen.update(ACCEPTANCE)
     a.done()

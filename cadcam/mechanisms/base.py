@@ -247,6 +247,11 @@ class Mechanism:
     spec_units: ClassVar[dict[str, str]] = {}
     #: Design methods of its own (:class:`DesignMethod`), besides the NLP.
     methods: ClassVar[tuple[DesignMethod, ...]] = ()
+    #: The ports whose moment arm keeps one sign for every profile it may have (a cable that
+    #: leaves a profile drawn around the joint axis), each with the spec keys that reverse that
+    #: sign; what :func:`cadcam.verify.reachable.unreachable` reads to tell a spring that pulls
+    #: the wrong way before any solve.
+    fixed_sign_ports: ClassVar[dict[str, tuple[str, ...]]] = {}
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

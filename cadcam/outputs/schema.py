@@ -1,6 +1,6 @@
 """The JSON Schema of ``result.json`` (``cadcam/result.schema.json``): its generic parts are
 written in the file, and the parts that the registries declare are generated from them — the
-torque models, the design methods, the target kinds, and each mechanism's own keys (the
+torque models, the design methods, the target kinds, the acceptance limits, and each mechanism's own keys (the
 ``spec.schema.json`` beside its model) and each target kind's keys (:attr:`TargetKind.schema`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import design_methods, mechanism_class, mechanism_kinds, torque_models
+from ..problem import ACCEPTANCE
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -60,6 +61,9 @@ def result_schema(schema: dict) -> dict:
     defs["target"]["allOf"] = _declared(defs["target"]["allOf"], {
         k: target_kind(k).schema for k in kinds if target_kind(k).schema is not None})
     defs["mechanism"]["allOf"] = _declared(defs["mechanism"]["allOf"], mechanism_schemas())
+    defs["joint"]["properties"]["acceptance"]["properties"] = {
+        key: {"description": f"{a.description} [{a.unit}]", "type": "number", "exclusiveMinimum": 0}
+        for key, a in ACCEPTANCE.items()}
     return out
 
 

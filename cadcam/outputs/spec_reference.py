@@ -1,7 +1,8 @@
 """``docs/spec_reference.md``: the spec keys that cadcam declares in one place, as tables —
 the ``[solver]`` options (:data:`cadcam.problem.SOLVER`) and the IPOPT options cadcam passes on
 (:data:`cadcam.problem.IPOPT_OPTIONS`), the ``[workshop]`` sizes
-(:class:`cadcam.problem.Workshop`, :data:`cadcam.problem.WORKSHOP_LIMITS`), the target kinds
+(:class:`cadcam.problem.Workshop`, :data:`cadcam.problem.WORKSHOP_LIMITS`), the acceptance
+limits (:data:`cadcam.problem.ACCEPTANCE`), the target kinds
 (:func:`cadcam.targets.target_kinds`) and each mechanism's own keys (the ``spec.schema.json``
 beside its model, with its ports, parameters and limits).
 
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import mechanism_class
-from ..problem import IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Workshop
+from ..problem import ACCEPTANCE, IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Workshop
 from ..targets import target_kinds
 from .schema import mechanism_schemas
 
@@ -62,6 +63,15 @@ def _workshop() -> list[str]:
     return rows
 
 
+def _acceptance() -> list[str]:
+    rows = ["## `[joints.acceptance]`", "", "What a design must meet on the fine re-check to be a `success` "
+            "(else its status is `target_missed` and `cadcam design` exits 1); a limit with a default applies "
+            "to every joint with a torque target unless its spec sets another.", "",
+            "| key | unit | default | limits |", "|---|---|---|---|"]
+    return rows + [f"| `{key}` | {a.unit} | {'–' if a.default is None else f'`{a.default!r}`'} | {_cell(a.description)} |"
+                   for key, a in ACCEPTANCE.items()]
+
+
 def _targets() -> list[str]:
     return ["## Target kinds", "",
             "A joint's `[joints.target]` (a torque law [N·m]): " + ", ".join(f"`{k}`" for k in target_kinds()) + ".",
@@ -98,7 +108,7 @@ def _mechanism(kind: str, schema: dict) -> list[str]:
 
 def reference() -> str:
     """The page's text."""
-    rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_targets(), "", "## Mechanisms", "",
+    rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_acceptance(), "", *_targets(), "", "## Mechanisms", "",
             "Keys every `[[mechanisms]]` table has: `kind`, `name`, `joint` (1-based), the profile's "
             "`basis`, `order`, `rho_min`, `rho_max` and optional `min_curvature_radius`; then its own:"]
     for kind, schema in mechanism_schemas().items():

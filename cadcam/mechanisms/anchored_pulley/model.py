@@ -91,6 +91,7 @@ class AnchoredPulley(Mechanism):
     citation = "Ludovico2021"
     spec_units = {"spring_end": "m", "anchor_angle": "rad", "reference_angle": "rad", "min_moment_arm": "m", "min_free_span": "m", "initial_radius": "m"}
     ports = ("cable",)
+    fixed_sign_ports = {"cable": ("winding", "sense")}  # the cable's line never crosses the axis
     parameters = (Quantity("ell", "m", "the distance ℓ from the joint to the spring end"),
                   Quantity("chi0", "rad", "the spring end's canonical angle χ₀ at θ = 0"),
                   Quantity("sigma", "-", "σ = ±1: the spring end turns by σθ around the pulley"),

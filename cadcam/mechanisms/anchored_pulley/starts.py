@@ -23,7 +23,7 @@ def closed_form_start(problem, start, shares=None, samples: int = 400):
         pre-extension (else 10 % of travel) is the extension u₀ at its reference angle.
     start : cadcam.designs.Design
         The start the other profiles and the pre-extensions are taken from
-        (:func:`cadcam.optimize.default_start`).
+        (:func:`cadcam.designs.default_start`).
     shares : dict, optional
         Mechanism index → callable θ [rad] → that pulley's torque ∂V_u/∂θ [N·m] (cadcam's
         sign); by default a pulley alone on its joint takes the joint's whole target (a target

@@ -50,6 +50,7 @@ class WireCam(Mechanism):
     spec_units = {"radius": "m", "offset": "m", "mu": "-"}
     shorthand = "cams"  # [[cams]]: a wire cam on its own joint (cadcam ≤ 0.1)
     ports = ("wire", "platform")
+    fixed_sign_ports = {"wire": ()}  # the wire wraps the cam as θ grows, whatever its profile (Eq. 6)
     parameters = (Quantity("idler_radius", "m", "the idler's radius r (Eq. 7)"),
                   Quantity("idler_offset", "m", "the platform's height a₀ above the cam axis (Eq. 7)"),
                   Quantity("mu", "-", "the wire–cam friction coefficient (force models, Eq. 33–35)"))

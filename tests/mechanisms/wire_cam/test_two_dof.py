@@ -94,11 +94,12 @@ def test_optimum_without_spring2_equals_the_two_one_dof_optima(rr_problem):
     p = _own_angle_targets(_without_spring2(rr_problem), ["3.7*sin(theta)", "1.2*sin(theta)"])
     p = p.with_options(grid=12, convexity_points=30)
     ones = [optimize(_one_dof(p, cam, spring)) for cam, spring in ((0, 0), (1, 2))]
-    assert [one.status for one in ones] == ["success", "success"]
+    # optima, whatever share of these made-up targets cubic cams can follow
+    assert [(one.solve.status, one.recheck.violations) for one in ones] == [("converged", [])] * 2
     x0 = np.array([ones[0].design.preextension[0], 0.005, ones[1].design.preextension[0]])
     start = Design([o.design.bases[0] for o in ones], [o.design.coefficients[0] for o in ones], x0)
     two = optimize(p, start=start)
-    assert two.status == "success"
+    assert (two.solve.status, two.recheck.violations) == ("converged", [])
     assert two.solve.objective == pytest.approx(np.pi / 2 * sum(o.solve.objective for o in ones), rel=1e-6)
     for cam, (spring, one) in enumerate(zip((0, 2), ones)):
         np.testing.assert_allclose(two.evaluation.metrics.rmse[cam], one.evaluation.metrics.rmse[0],

@@ -1,0 +1,140 @@
+"""Targets no design can meet, told before any solve: lower bounds on the RMSE that every
+design of a problem must keep, from its springs and its layout alone.
+
+Under the energy torque model the torque is τ_i = ∂V/∂θ_i with V the springs' energy
+(Johnston2023 Eq. 36), which gives two bounds a design cannot beat:
+
+* **Energy budget.** Along joint i's range (the other joints held), V can change by at most
+  E_i = Σ_j (½k_j t_j² + F0_j t_j) over the springs j on joint i, each kept in its travel
+  0 ≤ x_j ≤ t_j. The target needs the swing S_i = max W − min W of W(θ) = ∫ τ_d dθ, so
+  ∫|τ − τ_d| dθ ≥ S_i − E_i over the range, and by Cauchy–Schwarz the RMSE over a range of
+  span L is at least (S_i − E_i)/L.
+* **Torque sign.** A spring's force is k x + F0 ≥ 0; where every spring on a joint pulls
+  through ports whose moment arm keeps one sign s whatever the profile
+  (:attr:`cadcam.mechanisms.base.Mechanism.fixed_sign_ports`), τ_i·s ≥ 0 everywhere, and
+  wherever the target has the other sign the error is at least |τ_d|.
+
+:func:`unreachable` compares each bound with the joint's acceptance limits
+(:attr:`cadcam.problem.Joint.limits`) and says, in one line, what to change.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..designs import default_start
+from ..problem import Problem
+from .evaluate import evaluate
+
+#: Angles along a joint's range on which the target's work W(θ) is integrated.
+ENERGY_SAMPLES = 401
+#: Angles per joint on which the other joints are held for the energy budget, and on which the
+#: torque-sign bound evaluates the circular start (its arms' signs are the layout's).
+HELD_SAMPLES = 9
+
+
+def unreachable(problem: Problem) -> str | None:
+    """The first joint whose target no design can meet within its acceptance limits, in one
+    line with what to change; None if neither bound rules the target out (which does not
+    promise that a design meets it)."""
+    if problem.torque_model != "energy":
+        return None  # the bounds rest on τ = ∂V/∂θ
+    start = _CircularStart(problem)
+    for i, joint in enumerate(problem.joints):
+        if not joint.limits:
+            continue
+        for bound in (_energy_bound(problem, i), _sign_bound(problem, i, start)):
+            if bound is not None and (missed := _over_limit(joint, *bound[:2])):
+                return f"joint {joint.name!r}: {bound[2]}, so no design comes within {missed}: {bound[3]}"
+    return None
+
+
+class _CircularStart:
+    """The problem's circular start evaluated on :data:`HELD_SAMPLES` angles per joint, once,
+    when a bound first asks for it."""
+
+    def __init__(self, problem: Problem):
+        self.problem, self._fine = problem, None
+
+    @property
+    def fine(self):
+        if self._fine is None:
+            self._fine = evaluate(self.problem, default_start(self.problem), grid=HELD_SAMPLES)
+        return self._fine
+
+
+def _over_limit(joint, rmse_bound: float, target_rms: float) -> str | None:
+    """The first acceptance limit that an RMSE of at least ``rmse_bound`` [N·m] breaks, in words."""
+    for key, limit in joint.limits.items():
+        if key == "relative_rmse" and target_rms > 0 and rmse_bound > limit * target_rms:
+            return (f"{100 * rmse_bound / target_rms:.3g} % of the target's RMS (accepted: {100 * limit:.3g} %, "
+                    "[joints.acceptance] relative_rmse)")
+        if key in ("rmse", "max_abs_error") and rmse_bound > limit:
+            return f"an RMSE of {rmse_bound:.4g} N·m (accepted: {key} = {limit:.4g} N·m)"
+    return None
+
+
+def _held_angles(problem: Problem, i: int) -> np.ndarray:
+    """Angles (rows) of every joint on joint i's lines: joint i over :data:`ENERGY_SAMPLES`
+    angles, each other joint at :data:`HELD_SAMPLES` angles of its range (all combinations)."""
+    axes = [joint.grid(ENERGY_SAMPLES if c == i else HELD_SAMPLES) for c, joint in enumerate(problem.joints)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=0).reshape(len(axes), -1)
+
+
+def _energy_bound(problem: Problem, i: int):
+    """(RMSE bound [N·m], target RMS [N·m], why, fix) of joint ``i``'s energy budget, or None
+    if its springs can store what its target needs."""
+    joint, network = problem.joints[i], problem.network()
+    on_joint = [j for j in range(network.S) if i in network.joints_of(j)]
+    store = sum(s.energy(s.travel) for j, s in enumerate(problem.springs) if j in on_joint)
+    theta = _held_angles(problem, i)
+    tau_d = np.asarray(joint.target.function(len(problem.joints), i).map(theta.shape[1])(theta)).ravel()
+    lines = np.moveaxis(tau_d.reshape([ENERGY_SAMPLES if c == i else HELD_SAMPLES
+                                       for c in range(len(problem.joints))]), i, -1).reshape(-1, ENERGY_SAMPLES)
+    angle = joint.grid(ENERGY_SAMPLES)
+    work = np.concatenate([np.zeros((len(lines), 1)),
+                           np.cumsum(0.5 * (lines[:, 1:] + lines[:, :-1]) * np.diff(angle), axis=1)], axis=1)
+    swing = work.max(axis=1) - work.min(axis=1)
+    span = joint.theta_range[1] - joint.theta_range[0]
+    short = np.maximum(swing - store, 0.0)
+    if not short.any():
+        return None
+    worst = int(np.argmax(swing))
+    why = (f"its target needs {swing[worst]:.4g} J of spring energy over its range, and its springs store at most "
+           f"{store:.4g} J within their travel")
+    fix = "give stiffer springs, more travel or more preload, or balance a narrower range"
+    return float(np.sqrt(np.mean((short / span) ** 2))), float(np.sqrt(np.mean(lines**2))), why, fix
+
+
+def _sign_bound(problem: Problem, i: int, start: _CircularStart):
+    """(RMSE bound [N·m], target RMS [N·m], why, fix) where every spring on joint ``i`` pulls
+    through fixed-sign ports one way and the target asks for the other sign, or None."""
+    network, ports = problem.network(), problem.ports
+    sign_keys: dict[int, tuple[str, ...]] = {}  # mechanism → the keys that reverse its pull
+    for g in network.joint_ports[i]:
+        u, name = ports[g]
+        keys = problem.mechanisms[u].fixed_sign_ports.get(name)
+        if keys is None and network.P[:, g].any():
+            return None  # a port whose arm may take either sign
+        if keys is not None:
+            sign_keys[u] = keys
+    springs = [j for j in range(network.S) if i in network.joints_of(j)]
+    if not springs:
+        return None
+    fine = start.fine
+    arms = np.vstack([fine.units[u].arm[problem.mechanisms[u].ports.index(name)]
+                      for u, name in (ports[g] for g in network.joint_ports[i])])
+    signs = np.sign([network.term(j, i, arms) for j in springs])
+    if not (np.all(signs == 1) or np.all(signs == -1)):
+        return None
+    s = signs.flat[0]
+    tau_d = fine.tau_d[i]
+    wrong = tau_d * s < 0
+    if not wrong.any():
+        return None
+    why = (f"its springs can only give it a {'positive' if s > 0 else 'negative'} torque (τ = dV/dθ) with this "
+           f"layout, and its target is {'negative' if s > 0 else 'positive'} over {100 * wrong.mean():.3g} % of "
+           "the range")
+    keys = [f"{' or '.join(ks)} of mechanism {problem.mechanisms[u].name!r}" for u, ks in sign_keys.items() if ks]
+    fix = (f"reverse the pull: set the {'; or the '.join(keys)} the other way" if keys else
+           "check the target's sign: cadcam's target is the torque the springs resist, dV/dθ")
+    return float(np.sqrt(np.mean(np.where(wrong, tau_d, 0.0) ** 2))), float(np.sqrt(np.mean(tau_d**2))), why, fix
