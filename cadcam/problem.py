@@ -332,6 +332,28 @@ ACCEPTANCE = {
 
 
 @dataclass(frozen=True)
+class Tolerance:
+    """One ``[tolerances]`` key: how far a built part may be from its design, ± around the
+    nominal value, for the tolerance band (:mod:`cadcam.verify.tolerance`)."""
+
+    unit: str
+    description: str
+    default: float
+
+
+#: The ``[tolerances]`` keys and their defaults: a catalogue spring's rate and initial tension
+#: are sold at about ±10 %, a hole drilled by hand lands within about 0.5 mm, and a profile
+#: cut by a CNC mill or a laser within about 0.05 mm.
+TOLERANCES = {
+    "rate": Tolerance("ratio", "each spring's rate k, as a share of it", 0.10),
+    "preload": Tolerance("ratio", "each spring's preload F0 (initial tension), as a share of it", 0.10),
+    "placement": Tolerance("m", "where a spring's ends and the idlers are placed (each spring's "
+                                "pre-extension, and each mechanism's placed parameters)", 0.5e-3),
+    "profile": Tolerance("m", "each profile's radius ρ, as a uniform offset of the cut outline", 0.05e-3),
+}
+
+
+@dataclass(frozen=True)
 class Joint:
     """A joint angle with its range, its target and the weights of its objective terms.
 
@@ -380,10 +402,17 @@ class Problem:
     options: Options = field(default_factory=Options)
     notes: str = ""
     workshop: Workshop = field(default_factory=Workshop)
+    #: The spec's ``[tolerances]`` (pairs key, value); :attr:`tolerance` adds the defaults.
+    tolerances: tuple = ()
 
     def __post_init__(self):
         for mech in self.mechanisms:
             mech.check_torque_model(self.torque_model)
+
+    @property
+    def tolerance(self) -> dict[str, float]:
+        """Every :data:`TOLERANCES` key's value: the spec's, else its default."""
+        return {**{key: t.default for key, t in TOLERANCES.items()}, **dict(self.tolerances)}
 
     # -- structure -----------------------------------------------------------------------------
     @property
@@ -465,4 +494,5 @@ class Problem:
             "mechanisms": mechanisms,
             "springs": [s.to_dict() for s in self.springs],
             "workshop": self.workshop.to_dict(),
+            **({"tolerances": dict(self.tolerances)} if self.tolerances else {}),
         }

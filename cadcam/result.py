@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
@@ -11,6 +12,7 @@ from .citations import cited
 from .verify.binding import binding_constraints
 from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation
+from .verify.tolerance import Band, tolerance_band
 from .files import staged_folder
 from .version import __version__
 from .outputs.forked import Drawing, draw
@@ -26,6 +28,15 @@ def _limit(joint) -> str:
     """The joint's relative-RMSE acceptance limit, as the summary shows it."""
     limit = joint.limits.get("relative_rmse")
     return "" if limit is None else f", accepted up to {100 * limit:.3g} %"
+
+
+def _band_line(band: Band, ev: Evaluation) -> str:
+    """The summary's line on the tolerance band: each joint's widest half-width, as a share of
+    its target's peak, and how far the worst corner, re-checked, moves the torque."""
+    per_joint = [f"± {1e3 * h.max():.3g} N·mm ({100 * h.max() / peak:.2g} % of the target's peak; worst corner "
+                 f"re-checked {1e3 * c['recomputed']:.3g})" if peak > 0 else f"± {1e3 * h.max():.3g} N·mm"
+                 for h, c, peak in zip(band.half_width, band.corners, np.abs(ev.tau_d).max(axis=1))]
+    return f"  tolerance band ({band.label()}) per joint: {'; '.join(per_joint)}"
 
 
 @dataclass(repr=False)
@@ -93,6 +104,13 @@ class Result:
         """IPOPT's iterates of the kept start (see :func:`cadcam.solve.transcription.iteration_history`)."""
         return self.solve.history if self.solve is not None else {}
 
+    @cached_property
+    def band(self) -> Band | None:
+        """The torque band a built part falls in under the problem's tolerances
+        (:func:`cadcam.verify.tolerance.tolerance_band`, on the design grid); None without
+        springs."""
+        return tolerance_band(self.evaluation) if self.problem.springs else None
+
     @property
     def binding(self) -> list[str]:
         """Constraints that bind on the fine re-check, one sentence each
@@ -115,6 +133,8 @@ class Result:
             lines.append(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)}")
         for kind in kinds_in(self.problem.mechanisms):
             lines += kind.summary_lines(self.recheck)
+        if self.band is not None:
+            lines.append(_band_line(self.band, self.evaluation))
         lines += [f"  violated: {v}" for v in (self.recheck.violations if not self.success else [])]
         lines += [f"  binding: {b}" for b in self.binding]
         return "\n".join(lines)
@@ -137,7 +157,7 @@ class Result:
         dict of str to matplotlib.figure.Figure, or one Figure if ``which`` is given.
         """
         from .outputs.plots import figures
-        figs = figures(self.evaluation, self.history or None)
+        figs = figures(self.evaluation, self.history or None, self.band)
         if which is None:
             return figs
         if which not in figs:
@@ -214,6 +234,8 @@ class Result:
             "problem": self.problem.to_dict(),
             "citations": citations(self.problem),
         }
+        if self.band is not None:
+            out["tolerance_band"] = self.band.to_dict()
         if sol is not None:
             out["solver"] = {
                 "name": "ipopt" if self.problem.options.method == "nlp" else self.problem.options.method,

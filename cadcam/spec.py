@@ -29,7 +29,7 @@ from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import (ACCEPTANCE, IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
+from .problem import (ACCEPTANCE, IPOPT_OPTIONS, SOLVER, TOLERANCES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
                       size_error)
 from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
@@ -357,8 +357,9 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         data = _from_shorthand(data, table)
     joint_label, mech_label = (table, table) if table else ("joints", "mechanisms")
     top = _Reader(origin, data, "")
-    name = top.get("name", lambda v: isinstance(v, str) and v, "a non-empty string")
-    source = top.get("source", lambda v: isinstance(v, str), "a string citing the source")
+    default_name = Path(origin).stem if origin.endswith(".toml") else "design"
+    name = top.get("name", lambda v: isinstance(v, str) and v, "a non-empty string", default_name)
+    source = top.get("source", lambda v: isinstance(v, str), "a string citing the source", "")
     notes = top.get("notes", lambda v: isinstance(v, str), "a string", "")
     torque_model = _torque_model(top, data)
     options = _options(_Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}),
@@ -381,6 +382,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
     workshop = _workshop(_Reader(origin, top.get("workshop", lambda v: isinstance(v, dict),
                                                  "a [workshop] table of lengths [m]", {}), "workshop"))
+    tolerances = _tolerances(_Reader(origin, top.get("tolerances", lambda v: isinstance(v, dict),
+                                                     "a [tolerances] table", {}), "tolerances"))
     top.done()
 
     read = [_joint(_Reader(origin, raw, f"{joint_label}[{i + 1}]"), i, len(raw_springs), n_joints, arm,
@@ -404,7 +407,8 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
     try:
         return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
-                       options=options, workshop=workshop, springs=tuple(springs), mechanisms=tuple(mechanisms),
+                       options=options, workshop=workshop, tolerances=tolerances, springs=tuple(springs),
+                       mechanisms=tuple(mechanisms),
                        joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
     except ValueError as exc:
         raise SpecError(f"{origin}: torque_model: {exc}") from None
@@ -525,6 +529,15 @@ def _check_method(origin, method: str, mechanisms) -> None:
         m = design_methods()[method]
         raise SpecError(f"{origin}: solver.method: {method!r} designs {m.scope}: give every mechanism "
                         f"{m.requirement}, or use method = \"nlp\"")
+
+
+def _tolerances(r: _Reader) -> tuple:
+    """The ``[tolerances]`` table: ± how far a built part may be from its design, each key as
+    :data:`cadcam.problem.TOLERANCES` declares it (its default where it is missing)."""
+    out = tuple((name, float(r.get(name, _nonneg, f"a number ≥ 0 [{t.unit}]: {t.description}")))
+                for name, t in TOLERANCES.items() if name in r.table)
+    r.done()
+    return out
 
 
 def _workshop(r: _Reader) -> Workshop:

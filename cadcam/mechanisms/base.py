@@ -141,12 +141,16 @@ class Quantity:
     declared once with its unit and meaning (labels, manifests and docs read it).
 
     ``unit`` is SI ("m", "rad", "m/rad", "N", "-"); a residual row in "m" is scaled to
-    millimetres in the NLP, one in "rad" or "-" is left as it is.
+    millimetres in the NLP, one in "rad" or "-" is left as it is. ``placed`` marks a parameter
+    the workshop sets by placing a part (a spring end, an idler), for the tolerance band
+    (:mod:`cadcam.verify.tolerance`): ``"length"`` moves by the placement tolerance, and
+    ``"angle:NAME"`` turns by it over the arm of parameter ``NAME``.
     """
 
     name: str
     unit: str
     description: str
+    placed: str = ""
 
 
 class Named:

@@ -23,6 +23,7 @@ from matplotlib.patches import Circle
 
 from ..verify.binding import limit_state
 from ..verify.evaluate import METRICS, Evaluation, output_error, output_law
+from ..verify.tolerance import Band
 from ..files import atomic_path
 from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
@@ -318,9 +319,12 @@ def _profile_legend(pairs: int, seen: set[str], words: Picture) -> list[Line2D]:
 
 
 # -------------------------------------------------------------------------------------- torque
-def torque_figure(ev: Evaluation) -> Figure:
-    """Torque against target and the error [N·mm]: lines for one joint, error maps over the
-    first two joints' angles for several (further joints at the first angle of their grid)."""
+def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
+    """Torque against target and the error [N·mm]: lines for one joint, with the tolerance
+    ``band`` shaded around the torque (:mod:`cadcam.verify.tolerance`; the error panel stays
+    at the design's own scale); error maps over the first two
+    joints' angles for several (further joints at the first angle of their grid), the band's
+    widest half-width in each title."""
     m = len(ev.tau)
     metrics = ev.metrics
     if m == 1:
@@ -329,6 +333,10 @@ def torque_figure(ev: Evaluation) -> Figure:
         th = np.degrees(ev.theta[0])
         a1.plot(th, MM * ev.tau_d[0], "k--", label="target τ_d")
         a1.plot(th, MM * ev.tau[0], color="tab:blue", label=f"τ ({ev.problem.torque_model} model)")
+        if band is not None:
+            w = MM * band.half_width[0]
+            a1.fill_between(th, MM * ev.tau[0] - w, MM * ev.tau[0] + w, color="tab:blue", alpha=0.18, lw=0,
+                            label=f"built part, to first order ({band.label()})")
         a1.set_ylabel("torque [N·mm]")
         a1.legend(fontsize=8)
         a2.plot(th, MM * (ev.tau[0] - ev.tau_d[0]), color="tab:red")
@@ -351,7 +359,9 @@ def torque_figure(ev: Evaluation) -> Figure:
         ax.set_xlabel("θ₂ [deg]")
         ax.set_ylabel("θ₁ [deg]")
         ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * metrics.rmse[i]:.3g}, "
-                     f"max {MM * metrics.max_abs_error[i]:.3g} N·mm", fontsize=10)
+                     f"max {MM * metrics.max_abs_error[i]:.3g} N·mm"
+                     + ("" if band is None else f"\nbuilt part: ± {MM * band.half_width[i].max():.3g} N·mm at most"),
+                     fontsize=10)
     fig.suptitle(f"torque error ({ev.problem.torque_model} model)", fontsize=10)
     return fig
 
@@ -578,13 +588,14 @@ def convergence_figure(history: dict) -> Figure:
 
 
 # ------------------------------------------------------------------------------- all of a run
-def figures(ev: Evaluation, history: dict | None = None) -> dict[str, Figure]:
-    """The figures of a design run by name: ``profile``; ``torque`` and ``springs`` (only with
-    springs: without them there is no torque); ``output`` (only for mechanisms with an output
-    law); ``convergence`` (only when IPOPT's ``history`` is given)."""
+def figures(ev: Evaluation, history: dict | None = None, band: Band | None = None) -> dict[str, Figure]:
+    """The figures of a design run by name: ``profile``; ``torque`` (with the tolerance
+    ``band`` where given) and ``springs`` (only with springs: without them there is no torque);
+    ``output`` (only for mechanisms with an output law); ``convergence`` (only when IPOPT's
+    ``history`` is given)."""
     out = {"profile": profile_figure(ev)}
     if ev.problem.springs:
-        out["torque"] = torque_figure(ev)
+        out["torque"] = torque_figure(ev, band)
         out["springs"] = springs_figure(ev)
     if any(mech.output_target is not None for mech in ev.problem.mechanisms):
         out["output"] = output_figure(ev)

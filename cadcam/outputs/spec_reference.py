@@ -2,7 +2,7 @@
 the ``[solver]`` options (:data:`cadcam.problem.SOLVER`) and the IPOPT options cadcam passes on
 (:data:`cadcam.problem.IPOPT_OPTIONS`), the ``[workshop]`` sizes
 (:class:`cadcam.problem.Workshop`, :data:`cadcam.problem.WORKSHOP_LIMITS`), the acceptance
-limits (:data:`cadcam.problem.ACCEPTANCE`), the target kinds
+limits (:data:`cadcam.problem.ACCEPTANCE`), the tolerances (:data:`cadcam.problem.TOLERANCES`), the target kinds
 (:func:`cadcam.targets.target_kinds`) and each mechanism's own keys (the ``spec.schema.json``
 beside its model, with its ports, parameters and limits).
 
@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import mechanism_class
-from ..problem import ACCEPTANCE, IPOPT_OPTIONS, SOLVER, WORKSHOP_LIMITS, Workshop
+from ..problem import ACCEPTANCE, IPOPT_OPTIONS, TOLERANCES, SOLVER, WORKSHOP_LIMITS, Workshop
 from ..targets import target_kinds
 from .schema import mechanism_schemas
 
@@ -72,6 +72,13 @@ def _acceptance() -> list[str]:
                    for key, a in ACCEPTANCE.items()]
 
 
+def _tolerances() -> list[str]:
+    rows = ["## `[tolerances]`", "", "How far a built part may be from its design, ± around each nominal value: "
+            "every design reports the torque band they give (`tolerance_band` in `result.json`, the summary, the "
+            "shaded band of `torque.png`).", "", "| key | unit | default | tolerance on |", "|---|---|---|---|"]
+    return rows + [f"| `{key}` | {t.unit} | `{t.default!r}` | {_cell(t.description)} |" for key, t in TOLERANCES.items()]
+
+
 def _targets() -> list[str]:
     return ["## Target kinds", "",
             "A joint's `[joints.target]` (a torque law [N·m]): " + ", ".join(f"`{k}`" for k in target_kinds()) + ".",
@@ -108,7 +115,7 @@ def _mechanism(kind: str, schema: dict) -> list[str]:
 
 def reference() -> str:
     """The page's text."""
-    rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_acceptance(), "", *_targets(), "", "## Mechanisms", "",
+    rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_acceptance(), "", *_tolerances(), "", *_targets(), "", "## Mechanisms", "",
             "Keys every `[[mechanisms]]` table has: `kind`, `name`, `joint` (1-based), the profile's "
             "`basis`, `order`, `rho_min`, `rho_max` and optional `min_curvature_radius`; then its own:"]
     for kind, schema in mechanism_schemas().items():

@@ -25,22 +25,26 @@ NEWTON_STEPS = 6
 INPUTS = ("theta", "c", "k", "x0", "F0")
 
 
-def _mechanism_inputs(problem: Problem, bases: list[Basis], c):
+def _mechanism_inputs(problem: Problem, bases: list[Basis], c, q=None):
     """Per mechanism: its structure for ``bases`` (the design's), its stacked coefficients
-    (symbols cut from ``c``) and its parameter values."""
-    out = []
+    (symbols cut from ``c``) and its parameters: their values, or symbols cut from ``q`` (every
+    mechanism's, stacked in mechanism order) where ``q`` is given."""
+    out, first = [], 0
     pieces = split_coefficients(bases, c)
     for mech, sl in zip(problem.mechanisms, problem.profile_slices()):
-        out.append(((type(mech), tuple(bases[sl])), ca.vertcat(*pieces[sl]),
-                    ca.DM(mech.parameter_values())))
+        n = len(mech.parameters)
+        values = ca.DM(mech.parameter_values()) if q is None else q[first:first + n]
+        first += n
+        out.append(((type(mech), tuple(bases[sl])), ca.vertcat(*pieces[sl]), values))
     return out
 
 
-def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str, solve=None):
+def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str, solve=None, q=None):
     """Symbols (theta, c, k, x0, F0, z), residuals R(z), the unknowns at θ, and (tau, x).
 
     ``z`` stacks [z(θ), z(θ_ref)] per mechanism. With ``solve`` given (structure → solver),
-    z is replaced by its solution.
+    z is replaced by its solution. ``q``: the mechanisms' parameters as symbols (see
+    :func:`_mechanism_inputs`), else their values.
     """
     m, S = len(problem.joints), len(problem.springs)
     theta = sym("theta", m)
@@ -48,16 +52,16 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str
     k, x0, F0 = sym("k", S), sym("x0", S), sym("F0", S)
     z = sym("z", 2 * sum(len(mech.unknowns) for mech in problem.mechanisms))
     D, A, R, Z, k0 = [], [], [], [], 0
-    for mech, (structure, cu, q) in zip(problem.mechanisms, _mechanism_inputs(problem, bases, c)):
+    for mech, (structure, cu, qu) in zip(problem.mechanisms, _mechanism_inputs(problem, bases, c, q)):
         nz, th = len(mech.unknowns), theta[mech.joint]
         if solve is None:
             zu, zr = z[k0:k0 + nz], z[k0 + nz:k0 + 2 * nz]
             k0 += 2 * nz
         else:
-            zu, zr = solve(structure)(th, cu, q), solve(structure)(mech.reference_angle, cu, q)
+            zu, zr = solve(structure)(th, cu, qu), solve(structure)(mech.reference_angle, cu, qu)
         res = residual_function(structure)
-        R += [res(th, zu, cu, q)[0], res(mech.reference_angle, zr, cu, q)[0]]
-        d, arm, _, _ = pose_function(structure, problem.torque_model, order, integrals)(th, zu, zr, cu, q)
+        R += [res(th, zu, cu, qu)[0], res(mech.reference_angle, zr, cu, qu)[0]]
+        d, arm, _, _ = pose_function(structure, problem.torque_model, order, integrals)(th, zu, zr, cu, qu)
         D.append(d)
         A.append(arm)
         Z.append(zu)
@@ -83,6 +87,27 @@ def torque_function(problem: Problem, bases: list[Basis], order: int = 48,
     (theta, c, k, x0, F0, _), _, Z, tau, x = _model(problem, bases, sym, order, integrals, solve)
     return ca.Function("torque", [theta, c, k, x0, F0], [tau, x, Z], list(INPUTS),
                        ["tau", "x", "z"])
+
+
+def parameter_model(problem: Problem, bases: list[Basis], order: int = 48,
+                    integrals: str = "quadrature") -> ca.Function:
+    """The torque model at given departure unknowns, with the mechanisms' parameters as an
+    input, and its derivatives by the implicit function theorem (SX).
+
+    ``model(theta, c, k, x0, F0, q, z) -> (tau, R, dR_dz, dtau_dp)``: ``q`` stacks every
+    mechanism's :attr:`~cadcam.mechanisms.base.Mechanism.parameters` in mechanism order, ``z``
+    the unknowns at θ and at the reference angle of each mechanism (as :func:`_model`); ``R``
+    are their residuals and ``dtau_dp`` the total derivative of τ with respect to
+    p = [c; k; x0; F0; q], ∂τ/∂p − ∂τ/∂z R_z⁻¹ R_p, exact where R(z) = 0 — so that a part's
+    placement can be varied and differentiated about a solved pose.
+    """
+    q = ca.SX.sym("q", sum(len(mech.parameters) for mech in problem.mechanisms))
+    (theta, c, k, x0, F0, z), R, _, tau, _ = _model(problem, bases, ca.SX.sym, order, integrals, q=q)
+    p = ca.vertcat(c, k, x0, F0, q)
+    Rz = ca.jacobian(R, z)
+    dtau_dp = ca.jacobian(tau, p) - ca.mtimes(ca.jacobian(tau, z), ca.solve(Rz, ca.jacobian(R, p)))
+    return ca.Function("parameter_model", [theta, c, k, x0, F0, q, z], [tau, R, Rz, dtau_dp],
+                       [*INPUTS, "q", "z"], ["tau", "R", "dR_dz", "dtau_dp"])
 
 
 def torque_jacobian_function(problem: Problem, bases: list[Basis], order: int = 48,

@@ -92,8 +92,8 @@ class AnchoredPulley(Mechanism):
     spec_units = {"spring_end": "m", "anchor_angle": "rad", "reference_angle": "rad", "min_moment_arm": "m", "min_free_span": "m", "initial_radius": "m"}
     ports = ("cable",)
     fixed_sign_ports = {"cable": ("winding", "sense")}  # the cable's line never crosses the axis
-    parameters = (Quantity("ell", "m", "the distance ℓ from the joint to the spring end"),
-                  Quantity("chi0", "rad", "the spring end's canonical angle χ₀ at θ = 0"),
+    parameters = (Quantity("ell", "m", "the distance ℓ from the joint to the spring end", placed="length"),
+                  Quantity("chi0", "rad", "the spring end's canonical angle χ₀ at θ = 0", placed="angle:ell"),
                   Quantity("sigma", "-", "σ = ±1: the spring end turns by σθ around the pulley"),
                   Quantity("theta_ref", "rad", "the joint angle where the spring has its pre-extension"),
                   Quantity("min_moment_arm", "m", "the least moment arm allowed"),

@@ -117,7 +117,8 @@ class RollerFollower(Mechanism):
     ports = ("follower",)
     parameters = (Quantity("roller_radius", "m", "the roller's radius r (Eq. G3)"),
                   Quantity("follower_angle", "rad", "the follower's direction of travel β (world)"),
-                  Quantity("offset", "m", "the follower line's offset e from the joint axis, along v̂"),
+                  Quantity("offset", "m", "the follower line's offset e from the joint axis, along v̂",
+                           placed="length"),
                   Quantity("axis_angle", "rad", "the world angle γ₀ of the cam's polar axis at θ = 0"),
                   Quantity("max_pressure_angle", "rad", "the largest pressure angle φ_max (Eq. G4)"),
                   Quantity("reference_angle", "rad", "the joint angle where the port is zero"),

@@ -52,7 +52,8 @@ class WireCam(Mechanism):
     ports = ("wire", "platform")
     fixed_sign_ports = {"wire": ()}  # the wire wraps the cam as θ grows, whatever its profile (Eq. 6)
     parameters = (Quantity("idler_radius", "m", "the idler's radius r (Eq. 7)"),
-                  Quantity("idler_offset", "m", "the platform's height a₀ above the cam axis (Eq. 7)"),
+                  Quantity("idler_offset", "m", "the platform's height a₀ above the cam axis (Eq. 7)",
+                           placed="length"),
                   Quantity("mu", "-", "the wire–cam friction coefficient (force models, Eq. 33–35)"))
     per_angle = (Quantity("alpha", "rad", "the wire's contact angle α on the cam (Eq. 6)"),
                  Quantity("gamma", "rad", "the wire's contact angle γ on the idler (Eq. 7)"))

@@ -1,0 +1,168 @@
+"""The torque band a built part falls in: the design's torque under the tolerances of its
+springs, placements and profiles (:data:`cadcam.problem.TOLERANCES`, or the spec's
+``[tolerances]``).
+
+First order, by automatic differentiation of the torque model with its departure rootfinder
+(:func:`cadcam.verify.model.parameter_model`): each parameter p at p₀ ± Δp moves
+the torque by about |∂τ/∂p| Δp, and the band's half-width at an angle is the sum over the
+parameters, each at the end that moves the torque the same way,
+
+    w(θ) = Σ_p |∂τ/∂p(θ)| Δp.
+
+Then the worst corner is re-checked without linearising: at each joint's angle of widest
+band, every parameter is set to the end its derivative's sign picks and the torque model is
+evaluated there; the band is trustworthy to first order where the two agree.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..designs import Design
+from ..problem import TOLERANCES, Problem
+from .model import parameter_model
+
+#: Gauss–Legendre order of the wrapped-length integrals of the band's torque model.
+ORDER = 48
+
+
+@dataclass
+class Band:
+    """The tolerance band of a design on a grid of angles.
+
+    Attributes
+    ----------
+    tolerance : dict
+        The tolerances used (:attr:`cadcam.problem.Problem.tolerance`).
+    half_width : ndarray
+        w (m, N) [N·m]: the torque lies in τ ± w at each grid point, to first order.
+    parts : dict
+        Each tolerance's share of ``half_width`` (m, N) [N·m].
+    corners : list of dict
+        Per joint: the grid point of widest band (``theta`` [rad]), its first-order ``predicted``
+        half-width and the ``recomputed`` |τ(worst corner) − τ| there [N·m].
+    """
+
+    tolerance: dict
+    half_width: np.ndarray
+    parts: dict
+    corners: list
+
+    def label(self) -> str:
+        """The tolerances in words: ``rate ± 10 %, …, profile ± 0.05 mm``."""
+        return ", ".join(f"{key} ± {100 * v:g} %" if TOLERANCES[key].unit == "ratio" else f"{key} ± {1e3 * v:g} mm"
+                         for key, v in self.tolerance.items())
+
+    def to_dict(self) -> dict:
+        """result.json's ``tolerance_band``: the tolerances, each joint's widest half-width,
+        its parts there and the worst corner's re-check (SI)."""
+        joints = []
+        for i, corner in enumerate(self.corners):
+            n = int(np.argmax(self.half_width[i]))
+            joints.append({"half_width_max": float(self.half_width[i, n]),
+                           "half_width_rms": float(np.sqrt(np.mean(self.half_width[i] ** 2))),
+                           "parts_at_max": {k: float(v[i, n]) for k, v in self.parts.items()},
+                           "worst_corner": corner})
+        return {"tolerances": dict(self.tolerance), "joints": joints}
+
+
+def tolerance_band(evaluation) -> Band:
+    """The band of an evaluated design (:class:`cadcam.verify.evaluate.Evaluation`) at its grid
+    points, about the poses the evaluation solved (see the module)."""
+    problem, design, theta = evaluation.problem, evaluation.design, evaluation.theta
+    layout = _Layout(problem, design)
+    model = parameter_model(problem, design.bases, ORDER).map(theta.shape[1])
+    z = _unknowns(evaluation)
+    directions = _directions(problem, design, layout)
+    N = theta.shape[1]
+    # the N blocks (m × P) side by side → (m, N, P)
+    J = np.stack(np.hsplit(np.asarray(model(theta, *layout.split(layout.nominal), z)[3]), N), axis=1)
+    parts = {key: np.abs(J @ D).sum(axis=2) for key, D in directions.items()}
+    half = sum(parts.values())
+    D = np.concatenate(list(directions.values()), axis=1)
+    corners = [_worst_corner(problem, design, layout, theta, z, D, J, half, i) for i in range(theta.shape[0])]
+    return Band(problem.tolerance, half, parts, corners)
+
+
+class _Layout:
+    """Where c, k, x₀, F0 and q sit in the parameter vector P of
+    :func:`cadcam.verify.model.parameter_model`, and the design's values P₀."""
+
+    def __init__(self, problem: Problem, design: Design):
+        S = len(problem.springs)
+        sizes = [sum(b.size for b in design.bases), S, S, S,
+                 sum(len(mech.parameters) for mech in problem.mechanisms)]
+        self.start = dict(zip(("c", "k", "x0", "F0", "q"), np.cumsum([0, *sizes[:-1]])))
+        self.size = int(sum(sizes))
+        self.nominal = np.concatenate([np.concatenate(design.coefficients),
+                                       [s.rate for s in problem.springs], design.preextension,
+                                       [s.preload for s in problem.springs],
+                                       [v for mech in problem.mechanisms for v in mech.parameter_values()]])
+
+    def split(self, values: np.ndarray) -> list[np.ndarray]:
+        """``values`` (P) cut into the model's inputs c, k, x₀, F0, q."""
+        return np.split(values, list(self.start.values())[1:])
+
+    def step(self, index: int, value: float) -> np.ndarray:
+        """A step of ``value`` in parameter ``index`` alone."""
+        out = np.zeros(self.size)
+        out[index] = value
+        return out
+
+
+def _unknowns(evaluation) -> np.ndarray:
+    """The solved unknowns at every grid point (rows: each mechanism's z at θ, then at its
+    reference angle, as :func:`cadcam.verify.model.parameter_model` stacks them)."""
+    rows = []
+    for mech, unit in zip(evaluation.problem.mechanisms, evaluation.units):
+        at = np.searchsorted(unit.theta, evaluation.theta[mech.joint])  # the joint's grid index
+        rows += [unit.z[:, at], np.repeat(np.reshape(unit.z_ref, (-1, 1)), at.size, axis=1)]
+    return np.vstack(rows)
+
+
+def _directions(problem: Problem, design: Design, layout: _Layout) -> dict[str, np.ndarray]:
+    """For each tolerance, the parameter steps it allows (P × steps): one column per spring,
+    placed parameter or profile, each its Δp."""
+    tol = problem.tolerance
+    cols: dict[str, list] = {key: [] for key in TOLERANCES}
+    for j, spring in enumerate(problem.springs):
+        cols["rate"].append(layout.step(layout.start["k"] + j, tol["rate"] * spring.rate))
+        cols["preload"].append(layout.step(layout.start["F0"] + j, tol["preload"] * spring.preload))
+        cols["placement"].append(layout.step(layout.start["x0"] + j, tol["placement"]))
+    first = layout.start["q"]
+    for mech in problem.mechanisms:
+        values = dict(zip(mech.parameter_names, mech.parameter_values()))
+        for index, quantity in enumerate(mech.parameters):
+            if quantity.placed:  # "length", or "angle:ARM": the placement over that arm
+                arm = values[quantity.placed.split(":")[1]] if ":" in quantity.placed else 1.0
+                cols["placement"].append(layout.step(first + index, tol["placement"] / arm))
+        first += len(mech.parameters)
+    start = layout.start["c"]
+    for basis in design.bases:  # a uniform offset of ρ, in the profile's basis
+        offset = np.zeros(layout.size)
+        offset[start:start + basis.size] = basis.from_monomial(np.eye(basis.size)[0] * tol["profile"])
+        cols["profile"].append(offset)
+        start += basis.size
+    return {key: np.stack(c, axis=1) if c else np.zeros((layout.size, 0)) for key, c in cols.items()}
+
+
+#: Newton steps that re-solve the poses at the worst corner from the nominal ones.
+CORNER_NEWTON_STEPS = 8
+
+
+def _worst_corner(problem, design, layout, theta, z, D, J, half, i: int) -> dict:
+    """Joint ``i``'s worst corner re-checked: at its grid point of widest band, every step of
+    ``D`` taken to the end that moves τ_i the way its derivative says, the poses re-solved there
+    by Newton from the nominal ones, and the torque evaluated without linearising."""
+    n = int(np.argmax(half[i]))
+    corner = layout.nominal + D @ np.sign(J[i, n] @ D)
+    model = parameter_model(problem, design.bases, ORDER)
+    at, zc = theta[:, n], z[:, n].copy()
+    for _ in range(CORNER_NEWTON_STEPS):
+        _, R, Rz, _ = model(at, *layout.split(corner), zc)
+        zc -= np.linalg.solve(np.asarray(Rz), np.asarray(R).ravel())
+    tau_corner, R = (np.asarray(v).ravel() for v in model(at, *layout.split(corner), zc)[:2])
+    tau = np.asarray(model(at, *layout.split(layout.nominal), z[:, n])[0]).ravel()
+    return {"theta": [float(t) for t in at], "predicted": float(half[i, n]),
+            "recomputed": float(abs(tau_corner[i] - tau[i])), "residual": float(np.abs(R).max())}
