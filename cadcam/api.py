@@ -372,17 +372,13 @@ def _nlp_partials(problem: Problem, start: Design, rng: np.random.Generator) -> 
 
 
 def read_study(path):
-    """A study database (``cadcam sweep``) as a table: one row per case with its parameters,
-    status and metrics (the columns of ``cadcam sweep-export``). A pandas DataFrame if pandas
-    is installed, else a dict of column name → list. :class:`StudyError` for a path that is not
-    a study database."""
+    """A study database (``cadcam sweep``) as a pandas DataFrame: one row per case with its
+    parameters, status and metrics (the columns of ``cadcam sweep-export``).
+    :class:`StudyError` for a path that is not a study database."""
+    import pandas as pd
+
     if not isinstance(path, (str, os.PathLike)):
         raise StudyError(f"path = {short_repr(path)}: expected the file name of a study database")
     table = flat_table(*read_rows(path))
     header = dict.fromkeys(k for row in table for k in row)  # every column, in first-seen order
-    columns = {name: [row.get(name) for row in table] for name in header}
-    try:
-        import pandas as pd
-    except ImportError:
-        return columns
-    return pd.DataFrame(columns)
+    return pd.DataFrame({name: [row.get(name) for row in table] for name in header})

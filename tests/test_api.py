@@ -175,6 +175,7 @@ def test_read_study_returns_one_row_per_case(tmp_path):
                      'values = [1000.0, 1200.0]\n[[parameters]]\nkey = "solver.grid"\nvalues = [12]\n')
     run_sweep(load_study(study), tmp_path / "s.db", workers=0, progress=False)
     table = cadcam.read_study(tmp_path / "s.db")
+    assert type(table).__name__ == "DataFrame" and len(table) == 2
     column = table["springs.1.rate"]
     assert sorted(list(column)) == [1000.0, 1200.0] and list(table["status"]) == ["success", "success"]
     assert all(v > 0 for v in table["rmse_1"])

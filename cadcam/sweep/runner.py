@@ -394,19 +394,25 @@ def _nearest(case: dict, solved: list[tuple[dict, dict, float, str]], scales: di
     return min(solved, key=lambda s: dist(s[0]))[1:] if solved else (None, None, None)
 
 
+def _case_words(row: dict) -> str:
+    """A case by its parameters (``springs.1.rate = 1200``), as progress lines name it."""
+    return ", ".join(f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
+                     for key, value in json.loads(row["params"]).items())
+
+
 def _reporter(total: int, done: int):
     """A progress bar on a terminal (tqdm), plain log lines otherwise."""
     if sys.stderr.isatty():
         from tqdm import tqdm
         bar = tqdm(total=total, initial=done, unit="case", dynamic_ncols=True)
-        return lambda row: (bar.set_postfix_str(row["status"]), bar.update(1)), bar.close
+        return lambda row: (bar.set_postfix_str(f"{_case_words(row)}: {row['status']}"), bar.update(1)), bar.close
     t0, count = time.perf_counter(), [done]
 
     def line(row):
         count[0] += 1
         rate = (count[0] - done) / max(time.perf_counter() - t0, 1e-9)
         eta = (total - count[0]) / rate if rate > 0 else math.inf
-        print(f"[{count[0]}/{total}] {row['case_id']} {row['status']} "
+        print(f"[{count[0]}/{total}] {_case_words(row)}: {row['status']} "
               f"({rate * 60:.1f} cases/min, ETA {eta:.0f} s)", file=sys.stderr, flush=True)
     return line, lambda: None
 
