@@ -62,6 +62,7 @@ class DesignPage:
         self.inputs: dict[str, pn.widgets.TextInput] = {}
         self.errors: dict[str, pn.pane.HTML] = {}
         self.frames: Frames | None = None
+        self._shown = 0  # designs asked for: only the last one's figures are shown
         names = [title for title, _ in TEMPLATES]
         self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
                                           css_classes=["template"], sizing_mode="stretch_width")
@@ -112,7 +113,10 @@ class DesignPage:
             box = pn.widgets.TextInput(name=f.label, value=f.text, description=f.help,
                                        placeholder="default", css_classes=["field", f"field-{slug(f.key)}"],
                                        sizing_mode="stretch_width")
-            box.param.watch(lambda event, key=f.key: self._on_edit(key, event.new), "value")
+            async def edited(event, key=f.key):  # a coroutine function, which param awaits
+                await self._on_edit(key, event.new)
+
+            box.param.watch(edited, "value")
             error = pn.pane.HTML("", css_classes=["field-error", f"error-{slug(f.key)}"], visible=False,
                                  sizing_mode="stretch_width")
             self.inputs[f.key], self.errors[f.key] = box, error
@@ -130,10 +134,34 @@ class DesignPage:
         await self.design(edited=key)
 
     async def design(self, edited: str | None = None) -> None:
-        """Design the state in the worker and show what it gave."""
+        """Design the state in the worker and show what it gave: the verdict and the torque
+        first, then the springs and the mechanism (each figure drawn in the worker too)."""
+        self._shown += 1
+        shown = self._shown
         self.verdict.object = "<span class='solving'>designing…</span>"
-        outcome = await asyncio.get_running_loop().run_in_executor(WORKER, self.state.design, edited)
+        outcome = await self._in_worker(self.state.design, edited)
+        if shown != self._shown:  # a later edit is being designed: show that one
+            return
         self._show(outcome)
+        result = outcome.result
+        if result is None:
+            return
+        ev = result.evaluation
+        frames = Frames(ev)
+        self.frames = frames
+        if result.problem.springs:
+            self.torque.object = await self._in_worker(lambda: png(torque_figure(ev)))
+        for pane, draw in ((self.springs, lambda: png(springs_figure(ev)) if result.problem.springs else None),
+                           (self.mechanism, lambda: frames.png(self.player.value))):
+            image = await self._in_worker(draw)
+            if shown != self._shown:
+                return
+            pane.object = image
+        self.player.end = max(frames.count - 1, 1)
+
+    async def _in_worker(self, fn, *args):
+        """``fn(*args)`` in the worker, whose thread designs and draws one thing at a time."""
+        return await asyncio.get_running_loop().run_in_executor(WORKER, fn, *args)
 
     async def _on_template(self, event) -> None:
         name = dict(TEMPLATES).get(event.new)
@@ -160,9 +188,10 @@ class DesignPage:
         self._build_form()
         await self.design()
 
-    def _on_pose(self, event) -> None:
-        if self.frames is not None:
-            self.mechanism.object = self.frames.png(event.new)
+    async def _on_pose(self, event) -> None:
+        frames = self.frames
+        if frames is not None:
+            self.mechanism.object = await self._in_worker(frames.png, event.new)
 
     # ------------------------------------------------------------------------------- views
     def _show_error(self, key: str | None, message: str | None) -> None:
@@ -182,16 +211,8 @@ class DesignPage:
                                f" <small>(designed in {outcome.seconds:.2f} s)</small>")
         lines = result.summary().splitlines()[1:]
         self.details.object = "<pre style='white-space: pre-wrap; font-size: 12px'>" + _escape("\n".join(lines)) + "</pre>"
-        ev = result.evaluation
-        if result.problem.springs:
-            self.torque.object = png(torque_figure(ev))
-            self.springs.object = png(springs_figure(ev))
-        else:
+        if not result.problem.springs:
             self.torque.object = self.springs.object = None
-        self.frames = Frames(ev)
-        self.player.end = max(self.frames.count - 1, 1)
-        self.player.value = min(self.player.value, self.frames.count - 1)
-        self.mechanism.object = self.frames.png(self.player.value)
 
     # --------------------------------------------------------------------------- downloads
     def _download_buttons(self) -> list:
