@@ -2,7 +2,6 @@
 ``cadcam app`` served on localhost. Screenshots go to the system's temporary folder
 (``cadcam-app-screens``), never into the repository."""
 import io
-import os
 import socket
 import subprocess
 import sys
