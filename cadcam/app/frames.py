@@ -10,7 +10,7 @@ from ..verify.evaluate import Evaluation
 #: Joint angles the page's player steps through over the range.
 FRAMES = 24
 #: Resolution of a frame [dots per inch].
-FRAME_DPI = 80
+FRAME_DPI = 100
 
 
 class Frames:

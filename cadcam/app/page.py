@@ -25,8 +25,8 @@ from matplotlib.figure import Figure
 
 from ..outputs.plots import springs_figure, torque_figure
 from ..spec import SpecError
-from .state import TEMPLATES, DesignState, Outcome, result_json, zipped
-from .form import table_title
+from .state import TEMPLATES, DesignState, Outcome, catalogue, result_json, zipped
+from .form import table_title, value_text
 from .frames import Frames
 
 #: One worker: designs run one after another, whichever tab asked (the builds are shared).
@@ -63,6 +63,7 @@ class DesignPage:
         self.errors: dict[str, pn.pane.HTML] = {}
         self.frames: Frames | None = None
         self._shown = 0  # designs asked for: only the last one's figures are shown
+        self._error_key: str | None = None  # the field whose error is shown
         names = [title for title, _ in TEMPLATES]
         self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
                                           css_classes=["template"], sizing_mode="stretch_width")
@@ -75,7 +76,7 @@ class DesignPage:
         self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
         self.torque = pn.pane.PNG(None, css_classes=["torque-figure"], width=740)
         self.springs = pn.pane.PNG(None, css_classes=["springs-figure"], width=740)
-        self.mechanism = pn.pane.PNG(None, css_classes=["mechanism-figure"], width=560)
+        self.mechanism = pn.pane.PNG(None, css_classes=["mechanism-figure"], width=700)
         self.player = pn.widgets.Player(name="joint angle", start=0, end=1, value=0, interval=250,
                                         loop_policy="loop", show_loop_controls=False, css_classes=["pose-player"],
                                         width=420)
@@ -108,7 +109,9 @@ class DesignPage:
             items = cards.setdefault(f.group, [])
             title = table_title(f.key, self.state.names)
             if title and title != heading and f.group in ("Springs", "Geometry", "Target and range"):
-                items.append(pn.pane.HTML(f"<b>{title}</b>", margin=(8, 10, 0, 10)))
+                items.append(pn.pane.HTML(f"<b>{_escape(title)}</b>", margin=(8, 10, 0, 10)))
+                if f.group == "Springs":
+                    items.append(self._catalogue_pick(int(f.key.split(".")[1])))
             heading = title
             box = pn.widgets.TextInput(name=f.label, value=f.text, description=f.help,
                                        placeholder="default", css_classes=["field", f"field-{slug(f.key)}"],
@@ -124,8 +127,26 @@ class DesignPage:
         self.form.objects = [pn.Card(*items, title=group, collapsed=group in ("Solver", "Workshop files"),
                                      sizing_mode="stretch_width") for group, items in cards.items()]
 
+    def _catalogue_pick(self, number: int) -> pn.widgets.Select:
+        """A choice of spring ``number`` from the catalogue."""
+        own = "the spec's spring"
+        pick = pn.widgets.Select(name="from the catalogue", options=[own, *(s["name"] for s in catalogue())],
+                                 value=self.state.picks.get(number, {}).get("name", own),
+                                 css_classes=[f"catalogue-springs-{number}"], sizing_mode="stretch_width")
+
+        async def picked(event):
+            self.state.pick_spring(number, None if event.new == own else event.new)
+            for key, box in self.inputs.items():  # the fields show the spring now chosen
+                box.value = value_text(self.state.value(key))
+            await self.design()
+
+        pick.param.watch(picked, "value")
+        return pick
+
     # ---------------------------------------------------------------------------- actions
     async def _on_edit(self, key: str, text: str) -> None:
+        if text.strip() == value_text(self.state.value(key)) and key != self._error_key:
+            return  # what the field shows already (a field set by the page, Enter on an unchanged value)
         self._show_error(None, None)
         error = self.state.edit(key, text)
         if error:
@@ -195,6 +216,7 @@ class DesignPage:
 
     # ------------------------------------------------------------------------------- views
     def _show_error(self, key: str | None, message: str | None) -> None:
+        self._error_key = key
         for k, pane in self.errors.items():
             pane.object, pane.visible = (message, True) if k == key else ("", False)
 
@@ -202,6 +224,9 @@ class DesignPage:
         if outcome.error is not None:
             self._show_error(outcome.field, outcome.error)
             self.verdict.object = (f"<span class='verdict-failure'>not designed: {_escape(outcome.error)}</span>")
+            if self.state.result is not None:
+                self.details.object = ("<small>The figures, result.json and workshop files below are those of the "
+                                       "last design made; the spec (TOML) has the edits as they are.</small>")
             return
         self._show_error(None, None)
         result = outcome.result
@@ -240,7 +265,7 @@ class DesignPage:
                                         css_classes=["download-all"], button_type="primary")]
 
     def _result(self):
-        result = self.state.last.result
+        result = self.state.result
         if result is None:
             raise ValueError("no design yet: the spec has an error")
         return result

@@ -6,9 +6,11 @@ The page (:mod:`cadcam.app.page`) only shows this state; the tests drive it dire
 """
 from __future__ import annotations
 
+import functools
 import io
 import json
 import math
+import re
 import tempfile
 import time
 import zipfile
@@ -20,6 +22,7 @@ from ..api import Session
 from ..designs import DesignError
 from ..result import Result
 from ..spec import SpecError, apply_override, read_keys, read_spec_data
+from ..sweep.study import read_catalogue
 from ..targets import ExpressionError
 from .form import Field, field_of_error, fields_of
 
@@ -31,6 +34,11 @@ TEMPLATES = (
     ("Differential balancer (Fedorov2018)", "fedorov2018_balancer"),
     ("Roller-follower cam pendulum", "roller_follower_pendulum"),
 )
+
+#: The spring catalogue the page offers for each spring (shipped with cadcam).
+CATALOGUE = "spring_catalogue.csv"
+#: The keys of a spring a catalogue pick sets.
+PICKED = ("name", "rate", "travel", "preload")
 
 #: Errors of a design that are the input's: shown as one line, like the command line's.
 INPUT_ERRORS = (SpecError, ExpressionError, DesignError)
@@ -59,10 +67,12 @@ class DesignState:
     path: Path
     session: Session = field(default_factory=Session)
     overrides: dict = field(default_factory=dict)
+    picks: dict[int, dict] = field(default_factory=dict)
     fields: list[Field] = field(init=False)
     names: dict[str, str] = field(init=False)
     absent: set[str] = field(init=False)
     last: Outcome = field(default_factory=Outcome)
+    result: Result | None = None  # the last design made (the last outcome may be an error)
 
     def __post_init__(self):
         self.path = Path(self.path)
@@ -83,6 +93,18 @@ class DesignState:
     def field(self, key: str) -> Field:
         return next(f for f in self.fields if f.key == key)
 
+    def value(self, key: str):
+        """Field ``key``'s value now: the user's, else the catalogue spring's, else the spec's."""
+        if key in self.overrides:
+            return self.overrides[key]
+        return self._unedited(key)
+
+    def _unedited(self, key: str):
+        """Field ``key``'s value without the user's edit: its picked spring's, else the spec's."""
+        match = re.fullmatch(r"springs\.(\d+)\.([a-z_]+)", key)
+        pick = self.picks.get(int(match.group(1)), {}) if match else {}
+        return pick[match.group(2)] if match and match.group(2) in pick else self.field(key).value
+
     def edit(self, key: str, text: str) -> str | None:
         """Set field ``key`` to ``text`` (empty: its value in the spec); the one-line error of
         text that is no value, else None."""
@@ -91,16 +113,25 @@ class DesignState:
             value = f.parse(text)
         except SpecError as exc:
             return str(exc)
-        if value is None or value == f.value:
+        if value is None or value == self._unedited(key):
             self.overrides.pop(key, None)
         else:
             self.overrides[key] = value
         return None
 
+    def pick_spring(self, number: int, name: str | None) -> None:
+        """Spring ``number`` (from 1) becomes the catalogue's spring ``name`` (None: the spec's
+        own again): its name, rate, travel and preload, the edits of those dropped."""
+        self.picks.pop(number, None)
+        if name is not None:
+            self.picks[number] = next(s for s in catalogue() if s["name"] == name)
+        for key in PICKED:
+            self.overrides.pop(f"springs.{number}.{key}", None)
+
     def override_pairs(self) -> list[tuple[str, object]]:
         """The edits as ``--set`` pairs; a key whose table the spec leaves out (its
         ``[workshop]``, a joint's ``acceptance``) sets that table, which then holds it."""
-        pairs = []
+        pairs: list[tuple[str, object]] = [(f"springs.{j}", dict(spring)) for j, spring in self.picks.items()]
         for key, value in self.overrides.items():
             table, _, name = key.rpartition(".")
             pairs.append((table, {name: value}) if table in self.absent else (key, value))
@@ -118,6 +149,7 @@ class DesignState:
                                 seconds=time.perf_counter() - start)
         else:
             self.last = Outcome(result=result, seconds=time.perf_counter() - start)
+            self.result = result
         return self.last
 
     # -------------------------------------------------------------------- the files to download
@@ -145,6 +177,12 @@ class DesignState:
             except ValueError:  # a workshop file that cannot be made: the others are written
                 pass
             return {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file()}
+
+
+@functools.cache
+def catalogue() -> tuple[dict, ...]:
+    """The shipped spring catalogue's springs: {name, rate [N/m], travel [m], preload [N]}."""
+    return read_catalogue(examples.path(CATALOGUE))
 
 
 def zipped(files: dict[str, bytes]) -> bytes:

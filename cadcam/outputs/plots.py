@@ -196,6 +196,10 @@ def pose_frames(ev: Evaluation, n_frames: int = 24):
     return count, lambda i: _poses_figure(ev, rows, [i])
 
 
+#: Least width of the profile view [in]: its title and legend fit above and below one pose.
+POSES_MIN_WIDTH = 7.0
+
+
 def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
     """The figure of :func:`profile_figure`: each mechanism's row of :func:`_row`, at the poses
     ``columns`` (indices into each row's poses)."""
@@ -205,7 +209,7 @@ def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
     width = 3.9  # of a panel [in]
     heights = [width * float(np.clip((hi[1] - lo[1]) / (hi[0] - lo[0]), 0.45, 1.6)) + 0.6
                for _, lo, hi in rows]
-    fig = Figure(figsize=(width * ncols + 0.4, sum(heights) + 1.2), layout="constrained")
+    fig = Figure(figsize=(max(width * ncols + 0.4, POSES_MIN_WIDTH), sum(heights) + 1.2), layout="constrained")
     axes = fig.subplots(len(mechs), ncols, squeeze=False, gridspec_kw={"height_ratios": heights})
     seen = set()  # what the legend explains, beyond what every view draws
     for row, (mech, (panels, lo, hi)) in enumerate(zip(mechs, rows)):
@@ -232,7 +236,7 @@ def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
                             fontsize=7, color="0.35", va="bottom")
     words = _words(mechs)
     handles = _profile_legend(max(len(mech.profiles) for mech in mechs), seen, words)
-    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8,
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5 if ncols > 1 else 3), fontsize=8,
                frameon=False)
     at = f"{ncols} joint angles" if ncols > 1 else "one joint angle"
     fig.suptitle(f"{problem.name}: {words.title} at {at} (+: joint axis)", fontsize=10)

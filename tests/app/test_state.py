@@ -75,3 +75,43 @@ def test_a_bad_value_is_one_line_beside_its_field():
     assert outcome.result is None and outcome.field == "springs.1.rate"
     assert outcome.error.endswith("springs[1].rate = -5: expected a positive spring rate [N/m]")
     assert "\n" not in outcome.error
+
+
+def test_a_catalogue_spring_replaces_the_specs_and_an_edit_still_wins():
+    state = DesignState.template("johnston2023_1dof")
+    state.pick_spring(1, "ACM12-100 (Endo2010 Sec. II-C (Endo et al. 2010))")
+    assert state.value("springs.1.rate") == 1150.0 and state.value("springs.1.preload") == 14.71
+    problem = load_problem(state.path, overrides=state.override_pairs())
+    spring = problem.springs[0]
+    assert (spring.rate, spring.travel, spring.preload, spring.ports[0].label()) == (1150.0, 0.07521, 14.71, "wire:1")
+    state.edit("springs.1.rate", "1200")
+    assert load_problem(state.path, overrides=state.override_pairs()).springs[0].rate == 1200
+    state.edit("springs.1.rate", "1150")  # the picked spring's own rate: no edit
+    assert "springs.1.rate" not in state.overrides
+    state.pick_spring(1, None)
+    assert state.value("springs.1.rate") == 1100.0
+
+
+def test_a_result_json_opens_with_its_resolved_problem(tmp_path):
+    from cadcam.app.state import result_json
+
+    state = DesignState.template("roller_follower_pendulum")
+    outcome = state.design()
+    path = tmp_path / "result.json"
+    path.write_text(result_json(outcome.result))
+    opened = DesignState(path)
+    assert opened.field("joints.1.target.mass").value == 0.5
+    assert load_problem(path).to_dict() == outcome.result.problem.to_dict()
+    written = tmp_path / "spec.toml"
+    written.write_text(opened.spec_toml())
+    assert load_problem(written).to_dict() == outcome.result.problem.to_dict()
+
+
+def test_cadcam_app_refuses_a_spec_it_cannot_read_in_one_line(tmp_path, capsys):
+    from cadcam.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\nsource = "y"\n[[springs]]\nrate = -1\n')
+    assert main(["app", str(bad), "--no-browser"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cadcam: error: ") and "\n" not in err
