@@ -69,8 +69,9 @@ class DesignPage:
                                           css_classes=["template"], sizing_mode="stretch_width")
         self.template.param.watch(self._on_template, "value")
         self.upload = pn.widgets.FileInput(accept=".toml,.json", css_classes=["open-file"], sizing_mode="stretch_width")
-        self.upload.param.watch(self._on_upload, "value")
+        self.upload.param.watch(self._on_upload, ["value", "filename"])
         self.open_error = pn.pane.HTML("", css_classes=["field-error", "open-error"])
+        self.opened = pn.pane.HTML(f"<small>open {_escape(self.state.path.name)}</small>", css_classes=["opened"])
         self.form = pn.Column(sizing_mode="stretch_width")
         self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
         self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
@@ -89,7 +90,7 @@ class DesignPage:
         """The page."""
         left = pn.Column(pn.pane.HTML("<h2>cadcam design page</h2>"), self.template,
                          pn.pane.HTML("<small>or open a spec (TOML) or a result.json:</small>"), self.upload,
-                         self.open_error, self.form, width=400)
+                         self.open_error, self.opened, self.form, width=400)
         right = pn.Column(self.verdict, self.details, self.downloads,
                           pn.Tabs(("Torque", self.torque), ("Mechanism", pn.Column(self.player, self.mechanism)),
                                   ("Springs", self.springs), dynamic=False),
@@ -189,7 +190,7 @@ class DesignPage:
         if name is not None and name != self.state.path.stem:
             await self._open(lambda: DesignState.template(name))
 
-    async def _on_upload(self, event) -> None:
+    async def _on_upload(self, *events) -> None:
         if not self.upload.value or not self.upload.filename:
             return
         folder = Path(tempfile.mkdtemp(prefix="cadcam-app-open-"))
@@ -204,6 +205,7 @@ class DesignPage:
             self.open_error.object = str(exc)
             return
         self.open_error.object = ""
+        self.opened.object = f"<small>open {_escape(state.path.name)}</small>"
         state.session = self.state.session  # the builds and last answers stay with the tab
         self.state = state
         self._build_form()

@@ -115,3 +115,13 @@ def test_cadcam_app_refuses_a_spec_it_cannot_read_in_one_line(tmp_path, capsys):
     assert main(["app", str(bad), "--no-browser"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("cadcam: error: ") and "\n" not in err
+
+
+def test_the_files_to_download_are_those_cadcam_design_writes(tmp_path):
+    state = DesignState.template("johnston2023_1dof")
+    result = state.design().result
+    files = state.result_files(result)
+    assert {"result.json", "torque.csv", "profile.csv", "cam1.dxf", "cam1.svg", "cam1_points.csv"} <= set(files)
+    assert not any(name.endswith(".png") for name in files)  # figures=False draws none
+    result.save(tmp_path, figures=False)
+    assert files["cam1.dxf"].count(b"LWPOLYLINE") == (tmp_path / "cam1.dxf").read_bytes().count(b"LWPOLYLINE")
