@@ -253,8 +253,9 @@ class DesignPage:
             files = self._result_files(False)
             return io.BytesIO(zipped({n: d for n, d in files.items() if n.endswith(".dxf")}))
 
-        def everything():
-            return io.BytesIO(zipped(self._result_files(True)))
+        def everything():  # with the page's verdict lines, as summary.txt
+            files = self._result_files(True)
+            return io.BytesIO(zipped({**files, "summary.txt": (self._result().summary() + "\n").encode("utf-8")}))
 
         return [pn.widgets.FileDownload(callback=spec, filename="spec.toml", label="spec (TOML)",
                                         css_classes=["download-spec"], button_type="primary"),
@@ -263,7 +264,7 @@ class DesignPage:
                 pn.widgets.FileDownload(callback=dxf, filename="dxf.zip", label="DXF outlines (zip)",
                                         css_classes=["download-dxf"], button_type="primary"),
                 pn.widgets.FileDownload(callback=everything, filename="outputs.zip",
-                                        label="every file: SVG, STL, sheets, figures (zip)",
+                                        label="every file: SVG, STL, sheets, figures, summary (zip)",
                                         css_classes=["download-all"], button_type="primary")]
 
     def _result(self):

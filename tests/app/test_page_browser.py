@@ -134,6 +134,17 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
         dxf_bytes = z.read("cam1.dxf")
     _check_dxf(dxf_bytes, spec["cams"][0]["rho_max"])
 
+    # the mechanism runs over the range: playing shows another joint angle
+    page.get_by_text("Mechanism", exact=True).click()
+    frame = page.locator(".mechanism-figure img").get_attribute("src")
+    page.locator(".pose-player button.play").click()
+    deadline = time.monotonic() + 10
+    while page.locator(".mechanism-figure img").get_attribute("src") == frame and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    assert page.locator(".mechanism-figure img").get_attribute("src") != frame
+    page.screenshot(path=str(SCREENS / "4_mechanism.png"))
+    page.get_by_text("Torque", exact=True).click()
+
     # the spec downloaded opens again, with the edit in its form
     page.locator(".open-file input[type=file]").set_input_files(str(tmp_path / "spec.toml"))
     page.get_by_text("open spec.toml").wait_for(timeout=10_000)
@@ -143,7 +154,7 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
         page.wait_for_timeout(100)
     assert rate.input_value() == "1200"
     page.wait_for_selector(".verdict-success", timeout=20_000)
-    page.screenshot(path=str(SCREENS / "4_reopened.png"), full_page=True)
+    page.screenshot(path=str(SCREENS / "5_reopened.png"), full_page=True)
 
     outside = [u for u in requests if not u.startswith(("http://127.0.0.1:", "ws://127.0.0.1:", "data:",
                                                          "blob:http://127.0.0.1:"))]
