@@ -33,7 +33,7 @@ from .frames import Frames
 WORKER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="cadcam-design")
 
 #: Resolution of the figures on the page [dots per inch].
-PAGE_DPI = 80
+PAGE_DPI = 100
 
 CSS = """
 .field-error { color: #b00020; font-size: 12px; margin: -4px 10px 6px 10px; }
@@ -75,7 +75,7 @@ class DesignPage:
         self.form = pn.Column(sizing_mode="stretch_width")
         self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
         self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
-        self.torque = pn.pane.PNG(None, css_classes=["torque-figure"], width=740)
+        self.torque = pn.pane.PNG(None, css_classes=["torque-figure"], width=700)
         self.springs = pn.pane.PNG(None, css_classes=["springs-figure"], width=740)
         self.mechanism = pn.pane.PNG(None, css_classes=["mechanism-figure"], width=700)
         self.player = pn.widgets.Player(name="joint angle", start=0, end=1, value=0, interval=250,
@@ -117,6 +117,7 @@ class DesignPage:
             box = pn.widgets.TextInput(name=f.label, value=f.text, description=f.help,
                                        placeholder="default", css_classes=["field", f"field-{slug(f.key)}"],
                                        sizing_mode="stretch_width")
+
             async def edited(event, key=f.key):  # a coroutine function, which param awaits
                 await self._on_edit(key, event.new)
 
