@@ -5,16 +5,23 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
+.PHONY: app demo test lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
-# cvxpy, setuptools) and lint (ruff, mypy)
+# cvxpy, setuptools, Playwright's client and the app extra: panel, tomlkit) and lint (ruff, mypy);
+# the design page's browser test drives Debian's chromium, installed here when it is missing
+# (Playwright's own browser download is not used)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev,lint]'
+	test -x /usr/bin/chromium || (apt-get update -qq && apt-get install -y -qq chromium)
 	touch $(STAMP)
+
+# the design page on http://127.0.0.1:5006 (cadcam app; Ctrl-C stops it)
+app: $(STAMP)
+	$(VENV)/bin/cadcam app
 
 demo: $(STAMP)
 	$(VENV)/bin/cadcam design models/johnston2023_1dof.toml -o out/johnston2023_1dof

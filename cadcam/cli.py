@@ -355,6 +355,18 @@ def cmd_cache(args) -> int:
     return 0
 
 
+def cmd_app(args) -> int:
+    try:
+        from .app import page
+    except ImportError as exc:  # Panel is the app extra's
+        raise InputError(f"cadcam app needs Panel ({exc.name} is not installed): pip install 'cadcam[app]'") from None
+    spec = _spec_path(args) if args.spec or args.example else None
+    if spec is not None:
+        page.DesignState(Path(spec))  # a spec that cannot be read fails here, as one line
+    page.serve(spec, port=args.port, address=args.address, show=args.show)
+    return 0
+
+
 def _add_spec_arguments(p) -> None:
     """The arguments of every command that reads a spec: which spec, and what overrides it."""
     from . import examples
@@ -461,6 +473,14 @@ def _parser() -> _Parser:
     _add_design_command(sub)
     _add_design_file_commands(sub)
     _add_study_commands(sub)
+    p = sub.add_parser("app", help="a local design page in the browser: templates, a form, designs on each edit, "
+                       "downloads (needs cadcam[app])")
+    p.add_argument("spec", nargs="?", help="spec (TOML) or result.json to open (default: the first template)")
+    p.add_argument("--example", metavar="NAME", help="open an example spec installed with cadcam")
+    p.add_argument("--port", type=int, default=5006, help="port to serve on (default 5006)")
+    p.add_argument("--address", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
+    p.add_argument("--no-browser", dest="show", action="store_false", help="do not open a browser tab")
+    p.set_defaults(run=cmd_app)
     p = sub.add_parser("cache", help="the compiled NLP libraries cached on disk: where, how many, how large")
     p.add_argument("--clear", action="store_true", help="remove them (each is compiled again when next needed)")
     p.set_defaults(run=cmd_cache)

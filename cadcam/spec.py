@@ -8,6 +8,7 @@ fully resolved spec.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import functools
 import json
 import math
@@ -15,7 +16,7 @@ import os
 import re
 import sys
 import tomllib
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from itertools import product
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,57 @@ def _list_of(ok, n=None):
     return lambda v: isinstance(v, list) and (n is None or len(v) == n) and all(ok(x) for x in v)
 
 
+@dataclass(frozen=True)
+class KeyRead:
+    """One key a spec's reader read, with the form it expects: what a form for the spec shows
+    (:func:`read_keys`).
+
+    Attributes
+    ----------
+    key : str
+        The dotted key as ``--set`` takes it (``springs.1.rate``, ``cams.1.idler.radius``).
+    form : str
+        The form expected, as the error message words it, its unit in brackets where it has one
+        (``a positive spring rate [N/m]``).
+    value : object
+        The spec's value, or the default where the spec leaves the key out.
+    given : bool
+        Whether the spec gives the key.
+    """
+
+    key: str
+    form: str
+    value: Any
+    given: bool
+
+
+#: While a list, every key a :class:`_Reader` reads is appended to it (:func:`read_keys`).
+_READS: contextvars.ContextVar[list[KeyRead] | None] = contextvars.ContextVar("spec_reads", default=None)
+
+
+def _dotted(key: str) -> str:
+    """A reader's key (``springs[1].rate``) as a dotted override key (``springs.1.rate``)."""
+    return re.sub(r"\[(\d+)\]", r".\1", key)
+
+
+def read_keys(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> tuple[Problem, list[KeyRead]]:
+    """:func:`parse_spec` of ``data``, and every key it read, in reading order, with the form
+    each expects (the declarations a form for the spec is generated from).
+
+    Raises
+    ------
+    SpecError
+        As :func:`parse_spec`.
+    """
+    token = _READS.set([])
+    try:
+        problem = parse_spec(data, origin, base)
+        reads = _READS.get() or []
+    finally:
+        _READS.reset(token)
+    return problem, reads
+
+
 class _Reader:
     """Reads one table of a spec, remembering which keys it took, to refuse unknown ones."""
 
@@ -74,6 +126,10 @@ class _Reader:
 
     def get(self, name, ok, form, default=_REQUIRED):
         self.seen.add(name)
+        reads = _READS.get()
+        if reads is not None:
+            reads.append(KeyRead(_dotted(self.key(name)), form, self.table.get(name, default),
+                                 name in self.table))
         if name not in self.table:
             if default is _REQUIRED:
                 raise SpecError(f"{self.origin}: missing key '{self.key(name)}': expected {form}")
@@ -140,13 +196,10 @@ def _acceptance(r: _Reader) -> tuple:
     table = r.get("acceptance", lambda v: isinstance(v, dict) and v, "a table of "
                   + " and/or ".join(ACCEPTANCE), {})
     a = _Reader(r.origin, table, r.key("acceptance"))
-    out = tuple((k, float(a.get(k, _positive, f"a positive limit on {ACCEPTANCE[k].description} [{ACCEPTANCE[k].unit}]")))
-                for k in ACCEPTANCE if k in table)
-    a.seen.update(ACCEPTANCE)
+    given = {k: a.get(k, _positive, f"a positive limit on {ACCEPTANCE[k].description} [{ACCEPTANCE[k].unit}]", None)
+             for k in ACCEPTANCE}
     a.done()
-    return out
-
-
+    return tuple((k, float(v)) for k, v in given.items() if v is not None)
 
 
 def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: bool = False,

@@ -184,14 +184,33 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
     :data:`cadcam.verify.binding.RTOL`. The view is scaled to the profiles, not to the idler:
     what lies further than :data:`REACH` times the largest radius is named at the edge.
     """
+    rows = [_row(ev, u, n_poses) for u in range(len(ev.problem.mechanisms))]
+    return _poses_figure(ev, rows, list(range(max(len(panels) for panels, _, _ in rows))))
+
+
+def pose_frames(ev: Evaluation, n_frames: int = 24):
+    """The frames of the mechanisms moving over their joints' range: ``(count, frame)``, where
+    ``frame(i)`` is :func:`profile_figure`'s view of every mechanism (a row) at the ``i``-th of
+    ``count`` joint angles spread over the grid, all in the one view that holds every frame."""
+    rows = [_row(ev, u, n_frames) for u in range(len(ev.problem.mechanisms))]
+    count = max(len(panels) for panels, _, _ in rows)
+    return count, lambda i: _poses_figure(ev, rows, [i])
+
+
+#: Least width of the profile view [in]: its title and legend fit above and below one pose.
+POSES_MIN_WIDTH = 7.0
+
+
+def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
+    """The figure of :func:`profile_figure`: each mechanism's row of :func:`_row`, at the poses
+    ``columns`` (indices into each row's poses)."""
     problem = ev.problem
     mechs = problem.mechanisms
-    rows = [_row(ev, u, n_poses) for u in range(len(mechs))]
-    ncols = max(len(panels) for panels, _, _ in rows)
+    ncols = len(columns)
     width = 3.9  # of a panel [in]
     heights = [width * float(np.clip((hi[1] - lo[1]) / (hi[0] - lo[0]), 0.45, 1.6)) + 0.6
                for _, lo, hi in rows]
-    fig = Figure(figsize=(width * ncols + 0.4, sum(heights) + 1.2), layout="constrained")
+    fig = Figure(figsize=(max(width * ncols + 0.4, POSES_MIN_WIDTH), sum(heights) + 1.2), layout="constrained")
     axes = fig.subplots(len(mechs), ncols, squeeze=False, gridspec_kw={"height_ratios": heights})
     seen = set()  # what the legend explains, beyond what every view draws
     for row, (mech, (panels, lo, hi)) in enumerate(zip(mechs, rows)):
@@ -201,10 +220,10 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
         off = [f"{name} = {r:.4g} mm" for r, name in limits if r > reach]
         for col in range(ncols):
             ax = axes[row][col]
-            if col >= len(panels):
+            if columns[col] >= len(panels):
                 ax.set_axis_off()
                 continue
-            th, prof, spans, circles, wraps = panels[col]
+            th, prof, spans, circles, wraps = panels[columns[col]]
             seen |= _draw_pose(ax, lo, hi, [r for r, _ in limits], prof, spans, circles, wraps)
             _label_off_view(ax, lo, hi, spans, circles)
             angle = f"θ{mech.joint + 1}" if len(problem.joints) > 1 else "θ"
@@ -218,9 +237,10 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
                             fontsize=7, color="0.35", va="bottom")
     words = _words(mechs)
     handles = _profile_legend(max(len(mech.profiles) for mech in mechs), seen, words)
-    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8,
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5 if ncols > 1 else 3), fontsize=8,
                frameon=False)
-    fig.suptitle(f"{problem.name}: {words.title} at {ncols} joint angles (+: joint axis)", fontsize=10)
+    at = f"{ncols} joint angles" if ncols > 1 else "one joint angle"
+    fig.suptitle(f"{problem.name}: {words.title} at {at} (+: joint axis)", fontsize=10)
     return fig
 
 
@@ -321,10 +341,10 @@ def _profile_legend(pairs: int, seen: set[str], words: Picture) -> list[Line2D]:
 # -------------------------------------------------------------------------------------- torque
 def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
     """Torque against target and the error [N·mm]: lines for one joint, with the tolerance
-    ``band`` shaded around the torque (:mod:`cadcam.verify.tolerance`; the error panel stays
-    at the design's own scale); error maps over the first two
-    joints' angles for several (further joints at the first angle of their grid), the band's
-    widest half-width in each title."""
+    ``band`` shaded around the torque (:mod:`cadcam.verify.tolerance`) and the error its
+    acceptance's max_abs_error allows (when it has one) around the error, which stays at the
+    design's own scale; error maps over the first two joints' angles for several (further joints
+    at the first angle of their grid), the band's widest half-width in each title."""
     m = len(ev.tau)
     metrics = ev.metrics
     if m == 1:
@@ -339,6 +359,11 @@ def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
                             label=f"built part, to first order ({band.label()})")
         a1.set_ylabel("torque [N·mm]")
         a1.legend(fontsize=8)
+        accepted = ev.problem.joints[0].limits.get("max_abs_error")
+        if accepted is not None:
+            a2.axhspan(-MM * accepted, MM * accepted, color="tab:green", alpha=0.15, lw=0,
+                       label=f"acceptance: |τ − τ_d| ≤ {MM * accepted:.3g} N·mm")
+            a2.legend(fontsize=8)
         a2.plot(th, MM * (ev.tau[0] - ev.tau_d[0]), color="tab:red")
         a2.axhline(0, color="0.5", lw=0.6)
         a2.set_ylabel("τ − τ_d [N·mm]")

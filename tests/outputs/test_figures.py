@@ -6,6 +6,7 @@ import os
 import re
 import subprocess
 import sys
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -20,8 +21,8 @@ from cadcam.spec import load_spec
 from cadcam.version import __version__
 from cadcam.make.drawing import draw_sheet, sheet_figure
 from cadcam.outputs.run_files import write_outputs
-from cadcam.outputs.plots import (METRIC_LABELS, axis_label, convergence_figure, figures,
-                                study_figure)
+from cadcam.outputs.plots import (METRIC_LABELS, axis_label, convergence_figure, figures, pose_frames,
+                                study_figure, torque_figure)
 from cadcam.make.workshop import closed_outline
 
 from ..conftest import ROOT, check_output_file, circle_design
@@ -81,6 +82,25 @@ def test_figures_of_one_joint(ev_1dof):
     assert titles == ["cam: θ = 0°", "cam: θ = 49°", "cam: θ = 90°"]
     # a circle of 20 mm, far from ρ_min = 10 and ρ_max = 100 mm: no limit marked
     assert "ρ at its limit" not in _texts(figs["profile"])
+
+
+def test_the_torque_error_shows_the_band_the_acceptance_allows(problem_1dof, ev_1dof):
+    plain = torque_figure(ev_1dof).axes[1]
+    assert not plain.patches and plain.get_legend() is None
+    joint = replace(problem_1dof.joints[0], acceptance=(("rmse", 1e-3), ("max_abs_error", 2e-3)))
+    banded = replace(problem_1dof, joints=(joint,))
+    error = torque_figure(evaluate(banded, circle_design(banded, 0.02, [0.0, 0.002]), grid=12)).axes[1]
+    (band,) = error.patches
+    assert np.allclose(band.get_extents().transformed(error.transData.inverted()).get_points()[:, 1], [-2.0, 2.0])
+    assert [t.get_text() for t in error.get_legend().get_texts()] == ["acceptance: |τ − τ_d| ≤ 2 N·mm"]
+
+
+def test_pose_frames_draw_one_joint_angle_each_in_one_view(ev_1dof):
+    count, frame = pose_frames(ev_1dof, 5)
+    assert count == 5
+    first, last = frame(0).axes[0], frame(count - 1).axes[0]
+    assert (first.get_title(), last.get_title()) == ("cam: θ = 0°", "cam: θ = 90°")
+    assert first.get_xlim() == last.get_xlim() and first.get_ylim() == last.get_ylim()
 
 
 def test_figures_of_two_joints_flag_what_binds(ev_rr):

@@ -1,0 +1,14 @@
+"""``cadcam app``: a local design page (Panel on the Bokeh server) over the engine.
+
+:mod:`cadcam.app.form` generates the form from the spec reader's declarations,
+:mod:`cadcam.app.state` holds the spec, the edits and the designs (no page),
+:mod:`cadcam.app.page` shows them; Panel loads only with the page (``pip install cadcam[app]``).
+"""
+from __future__ import annotations
+
+
+def serve(path: str | None = None, port: int = 5006, address: str = "127.0.0.1", show: bool = True) -> None:
+    """Serve the design page (:func:`cadcam.app.page.serve`)."""
+    from .page import serve as serve_page
+
+    serve_page(path, port=port, address=address, show=show)

@@ -1,0 +1,302 @@
+"""The design page: a Panel page on the Bokeh server (:func:`serve`), one per browser tab.
+
+On the left the template or file opened and the form generated from the spec's declarations
+(:mod:`cadcam.app.form`); an edited field is applied when it is left or Enter is pressed, and the
+spec is designed again at once, in a worker thread, through the tab's :class:`cadcam.Session`
+(the NLP built once per structure, warm from the last answer). On the right the verdict line and
+what binds, the torque against its target with the error, the mechanism at one joint angle (a
+player runs it over the range), the springs' extensions against their travel, and the files to
+download. An input error is the command line's one line, shown under the field it names.
+
+Everything the page loads comes from this server: Bokeh's and Panel's scripts are served from it
+(``resources="server"``) and the figures are PNG images sent over its socket.
+"""
+from __future__ import annotations
+
+import asyncio
+import io
+import re
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import panel as pn
+from matplotlib.figure import Figure
+
+from ..outputs.plots import springs_figure, torque_figure
+from ..spec import SpecError
+from .state import TEMPLATES, DesignState, Outcome, catalogue, result_json, zipped
+from .form import table_title, value_text
+from .frames import Frames
+
+#: One worker: designs run one after another, whichever tab asked (the builds are shared).
+WORKER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="cadcam-design")
+
+#: Resolution of the figures on the page [dots per inch].
+PAGE_DPI = 100
+
+CSS = """
+.field-error { color: #b00020; font-size: 12px; margin: -4px 10px 6px 10px; }
+.verdict-success { color: #1b5e20; font-weight: bold; }
+.verdict-failure { color: #b00020; font-weight: bold; }
+"""
+
+
+def slug(key: str) -> str:
+    """A CSS class name for a dotted key (``springs.1.rate`` → ``springs-1-rate``)."""
+    return re.sub(r"[^a-z0-9]+", "-", key.lower()).strip("-")
+
+
+def png(fig: Figure, dpi: int = PAGE_DPI) -> bytes:
+    """``fig`` as PNG bytes."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    return buffer.getvalue()
+
+
+class DesignPage:
+    """One tab's page over one :class:`DesignState`."""
+
+    def __init__(self, state: DesignState):
+        self.state = state
+        self.inputs: dict[str, pn.widgets.TextInput] = {}
+        self.errors: dict[str, pn.pane.HTML] = {}
+        self.frames: Frames | None = None
+        self._shown = 0  # designs asked for: only the last one's figures are shown
+        self._error_key: str | None = None  # the field whose error is shown
+        names = [title for title, _ in TEMPLATES]
+        self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
+                                          css_classes=["template"], sizing_mode="stretch_width")
+        self.template.param.watch(self._on_template, "value")
+        self.upload = pn.widgets.FileInput(accept=".toml,.json", css_classes=["open-file"], sizing_mode="stretch_width")
+        self.upload.param.watch(self._on_upload, ["value", "filename"])
+        self.open_error = pn.pane.HTML("", css_classes=["field-error", "open-error"])
+        self.opened = pn.pane.HTML(f"<small>open {_escape(self.state.path.name)}</small>", css_classes=["opened"])
+        self.form = pn.Column(sizing_mode="stretch_width")
+        self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
+        self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
+        self.torque = pn.pane.PNG(None, css_classes=["torque-figure"], width=700)
+        self.springs = pn.pane.PNG(None, css_classes=["springs-figure"], width=740)
+        self.mechanism = pn.pane.PNG(None, css_classes=["mechanism-figure"], width=700)
+        self.player = pn.widgets.Player(name="joint angle", start=0, end=1, value=0, interval=250,
+                                        loop_policy="loop", show_loop_controls=False, css_classes=["pose-player"],
+                                        width=420)
+        self.player.param.watch(self._on_pose, "value")
+        self.downloads = pn.Row(*self._download_buttons(), css_classes=["downloads"])
+        self._build_form()
+
+    # ----------------------------------------------------------------------------- layout
+    def view(self) -> pn.Row:
+        """The page."""
+        left = pn.Column(pn.pane.HTML("<h2>cadcam design page</h2>"), self.template,
+                         pn.pane.HTML("<small>or open a spec (TOML) or a result.json:</small>"), self.upload,
+                         self.open_error, self.opened, self.form, width=400)
+        right = pn.Column(self.verdict, self.details, self.downloads,
+                          pn.Tabs(("Torque", self.torque), ("Mechanism", pn.Column(self.player, self.mechanism)),
+                                  ("Springs", self.springs), dynamic=False),
+                          sizing_mode="stretch_width")
+        return pn.Row(left, right, sizing_mode="stretch_width")
+
+    def _template_title(self) -> str | None:
+        return next((title for title, name in TEMPLATES if self.state.path.stem == name), None)
+
+    def _build_form(self) -> None:
+        """One card per group of fields, the fields of each numbered table under its name."""
+        self.inputs.clear()
+        self.errors.clear()
+        cards: dict[str, list] = {}
+        heading = None
+        for f in self.state.fields:
+            items = cards.setdefault(f.group, [])
+            title = table_title(f.key, self.state.names)
+            if title and title != heading and f.group in ("Springs", "Geometry", "Target and range"):
+                items.append(pn.pane.HTML(f"<b>{_escape(title)}</b>", margin=(8, 10, 0, 10)))
+                if f.group == "Springs":
+                    items.append(self._catalogue_pick(int(f.key.split(".")[1])))
+            heading = title
+            box = pn.widgets.TextInput(name=f.label, value=f.text, description=f.help,
+                                       placeholder="default", css_classes=["field", f"field-{slug(f.key)}"],
+                                       sizing_mode="stretch_width")
+
+            async def edited(event, key=f.key):  # a coroutine function, which param awaits
+                await self._on_edit(key, event.new)
+
+            box.param.watch(edited, "value")
+            error = pn.pane.HTML("", css_classes=["field-error", f"error-{slug(f.key)}"], visible=False,
+                                 sizing_mode="stretch_width")
+            self.inputs[f.key], self.errors[f.key] = box, error
+            items += [box, error]
+        self.form.objects = [pn.Card(*items, title=group, collapsed=group in ("Solver", "Workshop files"),
+                                     sizing_mode="stretch_width") for group, items in cards.items()]
+
+    def _catalogue_pick(self, number: int) -> pn.widgets.Select:
+        """A choice of spring ``number`` from the catalogue."""
+        own = "the spec's spring"
+        pick = pn.widgets.Select(name="from the catalogue", options=[own, *(s["name"] for s in catalogue())],
+                                 value=self.state.picks.get(number, {}).get("name", own),
+                                 css_classes=[f"catalogue-springs-{number}"], sizing_mode="stretch_width")
+
+        async def picked(event):
+            self.state.pick_spring(number, None if event.new == own else event.new)
+            for key, box in self.inputs.items():  # the fields show the spring now chosen
+                box.value = value_text(self.state.value(key))
+            await self.design()
+
+        pick.param.watch(picked, "value")
+        return pick
+
+    # ---------------------------------------------------------------------------- actions
+    async def _on_edit(self, key: str, text: str) -> None:
+        if text.strip() == value_text(self.state.value(key)) and key != self._error_key:
+            return  # what the field shows already (a field set by the page, Enter on an unchanged value)
+        self._show_error(None, None)
+        error = self.state.edit(key, text)
+        if error:
+            self._show_error(key, error)
+            return
+        await self.design(edited=key)
+
+    async def design(self, edited: str | None = None) -> None:
+        """Design the state in the worker and show what it gave: the verdict and the torque
+        first, then the springs and the mechanism (each figure drawn in the worker too)."""
+        self._shown += 1
+        shown = self._shown
+        self.verdict.object = "<span class='solving'>designing…</span>"
+        outcome = await self._in_worker(self.state.design, edited)
+        if shown != self._shown:  # a later edit is being designed: show that one
+            return
+        self._show(outcome)
+        result = outcome.result
+        if result is None:
+            return
+        ev = result.evaluation
+        frames = Frames(ev)
+        self.frames = frames
+        if result.problem.springs:
+            self.torque.object = await self._in_worker(lambda: png(torque_figure(ev)))
+        for pane, draw in ((self.springs, lambda: png(springs_figure(ev)) if result.problem.springs else None),
+                           (self.mechanism, lambda: frames.png(self.player.value))):
+            image = await self._in_worker(draw)
+            if shown != self._shown:
+                return
+            pane.object = image
+        self.player.end = max(frames.count - 1, 1)
+
+    async def _in_worker(self, fn, *args):
+        """``fn(*args)`` in the worker, whose thread designs and draws one thing at a time."""
+        return await asyncio.get_running_loop().run_in_executor(WORKER, fn, *args)
+
+    async def _on_template(self, event) -> None:
+        name = dict(TEMPLATES).get(event.new)
+        if name is not None and name != self.state.path.stem:
+            await self._open(lambda: DesignState.template(name))
+
+    async def _on_upload(self, *events) -> None:
+        if not self.upload.value or not self.upload.filename:
+            return
+        folder = Path(tempfile.mkdtemp(prefix="cadcam-app-open-"))
+        path = folder / Path(self.upload.filename).name
+        path.write_bytes(self.upload.value)
+        await self._open(lambda: DesignState(path))
+
+    async def _open(self, make) -> None:
+        try:
+            state = make()
+        except SpecError as exc:
+            self.open_error.object = str(exc)
+            return
+        self.open_error.object = ""
+        self.opened.object = f"<small>open {_escape(state.path.name)}</small>"
+        state.session = self.state.session  # the builds and last answers stay with the tab
+        self.state = state
+        self._build_form()
+        await self.design()
+
+    async def _on_pose(self, event) -> None:
+        frames = self.frames
+        if frames is not None:
+            self.mechanism.object = await self._in_worker(frames.png, event.new)
+
+    # ------------------------------------------------------------------------------- views
+    def _show_error(self, key: str | None, message: str | None) -> None:
+        self._error_key = key
+        for k, pane in self.errors.items():
+            pane.object, pane.visible = (message, True) if k == key else ("", False)
+
+    def _show(self, outcome: Outcome) -> None:
+        if outcome.error is not None:
+            self._show_error(outcome.field, outcome.error)
+            self.verdict.object = (f"<span class='verdict-failure'>not designed: {_escape(outcome.error)}</span>")
+            if self.state.result is not None:
+                self.details.object = ("<small>The figures, result.json and workshop files below are those of the "
+                                       "last design made; the spec (TOML) has the edits as they are.</small>")
+            return
+        self._show_error(None, None)
+        result = outcome.result
+        assert result is not None
+        style = "verdict-success" if result.success else "verdict-failure"
+        self.verdict.object = (f"<span class='{style}'>{_escape(result.status)}: {_escape(result.message)}</span>"
+                               f" <small>(designed in {outcome.seconds:.2f} s)</small>")
+        lines = result.summary().splitlines()[1:]
+        self.details.object = "<pre style='white-space: pre-wrap; font-size: 12px'>" + _escape("\n".join(lines)) + "</pre>"
+        if not result.problem.springs:
+            self.torque.object = self.springs.object = None
+
+    # --------------------------------------------------------------------------- downloads
+    def _download_buttons(self) -> list:
+        def spec():
+            return io.BytesIO(self.state.spec_toml().encode("utf-8"))
+
+        def result():
+            return io.BytesIO(result_json(self._result()).encode("utf-8"))
+
+        def dxf():
+            files = self._result_files(False)
+            return io.BytesIO(zipped({n: d for n, d in files.items() if n.endswith(".dxf")}))
+
+        def everything():  # with the page's verdict lines, as summary.txt
+            files = self._result_files(True)
+            return io.BytesIO(zipped({**files, "summary.txt": (self._result().summary() + "\n").encode("utf-8")}))
+
+        return [pn.widgets.FileDownload(callback=spec, filename="spec.toml", label="spec (TOML)",
+                                        css_classes=["download-spec"], button_type="primary"),
+                pn.widgets.FileDownload(callback=result, filename="result.json", label="result.json",
+                                        css_classes=["download-result"], button_type="primary"),
+                pn.widgets.FileDownload(callback=dxf, filename="dxf.zip", label="DXF outlines (zip)",
+                                        css_classes=["download-dxf"], button_type="primary"),
+                pn.widgets.FileDownload(callback=everything, filename="outputs.zip",
+                                        label="every file: SVG, STL, sheets, figures, summary (zip)",
+                                        css_classes=["download-all"], button_type="primary")]
+
+    def _result(self):
+        result = self.state.result
+        if result is None:
+            raise ValueError("no design yet: the spec has an error")
+        return result
+
+    def _result_files(self, figures: bool) -> dict[str, bytes]:
+        return self.state.result_files(self._result(), figures=figures)
+
+
+def _escape(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def page(path: str | None = None) -> pn.Row:
+    """A new tab's page over ``path`` (default: the first template), designed once loaded."""
+    state = DesignState(Path(path)) if path else DesignState.template(TEMPLATES[0][1])
+    view = DesignPage(state)
+    pn.state.onload(view.design)
+    return view.view()
+
+
+def serve(path: str | None = None, port: int = 5006, address: str = "127.0.0.1", show: bool = True) -> None:
+    """Serve the page on ``address``:``port`` until interrupted (one user on localhost by
+    default): every script from this server, no asset from the network."""
+    pn.extension(raw_css=[CSS], inline=True)
+    origins = [f"{host}:{port}" for host in ("localhost", "127.0.0.1", address)]
+    pn.serve({"/": lambda: page(path)}, port=port, address=address, show=show, websocket_origin=origins,
+             title="cadcam design page", resources="server", threaded=False, print_url=True)
+
+
+__all__ = ["DesignPage", "page", "serve", "slug"]

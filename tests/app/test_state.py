@@ -1,0 +1,127 @@
+"""The design page's state without a browser: the form from the reader's declarations, edits as
+overrides, errors named by field, the spec written back with the edits."""
+import pytest
+
+from cadcam import load_problem
+from cadcam.app.form import field_of_error
+from cadcam.app.state import TEMPLATES, DesignState
+from cadcam.spec import KeyRead, read_keys, read_spec_data
+
+
+@pytest.fixture(scope="module")
+def wire_cam():
+    return DesignState.template("johnston2023_1dof")
+
+
+def test_the_fields_carry_the_readers_forms_and_units(wire_cam):
+    rate = wire_cam.field("springs.1.rate")
+    assert (rate.group, rate.label, rate.help, rate.value) == (
+        "Springs", "rate [N/m]", "a positive spring rate [N/m]", 1100.0)
+    assert wire_cam.field("cams.1.target.expression").label == "target.expression [N·m]"
+    assert wire_cam.field("workshop.bore_diameter").value == 0.006  # the Workshop default, not None
+    keys = [f.key for f in wire_cam.fields]
+    assert len(keys) == len(set(keys)) and not {"name", "springs.1.ports", "cams.1.kind"} & set(keys)
+
+
+def test_read_keys_records_every_key_with_its_value_or_default():
+    path = "models/roller_follower_pendulum.toml"
+    _, reads = read_keys(read_spec_data(path))
+    by_key = {r.key: r for r in reads}
+    assert by_key["joints.1.target.mass"] == KeyRead("joints.1.target.mass", "a positive mass [kg]", 0.5, True)
+    assert by_key["joints.1.target.g"].value == 9.81 and not by_key["joints.1.target.g"].given
+
+
+@pytest.mark.parametrize("title, name", TEMPLATES)
+def test_every_template_opens_with_a_form(title, name):
+    state = DesignState.template(name)
+    assert {"Target and range", "Springs", "Geometry"} <= {f.group for f in state.fields}
+
+
+def test_an_edit_in_a_table_the_spec_leaves_out_sets_that_table_and_the_spec_keeps_it(tmp_path):
+    state = DesignState.template("johnston2023_1dof")
+    assert state.edit("cams.1.acceptance.max_abs_error", "0.002") is None
+    assert state.edit("workshop.bore_diameter", "0.005") is None
+    assert state.edit("springs.1.rate", "1200") is None
+    problem = load_problem(state.path, overrides=state.override_pairs())
+    assert problem.joints[0].acceptance == (("max_abs_error", 0.002),)
+    assert problem.workshop.bore_diameter == 0.005 and problem.springs[0].rate == 1200
+    written = tmp_path / "edited.toml"
+    written.write_text(state.spec_toml())
+    assert load_problem(written).to_dict() == problem.to_dict()
+    assert "# 1-DOF wire-wrapped cam of Johnston" in written.read_text()  # the comments stay
+
+
+def test_a_value_equal_to_the_spec_or_empty_is_no_edit():
+    state = DesignState.template("johnston2023_1dof")
+    state.edit("springs.1.rate", "1200")
+    state.edit("springs.1.rate", "1100.0")
+    state.edit("springs.1.preload", "")
+    assert state.overrides == {}
+
+
+def test_an_error_names_its_field_else_the_field_edited():
+    keys = ["springs.1.rate", "springs.1.travel", "cams.1.target.expression"]
+    assert field_of_error("x.toml: springs[1].rate = -5: expected a positive spring rate [N/m]", keys,
+                          "springs.1.travel") == "springs.1.rate"
+    assert field_of_error("x.toml: cams[1].target.expression: unknown name 'q'", keys, None) == \
+        "cams.1.target.expression"
+    assert field_of_error("x.toml: something else", keys, "springs.1.travel") == "springs.1.travel"
+
+
+def test_a_bad_value_is_one_line_beside_its_field():
+    state = DesignState.template("johnston2023_1dof")
+    state.edit("springs.1.rate", "-5")
+    outcome = state.design("springs.1.rate")
+    assert outcome.result is None and outcome.field == "springs.1.rate"
+    assert outcome.error.endswith("springs[1].rate = -5: expected a positive spring rate [N/m]")
+    assert "\n" not in outcome.error
+
+
+def test_a_catalogue_spring_replaces_the_specs_and_an_edit_still_wins():
+    state = DesignState.template("johnston2023_1dof")
+    state.pick_spring(1, "ACM12-100 (Endo2010 Sec. II-C (Endo et al. 2010))")
+    assert state.value("springs.1.rate") == 1150.0 and state.value("springs.1.preload") == 14.71
+    problem = load_problem(state.path, overrides=state.override_pairs())
+    spring = problem.springs[0]
+    assert (spring.rate, spring.travel, spring.preload, spring.ports[0].label()) == (1150.0, 0.07521, 14.71, "wire:1")
+    state.edit("springs.1.rate", "1200")
+    assert load_problem(state.path, overrides=state.override_pairs()).springs[0].rate == 1200
+    state.edit("springs.1.rate", "1150")  # the picked spring's own rate: no edit
+    assert "springs.1.rate" not in state.overrides
+    state.pick_spring(1, None)
+    assert state.value("springs.1.rate") == 1100.0
+
+
+def test_a_result_json_opens_with_its_resolved_problem(tmp_path):
+    from cadcam.app.state import result_json
+
+    state = DesignState.template("roller_follower_pendulum")
+    outcome = state.design()
+    path = tmp_path / "result.json"
+    path.write_text(result_json(outcome.result))
+    opened = DesignState(path)
+    assert opened.field("joints.1.target.mass").value == 0.5
+    assert load_problem(path).to_dict() == outcome.result.problem.to_dict()
+    written = tmp_path / "spec.toml"
+    written.write_text(opened.spec_toml())
+    assert load_problem(written).to_dict() == outcome.result.problem.to_dict()
+
+
+def test_cadcam_app_refuses_a_spec_it_cannot_read_in_one_line(tmp_path, capsys):
+    from cadcam.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\nsource = "y"\n[[springs]]\nrate = -1\n')
+    assert main(["app", str(bad), "--no-browser"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cadcam: error: ") and "\n" not in err
+
+
+def test_the_files_to_download_are_those_cadcam_design_writes(tmp_path):
+    state = DesignState.template("johnston2023_1dof")
+    result = state.design().result
+    files = state.result_files(result)
+    assert {"result.json", "torque.csv", "profile.csv", "cam1.dxf", "cam1.svg", "cam1_points.csv"} <= set(files)
+    assert not any(name.endswith(".png") for name in files)  # figures=False draws none
+    result.save(tmp_path, figures=False)
+    assert files["cam1.dxf"].count(b"LWPOLYLINE") == (tmp_path / "cam1.dxf").read_bytes().count(b"LWPOLYLINE")
