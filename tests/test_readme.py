@@ -1,4 +1,4 @@
-"""Every command block of README.md runs, in a copy of the repository, with .venv/bin first on
+"""Every command block of README.md and of the pages in :data:`PAGES` runs, in a copy of the repository, with .venv/bin first on
 PATH: exit code 0 (or the one the block states) and the files it names with ``-o``/``--csv``
 (or ``creates``) exist afterwards. Blocks run in the README's order in one working folder, so a
 block may use what an earlier one wrote (the export reads the RR arm's design).
@@ -22,7 +22,8 @@ run:
     a cheaper equivalent: :data:`PREPARATIONS` [NAME] shrinks the inputs in the copy first (the
     same commands on a smaller problem); the reason says what the full run costs.
 ``exit N``, ``creates PATH ...``, ``prints TEXT``
-    the expected exit code, files, and text on stdout.
+    the expected exit code, files, and text on stdout (with ``exit 2``, bad input, the files
+    named by ``-o`` must not exist afterwards).
 
 ``make`` runs with the test's own virtual environment (``VENV=``, its install stamp taken as
 up to date: the copy never reinstalls anything).
@@ -47,6 +48,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+#: The pages whose command blocks run, in this order (README first: its ``make demo`` makes the venv).
+PAGES = (README, ROOT / "docs" / "tutorial.md")
 COMMAND_LANGUAGES = {"", "sh", "bash", "shell", "console"}
 DIRECTIVE = re.compile(r"<!--\s*readme-test:\s*(.*?)\s*-->")
 KINDS = ("skip", "skip-line", "tested-by", "synopsis", "prepare", "exit", "creates", "prints")
@@ -63,6 +66,12 @@ class Block:
     language: str
     text: str
     directives: list[tuple[str, str]] = field(default_factory=list)
+    page: str = "README"
+
+    @property
+    def where(self) -> str:
+        """The page and line, for messages."""
+        return f"{self.page} line {self.line}"
 
     def get(self, kind: str) -> list[str]:
         return [arg for k, arg in self.directives if k == kind]
@@ -74,7 +83,7 @@ class Block:
         return " ".join(first.split("#")[0].split())[:60]
 
 
-def parse_readme(text: str) -> list[Block]:
+def parse_readme(text: str, page: str = "README") -> list[Block]:
     """The fenced blocks of ``text`` whose language is a shell's (or none), with the
     readme-test directives on the lines right above each."""
     lines = text.splitlines()
@@ -91,7 +100,7 @@ def parse_readme(text: str) -> list[Block]:
                 kind, _, arg = d[1].partition(" ")
                 directives.insert(0, (kind, arg.strip()))
                 k -= 1
-            blocks.append(Block(i + 1, m[1], "\n".join(lines[i + 1:end]) + "\n", directives))
+            blocks.append(Block(i + 1, m[1], "\n".join(lines[i + 1:end]) + "\n", directives, page))
         i = end + 1
     return blocks
 
@@ -100,7 +109,8 @@ def _reason(arg: str) -> str:
     return arg.partition("because")[2].strip()
 
 
-BLOCKS = parse_readme(README.read_text(encoding="utf-8"))
+BLOCKS = [b for page in PAGES
+          for b in parse_readme(page.read_text(encoding="utf-8"), "README" if page == README else str(page.relative_to(ROOT)))]
 
 
 # -- cheaper equivalents ---------------------------------------------------------------------------
@@ -192,14 +202,14 @@ def test_the_readme_has_command_blocks_and_each_is_run_or_says_why_not():
     assert len(BLOCKS) >= 5
     for b in BLOCKS:
         for kind, arg in b.directives:
-            assert kind in KINDS, f"README line {b.line}: unknown readme-test directive {kind!r}"
+            assert kind in KINDS, f"{b.where}: unknown readme-test directive {kind!r}"
             if kind in ("skip", "skip-line", "prepare"):
-                assert _reason(arg), f"README line {b.line}: '{kind}' needs 'because <reason>'"
+                assert _reason(arg), f"{b.where}: '{kind}' needs 'because <reason>'"
         if b.get("skip") or b.get("tested-by") or b.get("synopsis"):
             assert len({k for k, _ in b.directives} & {"skip", "tested-by", "synopsis"}) == 1, b.line
         assert not (b.get("prepare") and b.get("skip")), b.line
         for name in b.get("prepare"):
-            assert name.split()[0] in PREPARATIONS, f"README line {b.line}: no preparation {name!r}"
+            assert name.split()[0] in PREPARATIONS, f"{b.where}: no preparation {name!r}"
     run = [b for b in BLOCKS if not (b.get("skip") or b.get("tested-by") or b.get("synopsis"))]
     assert len(run) >= 4, "most command blocks should really run"
 
@@ -207,7 +217,7 @@ def test_the_readme_has_command_blocks_and_each_is_run_or_says_why_not():
 @pytest.mark.parametrize("block", BLOCKS, ids=[b.id for b in BLOCKS])  # pytest numbers repeats
 def test_readme_block(block, workdir):
     if block.get("skip"):
-        pytest.skip(f"README line {block.line}: {_reason(block.get('skip')[0])}")
+        pytest.skip(f"{block.where}: {_reason(block.get('skip')[0])}")
     if block.get("tested-by"):
         for target in block.get("tested-by"):
             _check_test_exists(target)
@@ -220,18 +230,22 @@ def test_readme_block(block, workdir):
     skipped = [shlex.split(arg.partition("because")[0])[0] for arg in block.get("skip-line")]
     commands = [c for c in _commands(block.text)
                 if not any(c.lstrip().startswith(prefix) for prefix in skipped)]
-    assert commands, f"README line {block.line}: nothing left to run"
+    assert commands, f"{block.where}: nothing left to run"
     run = subprocess.run(["bash", "-c", PRELUDE + "\n".join(commands) + "\n"], cwd=workdir, env=_env(),
                          capture_output=True, text=True, timeout=BLOCK_TIMEOUT)
     expected = int(block.get("exit")[0]) if block.get("exit") else 0
-    assert run.returncode == expected, (f"README line {block.line}: exit {run.returncode}, "
+    assert run.returncode == expected, (f"{block.where}: exit {run.returncode}, "
                                         f"expected {expected}\n{run.stdout[-2000:]}\n{run.stderr[-3000:]}")
     named = [p for c in commands for p in _outputs(c)]
+    if expected == 2:  # bad input: refused before work, nothing written
+        made = [p for p in named if (workdir / p).exists()]
+        assert not made, f"{block.where}: a refused command wrote {made}"
+        named = []
     named += [p for arg in block.get("creates") for p in shlex.split(arg)]
     missing = [p for p in named if not (workdir / p).exists()]
-    assert not missing, f"README line {block.line}: the block did not create {missing}"
+    assert not missing, f"{block.where}: the block did not create {missing}"
     for text in block.get("prints"):
-        assert text in run.stdout, f"README line {block.line}: stdout lacks {text!r}\n{run.stdout[-2000:]}"
+        assert text in run.stdout, f"{block.where}: stdout lacks {text!r}\n{run.stdout[-2000:]}"
 
 
 def _check_test_exists(target: str):
@@ -250,7 +264,7 @@ def _check_synopsis(block: Block):
             lines.append(raw)
         elif lines and raw.strip():
             lines[-1] += " " + raw.strip()
-    assert lines, f"README line {block.line}: a synopsis without cadcam commands"
+    assert lines, f"{block.where}: a synopsis without cadcam commands"
     from cadcam.cli import main
 
     for line in lines:
