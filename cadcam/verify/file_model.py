@@ -7,11 +7,12 @@ parameters (positions, senses, windings, spring rates, preloads and the design's
 pre-extensions):
 
 - the cable leaves a convex outline along the line n·X = h(ψ) with outward normal
-  n = (cos ψ, sin ψ), h the outline's support function (for an arc of centre C and radius R
-  whose normals span ψ: h = n·C + R; at a corner, n·corner); the line through a point S (an
-  anchored spring's end) is the root of n·S − h(ψ) = 0, and the line tangent to an idler of
-  radius q at P with the idler on the cable's left, like the outline, is the root of
-  n·P + q − h(ψ) = 0;
+  n = (cos ψ, sin ψ), h the outline's support function along the outline from the anchor (for
+  an arc of centre C and radius R whose normals span ψ: h = n·C + R; at a corner, n·corner);
+  the line through a point S (an anchored spring's end) is the root of n·S − h(ψ) = 0 in
+  [χ − π, χ], χ the polar angle of S unwrapped from the anchor (as many turns round as the
+  cable has gone), and the line tangent to an idler of radius q at P with the idler on the
+  cable's left, like the outline, the root of n·P + q − h(ψ) = 0;
 - the wrapped length is the arcs' length from the anchor (the first vertex) to the contact
   point, the free span the distance from it to S (or to the idler's contact P + q n);
 - an anchored pulley's spring extension is x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref)) and the
@@ -84,21 +85,10 @@ class FileOutline:
         return float(self._perimeter)
 
     def support(self, psi):
-        """h(ψ) [m], the contact point (n, 2) [m] and the wrapped length from the anchor [m] for
-        outward normal angles ``psi``: of the pieces whose normals span ψ + 2πk, the outermost."""
+        """h(ψ) [m], the contact point (n, 2) [m] and the wrapped length from the anchor [m] at
+        outward normal angles ``psi`` unwrapped along the chain from the anchor's normal (h is
+        −inf outside the chain's span)."""
         psi = np.asarray(psi, dtype=float)
-        best = (np.full(psi.shape, -np.inf), np.zeros(psi.shape + (2,)), np.zeros(psi.shape))
-        k0 = np.ceil((self.start[0] - psi) / TWO_PI)
-        for k in (k0, k0 + 1):
-            h, point, wrapped = self._support_on_chain(psi + TWO_PI * k)
-            take = h > best[0]
-            best = (np.where(take, h, best[0]), np.where(take[..., None], point, best[1]),
-                    np.where(take, wrapped, best[2]))
-        return best
-
-    def _support_on_chain(self, psi):
-        """Support, contact point and wrapped length at unwrapped normal angles ``psi`` (−inf
-        outside the chain's span)."""
         i = np.clip(np.searchsorted(self.start, psi, side="right") - 1, 0, self.start.size - 1)
         on = (psi >= self.start[0]) & (psi <= self.end[-1])
         angle = np.clip(psi, self.start[i], self.end[i])
@@ -107,19 +97,29 @@ class FileOutline:
         wrapped = self.length_at[i] + self.radius[i] * (angle - self.start[i])
         return np.where(on, np.sum(n * point, axis=-1), -np.inf), point, wrapped
 
-    def tangent(self, target, offset: float = 0.0):
-        """The cable from the outline towards ``target`` (n, 2) [m], or tangent to a circle of
-        radius ``offset`` about it, with outline and circle on its left: normal angle ψ (n,),
-        contact point (n, 2) and wrapped length (n,) [m] (root of n·target + offset = h(ψ) in
-        [∠target − π, ∠target], by bisection)."""
-        hi = np.arctan2(target[:, 1], target[:, 0])
-        lo = hi - np.pi
+    def tangent(self, target, around, offset: float = 0.0):
+        """The cable from the anchor round the outline towards ``target`` (n, 2) [m], or tangent
+        to a circle of radius ``offset`` about it, with outline and circle on its left: normal
+        angle ψ (n,), contact point (n, 2) and wrapped length (n,) [m].
+
+        ``around`` (n,) is the target's polar angle unwrapped from the anchor [rad] (how far
+        round the cable has gone: a wrap of nearly a turn meets the same target twice). The
+        cable leaves where g(ψ) = n·target + offset − h(ψ) turns positive in
+        [around − π, around], the one root there on a convex outline, found by bisection; NaN
+        where that bracket leaves the outline's span.
+        """
+        lo = np.maximum(np.asarray(around, dtype=float) - np.pi, self.start[0])
+        hi = np.minimum(np.asarray(around, dtype=float), self.end[-1])
+
+        def g(psi):
+            return np.cos(psi) * target[:, 0] + np.sin(psi) * target[:, 1] + offset - self.support(psi)[0]
+
+        bracketed = (g(lo) <= 0) & (g(hi) > 0)
         for _ in range(BISECTIONS):
             mid = (lo + hi) / 2
-            h, _, _ = self.support(mid)
-            below = np.cos(mid) * target[:, 0] + np.sin(mid) * target[:, 1] + offset < h
+            below = g(mid) <= 0
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        psi = (lo + hi) / 2
+        psi = np.where(bracketed, (lo + hi) / 2, np.nan)
         _, point, wrapped = self.support(psi)
         return psi, point, wrapped
 
@@ -199,14 +199,29 @@ def spring_end_in_outline_frame(mech, theta) -> np.ndarray:
     end = np.tile([mech.spring_end_x, mech.spring_end_y], (theta.size, 1))
     world = _rotate(turn if mech.turning == "spring_end" else still, end)
     own = _rotate(-(mech.anchor_angle + (turn if mech.turning == "pulley" else still)), world)
-    own[:, 1] *= 1.0 if mech.winding == "ccw" else -1.0
+    own[:, 1] *= _winding(mech)
     return own
+
+
+def _winding(mech, k: int = 0) -> float:
+    """+1 where profile ``k`` of ``mech`` is wound counter-clockwise from its anchor, else −1
+    (a differential pair's second profile the other way round)."""
+    return (1.0 if mech.winding == "ccw" else -1.0) * (1.0 if k == 0 else -1.0)
+
+
+def spring_end_turns(mech, theta) -> np.ndarray:
+    """The spring end's polar angle in the outline's frame [rad], unwrapped from the anchor:
+    its world angle at θ = 0 less the anchor's, plus the turn of the body that turns (the
+    spring end's, or less the pulley's), mirrored for a clockwise winding."""
+    turn = mech.sense * np.atleast_1d(np.asarray(theta, dtype=float))
+    turn = turn if mech.turning == "spring_end" else -turn
+    return _winding(mech) * (np.arctan2(mech.spring_end_y, mech.spring_end_x) - mech.anchor_angle + turn)
 
 
 def anchored_path(outline: FileOutline, mech, theta) -> np.ndarray:
     """Length [m] of the cable from the anchor round the outline to the spring end at ``theta``."""
     end = spring_end_in_outline_frame(mech, theta)
-    _, point, wrapped = outline.tangent(end)
+    _, point, wrapped = outline.tangent(end, spring_end_turns(mech, theta))
     return wrapped + np.hypot(*(end - point).T)
 
 
@@ -240,8 +255,7 @@ def anchored_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
 
 def _frame(mech, k: int, theta):
     """Rotation angle (n,) and mirror sign taking profile k's outline frame to the world."""
-    w = (1.0 if mech.winding == "ccw" else -1.0) * (1.0 if k == 0 else -1.0)
-    return mech.anchor_angles[k] + mech.sense * theta, w
+    return mech.anchor_angles[k] + mech.sense * theta, _winding(mech, k)
 
 
 def _to_world(v, angle, w):
@@ -263,11 +277,13 @@ def differential_length(outlines, mech, theta, x) -> np.ndarray:
     for k in (0, 1):
         angle, w = _frame(mech, k, theta)
         idler = _from_world(x[:, None] * slider, angle, w)
-        psi, point, wrapped = outlines[k].tangent(idler, q)
+        # the slider's angle seen from profile k's anchor, unwrapped: turned back by the shaft
+        around = w * (mech.slider_angle - angle)
+        psi, point, wrapped = outlines[k].tangent(idler, around, q)
         n = np.stack([np.cos(psi), np.sin(psi)], axis=1)
         total = total + wrapped + np.hypot(*(idler + q * n - point).T)
         heading.append(_to_world(np.stack([-n[:, 1], n[:, 0]], axis=1), angle, w))
-    w1 = 1.0 if mech.winding == "ccw" else -1.0
+    w1 = _winding(mech)
     # in: along the cable from profile 1; out: from the idler back to profile 2
     into, out = heading[0], -heading[1]
     omega = np.mod(w1 * (np.arctan2(out[:, 1], out[:, 0]) - np.arctan2(into[:, 1], into[:, 0])), TWO_PI)
