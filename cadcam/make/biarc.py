@@ -25,6 +25,9 @@ TWO_PI = 2 * np.pi
 START_DENSITY = 4.0
 #: Points of the outline inside each interval at which the fit's distance is measured.
 ERROR_SAMPLES = 24
+#: Factor on a sampled largest distance for what falls between the samples (measured on the
+#: Ludovico2021 pulleys against an exact point-to-arc distance: 0.6 % at 24 samples).
+SAMPLE_SPARE = 1.05
 #: Halvings of an interval the fit may make before it gives up (2⁻³⁰ of a turn: far below any
 #: length a file holds).
 MAX_ROUNDS = 30
@@ -47,7 +50,8 @@ class ArcChain:
     bulges : ndarray, shape (N,)
         tan(sweep/4) of each segment (sweep > 0 counter-clockwise).
     error : float
-        Largest distance [m] measured from the outline to the chain.
+        Largest distance [m] measured from the outline to the chain (the sampled largest,
+        raised by :data:`SAMPLE_SPARE` for what the samples miss between them).
     """
 
     vertices: np.ndarray
@@ -160,6 +164,7 @@ def _fit_piece(outline: Outline, start: float, stop: float, closing: bool, toler
         inner = outline.xy((a[:, None] + (b - a)[:, None] * s).ravel()).reshape(a.size, s.size, 2)
         error = np.minimum(arc_distance(inner, p0[:, None], joint[:, None], bulge[:, :1]),
                            arc_distance(inner, joint[:, None], p1[:, None], bulge[:, 1:])).max(axis=1)
+        error *= SAMPLE_SPARE
         wide = error > tolerance
         if not wide.any():
             return p0, joint, bulge, error
@@ -183,4 +188,5 @@ def biarc_fit(outline: Outline, tolerance: float) -> ArcChain:
               _fit_piece(outline, outline.phi_end, TWO_PI, True, tolerance)]
     vertices = np.concatenate([np.stack([p0, joint], axis=1).reshape(-1, 2) for p0, joint, _, _ in pieces])
     bulges = np.concatenate([bulge.ravel() for _, _, bulge, _ in pieces])
+    bulges[np.abs(bulges) < STRAIGHT] = 0.0  # a straight stretch (a chord closure's) as lines
     return ArcChain(vertices, bulges, float(max(error.max() for *_, error in pieces)))

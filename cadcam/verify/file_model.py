@@ -39,6 +39,13 @@ MM = 1e3
 BISECTIONS = 52
 #: Step [rad] of the central difference dL/dθ (its error is below 1e-9 of the moment arm).
 STEP = 1e-5
+#: Bulge below which a segment is straight (as the writer's :data:`cadcam.make.biarc.STRAIGHT`:
+#: the sag of such an arc is below 1e-12 of its length).
+STRAIGHT = 1e-12
+#: How far [m] a target may sit inside the tangent at the outline's last point and still leave
+#: there: a departure exactly at the end of the designed arc (the range's most-wound pose), seen
+#: through the file's rounding.
+END_SLACK = 1e-9
 #: Smallest turn [rad] between two segments that counts as a corner of the outline (below it,
 #: a tangent-continuous joint seen through the file's rounding).
 CORNER = 1e-9
@@ -59,12 +66,13 @@ class FileOutline:
     circles : list of (ndarray, float)
         Centres [m] and diameters [m] of the CIRCLEs on layer HOLES.
     centre, radius, start, end, length_at : ndarray
-        The turning pieces in order from the anchor: each an arc (radius > 0) or a corner
-        (radius 0, centre the corner), its outward normal angle running from ``start`` to
-        ``end`` [rad] (unwrapped, increasing along a convex outline), and the outline's length
-        from the anchor to its start [m].
+        The turning pieces in order from the anchor up to the first corner or arc turning
+        inwards (a chord closure's notch, where the cable never lies): each an arc (radius > 0)
+        or a corner (radius 0, centre the corner), its outward normal angle running from
+        ``start`` to ``end`` [rad] (unwrapped, increasing), and the outline's length from the
+        anchor to its start [m].
     reflex : int
-        Corners turning the wrong way (a notch; 0 for a convex outline).
+        Corners and arcs turning inwards (0 for a convex outline).
     """
 
     vertices: np.ndarray
@@ -106,7 +114,7 @@ class FileOutline:
         round the cable has gone: a wrap of nearly a turn meets the same target twice). The
         cable leaves where g(ψ) = n·target + offset − h(ψ) turns positive in
         [around − π, around], the one root there on a convex outline, found by bisection; NaN
-        where that bracket leaves the outline's span.
+        where that bracket leaves the outline's span (but for :data:`END_SLACK` at its end).
         """
         lo = np.maximum(np.asarray(around, dtype=float) - np.pi, self.start[0])
         hi = np.minimum(np.asarray(around, dtype=float), self.end[-1])
@@ -114,12 +122,14 @@ class FileOutline:
         def g(psi):
             return np.cos(psi) * target[:, 0] + np.sin(psi) * target[:, 1] + offset - self.support(psi)[0]
 
-        bracketed = (g(lo) <= 0) & (g(hi) > 0)
+        top = g(hi)
+        at_end = (hi == self.end[-1]) & (top <= 0) & (top > -END_SLACK)
+        bracketed = (g(lo) <= 0) & (top > 0)
         for _ in range(BISECTIONS):
             mid = (lo + hi) / 2
             below = g(mid) <= 0
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        psi = np.where(bracketed, (lo + hi) / 2, np.nan)
+        psi = np.where(bracketed, (lo + hi) / 2, np.where(at_end, self.end[-1], np.nan))
         _, point, wrapped = self.support(psi)
         return psi, point, wrapped
 
@@ -145,33 +155,31 @@ def read_dxf(path) -> FileOutline:
 
 
 def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
-    """The turning pieces of the closed chain ``vertices``/``bulges`` (see :class:`FileOutline`)."""
+    """The turning pieces of the closed chain ``vertices``/``bulges`` from the anchor up to its
+    first reflex corner or inward arc, if any (see :class:`FileOutline`)."""
     ends = np.roll(vertices, -1, axis=0)
     chord = ends - vertices
     length = np.hypot(*chord.T)
-    sweep = 4 * np.arctan(bulges)
+    arc = np.abs(bulges) >= STRAIGHT
+    sweep = np.where(arc, 4 * np.arctan(bulges), 0.0)
     heading = np.arctan2(chord[:, 1], chord[:, 0]) - sweep / 2  # tangent angle at each start
-    arc = np.abs(sweep) > 1e-15
     radius = np.where(arc, length / (2 * np.abs(np.sin(np.where(arc, sweep, 1.0) / 2))), 0.0)
     seg_length = np.where(arc, radius * np.abs(sweep), length)
     centre, r, start, stop, at, reflex = [], [], [], [], [], 0
     psi, s = heading[0] - np.pi / 2, 0.0
     for i in range(len(vertices)):
-        if arc[i]:
-            if sweep[i] < 0:
-                reflex += 1
-            a = psi
-            psi = psi + sweep[i]
-            centre.append(vertices[i] - radius[i] * np.array([np.cos(a), np.sin(a)]))
-            r.append(radius[i]), start.append(a), stop.append(psi), at.append(s)
-        s += seg_length[i]
+        reflex += int(sweep[i] < 0)
+        if arc[i] and not reflex:
+            centre.append(vertices[i] - radius[i] * np.array([np.cos(psi), np.sin(psi)]))
+            r.append(radius[i]), start.append(psi), stop.append(psi + sweep[i]), at.append(s)
+        psi, s = psi + sweep[i], s + seg_length[i]
         nxt = (i + 1) % len(vertices)
         turn = np.angle(np.exp(1j * (heading[nxt] - (heading[i] + sweep[i]))))
-        if nxt == 0:  # back at the anchor: the normals close a full turn
-            turn = start[0] + TWO_PI - psi if start else turn
+        if nxt == 0 and not reflex:  # back at the anchor: the normals close a full turn
+            turn = start[0] + TWO_PI - psi
         if turn < -CORNER:
-            reflex += 1  # a notch (at the anchor of a chord closure the cable never lies there)
-        elif turn > 0 and (turn > CORNER or nxt == 0):
+            reflex += 1
+        elif not reflex and turn > 0 and (turn > CORNER or nxt == 0):
             centre.append(ends[i]), r.append(0.0), start.append(psi), stop.append(psi + turn)
             at.append(s)
         psi = psi + turn
@@ -292,16 +300,21 @@ def differential_length(outlines, mech, theta, x) -> np.ndarray:
 
 def differential_output(outlines, mech, theta) -> np.ndarray:
     """The idler distance x [m] at joint angles ``theta`` (n,) for which the cable has its
-    length: bisection of the (increasing) length over the slider's range; NaN where the root
-    is not in the range."""
+    length: bisection of the (increasing) length over the slider's range. Where the idler is so
+    near that a cable would wrap past the end of an outline the length is undefined and counts
+    as too short; NaN where no x in the range gives the cable its length."""
     theta = np.asarray(theta, dtype=float)
     lo = np.full(theta.shape, float(mech.slider_range[0]))
     hi = np.full(theta.shape, float(min(mech.slider_range[1], 10.0)))
-    short = differential_length(outlines, mech, theta, lo) - mech.cable_length
-    long = differential_length(outlines, mech, theta, hi) - mech.cable_length
-    inside = (short <= 0) & (long >= 0)
+
+    def short(x):
+        return ~(differential_length(outlines, mech, theta, x) >= mech.cable_length)
+
+    inside = short(lo) & ~short(hi)
     for _ in range(BISECTIONS):
         mid = (lo + hi) / 2
-        below = differential_length(outlines, mech, theta, mid) < mech.cable_length
+        below = short(mid)
         lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-    return np.where(inside, (lo + hi) / 2, np.nan)
+    x = (lo + hi) / 2
+    found = inside & np.isfinite(differential_length(outlines, mech, theta, x))
+    return np.where(found, x, np.nan)
