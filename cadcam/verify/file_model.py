@@ -115,6 +115,8 @@ class FileOutline:
         cable leaves where g(ψ) = n·target + offset − h(ψ) turns positive in
         [around − π, around], the one root there on a convex outline, found by bisection; NaN
         where that bracket leaves the outline's span (but for :data:`END_SLACK` at its end).
+        A point target outside the tangent at the anchor is reached straight from the anchor
+        (nothing is wound; ψ is then the anchor's normal).
         """
         lo = np.maximum(np.asarray(around, dtype=float) - np.pi, self.start[0])
         hi = np.minimum(np.asarray(around, dtype=float), self.end[-1])
@@ -122,14 +124,17 @@ class FileOutline:
         def g(psi):
             return np.cos(psi) * target[:, 0] + np.sin(psi) * target[:, 1] + offset - self.support(psi)[0]
 
-        top = g(hi)
+        top, bottom = g(hi), g(lo)
         at_end = (hi == self.end[-1]) & (top <= 0) & (top > -END_SLACK)
-        bracketed = (g(lo) <= 0) & (top > 0)
+        # a point target outside the anchor's tangent: the cable runs straight from the anchor
+        at_anchor = (lo == self.start[0]) & (bottom > 0) & (offset == 0)
+        bracketed = (bottom <= 0) & (top > 0)
         for _ in range(BISECTIONS):
             mid = (lo + hi) / 2
             below = g(mid) <= 0
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        psi = np.where(bracketed, (lo + hi) / 2, np.where(at_end, self.end[-1], np.nan))
+        psi = np.where(bracketed, (lo + hi) / 2,
+                       np.where(at_end, self.end[-1], np.where(at_anchor, self.start[0], np.nan)))
         _, point, wrapped = self.support(psi)
         return psi, point, wrapped
 
@@ -245,10 +250,10 @@ def anchored_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
     d, dd = np.zeros((network.P.shape[1], P)), np.zeros((network.P.shape[1], P))
     for g, (u, _) in enumerate(problem.ports):
         mech = problem.mechanisms[u]
-        th = thetas[mech.joint]
+        th, at = np.unique(thetas[mech.joint], return_inverse=True)  # a tensor grid repeats each angle
         path = lambda t: anchored_path(outlines[u], mech, t)  # noqa: E731
-        d[g] = path(th) - path(mech.reference_angle)
-        dd[g] = (path(th + STEP) - path(th - STEP)) / (2 * STEP)
+        d[g] = (path(th) - path(mech.reference_angle))[at]
+        dd[g] = ((path(th + STEP) - path(th - STEP)) / (2 * STEP))[at]
     k = np.array([s.rate for s in problem.springs])
     preload = np.array([s.preload for s in problem.springs])
     force = k[:, None] * (np.asarray(design.preextension)[:, None] + network.P @ d) + preload[:, None]
