@@ -35,6 +35,8 @@ CHECK_GRID = 8000
 CHORD_SPARE = 1.05
 """Chords :func:`polyline` first lays per chord an exact estimate would need (sag ≈ 0.9 tol)."""
 SAG_SAMPLES = 31
+SVG_BOX_SAMPLES = 64
+"""Points per arc from which the SVG's box is taken (an arc's sag between them is (1/64)²/8 of its own)."""
 """Interior samples per chord at which :func:`polyline` measures the sag (odd: with the middle)."""
 
 
@@ -519,7 +521,7 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
     circles = holes(outline, bore_diameter, anchor_diameter)
     flip = np.array([MM, -MM])
     chain = biarc_fit(outline, tolerance)
-    points = chain.sample() * flip + 0.0
+    points = chain.sample(SVG_BOX_SAMPLES) * flip + 0.0
     centres = np.array([centre for centre, _ in circles]) * flip + 0.0
     lo, size = points.min(axis=0), np.ptp(points, axis=0)
     shapes = [f'  <path d="{_svg_arcs(chain, flip)}"/>'] + [
