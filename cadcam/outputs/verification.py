@@ -19,7 +19,7 @@ import numpy as np
 
 from ..files import write_json, write_text
 from ..make.biarc import arc_distance
-from ..verify.file_model import FileOutline, anchored_torque, differential_output, read_dxf
+from ..verify.file_model import FileOutline, anchored_torque, differential_output
 
 #: Share of the design's own largest error the file may add (issue 31).
 DESIGN_SHARE = 0.1
