@@ -9,11 +9,11 @@ STAMP  := $(VENV)/.installed-stamp
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
-# cvxpy, setuptools) and lint (ruff, mypy)
+# cvxpy, setuptools), lint (ruff, mypy) and step (build123d: camN.step)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev,lint]'
+	$(PY) -m pip install --quiet -e '.[dev,lint,step]'
 	touch $(STAMP)
 
 demo: $(STAMP)

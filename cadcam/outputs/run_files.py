@@ -215,7 +215,22 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
         volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
                            args.groove_depth, args.groove_width, polygon)
         note += f", STL {volume * 1e9:.0f} mm³"
+        note += _write_step(stem.with_suffix(".step"), outline, args, tolerance)
     return note
+
+
+def _write_step(path: Path, outline, args: Workshop, tolerance: float) -> str:
+    """``camN.step`` (the biarc outline extruded, the bore and anchor hole through it, the groove
+    cut) where the extra ``step`` is installed; the summary's words either way."""
+    from ..make import step
+    from ..make.biarc import biarc_fit
+    from ..make.workshop import holes
+
+    if not step.available():
+        return ", no STEP (pip install -e '.[step]')"
+    volume = step.write_step(path, biarc_fit(outline, tolerance), holes(outline, args.bore_diameter, args.anchor_diameter),
+                             args.stl, args.groove_depth, args.groove_width)
+    return f", STEP {volume * 1e9:.0f} mm³"
 
 
 def _drawn(drawing: Drawing, drawings: list[Drawing] | None) -> None:
