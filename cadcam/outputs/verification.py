@@ -108,12 +108,10 @@ def fit_tolerance(result, loosest: float) -> float:
     """The biarc fit's tolerance [m] for ``result``'s files: :data:`FIT_SHARE` of the tightest
     requirement over the torque and output checks, divided by the torque (N per metre of arm)
     or output (:data:`OUTPUT_GAIN`) a metre of outline error moves; at most ``loosest`` (the
-    spec's workshop tolerance), at least :data:`MIN_FIT`."""
-    kinds = {mech.kind for mech in result.problem.mechanisms}
-    candidates = [loosest]
-    if kinds <= {"anchored_pulley"}:
-        gain = _force_gain(result)
-        candidates += [FIT_SHARE * c["required"] / gain for c in _torque_checks(result) if gain > 0]
+    spec's workshop tolerance), at least :data:`MIN_FIT`. Every mechanism's files are fitted so,
+    also those :func:`recompute` has no file model for (their accuracy is then not checked)."""
+    gain = _force_gain(result)
+    candidates = [loosest] + [FIT_SHARE * c["required"] / gain for c in _torque_checks(result) if gain > 0]
     candidates += [FIT_SHARE * c["required"] / OUTPUT_GAIN for c in _output_checks(result)]
     return float(max(MIN_FIT, min(candidates)))
 
