@@ -165,7 +165,10 @@ def _fit_piece(outline: Outline, start: float, stop: float, closing: bool, toler
         error = np.minimum(arc_distance(inner, p0[:, None], joint[:, None], bulge[:, :1]),
                            arc_distance(inner, joint[:, None], p1[:, None], bulge[:, 1:])).max(axis=1)
         error *= SAMPLE_SPARE
-        wide = error > tolerance
+        # two arcs turning opposite ways (an S) fit a convex stretch whose ends lean unevenly on
+        # its chord; halving evens them out
+        s_shaped = (bulge[:, 0] * bulge[:, 1] < 0) & (np.abs(bulge).min(axis=1) >= STRAIGHT)
+        wide = (error > tolerance) | s_shaped
         if not wide.any():
             return p0, joint, bulge, error
         knots = np.sort(np.concatenate([knots, (a[wide] + b[wide]) / 2]))
@@ -180,7 +183,7 @@ def biarc_fit(outline: Outline, tolerance: float) -> ArcChain:
     that both ends of the designed arc are vertices and a corner of a chord closure stays a
     corner. Intervals start at :data:`START_DENSITY` per radian and are halved until the
     largest distance from the outline, measured at :data:`ERROR_SAMPLES` points of each, is
-    within ``tolerance``.
+    within ``tolerance`` and no biarc is S-shaped, so that a convex outline stays convex.
     """
     if not (np.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"tolerance must be a positive length [m], got {tolerance!r}")

@@ -186,9 +186,16 @@ def _judged(check: dict, error: float, unresolved: int) -> dict:
             "passed": bool(error <= check["required"] and unresolved == 0)}
 
 
-def passed(checks: list[dict]) -> bool:
-    """Every recomputed check met its requirement (those not recomputed do not count)."""
-    return all(c["passed"] for c in checks if "passed" in c)
+def passed(checks: list[dict]) -> bool | None:
+    """Every recomputed check met its requirement (those not recomputed do not count); None
+    when none could be recomputed."""
+    judged = [c["passed"] for c in checks if "passed" in c]
+    return all(judged) if judged else None
+
+
+def verdict(checks: list[dict]) -> str:
+    """The report's one word: PASSED, FAILED or NOT CHECKED (no file model covers the design)."""
+    return {True: "PASSED", False: "FAILED", None: "NOT CHECKED"}[passed(checks)]
 
 
 def write_report(out: Path, cams: list[dict], checks: list[dict]) -> None:
@@ -209,8 +216,7 @@ def _table(rows: list[dict], names: list[str]) -> list[str]:
 
 def _markdown(cams: list[dict], checks: list[dict]) -> str:
     """The report as markdown: the verdict, the checks, the files, then the fields' meanings."""
-    verdict = "PASSED" if passed(checks) else "FAILED"
-    lines = [f"# Workshop files against the design: {verdict}", "",
+    lines = [f"# Workshop files against the design: {verdict(checks)}", "",
              "Read `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
              "recomputed from the written DXF outlines by plane geometry, against the design's.", ""]
     lines += _table(checks, ["quantity", "where", "file_max_abs_error", "required", "passed", "unresolved_points",

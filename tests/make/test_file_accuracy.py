@@ -170,3 +170,11 @@ def test_every_design_writes_its_verification_report(tmp_path, pendulum, random_
         assert cam["file_error_m"] <= cam["fit_tolerance_m"]
         assert cam["clearance_m"] >= MIN_WALL - 1e-9
     assert "file_max_abs_error" in (tmp_path / "verification.md").read_text()
+
+
+def test_biarcs_of_a_convex_outline_all_turn_left():
+    """ρ = 20 mm − 0.5 mm/rad² φ² over 4.5 rad, fitted within 0.01 mm: one interval's equal-
+    tangent biarc is S-shaped (its ends lean unevenly on its chord); the fit halves it, so that
+    every arc turns counter-clockwise, like the outline."""
+    chain = biarc_fit(spiral(r0=0.02, s=0.0, q=-5e-4, phi_max=4.5), 1e-5)
+    assert np.all(chain.bulges > 0)
