@@ -9,13 +9,13 @@ STAMP  := $(VENV)/.installed-stamp
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
-# cvxpy, setuptools, Playwright's client and the app extra: panel, tomlkit) and lint (ruff, mypy);
-# the design page's browser test drives Debian's chromium, installed here when it is missing
-# (Playwright's own browser download is not used)
+# cvxpy, setuptools, Playwright's client and the app extra: panel, tomlkit), lint (ruff, mypy)
+# and step (build123d: camN.step); the design page's browser test drives Debian's chromium,
+# installed here when it is missing (Playwright's own browser download is not used)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev,lint]'
+	$(PY) -m pip install --quiet -e '.[dev,lint,step]'
 	test -x /usr/bin/chromium || (apt-get update -qq && apt-get install -y -qq chromium)
 	touch $(STAMP)
 

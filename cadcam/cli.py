@@ -403,7 +403,8 @@ def _add_design_command(sub) -> None:
     w.add_argument("--bore-diameter", type=float, help="shaft bore (default 0.006)")
     w.add_argument("--anchor-diameter", type=float, help="cable anchor hole near φ = 0 (default 0.0025)")
     w.add_argument("--tolerance", type=float,
-                   help="chordal tolerance of DXF/SVG/CSV/STL polygons (default 1e-5 = 0.01 mm)")
+                   help="loosest fit of the DXF/SVG arcs and CSV/STL polygons (default 1e-5 = 0.01 mm); "
+                        "tighter where the design's accuracy asks (verification.md)")
     w.add_argument("--stl", type=float, metavar="THICKNESS", help="also write cam*.stl of this thickness")
     w.add_argument("--groove-depth", type=float, help="cable groove depth in the STL (default 0)")
     w.add_argument("--groove-width", type=float, help="cable groove width in the STL (default 0)")

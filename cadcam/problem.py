@@ -279,7 +279,8 @@ class Workshop:
     anchor_diameter : float
         Cable-anchor hole near φ = 0.
     tolerance : float
-        Chordal tolerance of the DXF, SVG, CSV and STL polygons.
+        Loosest fit of the DXF and SVG arcs and the CSV and STL polygons; the files are fitted
+        tighter where the design's accuracy asks (:mod:`cadcam.outputs.verification`).
     stl : float or None
         Thickness of ``camN.stl``; None writes no STL.
     groove_depth, groove_width : float

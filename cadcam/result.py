@@ -205,7 +205,7 @@ class Result:
             if workshop is not None:
                 sizes = self.problem.workshop if workshop == "spec" else workshop
                 try:
-                    notes = write_workshop_files(self.evaluation, stage, sizes, figures, sheets)
+                    notes = write_workshop_files(self, stage, sizes, figures, sheets)
                 except WorkshopError as exc:
                     failure = exc
             # longest first, so that the workers end together: the convergence figure (the first

@@ -17,6 +17,7 @@ from numpy.polynomial import Legendre, Polynomial
 
 from ..files import atomic_path, write_csv as write_table, write_text
 from ..physics.profile import Basis, convexity_margin, profile_function
+from .biarc import ArcChain, arc_geometry, biarc_fit, segment_distance
 
 TWO_PI = 2 * np.pi
 MM = 1e3
@@ -34,6 +35,8 @@ CHECK_GRID = 8000
 CHORD_SPARE = 1.05
 """Chords :func:`polyline` first lays per chord an exact estimate would need (sag ≈ 0.9 tol)."""
 SAG_SAMPLES = 31
+SVG_BOX_SAMPLES = 64
+"""Points per arc from which the SVG's box is taken (an arc's sag between them is (1/64)²/8 of its own)."""
 """Interior samples per chord at which :func:`polyline` measures the sag (odd: with the middle)."""
 
 
@@ -104,6 +107,15 @@ class Outline:
             x = (phi[~on] - self.phi_end) / self.closing_span
             out[:, ~on] = _rho_from_u(*self._u(x))
         return out
+
+    def piece_derivatives(self, phi, closing: bool) -> np.ndarray:
+        """ρ, ρ′, ρ″ of the designed arc (``closing`` False) or of the closing arc's polynomial
+        at ``phi`` [rad] in [0, φ_end] or [φ_end, 2π]: one-sided at the joints, where a chord
+        closure has corners."""
+        phi = np.atleast_1d(np.asarray(phi, dtype=float))
+        if closing:
+            return _rho_from_u(*self._u((phi - self.phi_end) / self.closing_span))
+        return designed_values(self.profile, self.coefficients, phi)[:3]
 
     def _u(self, x) -> np.ndarray:
         """u, u′, u″ with respect to φ on the closing arc at x ∈ [0, 1]."""
@@ -389,13 +401,6 @@ def chord_sag(outline: Outline, knots) -> np.ndarray:
     return segment_distance(inner, ends[:-1, None], ends[1:, None]).max(axis=1) * (1 + s[0] ** 2)
 
 
-def segment_distance(points, a, b) -> np.ndarray:
-    """Distance from ``points`` to the segments from ``a`` to ``b`` (broadcast, last axis x, y)."""
-    ab = b - a
-    t = np.clip(np.sum((points - a) * ab, axis=-1) / np.sum(ab * ab, axis=-1), 0.0, 1.0)
-    return np.linalg.norm(points - a - t[..., None] * ab, axis=-1)
-
-
 # ---------------------------------------------------------------------------------------- holes
 
 def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
@@ -464,23 +469,44 @@ def _positive(name: str, value) -> float:
 # --------------------------------------------------------------------------------------- writers
 
 def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
-              tolerance: float = DEFAULT_TOLERANCE) -> None:
+              tolerance: float = DEFAULT_TOLERANCE) -> ArcChain:
     """Write the cam as a DXF drawing in millimetres ($INSUNITS = 4), atomically.
 
-    A closed LWPOLYLINE of :func:`polyline` on layer PROFILE; the bore (centred on the rotation
-    axis, the origin) and the anchor hole (:func:`anchor_centre`) as circles on layer HOLES.
+    The outline as a closed LWPOLYLINE of circular arcs (bulges) on layer PROFILE, the biarc fit
+    of :func:`cadcam.make.biarc.biarc_fit` within ``tolerance`` [m], its first vertex the anchor
+    point φ = 0 on the +x axis; the bore (centred on the rotation axis, the origin) and the
+    anchor hole (:func:`anchor_centre`) as CIRCLEs on layer HOLES. Returns the fitted chain.
     """
     circles = holes(outline, bore_diameter, anchor_diameter)
+    chain = biarc_fit(outline, tolerance)
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add("PROFILE", color=7)
     doc.layers.add("HOLES", color=1)
     msp = doc.modelspace()
-    msp.add_lwpolyline(polyline(outline, tolerance) * MM, format="xy", close=True,
+    msp.add_lwpolyline(np.column_stack([chain.vertices * MM, chain.bulges]), format="xyb", close=True,
                        dxfattribs={"layer": "PROFILE"})
     for centre, diameter in circles:
         msp.add_circle(tuple(centre * MM), diameter * MM / 2, dxfattribs={"layer": "HOLES"})
     with atomic_path(path) as tmp:
         doc.saveas(tmp)
+    return chain
+
+
+def _svg_arcs(chain: ArcChain, flip) -> str:
+    """SVG path data of ``chain`` in millimetres with y negated: M, then one A (arc) or L
+    (straight) command per segment, then Z. Negating y turns a counter-clockwise arc into SVG's
+    positive-angle sweep (its y axis points down)."""
+    ends = np.roll(chain.vertices, -1, axis=0)
+    out = [f"M {chain.vertices[0, 0] * flip[0] + 0.0:.9f},{chain.vertices[0, 1] * flip[1] + 0.0:.9f}"]
+    for a, b, bulge in zip(chain.vertices, ends, chain.bulges):
+        x, y = b * flip + 0.0  # + 0.0: no '-0.000000'
+        if abs(bulge) < 1e-12:
+            out.append(f"L {x:.9f},{y:.9f}")
+            continue
+        _, radius, sweep = arc_geometry(a, b, bulge)
+        r = abs(radius) * MM
+        out.append(f"A {r:.9f},{r:.9f} 0 {int(abs(sweep) > np.pi)} {int(sweep > 0)} {x:.9f},{y:.9f}")
+    return " ".join(out) + " Z"
 
 
 def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
@@ -489,15 +515,16 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
 
     ``width`` and ``height`` are in millimetres and the viewBox, in millimetres, is the bounding
     box of the profile, seen from +z (SVG's y axis points down, so y is negated). One path for
-    the profile and one circle per hole, as hairlines for a laser cutter.
+    the profile — the same biarcs as the DXF (:func:`cadcam.make.biarc.biarc_fit` within
+    ``tolerance``), as SVG arcs — and one circle per hole, as hairlines for a laser cutter.
     """
     circles = holes(outline, bore_diameter, anchor_diameter)
     flip = np.array([MM, -MM])
-    points = polyline(outline, tolerance) * flip + 0.0  # + 0.0: no '-0.000000'
+    chain = biarc_fit(outline, tolerance)
+    points = chain.sample(SVG_BOX_SAMPLES) * flip + 0.0
     centres = np.array([centre for centre, _ in circles]) * flip + 0.0
     lo, size = points.min(axis=0), np.ptp(points, axis=0)
-    path_data = "M " + " L ".join(f"{x:.6f},{y:.6f}" for x, y in points) + " Z"
-    shapes = [f'  <path d="{path_data}"/>'] + [
+    shapes = [f'  <path d="{_svg_arcs(chain, flip)}"/>'] + [
         f'  <circle cx="{x:.6f}" cy="{y:.6f}" r="{diameter * MM / 2:.6f}"/>'
         for (x, y), (_, diameter) in zip(centres, circles)]
     write_text(path, "\n".join([

@@ -32,7 +32,8 @@ class WorkshopError(ValueError):
 #: figures after ``--no-figures``, the files of a cam the new design does not have.
 RUN_FILES = re.compile(r"result\.json|(torque|torque_recheck|profile|output)\.csv"
                        r"|(profile|torque|springs|output|convergence)\.png"
-                       r"|cam\d+(\.dxf|\.svg|\.stl|_points\.csv|_groove\.csv|_sheet\.pdf|_sheet\.png)")
+                       r"|cam\d+(\.dxf|\.svg|\.stl|\.step|_points\.csv|_groove\.csv|_sheet\.pdf|_sheet\.png)"
+                       r"|verification\.(json|md)")
 
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
@@ -100,16 +101,23 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
             _drawn(functools.partial(save_figure, figs[name], out / f"{name}.png"), drawings)
 
 
-def write_workshop_files(ev, out: Path, args: Workshop, sheets: bool = True,
+def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                          drawings: list[Drawing] | None = None) -> list[str]:
     """Per profile: DXF, SVG, CSV points and, with ``sheets``, a drawing sheet (PDF and PNG); STL
-    on request. A profile whose cable wraps a turn or more (a helical groove) gets the groove's
-    centre line ``cam{i}_groove.csv`` instead: no planar outline holds it. WorkshopError when a
-    profile's files cannot be made. With a list ``drawings``, the sheets are built here and
-    appended to it, to be drawn by :func:`cadcam.outputs.forked.draw`, not drawn here."""
+    on request; then ``verification.json`` and ``verification.md``. A profile whose cable wraps
+    a turn or more (a helical groove) gets the groove's centre line ``cam{i}_groove.csv``
+    instead: no planar outline holds it. WorkshopError when a profile's files cannot be made.
+    With a list ``drawings``, the sheets are built here and appended to it, to be drawn by
+    :func:`cadcam.outputs.forked.draw`, not drawn here.
+
+    The outlines are fitted as accurately as the design claims (the tolerance of
+    :func:`cadcam.outputs.verification.fit_tolerance`, at most ``args.tolerance``), read back
+    from the written DXF and recomputed; a fit that misses its requirement is refitted tighter.
+    """
     from ..make.workshop import TWO_PI, helical_groove, write_groove_csv
 
-    notes = []
+    ev = result.evaluation
+    notes, outlines = [], {}
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
     for i, (cs, mech) in enumerate(zip(ev.profiles, owners)):
         try:
@@ -120,26 +128,76 @@ def write_workshop_files(ev, out: Path, args: Workshop, sheets: bool = True,
                 notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
                              f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
             else:
-                notes.append(_write_outline_files(ev, i, out, args, sheets, mech, drawings))
+                outlines[i] = _outline(ev, i, mech)
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
+    tolerance, chains, checks = _fitted_dxfs(result, out, args, outlines)
+    for i, outline in outlines.items():
+        try:
+            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, sheets, owners[i], drawings))
+        except ValueError as exc:
+            raise WorkshopError(f"cam{i + 1}: {exc}") from exc
+    from .verification import cam_report, verdict, write_report
+
+    cams = [cam_report(i + 1, outlines[i], chains[i], tolerance, _polygon_tolerance(tolerance)) for i in outlines]
+    write_report(out, cams, checks)
+    notes.append(f"verification.md: {verdict(checks)}")
     return notes
 
 
-def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, mech,
+def _outline(ev, i: int, mech):
+    """Profile ``i`` of mechanism ``mech`` closed into a planar outline its way
+    (:attr:`~cadcam.mechanisms.base.Mechanism.outline_closure`)."""
+    from ..make.workshop import chord_outline, closed_outline
+
+    close = chord_outline if mech.outline_closure == "chord" else closed_outline
+    return close(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()))
+
+
+def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):
+    """Write every outline's DXF at the fit tolerance the design asks for, read them back and
+    recompute; refit tighter while a check misses (at most ``REFITS`` times). Returns the
+    tolerance [m], the outlines read back (profile index → FileOutline) and the checks."""
+    from ..make.workshop import write_dxf
+    from ..verify.file_model import read_dxf
+    from .verification import MIN_FIT, REFITS, fit_tolerance, recompute
+
+    tolerance = fit_tolerance(result, args.tolerance)
+    for attempt in range(REFITS + 1):
+        chains = {}
+        for i, outline in outlines.items():
+            try:
+                write_dxf(out / f"cam{i + 1}.dxf", outline, args.bore_diameter, args.anchor_diameter, tolerance)
+            except ValueError as exc:
+                raise WorkshopError(f"cam{i + 1}: {exc}") from exc
+            chains[i] = read_dxf(out / f"cam{i + 1}.dxf")
+        checks = recompute(result, chains)
+        miss = max((c["file_max_abs_error"] / c["required"] for c in checks if "passed" in c), default=0.0)
+        if miss <= 1 or tolerance <= MIN_FIT or attempt == REFITS or not np.isfinite(miss):
+            return tolerance, chains, checks
+        tolerance = max(MIN_FIT, tolerance / (2 * miss))
+    raise AssertionError("unreachable")
+
+
+def _polygon_tolerance(tolerance: float) -> float:
+    """Chordal tolerance [m] of the polygon files (CSV, STL): the fit's, but not below the
+    workshop tolerance's least value, where polygons grow without bound."""
+    from ..problem import WORKSHOP_LIMITS
+
+    return max(tolerance, WORKSHOP_LIMITS["tolerance"][0])
+
+
+def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, sheets: bool, mech,
                          drawings: list[Drawing] | None) -> str:
-    """The workshop files of profile ``i`` of mechanism ``mech``, closed into a planar outline
-    its way (:attr:`~cadcam.mechanisms.base.Mechanism.outline_closure`; see
-    :func:`write_workshop_files`); returns its line of the summary."""
-    from ..make.workshop import chord_outline, closed_outline, polyline, write_dxf, write_points_csv, write_stl, write_svg
+    """The SVG, points CSV, sheet and STL of profile ``i`` of mechanism ``mech`` (its DXF is
+    written by :func:`_fitted_dxfs`); returns its line of the summary."""
+    from ..make.workshop import polyline, write_points_csv, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
-    close = chord_outline if mech.outline_closure == "chord" else closed_outline
-    outline = close(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()))
     stem = out / f"cam{i + 1}"
-    write_dxf(stem.with_suffix(".dxf"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
-    write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, args.tolerance)
-    write_points_csv(out / f"cam{i + 1}_points.csv", outline, args.tolerance)
+    polygon = _polygon_tolerance(tolerance)
+    write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance)
+    write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon)
     if sheets:
         from ..make.drawing import save_sheet, sheet_figure
 
@@ -149,12 +207,28 @@ def _write_outline_files(ev, i: int, out: Path, args: Workshop, sheets: bool, me
         # one figure, drawn into both formats
         _drawn(functools.partial(save_sheet, fig, out / f"cam{i + 1}_sheet.pdf", out / f"cam{i + 1}_sheet.png"),
                drawings)
-    note = f"cam{i + 1}: {len(polyline(outline, args.tolerance))} points at {1e3 * args.tolerance:g} mm"
+    note = (f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, "
+            f"{len(polyline(outline, polygon))} points at {1e3 * polygon:.3g} mm")
     if args.stl is not None:
         volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
-                           args.groove_depth, args.groove_width, args.tolerance)
+                           args.groove_depth, args.groove_width, polygon)
         note += f", STL {volume * 1e9:.0f} mm³"
+        note += _write_step(stem.with_suffix(".step"), outline, args, tolerance)
     return note
+
+
+def _write_step(path: Path, outline, args: Workshop, tolerance: float) -> str:
+    """``camN.step`` (the biarc outline extruded, the bore and anchor hole through it, the groove
+    cut) where the extra ``step`` is installed; the summary's words either way."""
+    from ..make import step
+    from ..make.biarc import biarc_fit
+    from ..make.workshop import holes
+
+    if not step.available():
+        return ", no STEP (pip install -e '.[step]')"
+    volume = step.write_step(path, biarc_fit(outline, tolerance), holes(outline, args.bore_diameter, args.anchor_diameter),
+                             args.stl, args.groove_depth, args.groove_width)
+    return f", STEP {volume * 1e9:.0f} mm³"
 
 
 def _drawn(drawing: Drawing, drawings: list[Drawing] | None) -> None:

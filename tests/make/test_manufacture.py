@@ -12,6 +12,7 @@ from cadcam.make.drawing import draw_sheet
 from cadcam.make.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
                                 polyline, segment_distance, write_points_csv, write_dxf, write_stl,
                                 write_svg)
+from cadcam.make.biarc import arc_distance, biarc_fit
 from cadcam.physics.profile import Basis
 
 TWO_PI = 2 * np.pi
@@ -171,8 +172,9 @@ def test_dxf_reads_back_with_the_outline_and_holes(tmp_path, cam_1dof):
     msp = doc.modelspace()
     (profile,) = msp.query("LWPOLYLINE")
     assert profile.dxf.layer == "PROFILE" and profile.closed
-    np.testing.assert_allclose(np.array(profile.get_points("xy")), polyline(cam_1dof) * 1e3,
-                               rtol=0, atol=1e-9)
+    chain = biarc_fit(cam_1dof, DEFAULT_TOLERANCE)
+    np.testing.assert_allclose(np.array(profile.get_points("xyb")),
+                               np.column_stack([chain.vertices * 1e3, chain.bulges]), rtol=0, atol=1e-9)
     circles = sorted(msp.query("CIRCLE"), key=lambda c: -c.dxf.radius)
     assert [c.dxf.layer for c in circles] == ["HOLES", "HOLES"]
     assert circles[0].dxf.radius == pytest.approx(BORE / 2 * 1e3, abs=1e-12)
@@ -180,25 +182,30 @@ def test_dxf_reads_back_with_the_outline_and_holes(tmp_path, cam_1dof):
     assert circles[1].dxf.radius == pytest.approx(ANCHOR / 2 * 1e3, abs=1e-12)
     anchor = np.array(circles[1].dxf.center)[:2]
     np.testing.assert_allclose(anchor, anchor_centre(cam_1dof, ANCHOR) * 1e3, atol=1e-9)
-    pts = polyline(cam_1dof) * 1e3
-    wall = segment_distance(anchor, pts, np.roll(pts, -1, axis=0)).min() - ANCHOR / 2 * 1e3
-    assert wall == pytest.approx(MIN_WALL * 1e3, abs=DEFAULT_TOLERANCE * 1e3)
+    ends = np.roll(chain.vertices, -1, axis=0)
+    wall = arc_distance(anchor / 1e3, chain.vertices, ends, chain.bulges).min() - ANCHOR / 2
+    assert wall == pytest.approx(MIN_WALL, abs=DEFAULT_TOLERANCE)
 
 
 def test_svg_is_true_scale_in_millimetres(tmp_path, outline):
+    """The SVG holds the DXF's biarcs (one A or L command per segment) at 1:1 in millimetres,
+    its box the outline's to within the fit's tolerance."""
     path = tmp_path / "cam.svg"
     write_svg(path, outline, BORE, ANCHOR)
     root = ET.parse(path).getroot()
     ns = {"svg": "http://www.w3.org/2000/svg"}
-    pts = polyline(outline) * 1e3
+    pts = outline.xy(np.linspace(0, TWO_PI, 20000)) * 1e3
     size = np.ptp(pts, axis=0)
     assert root.get("width").endswith("mm") and root.get("height").endswith("mm")
     np.testing.assert_allclose([float(root.get("width")[:-2]), float(root.get("height")[:-2])],
-                               size, atol=2e-6)
+                               size, atol=2 * DEFAULT_TOLERANCE * 1e3)
     box = [float(v) for v in root.get("viewBox").split()]
-    np.testing.assert_allclose(box, [pts[:, 0].min(), -pts[:, 1].max(), *size], atol=2e-6)
+    np.testing.assert_allclose(box, [pts[:, 0].min(), -pts[:, 1].max(), *size], atol=2 * DEFAULT_TOLERANCE * 1e3)
     (path_el,) = root.findall(".//svg:path", ns)
-    assert len(re.findall(r"-?\d+\.\d+,-?\d+\.\d+", path_el.get("d"))) == len(pts)
+    chain = biarc_fit(outline, DEFAULT_TOLERANCE)
+    commands = re.findall(r"[MALZ]", path_el.get("d"))
+    assert commands.count("A") == np.count_nonzero(chain.bulges)
+    assert commands.count("A") + commands.count("L") == len(chain.vertices)
     radii = sorted(float(c.get("r")) for c in root.findall(".//svg:circle", ns))
     np.testing.assert_allclose(radii, [ANCHOR / 2 * 1e3, BORE / 2 * 1e3])
 

@@ -1,0 +1,325 @@
+"""The torque (or a differential pair's output x) of a design recomputed from its written DXF.
+
+What a workshop receives is the file, not the polynomial: this module reads ``camN.dxf`` back
+with ezdxf, rebuilds the outline from its arcs and lines, and computes what that part does by
+plane geometry alone, sharing nothing with the NLP's symbolic model but the spec's physical
+parameters (positions, senses, windings, spring rates, preloads and the design's
+pre-extensions):
+
+- the cable leaves a convex outline along the line n·X = h(ψ) with outward normal
+  n = (cos ψ, sin ψ), h the outline's support function along the outline from the anchor (for
+  an arc of centre C and radius R whose normals span ψ: h = n·C + R; at a corner, n·corner);
+  the line through a point S (an anchored spring's end) is the root of n·S − h(ψ) = 0 in
+  [χ − π, χ], χ the polar angle of S unwrapped from the anchor (as many turns round as the
+  cable has gone), and the line tangent to an idler of radius q at P with the idler on the
+  cable's left, like the outline, the root of n·P + q − h(ψ) = 0;
+- the wrapped length is the arcs' length from the anchor (the first vertex) to the contact
+  point, the free span the distance from it to S (or to the idler's contact P + q n);
+- an anchored pulley's spring extension is x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref)) and the
+  joint torque τ = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ, dL/dθ by a central difference;
+- a differential pair's output x is the idler distance at which the two paths and the arc on
+  the idler add up to the cable's length, found by bisection.
+
+The DXF is in the profile's own frame: the cable anchored at the first vertex on +x and wound
+counter-clockwise from it (the mechanism's ``winding`` = "cw" part is this outline mirrored).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import ezdxf
+import numpy as np
+
+TWO_PI = 2 * np.pi
+#: Millimetres per metre (the DXF's unit, $INSUNITS = 4).
+MM = 1e3
+#: Bisection steps of a tangency (halving π rad: below 1e-15 rad) and of the slider (halving
+#: the slider's range: below 1e-15 of it).
+BISECTIONS = 52
+#: Step [rad] of the central difference dL/dθ (its error is below 1e-9 of the moment arm).
+STEP = 1e-5
+#: Bulge below which a segment is straight (as the writer's :data:`cadcam.make.biarc.STRAIGHT`:
+#: the sag of such an arc is below 1e-12 of its length).
+STRAIGHT = 1e-12
+#: How far [m] a target may sit inside the tangent at the outline's last point and still leave
+#: there: a departure exactly at the end of the designed arc (the range's most-wound pose), seen
+#: through the file's rounding.
+END_SLACK = 1e-9
+#: Smallest turn [rad] between two segments that counts as a corner of the outline (below it,
+#: a tangent-continuous joint seen through the file's rounding).
+CORNER = 1e-9
+
+
+@dataclass(frozen=True)
+class FileOutline:
+    """An outline read from a DXF [m]: its segments and their turning pieces.
+
+    Attributes
+    ----------
+    vertices, bulges : ndarray
+        The closed LWPOLYLINE on layer PROFILE, vertex 0 the anchor.
+    units : int
+        $INSUNITS of the file (4: millimetres).
+    closed : bool
+        The polyline's closed flag.
+    circles : list of (ndarray, float)
+        Centres [m] and diameters [m] of the CIRCLEs on layer HOLES.
+    centre, radius, start, end, length_at : ndarray
+        The turning pieces in order from the anchor up to the first corner or arc turning
+        inwards (a chord closure's notch, where the cable never lies): each an arc (radius > 0)
+        or a corner (radius 0, centre the corner), its outward normal angle running from
+        ``start`` to ``end`` [rad] (unwrapped, increasing), and the outline's length from the
+        anchor to its start [m].
+    reflex : int
+        Corners and arcs turning inwards (0 for a convex outline).
+    """
+
+    vertices: np.ndarray
+    bulges: np.ndarray
+    units: int
+    closed: bool
+    circles: list
+    centre: np.ndarray
+    radius: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    length_at: np.ndarray
+    reflex: int
+
+    @property
+    def perimeter(self) -> float:
+        """Length of the closed outline [m]."""
+        return float(self._perimeter)
+
+    def support(self, psi):
+        """h(ψ) [m], the contact point (n, 2) [m] and the wrapped length from the anchor [m] at
+        outward normal angles ``psi`` unwrapped along the chain from the anchor's normal (h is
+        −inf outside the chain's span)."""
+        psi = np.asarray(psi, dtype=float)
+        i = np.clip(np.searchsorted(self.start, psi, side="right") - 1, 0, self.start.size - 1)
+        on = (psi >= self.start[0]) & (psi <= self.end[-1])
+        angle = np.clip(psi, self.start[i], self.end[i])
+        n = np.stack([np.cos(psi), np.sin(psi)], axis=-1)
+        point = self.centre[i] + self.radius[i, None] * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+        wrapped = self.length_at[i] + self.radius[i] * (angle - self.start[i])
+        return np.where(on, np.sum(n * point, axis=-1), -np.inf), point, wrapped
+
+    def tangent(self, target, around, offset: float = 0.0):
+        """The cable from the anchor round the outline towards ``target`` (n, 2) [m], or tangent
+        to a circle of radius ``offset`` about it, with outline and circle on its left: normal
+        angle ψ (n,), contact point (n, 2) and wrapped length (n,) [m].
+
+        ``around`` (n,) is the target's polar angle unwrapped from the anchor [rad] (how far
+        round the cable has gone: a wrap of nearly a turn meets the same target twice). The
+        cable leaves where g(ψ) = n·target + offset − h(ψ) turns positive in
+        [around − π, around], the one root there on a convex outline, found by bisection; NaN
+        where that bracket leaves the outline's span (but for :data:`END_SLACK` at its end).
+        A point target outside the tangent at the anchor is reached straight from the anchor
+        (nothing is wound; ψ is then the anchor's normal).
+        """
+        lo = np.maximum(np.asarray(around, dtype=float) - np.pi, self.start[0])
+        hi = np.minimum(np.asarray(around, dtype=float), self.end[-1])
+
+        def g(psi):
+            return np.cos(psi) * target[:, 0] + np.sin(psi) * target[:, 1] + offset - self.support(psi)[0]
+
+        top, bottom = g(hi), g(lo)
+        at_end = (hi == self.end[-1]) & (top <= 0) & (top > -END_SLACK)
+        # a point target outside the anchor's tangent: the cable runs straight from the anchor
+        at_anchor = (lo == self.start[0]) & (bottom > 0) & (offset == 0)
+        bracketed = (bottom <= 0) & (top > 0)
+        for _ in range(BISECTIONS):
+            mid = (lo + hi) / 2
+            below = g(mid) <= 0
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        psi = np.where(bracketed, (lo + hi) / 2,
+                       np.where(at_end, self.end[-1], np.where(at_anchor, self.start[0], np.nan)))
+        _, point, wrapped = self.support(psi)
+        return psi, point, wrapped
+
+
+def read_dxf(path) -> FileOutline:
+    """The outline of a cadcam DXF: its PROFILE polyline (arcs as bulges) and HOLES circles.
+
+    Raises
+    ------
+    ValueError
+        If the file holds no single LWPOLYLINE on layer PROFILE.
+    """
+    doc = ezdxf.readfile(str(path))
+    msp = doc.modelspace()
+    lines = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "PROFILE"]
+    if len(lines) != 1:
+        raise ValueError(f"{Path(path).name}: {len(lines)} LWPOLYLINEs on layer PROFILE, expected 1")
+    xyb = np.array(list(lines[0].get_points(format="xyb")), dtype=float)
+    circles = [(np.array([c.dxf.center.x, c.dxf.center.y]) / MM, 2 * c.dxf.radius / MM)
+               for c in msp.query("CIRCLE") if c.dxf.layer == "HOLES"]
+    return _pieces(xyb[:, :2] / MM, xyb[:, 2], int(doc.header.get("$INSUNITS", 0)),
+                   bool(lines[0].closed), circles)
+
+
+def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
+    """The turning pieces of the closed chain ``vertices``/``bulges`` from the anchor up to its
+    first reflex corner or inward arc, if any (see :class:`FileOutline`)."""
+    ends = np.roll(vertices, -1, axis=0)
+    chord = ends - vertices
+    length = np.hypot(*chord.T)
+    arc = np.abs(bulges) >= STRAIGHT
+    sweep = np.where(arc, 4 * np.arctan(bulges), 0.0)
+    heading = np.arctan2(chord[:, 1], chord[:, 0]) - sweep / 2  # tangent angle at each start
+    radius = np.where(arc, length / (2 * np.abs(np.sin(np.where(arc, sweep, 1.0) / 2))), 0.0)
+    seg_length = np.where(arc, radius * np.abs(sweep), length)
+    centre, r, start, stop, at, reflex = [], [], [], [], [], 0
+    psi, s = heading[0] - np.pi / 2, 0.0
+    for i in range(len(vertices)):
+        reflex += int(sweep[i] < 0)
+        if arc[i] and not reflex:
+            centre.append(vertices[i] - radius[i] * np.array([np.cos(psi), np.sin(psi)]))
+            r.append(radius[i]), start.append(psi), stop.append(psi + sweep[i]), at.append(s)
+        psi, s = psi + sweep[i], s + seg_length[i]
+        nxt = (i + 1) % len(vertices)
+        turn = np.angle(np.exp(1j * (heading[nxt] - (heading[i] + sweep[i]))))
+        if nxt == 0 and not reflex:  # back at the anchor: the normals close a full turn
+            turn = start[0] + TWO_PI - psi
+        if turn < -CORNER:
+            reflex += 1
+        elif not reflex and turn > 0 and (turn > CORNER or nxt == 0):
+            centre.append(ends[i]), r.append(0.0), start.append(psi), stop.append(psi + turn)
+            at.append(s)
+        psi = psi + turn
+    out = FileOutline(vertices, bulges, units, closed, circles, np.array(centre), np.array(r),
+                      np.array(start), np.array(stop), np.array(at), reflex)
+    object.__setattr__(out, "_perimeter", s)
+    return out
+
+
+# ------------------------------------------------------------------------------- anchored pulley
+
+def _rotate(angle, v):
+    """Points ``v`` (n, 2) turned by ``angle`` (n,) [rad] counter-clockwise."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=1)
+
+
+def spring_end_in_outline_frame(mech, theta) -> np.ndarray:
+    """An anchored pulley's spring end at joint angles ``theta`` in its outline's frame [m]:
+    the world turned back by the anchor's angle (and the pulley's turn when the pulley turns),
+    mirrored for a clockwise winding."""
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    turn = mech.sense * theta
+    still = np.zeros_like(theta)
+    end = np.tile([mech.spring_end_x, mech.spring_end_y], (theta.size, 1))
+    world = _rotate(turn if mech.turning == "spring_end" else still, end)
+    own = _rotate(-(mech.anchor_angle + (turn if mech.turning == "pulley" else still)), world)
+    own[:, 1] *= _winding(mech)
+    return own
+
+
+def _winding(mech, k: int = 0) -> float:
+    """+1 where profile ``k`` of ``mech`` is wound counter-clockwise from its anchor, else −1
+    (a differential pair's second profile the other way round)."""
+    return (1.0 if mech.winding == "ccw" else -1.0) * (1.0 if k == 0 else -1.0)
+
+
+def spring_end_turns(mech, theta) -> np.ndarray:
+    """The spring end's polar angle in the outline's frame [rad], unwrapped from the anchor:
+    its world angle at θ = 0 less the anchor's, plus the turn of the body that turns (the
+    spring end's, or less the pulley's), mirrored for a clockwise winding."""
+    turn = mech.sense * np.atleast_1d(np.asarray(theta, dtype=float))
+    turn = turn if mech.turning == "spring_end" else -turn
+    return _winding(mech) * (np.arctan2(mech.spring_end_y, mech.spring_end_x) - mech.anchor_angle + turn)
+
+
+def anchored_path(outline: FileOutline, mech, theta) -> np.ndarray:
+    """Length [m] of the cable from the anchor round the outline to the spring end at ``theta``."""
+    end = spring_end_in_outline_frame(mech, theta)
+    _, point, wrapped = outline.tangent(end, spring_end_turns(mech, theta))
+    return wrapped + np.hypot(*(end - point).T)
+
+
+def anchored_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
+    """Joint torques [N·m] (m, P) at the points ``thetas`` (m, P) of a problem whose mechanisms
+    are all anchored pulleys, from their file outlines (mechanism index → FileOutline).
+
+    τ_i = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ_i, x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref))
+    (the energy V = Σ ½k x² + F0 x differentiated, Johnston2023 Eq. 14, 36).
+    """
+    network = problem.network()
+    P = thetas.shape[1]
+    d, dd = np.zeros((network.P.shape[1], P)), np.zeros((network.P.shape[1], P))
+    for g, (u, _) in enumerate(problem.ports):
+        mech = problem.mechanisms[u]
+        th, at = np.unique(thetas[mech.joint], return_inverse=True)  # a tensor grid repeats each angle
+        path = lambda t: anchored_path(outlines[u], mech, t)  # noqa: E731
+        d[g] = (path(th) - path(mech.reference_angle))[at]
+        dd[g] = ((path(th + STEP) - path(th - STEP)) / (2 * STEP))[at]
+    k = np.array([s.rate for s in problem.springs])
+    preload = np.array([s.preload for s in problem.springs])
+    force = k[:, None] * (np.asarray(design.preextension)[:, None] + network.P @ d) + preload[:, None]
+    tau = np.zeros(thetas.shape)
+    for i in range(thetas.shape[0]):
+        on = network.port_joint == i
+        tau[i] = np.sum(force * (network.P[:, on] @ dd[on]), axis=0)
+    return tau
+
+
+# --------------------------------------------------------------------------- differential pair
+
+def _frame(mech, k: int, theta):
+    """Rotation angle (n,) and mirror sign taking profile k's outline frame to the world."""
+    return mech.anchor_angles[k] + mech.sense * theta, _winding(mech, k)
+
+
+def _to_world(v, angle, w):
+    """Directions (n, 2) of an outline frame in the world."""
+    return _rotate(angle, v * np.array([1.0, w]))
+
+
+def _from_world(v, angle, w):
+    """World points (n, 2) in an outline frame."""
+    return _rotate(-angle, v) * np.array([1.0, w])
+
+
+def differential_length(outlines, mech, theta, x) -> np.ndarray:
+    """Cable length [m] from anchor to anchor of a differential pair at joint angles ``theta``
+    with the idler's centre at distance ``x`` along the slider (both (n,)): both paths round
+    their outlines to the idler and the arc q·ω the cable turns on the idler."""
+    slider = np.stack([np.cos(mech.slider_angle), np.sin(mech.slider_angle)])
+    q, total, heading = mech.idler_radius, 0.0, []
+    for k in (0, 1):
+        angle, w = _frame(mech, k, theta)
+        idler = _from_world(x[:, None] * slider, angle, w)
+        # the slider's angle seen from profile k's anchor, unwrapped: turned back by the shaft
+        around = w * (mech.slider_angle - angle)
+        psi, point, wrapped = outlines[k].tangent(idler, around, q)
+        n = np.stack([np.cos(psi), np.sin(psi)], axis=1)
+        total = total + wrapped + np.hypot(*(idler + q * n - point).T)
+        heading.append(_to_world(np.stack([-n[:, 1], n[:, 0]], axis=1), angle, w))
+    w1 = _winding(mech)
+    # in: along the cable from profile 1; out: from the idler back to profile 2
+    into, out = heading[0], -heading[1]
+    omega = np.mod(w1 * (np.arctan2(out[:, 1], out[:, 0]) - np.arctan2(into[:, 1], into[:, 0])), TWO_PI)
+    return total + q * omega
+
+
+def differential_output(outlines, mech, theta) -> np.ndarray:
+    """The idler distance x [m] at joint angles ``theta`` (n,) for which the cable has its
+    length: bisection of the (increasing) length over the slider's range. Where the idler is so
+    near that a cable would wrap past the end of an outline the length is undefined and counts
+    as too short; NaN where no x in the range gives the cable its length."""
+    theta = np.asarray(theta, dtype=float)
+    lo = np.full(theta.shape, float(mech.slider_range[0]))
+    hi = np.full(theta.shape, float(min(mech.slider_range[1], 10.0)))
+
+    def short(x):
+        return ~(differential_length(outlines, mech, theta, x) >= mech.cable_length)
+
+    inside = short(lo) & ~short(hi)
+    for _ in range(BISECTIONS):
+        mid = (lo + hi) / 2
+        below = short(mid)
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    x = (lo + hi) / 2
+    found = inside & np.isfinite(differential_length(outlines, mech, theta, x))
+    return np.where(found, x, np.nan)

@@ -1,0 +1,180 @@
+"""Workshop files as accurate as the design (issue 31): the biarc fit of the DXF, the torque and
+x recomputed from the written file by plane geometry, and the verification report."""
+import dataclasses
+import json
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import cadcam
+from cadcam.make.biarc import arc_distance, biarc_fit
+from cadcam.make.workshop import MIN_WALL, closed_outline, write_dxf
+from cadcam.outputs.run_files import write_workshop_files
+from cadcam.outputs.verification import FIELDS, recompute
+from cadcam.physics.profile import Basis
+from cadcam.verify.file_model import anchored_path, anchored_torque, read_dxf
+
+from ..mechanisms.anchored_pulley.test_anchored_pulley import random_convex_design
+
+PENDULUM = Path(__file__).resolve().parents[2] / "models" / "ludovico2021_pendulum.toml"
+BORE, ANCHOR = 6e-3, 2.5e-3  # [m]
+
+
+def spiral(r0=0.03, s=0.002, q=-2e-4, phi_max=4.0):
+    """A convex spiral pulley ρ = r0 + sφ + qφ² [m], closed into an outline."""
+    b = Basis("monomial", 2, (0.0, phi_max))
+    return closed_outline(b, b.from_monomial(np.array([r0, s, q])), phi_max)
+
+
+def exact_distance(outline, chain, n=5001):
+    """Largest distance [m] from ``n`` points of the outline to the chain's arcs."""
+    points = outline.xy(np.linspace(0.0, 2 * np.pi, n, endpoint=False))[:, None]
+    a, b = chain.vertices[None], np.roll(chain.vertices, -1, axis=0)[None]
+    return arc_distance(points, a, b, chain.bulges[None]).min(axis=1).max()
+
+
+# ----------------------------------------------------------------------------------- biarc fit
+
+def test_biarcs_of_a_circle_lie_on_it():
+    """A circle is fitted exactly: every vertex on it, every bulge tan(Δφ/4) of its span."""
+    b = Basis("monomial", 0, (0.0, 3.0))
+    chain = biarc_fit(closed_outline(b, b.from_monomial(np.array([0.04])), 3.0), 1e-6)
+    np.testing.assert_allclose(np.hypot(*chain.vertices.T), 0.04, rtol=1e-12)
+    phi = np.unwrap(np.arctan2(chain.vertices[:, 1], chain.vertices[:, 0]))
+    span = np.diff(np.append(phi, phi[0] + 2 * np.pi))
+    np.testing.assert_allclose(chain.bulges, np.tan(span / 4), rtol=1e-9)
+
+
+@pytest.mark.parametrize("tolerance", [1e-6, 1e-8])
+def test_biarc_fit_is_within_its_tolerance_everywhere(tolerance):
+    """Measured point by point against the exact distance to the arcs (5001 points), the fit
+    is within its tolerance and reports its error to within the samples' spare."""
+    outline = spiral()
+    chain = biarc_fit(outline, tolerance)
+    measured = exact_distance(outline, chain)
+    assert measured <= tolerance
+    assert measured <= chain.error <= 1.1 * measured
+
+
+def test_biarc_count_grows_as_the_cube_root_of_the_accuracy():
+    """A biarc's error falls as the cube of its length (a polygon's as the square): 100× tighter
+    takes about 100^(1/3) = 4.6× the vertices, not 10×."""
+    outline = spiral()
+    ratio = len(biarc_fit(outline, 1e-9).vertices) / len(biarc_fit(outline, 1e-7).vertices)
+    assert 3.5 < ratio < 6.5
+
+
+def test_dxf_holds_arcs_true_circles_and_millimetres(tmp_path):
+    outline = spiral()
+    chain = write_dxf(tmp_path / "cam1.dxf", outline, BORE, ANCHOR, 1e-7)
+    back = read_dxf(tmp_path / "cam1.dxf")
+    assert back.units == 4 and back.closed and back.reflex == 0
+    np.testing.assert_allclose(back.vertices, chain.vertices, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(back.bulges, chain.bulges, rtol=0, atol=1e-15)
+    assert back.vertices[0, 1] == 0 and back.vertices[0, 0] > 0  # the anchor on +x
+    assert np.all(back.bulges > 0)  # arcs, each counter-clockwise
+    (bore, d_bore), (_, d_anchor) = back.circles
+    np.testing.assert_allclose([*bore, d_bore, d_anchor], [0, 0, BORE, ANCHOR], atol=1e-15)
+    # convex curves within δ of each other differ in length by at most 2πδ
+    assert back.perimeter == pytest.approx(np.sum(np.hypot(*np.diff(outline.xy(
+        np.linspace(0, 2 * np.pi, 200001)), axis=0).T)), abs=2 * np.pi * 1e-7)
+
+
+# ------------------------------------------------------------------------------ file model
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return cadcam.load_spec(PENDULUM)
+
+
+def test_cable_round_a_circle_from_the_file_is_the_closed_form(tmp_path, pendulum):
+    """A circular pulley of radius r, the spring end at ℓ turning with the link: the path is
+    r (θ − a₀ − acos(r/ℓ)) + √(ℓ² − r²) (tangent from a point; wrapped arc)."""
+    r, ell, a0 = 0.03, 0.2, -0.5
+    b = Basis("monomial", 0, (0.0, 4.0))
+    write_dxf(tmp_path / "c.dxf", closed_outline(b, b.from_monomial(np.array([r])), 4.0), BORE, ANCHOR, 1e-9)
+    mech = dataclasses.replace(pendulum.mechanisms[1], spring_end_x=ell, spring_end_y=0.0, turning="spring_end",
+                               sense=1.0, winding="ccw", anchor_angle=a0)
+    theta = np.linspace(1.5, 4.0, 7)
+    expected = r * (theta - a0 - np.arccos(r / ell)) + np.sqrt(ell**2 - r**2)
+    np.testing.assert_allclose(anchored_path(read_dxf(tmp_path / "c.dxf"), mech, theta), expected,
+                               rtol=0, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def random_pendulum(pendulum):
+    """Ludovico2021's antagonistic pair (pulley 1 wound clockwise) with a random convex design."""
+    design = random_convex_design(pendulum, np.random.default_rng(31))
+    return design, cadcam.evaluate(pendulum, design, grid=31)
+
+
+def _file_torque(tmp_path, problem, design, ev, tolerance, coefficients=None):
+    """The joint torque recomputed from DXFs of the design's pulleys fitted within ``tolerance``."""
+    chains = {}
+    for i, (b, c) in enumerate(zip(design.bases, coefficients or design.coefficients)):
+        outline = closed_outline(b, c, float(ev.profiles[i].alpha.max()))
+        write_dxf(tmp_path / f"cam{i + 1}.dxf", outline, BORE, ANCHOR, tolerance)
+        chains[i] = read_dxf(tmp_path / f"cam{i + 1}.dxf")
+    return anchored_torque(problem, design, chains, np.atleast_2d(ev.units[0].theta))[0], chains
+
+
+def test_torque_from_the_file_converges_to_the_design(tmp_path, pendulum, random_pendulum):
+    """The torque from the written files meets cadcam's energy torque as the fit tightens: to
+    1e-4 N·m at 1 nm (torques of 10–200 N·m), and 100× looser is over 10× further off (the
+    recompute sees the file's error: a moment arm δ short costs about F·δ)."""
+    design, ev = random_pendulum
+    tight, _ = _file_torque(tmp_path, pendulum, design, ev, 1e-9)
+    loose, _ = _file_torque(tmp_path, pendulum, design, ev, 1e-7)
+    near, far = np.abs(tight - ev.tau[0]).max(), np.abs(loose - ev.tau[0]).max()
+    assert near < 1e-4
+    assert far > 10 * near
+
+
+def test_a_file_of_another_outline_fails_the_check(tmp_path, pendulum, random_pendulum):
+    """Files of the pulleys 20 µm larger than designed: the torque from them is off by at least
+    the moment arms' share, |F₂ − F₁|·20 µm (measured twice that: the wrap, and so the springs'
+    extensions, grow too), and a design whose own error were 1 µN·m fails the check by far."""
+    design, ev = random_pendulum
+    grown = [c + _constant(b, 2e-5) for b, c in zip(design.bases, design.coefficients)]
+    _, chains = _file_torque(tmp_path, pendulum, design, ev, 1e-9, grown)
+    accurate = types.SimpleNamespace(problem=pendulum, design=design, tensor=ev.tensor, units=ev.units,
+                                     metrics=types.SimpleNamespace(max_abs_error=[1e-6]))
+    (check,) = recompute(types.SimpleNamespace(problem=pendulum, evaluation=ev, recheck=accurate), chains)
+    force = [s.rate * x + s.preload for s, x in zip(pendulum.springs, ev.x)]
+    assert check["file_max_abs_error"] > np.max(np.abs(force[1] - force[0])) * 2e-5
+    assert not check["passed"] and check["file_max_abs_error"] > 10 * check["required"]
+
+
+def _constant(basis, value):
+    """Coefficients of the constant ``value`` in ``basis``."""
+    m = np.zeros(basis.size)
+    m[0] = value
+    return basis.from_monomial(m)
+
+
+def test_every_design_writes_its_verification_report(tmp_path, pendulum, random_pendulum):
+    """``verification.json`` holds every declared field and passes for files fitted to the
+    design's accuracy; the DXF has at most 2000 vertices, closed, convex, in mm, and leaves the
+    minimum wall."""
+    design, ev = random_pendulum
+    result = types.SimpleNamespace(problem=pendulum, evaluation=ev, recheck=ev)
+    write_workshop_files(result, tmp_path, pendulum.workshop, sheets=False)
+    report = json.loads((tmp_path / "verification.json").read_text())
+    assert set(report["fields"]) == set(FIELDS)
+    assert report["passed"] and all(c["passed"] for c in report["checks"])
+    for cam in report["cams"]:
+        assert cam["units"] == "mm" and cam["closed"] and cam["convex"]
+        assert cam["vertices"] <= 2000
+        assert cam["file_error_m"] <= cam["fit_tolerance_m"]
+        assert cam["clearance_m"] >= MIN_WALL - 1e-9
+    assert "file_max_abs_error" in (tmp_path / "verification.md").read_text()
+
+
+def test_biarcs_of_a_convex_outline_all_turn_left():
+    """ρ = 20 mm − 0.5 mm/rad² φ² over 4.5 rad, fitted within 0.01 mm: one interval's equal-
+    tangent biarc is S-shaped (its ends lean unevenly on its chord); the fit halves it, so that
+    every arc turns counter-clockwise, like the outline."""
+    chain = biarc_fit(spiral(r0=0.02, s=0.0, q=-5e-4, phi_max=4.5), 1e-5)
+    assert np.all(chain.bulges > 0)
