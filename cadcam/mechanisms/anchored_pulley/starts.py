@@ -54,7 +54,7 @@ def closed_form_start(problem, start, shares=None, samples: int = 400):
         form = closed_form(lambda th, f=share: sigma * f(th), theta, mech.reference_angle,
                            spring.rate, u0, ell, spring.preload, chi0)
         k = slices[u].start
-        coefs[k] = fit_profile(problem.profiles[k].basis, *_uniform_polar(form.envelope, samples))
+        coefs[k] = fit_profile(problem.profiles[k].basis, *uniform_polar(form.envelope, samples))
     return replace(start, coefficients=coefs)
 
 
@@ -82,7 +82,7 @@ def own_target(problem, i: int):
     return target
 
 
-def _uniform_polar(env, samples: int):
+def uniform_polar(env, samples: int):
     """The envelope's polar samples (φ, ρ) resampled uniformly in φ (the departure point can
     sweep fast where the moment arm changes fast), continued linearly down to the anchor
     φ = 0 (a convex continuation: ρ″ = 0)."""
