@@ -79,10 +79,15 @@ class MomentArmDesign:
         return float(np.max(np.abs(self.torque - self.target)))
 
 
-def pulley_torque(sigma, k, F0, u, r):
-    """∂V/∂θ = σ(k u + F0) r_m [N·m] of a pulley whose spring (rate k [N/m], preload F0 [N])
-    has extension u [m] at moment arm r [m] (Ludovico2021 Eq. 1; Endo2010's preload)."""
-    return sigma * (k * u + F0) * r  # Ludovico2021 Eq. 1
+def spring_force(spring, u):
+    """F = k u + F0 [N] of ``spring`` at extension u [m] (Endo2010's preloaded spring)."""
+    return spring.rate * u + spring.preload
+
+
+def pulley_torque(sigma, force, r):
+    """∂V/∂θ = σ F r_m [N·m] of a pulley whose spring pulls with ``force`` [N] at moment arm
+    r [m] (Ludovico2021 Eq. 1)."""
+    return sigma * force * r  # Ludovico2021 Eq. 1
 
 
 def _extension_map(basis: Basis, theta0: float) -> tuple[Basis, np.ndarray]:
@@ -114,8 +119,8 @@ def _pulleys(problem, joint: int) -> list[int]:
 
 
 def _limit_rows(problem, mech, spring, r, dr, d2r, x):
-    """Rows ≥ 0 of a pulley's limits, each kept ``limit_margin`` inside [SI: IPOPT's own
-    gradient-based scaling conditions them better than millimetres did].
+    """Rows ≥ 0 of a pulley's limits, each kept ``limit_margin`` inside, in SI units (left to
+    IPOPT's gradient-based scaling).
 
     Those of the envelope are multiplied by the positive rate σν′ (or its square or cube),
     which takes away their pole at ν′ = 0 (dh/dν = r′/ν′): (R − R_min)·(σν′)³,
@@ -132,11 +137,11 @@ def _limit_rows(problem, mech, spring, r, dr, d2r, x):
     rho2_turn2 = (r * dnu)**2 + dr**2
     lo, hi = prof.rho_min * (1 + margin), prof.rho_max * (1 - margin)
     return [turn - MIN_TURN,
-            (regularity - prof.min_curvature_radius * (1 + margin) * turn**3),
-            (r - mech.min_moment_arm * (1 + margin)),
-            (spring.travel * (1 - margin) - x),
-            (span_turn - mech.min_free_span * (1 + margin) * turn),
-            (rho2_turn2 - (lo * dnu)**2), ((hi * dnu)**2 - rho2_turn2)]
+            regularity - prof.min_curvature_radius * (1 + margin) * turn**3,
+            r - mech.min_moment_arm * (1 + margin),
+            spring.travel * (1 - margin) - x,
+            span_turn - mech.min_free_span * (1 + margin) * turn,
+            rho2_turn2 - (lo * dnu)**2, (hi * dnu)**2 - rho2_turn2]
 
 
 def design_moment_arms(problem, joint: int = 0, degree: int = 5, grid: int | None = None) -> MomentArmDesign:
@@ -176,7 +181,7 @@ def design_moment_arms(problem, joint: int = 0, degree: int = 5, grid: int | Non
         sigma = mech.sigma
         arm = _arm(basis, theta, c[:, col])
         x = _extension(basis, theta, c[:, col], sigma, mech.reference_angle, u0)
-        torque = torque + pulley_torque(sigma, spring.rate, spring.preload, x, arm[0])
+        torque = torque + pulley_torque(sigma, spring_force(spring, x), arm[0])
         rows += _limit_rows(problem, mech, spring, *arm, x)
     rows += [t - (torque - target[None, :]), t + (torque - target[None, :])]
     g = ca.vertcat(*[ca.vec(row) for row in rows])
@@ -209,8 +214,9 @@ def sample_moment_arms(problem, joint: int, basis: Basis, coefficients, theta,
         r, dr, d2r = (np.asarray(a, dtype=float).ravel() for a in _arm(basis, theta, coefficients[:, col]))
         x = np.asarray(_extension(basis, theta, coefficients[:, col], sigma, mech.reference_angle, u0),
                        dtype=float).ravel()
-        torque += pulley_torque(sigma, spring.rate, spring.preload, x, r)
-        states.append(SpringState(theta, int(sigma), x, spring.rate * x + spring.preload, r))
+        force = spring_force(spring, x)
+        torque += pulley_torque(sigma, force, r)
+        states.append(SpringState(theta, int(sigma), x, force, r))
         envelopes.append(envelope(theta, r, dr, d2r, ell, chi0, int(sigma)))
     return MomentArmDesign(theta=theta, basis=basis, mechanisms=tuple(units),
                            coefficients=tuple(coefficients.T.copy()), states=tuple(states),
