@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from ...physics.quadrature import gauss_legendre
@@ -240,6 +241,44 @@ def spring_state(tau, theta, theta0: float, k: float, u0: float, F0: float = 0.0
     return SpringState(theta, sigma, (force - F0) / k, force, torque / force)
 
 
+def cable_line(r, dr, d2r, ell, sigma):
+    """The cable line of moment arm r and its envelope, in the canonical frame: numbers for
+    numpy arrays, CasADi expressions for CasADi symbols (the closed form and the moment-arm
+    design, :mod:`.moment_arm`, evaluate the same equations).
+
+    Parameters
+    ----------
+    r, dr, d2r : array_like or casadi.SX
+        Moment arm [m] and its derivatives in θ [m/rad, m/rad²].
+    ell : float
+        Distance from O to the spring end [m].
+    sigma : {1, -1}
+        χ = χ0 + σθ.
+
+    Returns
+    -------
+    phi, dnu, regularity, dh, radius, span
+        φ = asin(r/ℓ) [rad] (Ludovico2021 Eq. 2); dν/dθ = σ + φ′ (Eq. 6); the regularity
+        r″ + r(1 + 3σφ′ + 3φ′²) [m/rad²] (Eq. 30, corrected, along the winding direction);
+        dh/dν = r′/ν′ [m] (the support function h = r); the radius of curvature
+        R = h + d²h/dν² = regularity/(σν′)³ [m]; the free span √(ℓ² − r²) − dh/dν [m]. Where
+        ν′ = 0 the last three are infinite.
+    """
+    symbolic = isinstance(r, (ca.SX, ca.MX))
+    sqrt, asin = (ca.sqrt, ca.asin) if symbolic else (np.sqrt, np.arcsin)
+    q = sqrt(ell**2 - r**2)
+    phi = asin(r / ell)  # Ludovico2021 Eq. 2
+    dphi = dr / q
+    dnu = sigma + dphi  # Ludovico2021 Eq. 6: σν′ = 1 + σφ′
+    # Ludovico2021 Eq. 30 (corrected) along the winding direction, = σ(rν′³ + r″ν′ − r′ν″)
+    # with ν″ = φ″ = r″/q + r r′²/q³ substituted
+    regularity = d2r + r * (1 + 3 * sigma * dphi + 3 * dphi**2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dh = dr / dnu  # dh/dν
+        radius = regularity / (sigma * dnu) ** 3  # h + d²h/dν²
+    return phi, dnu, regularity, dh, radius, q - dh
+
+
 def envelope(theta, r_m, dr_m, d2r_m, ell: float, chi0: float, sigma: int) -> Envelope:
     """The pulley of moment arm r_m(θ) as the envelope of its cable lines (canonical frame).
 
@@ -276,24 +315,15 @@ def envelope(theta, r_m, dr_m, d2r_m, ell: float, chi0: float, sigma: int) -> En
         raise ValueError("theta, r_m, dr_m and d2r_m must have the same shape")
     if np.any(np.abs(r) >= ell):
         raise ValueError(f"moment arm must stay below ell = {ell} m in magnitude")
-    q = np.sqrt(ell**2 - r**2)
-    phi = np.arcsin(r / ell)  # Ludovico2021 Eq. 2
+    phi, dnu, regularity, dh, radius, span = cable_line(r, dr, d2r, ell, sigma)
     nu = chi0 + sigma * theta - np.pi / 2 + phi  # = χ − acos(r_m/ℓ)
-    dphi = dr / q
-    dnu = sigma + dphi  # Ludovico2021 Eq. 6: σν′ = 1 + σφ′
-    # Ludovico2021 Eq. 30 (corrected) along the winding direction, = σ(rν′³ + r″ν′ − r′ν″)
-    # with ν″ = φ″ = r″/q + r r′²/q³ substituted
-    regularity = d2r + r * (1 + 3 * sigma * dphi + 3 * dphi**2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dh = dr / dnu  # dh/dν
-        radius = regularity / (sigma * dnu) ** 3  # h + d²h/dν²
     normal = np.stack([np.cos(nu), np.sin(nu)], axis=-1)
     tangent = np.stack([-np.sin(nu), np.cos(nu)], axis=-1)
     points = r[:, None] * normal + dh[:, None] * tangent
     return Envelope(theta=theta, nu=nu, dnu=dnu, radius_of_curvature=radius,
                     regularity=regularity, points=points,
                     phi_polar=np.unwrap(np.arctan2(points[:, 1], points[:, 0])),
-                    rho=np.hypot(points[:, 0], points[:, 1]), span=q - dh)
+                    rho=np.hypot(points[:, 0], points[:, 1]), span=span)
 
 
 def _first_difference(f):

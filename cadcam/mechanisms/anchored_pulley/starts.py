@@ -47,22 +47,29 @@ def closed_form_start(problem, start, shares=None, samples: int = 400):
         if share is None:
             if sum(m.joint == mech.joint for m in problem.mechanisms) > 1:
                 raise ValueError(f"mechanism {mech.name!r} shares its joint: give its torque share")
-            share = _own_target(problem, mech.joint)
-        own = [s for s in problem.springs if [(p.mechanism, p.name) for p in s.ports] == [(u, "cable")]]
-        if len(own) != 1:
-            raise ValueError(f"mechanism {mech.name!r} needs one spring of its own on its cable port")
-        spring = own[0]
-        u0 = spring.preextension if spring.preextension is not None else 0.1 * spring.travel
+            share = own_target(problem, mech.joint)
+        spring, u0 = own_spring(problem, u)
         ell, chi0, sigma = mech.parameter_values()[:3]
         theta = np.linspace(*joint.theta_range, samples)
         form = closed_form(lambda th, f=share: sigma * f(th), theta, mech.reference_angle,
                            spring.rate, u0, ell, spring.preload, chi0)
         k = slices[u].start
-        coefs[k] = fit_profile(problem.profiles[k].basis, *_uniform_polar(form.envelope, samples))
+        coefs[k] = fit_profile(problem.profiles[k].basis, *uniform_polar(form.envelope, samples))
     return replace(start, coefficients=coefs)
 
 
-def _own_target(problem, i: int):
+def own_spring(problem, u: int):
+    """(spring, u₀) of anchored pulley ``u``: the one spring on its ``cable`` port alone, and
+    its fixed pre-extension (else 10 % of travel) [m], the extension at the pulley's reference
+    angle; ValueError if it has none of its own."""
+    own = [s for s in problem.springs if [(p.mechanism, p.name) for p in s.ports] == [(u, "cable")]]
+    if len(own) != 1:
+        raise ValueError(f"mechanism {problem.mechanisms[u].name!r} needs one spring of its own on its cable port")
+    spring = own[0]
+    return spring, spring.preextension if spring.preextension is not None else 0.1 * spring.travel
+
+
+def own_target(problem, i: int):
     """Joint ``i``'s target as a vectorised callable of its own angle [rad] (the others at 0:
     for targets that depend on their own joint's angle only)."""
     f = problem.joints[i].target.function(len(problem.joints), i)
@@ -75,7 +82,7 @@ def _own_target(problem, i: int):
     return target
 
 
-def _uniform_polar(env, samples: int):
+def uniform_polar(env, samples: int):
     """The envelope's polar samples (φ, ρ) resampled uniformly in φ (the departure point can
     sweep fast where the moment arm changes fast), continued linearly down to the anchor
     φ = 0 (a convex continuation: ρ″ = 0)."""

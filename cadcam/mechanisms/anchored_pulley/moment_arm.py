@@ -1,0 +1,223 @@
+"""A minimax design of the anchored-spring pulleys of one joint in the coefficients of their
+moment arms r_m(θ), the parametrisation of Ludovico2021 Sec. III, under the profile NLP's limits.
+
+Each pulley's moment arm is a Chebyshev series in the joint angle on the joint's range. Its
+spring extends by du/dθ = σ r_m from u0 at the pulley's reference angle (virtual work,
+Ludovico2021 Sec. II), so u is linear in the coefficients, and the pulley gives the torque
+∂V/∂θ = σ(k u + F0) r_m (Ludovico2021 Eq. 1 with Endo2010's preload): the net torque of the
+joint is a quadratic in the coefficients. The limits are those of cadcam's profile NLP, read
+through Kim & Deshpande's envelope of the cable lines (:func:`.kim_deshpande.cable_line`):
+moment arm ≥ ``min_moment_arm``, spring inside its travel, the cable line turning the winding
+way (Eq. 6) with a radius of curvature ≥ ``min_curvature_radius`` (Eq. 30), free span ≥
+``min_free_span`` and the departure point within [ρ_min, ρ_max]; each kept inside by the
+problem's ``limit_margin``. The largest torque error over the grid is minimised by an epigraph
+variable, with IPOPT.
+
+The answer is a moment-arm law and its pulley as an envelope (points), not a profile
+polynomial ρ(φ): the pulleys it finds can have a departure point that sweeps a wide polar
+angle over a small joint angle, or stalls at a tight corner, which a polynomial in φ follows
+poorly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from numpy.polynomial import Chebyshev
+
+from ...physics.profile import Basis, profile_function
+from .kim_deshpande import Envelope, SpringState, cable_line, envelope
+from .model import AnchoredPulley
+from .starts import own_spring, own_target
+
+#: Least rate σν′ = 1 + σφ′ [-] at which the cable line turns the winding way: Ludovico2021
+#: Eq. 6 asks > 0; where it nears 0 the departure point runs off to infinity (dh/dν = r′/ν′),
+#: which ρ_max forbids long before, so the bound only keeps IPOPT's iterates off that pole.
+MIN_TURN = 0.05
+
+
+@dataclass(frozen=True)
+class MomentArmDesign:
+    """Moment-arm laws of the anchored pulleys of one joint and what they give on ``theta``.
+
+    Attributes
+    ----------
+    theta : ndarray
+        Joint angles of the design grid [rad].
+    basis : Basis
+        The Chebyshev basis of the moment arms, on the joint's range [rad].
+    mechanisms : tuple of int
+        Indices of the pulleys (the problem's mechanisms) designed, in order.
+    coefficients : tuple of ndarray
+        Each pulley's moment-arm coefficients in ``basis`` [m].
+    states : tuple of SpringState
+        Each pulley's spring extension, force and moment arm on ``theta``.
+    envelopes : tuple of Envelope
+        Each pulley as the envelope of its cable lines on ``theta`` (canonical frame).
+    torque : ndarray
+        The joint's torque ∂V/∂θ from all its pulleys [N·m].
+    target : ndarray
+        The joint's target [N·m].
+    status : str
+        IPOPT's return status.
+    """
+
+    theta: np.ndarray
+    basis: Basis
+    mechanisms: tuple[int, ...]
+    coefficients: tuple[np.ndarray, ...]
+    states: tuple[SpringState, ...]
+    envelopes: tuple[Envelope, ...]
+    torque: np.ndarray
+    target: np.ndarray
+    status: str
+
+    @property
+    def max_abs_error(self) -> float:
+        """Largest |torque − target| on ``theta`` [N·m]."""
+        return float(np.max(np.abs(self.torque - self.target)))
+
+
+def spring_force(spring, u):
+    """F = k u + F0 [N] of ``spring`` at extension u [m] (Endo2010's preloaded spring)."""
+    return spring.rate * u + spring.preload
+
+
+def pulley_torque(sigma, force, r):
+    """∂V/∂θ = σ F r_m [N·m] of a pulley whose spring pulls with ``force`` [N] at moment arm
+    r [m] (Ludovico2021 Eq. 1)."""
+    return sigma * force * r  # Ludovico2021 Eq. 1
+
+
+def _extension_map(basis: Basis, theta0: float) -> tuple[Basis, np.ndarray]:
+    """(B, A): ∫_{θ0}^{θ} r_m dα = Σ (A c)_j B_j(θ) for r_m = Σ c_j T_j(θ) in ``basis``, B the
+    Chebyshev basis one degree higher on the same range (exact)."""
+    columns = [Chebyshev(e, domain=list(basis.domain)).integ(lbnd=theta0).coef
+               for e in np.eye(basis.size)]
+    return Basis("chebyshev", basis.order + 1, basis.domain), np.column_stack(columns)
+
+
+def _arm(basis: Basis, theta: np.ndarray, c):
+    """r_m, r′_m and r″_m [m, m/rad, m/rad²] on ``theta`` as rows (symbolic or numeric ``c``)."""
+    r, dr, d2r, _ = profile_function(basis).map(theta.size)(theta[None, :], c)
+    return r, dr, d2r
+
+
+def _extension(basis: Basis, theta: np.ndarray, c, sigma: float, theta0: float, u0: float):
+    """u = u0 + σ∫_{θ0}^{θ} r_m dα [m] on ``theta`` (du/dθ = σ r_m, virtual work)."""
+    higher, A = _extension_map(basis, theta0)
+    return u0 + sigma * profile_function(higher).map(theta.size)(theta[None, :], ca.mtimes(A, c))[0]
+
+
+def _pulleys(problem, joint: int) -> list[int]:
+    """The mechanisms on ``joint``; ValueError unless all are anchored pulleys."""
+    on_joint = [u for u, m in enumerate(problem.mechanisms) if m.joint == joint]
+    if not on_joint or not all(isinstance(problem.mechanisms[u], AnchoredPulley) for u in on_joint):
+        raise ValueError(f"joint {joint + 1}: a moment-arm design needs anchored pulleys only on it")
+    return on_joint
+
+
+def _limit_rows(problem, mech, spring, r, dr, d2r, x):
+    """Rows ≥ 0 of a pulley's limits, each kept ``limit_margin`` inside, in SI units (left to
+    IPOPT's gradient-based scaling).
+
+    Those of the envelope are multiplied by the positive rate σν′ (or its square or cube),
+    which takes away their pole at ν′ = 0 (dh/dν = r′/ν′): (R − R_min)·(σν′)³,
+    (span − span_min)·σν′ and (ρ² − ρ_lim²)·ν′², with R·(σν′)³ the regularity, span·σν′ =
+    √(ℓ² − r²)·σν′ − σr′ and ρ²ν′² = r²ν′² + r′² (the departure point at distance
+    √(h² + h_ν²) from O).
+    """
+    ell, _, sigma = mech.parameter_values()[:3]
+    margin = problem.options.limit_margin
+    prof = mech.profiles[0]
+    _, dnu, regularity, _, _, _ = cable_line(r, dr, d2r, ell, sigma)
+    turn = sigma * dnu  # > 0: the cable line turns the winding way (Ludovico2021 Eq. 6)
+    span_turn = ca.sqrt(ell**2 - r**2) * turn - sigma * dr
+    rho2_turn2 = (r * dnu)**2 + dr**2
+    lo, hi = prof.rho_min * (1 + margin), prof.rho_max * (1 - margin)
+    return [turn - MIN_TURN,
+            regularity - prof.min_curvature_radius * (1 + margin) * turn**3,
+            r - mech.min_moment_arm * (1 + margin),
+            spring.travel * (1 - margin) - x,
+            span_turn - mech.min_free_span * (1 + margin) * turn,
+            rho2_turn2 - (lo * dnu)**2, (hi * dnu)**2 - rho2_turn2]
+
+
+def design_moment_arms(problem, joint: int = 0, degree: int = 5, grid: int | None = None) -> MomentArmDesign:
+    """Minimax design of the moment arms of the anchored pulleys on ``joint`` (module docstring).
+
+    Parameters
+    ----------
+    problem : cadcam.problem.Problem
+        Every mechanism on ``joint`` is an anchored pulley with a spring of its own on its
+        ``cable`` port, whose fixed pre-extension (else 10 % of travel) is u0 at the pulley's
+        reference angle; the joint's target depends on its own angle only.
+    joint : int
+        The joint (0-based).
+    degree : int
+        Degree of each moment arm's Chebyshev series, ≥ 1.
+    grid : int, optional
+        Equally spaced joint angles of the objective and the limits (default: the problem's
+        fine re-check grid).
+
+    Returns
+    -------
+    MomentArmDesign
+    """
+    if degree < 1:
+        raise ValueError(f"degree must be at least 1, got {degree}")
+    units = _pulleys(problem, joint)
+    lo, hi = problem.joints[joint].theta_range
+    theta = np.linspace(lo, hi, grid or problem.options.recheck_grid)
+    target = own_target(problem, joint)(theta)
+    basis = Basis("chebyshev", degree, (lo, hi))
+    c = ca.SX.sym("c", basis.size, len(units))
+    t = ca.SX.sym("t")
+    rows, torque = [], 0
+    for col, u in enumerate(units):
+        mech = problem.mechanisms[u]
+        spring, u0 = own_spring(problem, u)
+        sigma = mech.sigma
+        arm = _arm(basis, theta, c[:, col])
+        x = _extension(basis, theta, c[:, col], sigma, mech.reference_angle, u0)
+        torque = torque + pulley_torque(sigma, spring_force(spring, x), arm[0])
+        rows += _limit_rows(problem, mech, spring, *arm, x)
+    rows += [t - (torque - target[None, :]), t + (torque - target[None, :])]
+    g = ca.vertcat(*[ca.vec(row) for row in rows])
+    solver = ca.nlpsol("moment_arm", "ipopt", {"x": ca.vertcat(ca.vec(c), t), "f": t, "g": g},
+                       {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+                        "ipopt.tol": problem.options.tol, "ipopt.max_iter": problem.options.max_iter})
+    start = np.zeros((basis.size, len(units)))
+    start[0] = [problem.mechanisms[u].start_radius(problem.mechanisms[u].profiles[0])
+                for u in units]  # circles
+    t0 = np.max(np.abs(target))  # the circles' error is of the target's size
+    sol = solver(x0=np.append(start.ravel(order="F"), t0), lbg=0, ubg=np.inf)
+    coefficients = np.asarray(sol["x"][:-1]).reshape(start.shape, order="F")
+    return sample_moment_arms(problem, joint, basis, coefficients.T, theta,
+                              solver.stats().get("return_status", "unknown"))
+
+
+def sample_moment_arms(problem, joint: int, basis: Basis, coefficients, theta,
+                       status: str = "") -> MomentArmDesign:
+    """The :class:`MomentArmDesign` of moment-arm ``coefficients`` (one row per anchored
+    pulley on ``joint``, in ``basis``) on the joint angles ``theta`` [rad]."""
+    units = _pulleys(problem, joint)
+    theta = np.asarray(theta, dtype=float)
+    coefficients = np.asarray(coefficients, dtype=float).T
+    target = own_target(problem, joint)(theta)
+    states, envelopes, torque = [], [], np.zeros_like(theta)
+    for col, u in enumerate(units):
+        mech = problem.mechanisms[u]
+        spring, u0 = own_spring(problem, u)
+        ell, chi0, sigma = mech.parameter_values()[:3]
+        r, dr, d2r = (np.asarray(a, dtype=float).ravel() for a in _arm(basis, theta, coefficients[:, col]))
+        x = np.asarray(_extension(basis, theta, coefficients[:, col], sigma, mech.reference_angle, u0),
+                       dtype=float).ravel()
+        force = spring_force(spring, x)
+        torque += pulley_torque(sigma, force, r)
+        states.append(SpringState(theta, int(sigma), x, force, r))
+        envelopes.append(envelope(theta, r, dr, d2r, ell, chi0, int(sigma)))
+    return MomentArmDesign(theta=theta, basis=basis, mechanisms=tuple(units),
+                           coefficients=tuple(coefficients.T.copy()), states=tuple(states),
+                           envelopes=tuple(envelopes), torque=torque, target=target, status=status)
