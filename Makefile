@@ -5,7 +5,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: app demo test lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
+.PHONY: app docs-images demo test lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
@@ -51,6 +51,13 @@ convergence: $(STAMP)
 generated: $(STAMP)
 	$(PY) -m cadcam.outputs.schema
 	$(PY) -m cadcam.outputs.spec_reference
+
+# the pictures of the README and the tutorial: the tutorial's design, drawn as cadcam draws it
+docs-images: $(STAMP)
+	$(VENV)/bin/cadcam design docs/first_balancer.toml -o out/first_balancer
+	mkdir -p docs/images
+	cp out/first_balancer/profile.png docs/images/first_balancer.png
+	cp out/first_balancer/torque.png docs/images/first_balancer_torque.png
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info

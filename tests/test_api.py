@@ -181,18 +181,26 @@ def test_read_study_returns_one_row_per_case(tmp_path):
     assert all(v > 0 for v in table["rmse_1"])
 
 
-def test_the_readme_api_examples_run_as_written(tmp_path, monkeypatch, capsys):
-    readme = (SPEC_1DOF.parents[1] / "README.md").read_text()
-    blocks = [part.split("```\n<!-- /api-example -->")[0]
-              for part in readme.split("<!-- api-example -->\n```python\n")[1:]]
-    assert len(blocks) == 2
+def _api_examples(page: str) -> list[str]:
+    text = (SPEC_1DOF.parents[1] / page).read_text()
+    return [part.split("```\n<!-- /api-example -->")[0] for part in text.split("<!-- api-example -->\n```python\n")[1:]]
+
+
+def test_the_readme_and_guide_api_examples_run_as_written(tmp_path, monkeypatch, capsys):
+    (first,), guide = _api_examples("README.md"), _api_examples("docs/guide.md")
+    assert len(guide) == 2
     (tmp_path / "models").symlink_to(SPEC_1DOF.parent)
+    (tmp_path / "docs").symlink_to(SPEC_1DOF.parents[1] / "docs")
     monkeypatch.chdir(tmp_path)
-    exec(compile(blocks[0], "README.md api-example", "exec"), {})
+    exec(compile(first, "README.md api-example", "exec"), {})
+    out = capsys.readouterr().out
+    assert out.startswith("success: ") and "tolerance band" in out
+    assert (tmp_path / "out" / "first_balancer" / "verification.md").exists()
+    exec(compile(guide[0], "docs/guide.md api-example", "exec"), {})
     out = capsys.readouterr().out
     assert out.startswith("success: ") and "every block agrees" in out
     assert (tmp_path / "torque.png").stat().st_size > 0 and (tmp_path / "out" / "api_demo" / "result.json").exists()
-    exec(compile(blocks[1], "README.md session example", "exec"), {})
+    exec(compile(guide[1], "docs/guide.md session example", "exec"), {})
     assert "(warm start from the last design)" in capsys.readouterr().out
 
 

@@ -65,11 +65,11 @@ def test_cli_set_and_unknown_variant(tmp_path, capsys):
 
 
 def test_readme_general_form_spec_loads_and_matches_the_shorthand(tmp_path):
-    """The README's [[joints]]/[[mechanisms]] example is a valid spec, and it is the 1-DOF model
+    """The guide's [[joints]]/[[mechanisms]] example is a valid spec, and it is the 1-DOF model
     (written in the [[cams]] shorthand) with a preload on spring 2."""
     import re
     from pathlib import Path
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[1] / "docs" / "guide.md").read_text()
     (tmp_path / "general.toml").write_text(re.search(r"```toml\n(name = \"example_1dof\".*?)```", readme, re.S)[1])
     general, shorthand = load_spec(tmp_path / "general.toml"), load_spec(SPEC_1DOF)
     assert general.mechanisms[0].parameter_values() == shorthand.mechanisms[0].parameter_values()

@@ -49,7 +49,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 #: The pages whose command blocks run, in this order (README first: its ``make demo`` makes the venv).
-PAGES = (README, ROOT / "docs" / "tutorial.md")
+PAGES = (README, ROOT / "docs" / "tutorial.md", ROOT / "docs" / "guide.md")
 COMMAND_LANGUAGES = {"", "sh", "bash", "shell", "console"}
 DIRECTIVE = re.compile(r"<!--\s*readme-test:\s*(.*?)\s*-->")
 KINDS = ("skip", "skip-line", "tested-by", "synopsis", "prepare", "exit", "creates", "prints")
@@ -196,6 +196,15 @@ def workdir(tmp_path_factory):
     root = tmp_path_factory.mktemp("readme") / "cadcam"
     shutil.copytree(ROOT, root, symlinks=True, ignore=COPY_IGNORE)
     return root
+
+
+def test_the_first_design_shown_is_the_spec_file_it_names():
+    """The README and the tutorial show docs/first_balancer.toml's spec; the file is what runs."""
+    spec = (ROOT / "docs" / "first_balancer.toml").read_text(encoding="utf-8")
+    body = spec[spec.index("\n\n") + 2:]  # below its header of comments
+    for page in (README, ROOT / "docs" / "tutorial.md"):
+        shown = re.search(r"```toml\n(.*?)```", page.read_text(encoding="utf-8"), re.S)[1]
+        assert shown == body, f"{page.name} shows another spec than docs/first_balancer.toml"
 
 
 def test_the_readme_has_command_blocks_and_each_is_run_or_says_why_not():

@@ -356,9 +356,9 @@ def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
         if band is not None:
             w = MM * band.half_width[0]
             a1.fill_between(th, MM * ev.tau[0] - w, MM * ev.tau[0] + w, color="tab:blue", alpha=0.18, lw=0,
-                            label=f"built part, to first order ({band.label()})")
+                            label=f"built part, to first order:\n{band.label()}")
         a1.set_ylabel("torque [N·mm]")
-        a1.legend(fontsize=8)
+        a1.legend(fontsize=8, loc="best")
         accepted = ev.problem.joints[0].limits.get("max_abs_error")
         if accepted is not None:
             a2.axhspan(-MM * accepted, MM * accepted, color="tab:green", alpha=0.15, lw=0,
@@ -406,7 +406,7 @@ def output_figure(ev: Evaluation) -> Figure:
         a1.plot(th, MM * xd, "k--", label=f"target {mech.output}_d")
         a1.plot(th, MM * x, color="tab:blue", label=f"{mech.output} (rootfinder)")
         a1.set_ylabel(f"{mech.output} [mm]")
-        a1.legend(fontsize=8)
+        a1.legend(fontsize=8, loc="best")
         a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| "
                      f"{MM * np.abs(err).max():.3g} mm", fontsize=9)
         a2.plot(th, 1e6 * err, color="tab:red")

@@ -1,4 +1,4 @@
-"""Exported code: generated C, shared library, serialized Functions, and the README example."""
+"""Exported code: generated C, shared library, serialized Functions, and the guide's example (docs/guide.md)."""
 import json
 import re
 import shutil
@@ -113,11 +113,11 @@ def test_serialized_functions_load_in_a_fresh_interpreter(rr, exported):
 def test_readme_c_example_compiles_and_runs(rr, exported, tmp_path):
     problem, design = rr
     out, _ = exported
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "guide.md").read_text()
     example = re.search(r"<!-- c-example -->\s*```c\n(.*?)```", readme, re.S)[1]
     (tmp_path / "example.c").write_text(example)
     exe = tmp_path / "example"
-    build = subprocess.run([GCC, *WARNINGS, "-O2", f"-I{out}", str(tmp_path / "example.c"),  # as the README
+    build = subprocess.run([GCC, *WARNINGS, "-O2", f"-I{out}", str(tmp_path / "example.c"),  # as the guide
                             str(out / "cadcam_model.c"), "-lm", "-o", str(exe)], capture_output=True, text=True)
     assert build.returncode == 0 and build.stderr == "", build.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True)
@@ -178,10 +178,10 @@ def test_model_manifest_labels_every_input_and_output(rr, exported):
     assert jac_units["dtau_dk"] == "N·m/(N/m)" and jac_units["dx_dtheta"] == "m/rad"
     z_rows = dict((e["name"], e["shape"][0]) for e in torque["outputs"])["z"]
     assert len(manifest["z_layout"]) == z_rows == sum(len(m.unknowns) for m in problem.mechanisms)
-    # the README states the signature the manifest describes
+    # the guide states the signature the manifest describes
     signature = (f"cadcam_torque({', '.join(e['name'] for e in torque['inputs'])}) -> "
                  f"({', '.join(e['name'] for e in torque['outputs'])})")
-    assert signature in (ROOT / "README.md").read_text()
+    assert signature in (ROOT / "docs" / "guide.md").read_text()
 
 
 #: The roles a block of the NLP's vectors may have (cadcam.solve.blocks).
