@@ -173,7 +173,7 @@ class DesignPage:
         frames = Frames(ev)
         self.frames = frames
         if result.problem.springs:
-            self.torque.object = await self._in_worker(lambda: png(torque_figure(ev)))
+            self.torque.object = await self._in_worker(lambda: png(torque_figure(ev, result.band)))
         for pane, draw in ((self.springs, lambda: png(springs_figure(ev)) if result.problem.springs else None),
                            (self.mechanism, lambda: frames.png(self.player.value))):
             image = await self._in_worker(draw)
