@@ -4,7 +4,8 @@ solved with parameters.
 Transcription: a uniform grid of n angles per joint; every mechanism's departure unknowns z at
 every grid angle of its joint and at its reference angle are NLP variables constrained by the
 mechanism's residuals (simultaneous approach); wrapped lengths by Gauss–Legendre integrals
-along each profile, lifted segment by segment; trapezoidal integrals over the angle grid;
+along each profile, lifted segment by segment; a high-degree profile's ρ, ρ′, ρ″ at its
+convexity check points lifted too; trapezoidal integrals over the angle grid;
 ∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised (no ``abs`` in the NLP).
 
 Everything that is a number of the problem rather than its structure — grid angles, spring
