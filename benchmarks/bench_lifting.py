@@ -5,14 +5,15 @@ the coefficients, at a shipped spec's degree and at degree 30 (issue 30, item 1)
 
 ``python benchmarks/bench_lifting.py [--solve] [--cable-robot]``. Measured, not asserted; builds
 only unless ``--solve`` (then also IPOPT's iterations and objective from the default start).
-Each build runs with the machine's load average printed beside it (times are only comparable
-at a similar load). ``--cable-robot`` adds Fedorov2018's cable robot (two pairs at degree 30:
-minutes and several GB per build).
+Each build's wall and CPU time are printed with the machine's load average beside them (wall
+times are only comparable at a similar load; CPU times less so). ``--cable-robot`` adds
+Fedorov2018's cable robot (two pairs at degree 30: minutes and several GB per build).
 """
 from __future__ import annotations
 
 import argparse
 import os
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -37,11 +38,13 @@ def measure(spec: str, overrides: dict, lifted: bool, run_solver: bool) -> dict:
     problem, start = start_design(replace(problem, options=replace(problem.options, method="nlp")))
     saved = transcription.LIFTED_PROFILE_SIZE
     transcription.LIFTED_PROFILE_SIZE = 0 if lifted else 10**9
+    cpu = time.process_time()
     try:
         tr = Transcription(problem)
     finally:
+        cpu = time.process_time() - cpu
         transcription.LIFTED_PROFILE_SIZE = saved
-    row = {"build": tr.build_time_s, "load": os.getloadavg()[0], "nx": tr.v.size,
+    row = {"build": tr.build_time_s, "cpu": cpu, "load": os.getloadavg()[0], "nx": tr.v.size,
            "ng": tr.nlp["g"].shape[0],
            "hessian": tr.solver.get_function("nlp_hess_l").sparsity_out(0).nnz()}
     if run_solver:
@@ -57,15 +60,15 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     cases = CASES + ((CABLE_ROBOT,) if args.cable_robot else ())
     print("\nConvexity rows on lifted ρ, ρ′, ρ″ against rows on the coefficients (functions expanded)\n")
-    print("| problem | rows | build [s] | load | variables | rows of g | Hessian nonzeros | iterations "
+    print("| problem | rows | build [s] | build CPU [s] | load | variables | rows of g | Hessian nonzeros | iterations "
           "| objective | status |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for label, spec, overrides in cases:
         for lifted in (False, True):
             r = measure(spec, overrides, lifted, args.solve)
             solved = (f"{r['iterations']} | {r['objective']:.10g} | {r['status']}" if args.solve
                       else "– | – | –")
-            print(f"| {label} | {'lifted' if lifted else 'on coefficients'} | {r['build']:.2f} | {r['load']:.1f} "
+            print(f"| {label} | {'lifted' if lifted else 'on coefficients'} | {r['build']:.2f} | {r['cpu']:.2f} | {r['load']:.1f} "
                   f"| {r['nx']} | {r['ng']} | {r['hessian']} | {solved} |", flush=True)
 
 
