@@ -49,9 +49,9 @@ FIRST_SEGMENT_MAX_ORDER = 256
 #: A profile with more coefficients than this has its convexity, ρ-bound and curvature rows
 #: written on lifted ρ, ρ′, ρ″ (:func:`_lifted_profile`), not as dense functions of its
 #: coefficients, whose second derivatives grow as the square of their number: less build work
-#: and memory at high degree. Below it the lifted rows add more variables and rows than they
-#: save work, and IPOPT's path on them differs: on the shipped specs (order ≤ 15) it took other
-#: iterates, one of them (ludovico2021_generic) to no optimum.
+#: and memory at high degree. Lower degrees keep the rows they had: there lifting saves
+#: little, and IPOPT's path on the lifted rows differs: on the shipped specs (order ≤ 15) it
+#: took other iterates, one of them (ludovico2021_generic) to no optimum.
 LIFTED_PROFILE_SIZE = 20
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
 #: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from Johnston2023's
