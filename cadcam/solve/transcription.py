@@ -4,7 +4,8 @@ solved with parameters.
 Transcription: a uniform grid of n angles per joint; every mechanism's departure unknowns z at
 every grid angle of its joint and at its reference angle are NLP variables constrained by the
 mechanism's residuals (simultaneous approach); wrapped lengths by Gauss–Legendre integrals
-along each profile, lifted segment by segment; trapezoidal integrals over the angle grid;
+along each profile, lifted segment by segment; a high-degree profile's ρ, ρ′, ρ″ at its
+convexity check points lifted too; trapezoidal integrals over the angle grid;
 ∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised (no ``abs`` in the NLP).
 
 Everything that is a number of the problem rather than its structure — grid angles, spring
@@ -33,7 +34,7 @@ from . import compiled
 from .blocks import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from ..mechanisms.base import (Mechanism, margin_function, port_function,
                                pose_residual_function, split_coefficients, wound_lengths)
-from ..physics.profile import profile_function
+from ..physics.profile import convexity_margin, profile_function
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.springs import Network
 from ..physics.wrap import length_function, segment_lengths
@@ -45,6 +46,13 @@ FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8�
 #: most: the rule grows with that segment's length in grid steps, which a narrow range far from
 #: the reference pose would make unbounded (the re-check's own quadrature judges the accuracy).
 FIRST_SEGMENT_MAX_ORDER = 256
+#: A profile with more coefficients than this has its convexity, ρ-bound and curvature rows
+#: written on lifted ρ, ρ′, ρ″ (:func:`_lifted_profile`), not as dense functions of its
+#: coefficients, whose second derivatives grow as the square of their number: less build work
+#: and memory at high degree. Lower degrees keep the rows they had: there lifting saves
+#: little, and IPOPT's path on the lifted rows differs: on the shipped specs (order ≤ 15) it
+#: took other iterates, one of them (ludovico2021_generic) to no optimum.
+LIFTED_PROFILE_SIZE = 20
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
 #: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from Johnston2023's
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
@@ -525,16 +533,30 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
     # Eq. 40), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
     for k, (b, ck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c))):
         phi = mech.wrap_end(s.z[k, 0], s.z[k, n - 1], s.q) * ca.DM(np.linspace(0, 1, M)).T
-        rho, drho, _, conv = profile_function(b).map(M)(phi, ck)
         pk = first_profile + k
-        rows.constrain(conv.T / L**2, lambda pr, pk=pk: (
+        if b.size > LIFTED_PROFILE_SIZE:
+            rho, drho, ddrho = _lifted_profile(rows, b, phi, ck, pk)
+            conv = convexity_margin(rho, drho, ddrho)  # Johnston2023 Eq. 40
+        else:
+            rho, drho, _, conv = (v.T for v in profile_function(b).map(M)(phi, ck))
+        rows.constrain(conv / L**2, lambda pr, pk=pk: (
             pr.options.convexity_epsilon * (pr.profiles[pk].rho_min / L) ** 2, np.inf))
-        rows.constrain(rho.T / L, lambda pr, pk=pk: (
+        rows.constrain(rho / L, lambda pr, pk=pk: (
             pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
             pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
         if mech.profiles[k].min_curvature_radius > 0:
             rc = p.add("rc", 1, pk)
-            rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv).T / L**3, _nonnegative)
+            rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv) / L**3, _nonnegative)
+
+
+def _lifted_profile(rows: _Rows, basis, phi, c, pk: int):
+    """ρ, ρ′ and ρ″ of profile ``pk`` at the angles ``phi`` (a row) as lifted variables [m,
+    m/rad, m/rad²] (columns), tied to the coefficients ``c`` (Johnston2023 Eq. 38): each tie is
+    linear in ``c`` at a given angle, so the rows written on them (Eq. 40) hold no product of
+    two coefficients: their second derivatives grow with the degree, not with its square."""
+    rho, drho, ddrho, _ = profile_function(basis).map(phi.shape[1])(phi, c)
+    return tuple(rows.lift(family, value.T, LENGTH_SCALE, pk)
+                 for family, value in (("rho", rho), ("drho", drho), ("ddrho", ddrho)))
 
 
 def _limit_rows(rows: _Rows, n: int, mech: Mechanism, s: _MechanismSymbols, arm):

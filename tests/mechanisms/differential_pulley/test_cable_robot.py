@@ -102,6 +102,21 @@ def test_envelope_pulleys_trace_the_path_within_a_millimetre(robot):
     assert np.abs(left[0] - right[1]).max() < 1e-9 and np.abs(left[1] - right[0]).max() < 1e-9
 
 
+def test_the_nlp_from_the_envelope_traces_the_path_closer_than_the_envelope(robot):
+    """The spec's design: cadcam's NLP on both degree-30 pairs, started from Fedorov's envelope
+    pulleys, converges and passes the fine re-check with the end effector nearer its path than
+    the envelope pulleys put it on the same fine grid."""
+    from cadcam.optimize import optimize
+    assert robot.options.method == "nlp"
+    result = optimize(robot)
+    assert result.status == "success" and result.solve.iterations > 0
+    problem, envelope = start_design(robot)
+    on_same_grid = evaluate(problem, envelope, grid=result.recheck.grid)
+    nlp_error, envelope_error = robot_path(result.recheck).error.max(), robot_path(on_same_grid).error.max()
+    assert nlp_error < envelope_error < 0.35e-3
+    assert min(result.recheck.metrics.alpha_max) > 4 * np.pi
+
+
 @pytest.mark.parametrize("key,value,message", [
     ("lift_share", 0.6, "in (0, 0.5)"),
     ("overlap", 0.5, "in [0, lift_share)"),
@@ -141,7 +156,8 @@ def test_envelope_method_is_only_for_differential_pairs_with_output_laws():
 
 def test_design_command_writes_the_envelope_design_and_groove_centre_lines(tmp_path, capsys):
     from cadcam.cli import main
-    assert main(["design", ROBOT, "-o", str(tmp_path / "out"), "--groove-pitch", "0.005"]) == 0
+    assert main(["design", ROBOT, "--variant", "envelope", "-o", str(tmp_path / "out"),
+                 "--groove-pitch", "0.005"]) == 0
     printed = capsys.readouterr().out
     assert printed.startswith("success: envelope design")
     assert "cable robot: the end effector deviates" in printed
