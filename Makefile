@@ -23,9 +23,10 @@ $(STAMP): pyproject.toml
 app: $(STAMP)
 	$(VENV)/bin/cadcam app
 
+# the README's first design: a noncircular pulley balancing an arm (docs/first_balancer.toml)
 demo: $(STAMP)
-	$(VENV)/bin/cadcam design models/johnston2023_1dof.toml -o out/johnston2023_1dof
-	@echo "demo outputs: out/johnston2023_1dof/ (result.json, torque.csv, torque_recheck.csv, profile.csv, *.png, workshop files)"
+	$(VENV)/bin/cadcam design docs/first_balancer.toml -o out/first_balancer
+	@echo "demo outputs: out/first_balancer/ (result.json, verification.md, *.png, cam1.dxf/.svg and the other workshop files)"
 
 # one worker per core; a test module stays on one worker (its module fixtures are built once)
 test: $(STAMP)
@@ -53,8 +54,7 @@ generated: $(STAMP)
 	$(PY) -m cadcam.outputs.spec_reference
 
 # the pictures of the README and the tutorial: the tutorial's design, drawn as cadcam draws it
-docs-images: $(STAMP)
-	$(VENV)/bin/cadcam design docs/first_balancer.toml -o out/first_balancer
+docs-images: demo
 	mkdir -p docs/images
 	cp out/first_balancer/profile.png docs/images/first_balancer.png
 	cp out/first_balancer/torque.png docs/images/first_balancer_torque.png

@@ -108,11 +108,14 @@ def _problem_and_design(args):
 
 def cmd_design(args) -> int:
     from .api import refuse_unreachable
+    from .verify.reachable import advice
 
     _check_workshop_args(args)
     problem = _problem(args)
     _check_output_dir(args.output)
     refuse_unreachable(problem)
+    for note in advice(problem):
+        print(f"cadcam: note: {note}", file=sys.stderr, flush=True)
     with held_folder(args.output) as out:
         _check_files_are_ours(out)
         return _design_into(args, problem, out)

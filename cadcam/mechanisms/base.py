@@ -388,6 +388,13 @@ class Mechanism:
         return problem, design
 
     @classmethod
+    def advice(cls, problem) -> list[str]:
+        """One-line notes, each with its fix, on what this kind's mechanisms in ``problem``
+        cannot do exactly, told before the solve (a bound the papers prove; not a refusal: the
+        design may still meet its acceptance); default: none."""
+        return []
+
+    @classmethod
     def summary_lines(cls, evaluation) -> list[str]:
         """Lines this kind adds to a result's summary, from the fine re-check ``evaluation``."""
         return []

@@ -15,13 +15,15 @@ Under the energy torque model the torque is τ_i = ∂V/∂θ_i with V the sprin
   wherever the target has the other sign the error is at least |τ_d|.
 
 :func:`unreachable` compares each bound with the joint's acceptance limits
-(:attr:`cadcam.problem.Joint.limits`) and says, in one line, what to change.
+(:attr:`cadcam.problem.Joint.limits`) and says, in one line, what to change; :func:`advice`
+gathers what the mechanisms know they cannot do exactly (a note, not a refusal).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..designs import default_start
+from ..mechanisms.base import kinds_in
 from ..problem import Problem
 from .evaluate import evaluate
 
@@ -60,6 +62,13 @@ class _CircularStart:
         if self._fine is None:
             self._fine = evaluate(self.problem, default_start(self.problem), grid=HELD_SAMPLES)
         return self._fine
+
+
+def advice(problem: Problem) -> list[str]:
+    """What the problem's mechanisms cannot do exactly, one line each with its fix, told
+    before the solve without refusing it (:meth:`cadcam.mechanisms.base.Mechanism.advice`:
+    Endo2010's convexity bound, for one)."""
+    return [note for kind in kinds_in(problem.mechanisms) for note in kind.advice(problem)]
 
 
 def _over_limit(joint, rmse_bound: float, target_rms: float) -> str | None:

@@ -62,3 +62,11 @@ def test_cadcam_design_refuses_before_work_and_writes_nothing(tmp_path):
     assert run.returncode == 2 and run.stdout == ""
     assert run.stderr.startswith("cadcam: error: endo2010_inverted: joint 'arm': its target needs")
     assert run.stderr.count("\n") == 1 and not out.exists()
+
+
+def test_a_range_below_endo2010s_convexity_bound_is_noted_before_the_solve():
+    """F0² ≤ 2k·m·g·l·(1 − cos θ0): with Endo's spring (k = 1150 N/m, F0 = 14.71 N) and arm
+    (m g l = 2.4525 N·m), θ0 ≥ 15.9°; the spec's own 18° is above it, its variant 'low' (5°) below."""
+    assert reachable.advice(cadcam.load_problem(SPEC)) == []
+    (note,) = reachable.advice(cadcam.load_problem(SPEC, variant="low"))
+    assert "starts at 5°, below Endo2010's convexity bound θ0 ≥ 15.9°" in note and "\n" not in note

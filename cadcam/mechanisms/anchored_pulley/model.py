@@ -257,6 +257,32 @@ class AnchoredPulley(Mechanism):
         return replace(mech, reference_angle=float(ref), anchor_angle=float(anchor),
                        min_moment_arm=float(arm), min_free_span=float(span))
 
+    @classmethod
+    def advice(cls, problem) -> list[str]:
+        """Endo2010's convexity bound, where it applies: a pulley turning with a pendulum whose
+        only spring is unstretched (x = 0) at the range's first angle θ0 has a convex envelope
+        there only if F0² ≤ 2k·m·g·l·(1 − cos θ0) (F0 the preload, k the rate, m g l the
+        pendulum's)."""
+        notes = []
+        for u, mech in enumerate(problem.mechanisms):
+            springs = [s for s in problem.springs if any(p.mechanism == u for p in s.ports)]
+            joint = problem.joints[mech.joint]
+            if not (isinstance(mech, cls) and mech.turning == "pulley" and len(springs) == 1
+                    and joint.target.kind == "pendulum" and joint.target.data.get("phase", 0.0) == 0.0
+                    and springs[0].preextension == 0.0
+                    and mech.reference_angle == joint.theta_range[0] and springs[0].preload > 0):
+                continue
+            spring, data = springs[0], joint.target.data
+            mgl = data["mass"] * data["g"] * data["length"]
+            least = float(np.arccos(1 - spring.preload**2 / (2 * spring.rate * mgl))) \
+                if spring.preload**2 < 4 * spring.rate * mgl else np.pi
+            if joint.theta_range[0] < least:  # Endo2010 Sec. II.C
+                notes.append(f"mechanism {mech.name!r}: its range starts at {np.degrees(joint.theta_range[0]):.3g}°, "
+                             f"below Endo2010's convexity bound θ0 ≥ {np.degrees(least):.3g}° for this spring "
+                             "(F0² ≤ 2k·m·g·l·(1 − cos θ0)): no convex pulley balances it exactly there; start "
+                             "the range later, or take a spring with less preload or a higher rate")
+        return notes
+
     def _default_anchor(self, least: float, profile) -> float:
         """The anchor angle that leaves :data:`ANCHOR_WRAP` of wrap on the circular start at
         the least-wound joint angle ``least``: the circle's departure point is at canonical
