@@ -706,7 +706,10 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
 def _ipopt_solver(nlp: dict, opt: Options) -> tuple[ca.Function, bool]:
     """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says, and whether this
     call compiled their library (False: found in the cache, or functions not ``compiled``)."""
-    ipopt = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+    # show_eval_warnings: a NaN at a trial point is IPOPT's to handle (it shortens the step);
+    # CasADi's warning for each one flooded a study's stderr, and a solve that cannot recover
+    # ends with its own status
+    ipopt = {"print_time": False, "show_eval_warnings": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
              "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
              "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}}
     if opt.functions == "compiled":
