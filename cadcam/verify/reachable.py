@@ -20,6 +20,8 @@ gathers what the mechanisms know they cannot do exactly (a note, not a refusal).
 """
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from ..designs import default_start
@@ -55,13 +57,11 @@ class _CircularStart:
     when a bound first asks for it."""
 
     def __init__(self, problem: Problem):
-        self.problem, self._fine = problem, None
+        self.problem = problem
 
-    @property
+    @cached_property
     def fine(self):
-        if self._fine is None:
-            self._fine = evaluate(self.problem, default_start(self.problem), grid=HELD_SAMPLES)
-        return self._fine
+        return evaluate(self.problem, default_start(self.problem), grid=HELD_SAMPLES)
 
 
 def advice(problem: Problem) -> list[str]:
