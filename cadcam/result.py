@@ -201,13 +201,16 @@ class Result:
         plots: list[Drawing] = []
         sheets: list[Drawing] = []
         with staged_folder(Path(directory), last=("result.json",), owned=RUN_FILES) as stage:
-            write_outputs(self, stage, figures, plots)
+            outcome = None  # the workshop step's, recorded in result.json beside the design's status
             if workshop is not None:
                 sizes = self.problem.workshop if workshop == "spec" else workshop
                 try:
                     notes = write_workshop_files(self, stage, sizes, figures, sheets)
+                    outcome = {"status": "written", "files": notes}
                 except WorkshopError as exc:
                     failure = exc
+                    outcome = {"status": "failed", "message": str(exc)}
+            write_outputs(self, stage, figures, plots, outcome)
             # longest first, so that the workers end together: the convergence figure (the first
             # of the plots, when there is one: 0.8 s on the 1-DOF spec), the sheets (PDF and a
             # 300-dpi PNG: 0.7 s), the other plots (0.3–0.5 s)

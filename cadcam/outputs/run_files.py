@@ -68,16 +68,19 @@ def write_torque_csv(path: Path, ev) -> None:
     write_csv(path, header, np.vstack(rows))
 
 
-def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawing] | None = None) -> None:
+def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawing] | None = None,
+                  workshop: dict | None = None) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
     grid), ``profile.csv``, with ``figures`` the PNG figures (torque and springs only if there
     are springs, ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
     ``output.png``) in ``out``. With a list ``drawings``, the figures are built here and
     appended to it, the convergence figure (the longest to draw) first, to be drawn by
-    :func:`cadcam.outputs.forked.draw`, not drawn here."""
+    :func:`cadcam.outputs.forked.draw`, not drawn here. ``workshop``: the workshop step's
+    outcome (``status`` ``written`` with its ``files``, or ``failed`` with its ``message``),
+    recorded in ``result.json`` beside the design's own status."""
     ev = result.evaluation
-    write_json(out / "result.json", result.to_dict())
+    write_json(out / "result.json", {**result.to_dict(), **({"workshop": workshop} if workshop else {})})
     write_torque_csv(out / "torque.csv", ev)
     write_torque_csv(out / "torque_recheck.csv", result.recheck)
     rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)

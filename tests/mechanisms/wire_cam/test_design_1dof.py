@@ -121,6 +121,10 @@ def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "workshop files cannot be made: cam1: bore_diameter" in err and "--bore-diameter" in err
     assert err.count("\n") == 1 and (tmp_path / "b" / "result.json").exists()
+    record = json.loads((tmp_path / "b" / "result.json").read_text())
+    assert record["status"] == "success"  # the design's own outcome, beside the workshop's
+    assert record["workshop"]["status"] == "failed" and "bore_diameter" in record["workshop"]["message"]
+    assert json.loads((out / "result.json").read_text())["workshop"]["status"] == "written"
 
 
 def test_spec_workshop_table_sizes_the_files_and_a_flag_overrides_it(tmp_path):
