@@ -622,9 +622,9 @@ def _tracking_terms(rows: _Rows, p: _Vars, problem: Problem, terms: list, e: dic
     out = []
     for i in range(m):  # Johnston2023 Eq. 46 term 1, Eq. 47 term 1: ∫(τ_d,i − τ_i)² exactly
         U, V = terms[i]
+        if problem.joints[i].tracking_weight == 0:
+            continue  # no torque goal on this joint (an output law may drive it; it may have no springs)
         if problem.options.objective == "minimax":  # max |τ_i − τ_d,i| over the grid: an epigraph t_i
-            if problem.joints[i].tracking_weight == 0:
-                continue  # no torque goal on this joint (an output law may drive it)
             if V:
                 raise SpecError(f"solver.objective = 'minimax' needs joint torques that each depend "
                                 f"on their own joint's angle; {problem.joints[i].name!r} is coupled "

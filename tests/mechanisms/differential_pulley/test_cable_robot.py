@@ -171,3 +171,17 @@ def test_design_command_writes_the_envelope_design_and_groove_centre_lines(tmp_p
     assert result["solver"]["name"] == "envelope"  # no NLP solver made it
     Draft202012Validator(json.loads((files("cadcam") / "result.schema.json").read_text())).validate(result)
 
+
+
+def test_least_squares_on_joints_without_a_torque_goal_builds():
+    """The cable robot has no springs and no torque goal (only output laws): its least-squares
+    objective had a tracking term of an empty torque and failed in CasADi (a dot product of
+    shapes (1, 1) and (1, n)); a joint with no torque goal adds no tracking term."""
+    import cadcam
+    from cadcam.solve.transcription import Transcription
+
+    problem = cadcam.load_problem(ROBOT, functions="mapped", overrides={
+        "solver.objective": "least_squares", "solver.grid": 6, "solver.convexity_points": 10})
+    assert not problem.springs and all(j.tracking_weight == 0 for j in problem.joints)
+    completed, _ = start_design(problem)
+    assert Transcription(completed).v.vector().shape[0] > 0
