@@ -343,6 +343,12 @@ class Mechanism:
         ang = np.asarray(phi) + self.profile_rotation(theta)
         return rho * np.cos(ang), rho * np.sin(ang)
 
+    def arm(self, theta: float, target) -> tuple[np.ndarray, str] | None:
+        """For drawings: where the joint's link puts the mass its ``target`` names, at joint
+        angle θ (a world point [m]), and the words for it; None where the mechanism does not
+        know which way its link points (the default)."""
+        return None
+
     def segments(self, theta: float, z: np.ndarray, c: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Straight cable spans (start, end) [m] to draw at the pose θ."""
         return []

@@ -42,6 +42,8 @@ DEPARTURE = dict(marker="o", color="tab:red", ms=6, ls="none", zorder=5)
 ANCHOR = dict(marker="s", color="black", ms=5, ls="none", zorder=5)
 IDLER = dict(color="0.25", lw=1.0, ls="--")
 SPRING_END = dict(marker="o", mfc="white", mec="tab:purple", mew=1.5, ms=7, ls="none", zorder=5)
+LINK = dict(color="0.55", lw=5.0, alpha=0.45, solid_capstyle="round", zorder=0)
+MASS = dict(marker="o", color="0.3", ms=11, ls="none", zorder=1)
 LIMIT = dict(color="0.55", lw=0.8, ls=":")
 RHO_BINDING = dict(marker="x", color="crimson", ms=10, mew=2.2, ls="none", zorder=7)
 CONVEXITY_BINDING = dict(marker="D", mfc="none", mec="magenta", mew=1.8, ms=12, ls="none", zorder=6)
@@ -159,11 +161,13 @@ def _row(ev: Evaluation, u: int, n_poses: int):
         spans = [(MM * np.asarray(a, float), MM * np.asarray(b, float)) for a, b in mech.segments(th, z, c)]
         circles = [(MM * np.asarray(ctr, float), MM * float(r)) for ctr, r in mech.circles(th, z, c)]
         wraps = [(MM * np.asarray(x, float), MM * np.asarray(y, float)) for x, y in mech.wraps(th, z, c)]
-        panels.append((th, prof, spans, circles, wraps))
+        arm = mech.arm(th, problem.joints[mech.joint].target)
+        arms = [] if arm is None else [(MM * np.asarray(arm[0], float), arm[1])]
+        panels.append((th, prof, spans, circles, wraps, arms))
     # the view: the profiles at every drawn pose, and what lies near them
     pts = [np.column_stack((x, y)) for _, prof, *_ in panels for x, y, *_ in prof] + [np.zeros((1, 2))]
     near = REACH * MM * radius
-    for _, prof, spans, circles, _ in panels:
+    for _, prof, spans, circles, _, _ in panels:
         extra = [d for _, _, _, d, _, _ in prof] + [v for s in spans for v in s] + [ctr for ctr, _ in circles]
         pts += [e[None, :] for e in extra if np.all(np.isfinite(e)) and np.hypot(*e) <= near]
     allp = np.vstack(pts)
@@ -223,7 +227,8 @@ def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
             if columns[col] >= len(panels):
                 ax.set_axis_off()
                 continue
-            th, prof, spans, circles, wraps = panels[columns[col]]
+            th, prof, spans, circles, wraps, arms = panels[columns[col]]
+            seen |= _draw_arms(ax, lo, hi, arms)
             seen |= _draw_pose(ax, lo, hi, [r for r, _ in limits], prof, spans, circles, wraps)
             _label_off_view(ax, lo, hi, spans, circles)
             angle = f"θ{mech.joint + 1}" if len(problem.joints) > 1 else "θ"
@@ -286,6 +291,19 @@ def _draw_pose(ax, lo, hi, limits, prof, spans, circles, wraps) -> set[str]:
     return seen
 
 
+def _draw_arms(ax, lo, hi, arms) -> set[str]:
+    """The link from the joint axis to its mass [mm] (``arms``: point and words), under the
+    mechanism; the mass drawn where it is in the view, else named at the edge."""
+    for end, words in arms:
+        ax.plot([0, end[0]], [0, end[1]], **LINK)
+        if _inside(lo, hi, end):
+            ax.plot(*end, **MASS)
+            ax.annotate(words, end, xytext=(4, 4), textcoords="offset points", fontsize=7, color="0.2")
+        else:
+            _edge_label(ax, lo, hi, np.zeros(2), end, words)
+    return {"arm"} if arms else set()
+
+
 def _label_off_view(ax, lo, hi, spans, circles) -> None:
     """Name at the edge of the view (``lo``, ``hi``) [mm] what lies off it: an idler once (not
     the cable's tangent points on it), a spring end where its cable leaves the view."""
@@ -306,7 +324,8 @@ def _label_off_view(ax, lo, hi, spans, circles) -> None:
 
 #: The optional entries of the profile view's legend, in their order: (key of what
 #: :func:`_draw_pose` returns, its label (None: the mechanisms' word for their circles), style).
-OPTIONAL_LEGEND = (("idler", None, IDLER),
+OPTIONAL_LEGEND = (("arm", "the link (to its mass)", LINK),
+                   ("idler", None, IDLER),
                    ("end", "spring end / point idler", SPRING_END),
                    ("rho", "ρ at its limit", RHO_BINDING),
                    ("convexity", "convexity margin binding", CONVEXITY_BINDING))

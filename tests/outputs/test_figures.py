@@ -121,7 +121,7 @@ def test_profile_view_draws_a_published_design_in_its_own_basis(ev_rr):
     from cadcam.outputs.plots import _row
     for u in range(2):  # Table 3 is typed in as monomials; the spec's cams are Chebyshev
         panels, _, _ = _row(ev_rr, u, 3)
-        for _, prof, _, circles, _ in panels:
+        for _, prof, _, circles, _, _ in panels:
             departure = prof[0][3]
             (centre, radius), = circles
             # Johnston2023's cam touches its idler where the wire departs (Eq. 7, 15) [mm]
@@ -312,3 +312,22 @@ def test_limit_lines_report_the_published_violation(reporting, ev_rr):
     assert "  - beyond a limit: spring 1 (McMaster-Carr 5667N212) beyond its travel limit: 57.93 mm of 57.66 mm" in lines
     assert not any(line.startswith("  - violated: spring above its travel") for line in lines)  # said above
     assert any(line.startswith("  - binding (within 0.1 % of the limit): cam 1 at ρ_min") for line in lines)
+
+
+def test_the_pose_figure_draws_the_link_to_its_mass_where_the_mechanism_knows_it():
+    """A pulley on a pendulum's link (turning = "pulley") turns with it: the link points up at
+    θ = 0 and at σθ from the upright; drawn from the joint axis towards the mass."""
+    from cadcam.designs import default_start
+    from cadcam.outputs.plots import profile_figure
+
+    problem = load_spec(ROOT / "docs" / "first_balancer.toml")
+    mech, target = problem.mechanisms[0], problem.joints[0].target
+    ev = evaluate(problem, default_start(problem), grid=7)
+    fig = profile_figure(ev, n_poses=3)
+    for ax, theta in zip(fig.axes, ev.units[0].theta[[0, 3, 6]]):
+        end, words = mech.arm(theta, target)
+        np.testing.assert_allclose(end, 0.2 * np.array([-np.sin(theta), np.cos(theta)]), atol=1e-15)
+        lines = [ln for ln in ax.get_lines() if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == 0]
+        assert any(np.allclose([ln.get_xdata()[1], ln.get_ydata()[1]], 1e3 * end) for ln in lines)
+        assert any(words in t.get_text() for t in ax.texts) and words == "arm: 0.5 kg at 200 mm"
+    assert mech.arm(0.3, replace(target, kind="expression")) is None
