@@ -30,7 +30,7 @@ from pathlib import Path
 
 from cadcam.api import load_problem
 from cadcam.optimize import optimize
-from cadcam.spec import read_spec_data
+from cadcam.spec import MAX_ORDER, read_spec_data
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 #: The largest grid a spec with several joints runs at (its tensor grid is grid^joints).
@@ -48,6 +48,17 @@ def _with(data: dict, grid: int, factor: int) -> dict:
             if "order" in item:
                 item["order"] = item["order"] * factor
     return out
+
+
+def _over_cap(data: dict, factor: int) -> str | None:
+    """Why spec ``data`` at ``factor`` times its orders cannot be a spec: a profile's order over
+    its basis's cap (:data:`cadcam.spec.MAX_ORDER`), else None."""
+    for key in ("cams", "mechanisms"):
+        for item in data.get(key, []):
+            basis = item.get("basis", "chebyshev")
+            if "order" in item and item["order"] * factor > MAX_ORDER[basis]:
+                return f"order {item['order'] * factor} > the {basis} cap {MAX_ORDER[basis]}"
+    return None
 
 
 def cell(data: dict, random: int) -> dict:
@@ -106,7 +117,7 @@ def main(argv=None) -> None:
             for factor in (1, 2):
                 why = ("its own method, no NLP" if data.get("solver", {}).get("method", "nlp") != "nlp" else
                        f"{joints} joints: grid > {MAX_COUPLED_GRID}" if joints > 1 and grid > MAX_COUPLED_GRID
-                       else None)
+                       else _over_cap(data, factor))
                 if why:
                     counts["not run"] += 1
                     print(f"| {spec.stem} | {grid} | {factor} | not run: {why} | | | | | |")
