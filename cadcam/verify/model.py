@@ -89,6 +89,12 @@ def torque_function(problem: Problem, bases: list[Basis], order: int = 48,
                        ["tau", "x", "z"])
 
 
+def _implicit(R, z, p):
+    """R_z⁻¹ R_p: minus the derivative dz/dp of the unknowns that keep R(z, p) = 0 (the implicit
+    function theorem)."""
+    return ca.solve(ca.jacobian(R, z), ca.jacobian(R, p))
+
+
 def parameter_model(problem: Problem, bases: list[Basis], order: int = 48,
                     integrals: str = "quadrature") -> ca.Function:
     """The torque model at given departure unknowns, with the mechanisms' parameters as an
@@ -104,9 +110,8 @@ def parameter_model(problem: Problem, bases: list[Basis], order: int = 48,
     q = ca.SX.sym("q", sum(len(mech.parameters) for mech in problem.mechanisms))
     (theta, c, k, x0, F0, z), R, _, tau, _ = _model(problem, bases, ca.SX.sym, order, integrals, q=q)
     p = ca.vertcat(c, k, x0, F0, q)
-    Rz = ca.jacobian(R, z)
-    dtau_dp = ca.jacobian(tau, p) - ca.mtimes(ca.jacobian(tau, z), ca.solve(Rz, ca.jacobian(R, p)))
-    return ca.Function("parameter_model", [theta, c, k, x0, F0, q, z], [tau, R, Rz, dtau_dp],
+    dtau_dp = ca.jacobian(tau, p) - ca.mtimes(ca.jacobian(tau, z), _implicit(R, z, p))
+    return ca.Function("parameter_model", [theta, c, k, x0, F0, q, z], [tau, R, ca.jacobian(R, z), dtau_dp],
                        [*INPUTS, "q", "z"], ["tau", "R", "dR_dz", "dtau_dp"])
 
 
@@ -120,7 +125,7 @@ def torque_jacobian_function(problem: Problem, bases: list[Basis], order: int = 
     """
     args, R, _, tau, x = _model(problem, bases, ca.SX.sym, order, integrals)
     *inputs, z = args
-    Rz_inv_Rp = {name: ca.solve(ca.jacobian(R, z), ca.jacobian(R, p)) for name, p in zip(INPUTS, inputs)}
+    Rz_inv_Rp = {name: _implicit(R, z, p) for name, p in zip(INPUTS, inputs)}
     # the unknowns at θ (not those at the reference angle) of each mechanism
     rows, k0 = [], 0
     for mech in problem.mechanisms:

@@ -72,16 +72,16 @@ def tolerance_band(evaluation) -> Band:
     points, about the poses the evaluation solved (see the module)."""
     problem, design, theta = evaluation.problem, evaluation.design, evaluation.theta
     layout = _Layout(problem, design)
-    model = parameter_model(problem, design.bases, ORDER).map(theta.shape[1])
+    model = parameter_model(problem, design.bases, ORDER)
     z = _unknowns(evaluation)
     directions = _directions(problem, design, layout)
     N = theta.shape[1]
     # the N blocks (m × P) side by side → (m, N, P)
-    J = np.stack(np.hsplit(np.asarray(model(theta, *layout.split(layout.nominal), z)[3]), N), axis=1)
+    J = np.stack(np.hsplit(np.asarray(model.map(N)(theta, *layout.split(layout.nominal), z)[3]), N), axis=1)
     parts = {key: np.abs(J @ D).sum(axis=2) for key, D in directions.items()}
     half = sum(parts.values())
     D = np.concatenate(list(directions.values()), axis=1)
-    corners = [_worst_corner(problem, design, layout, theta, z, D, J, half, i) for i in range(theta.shape[0])]
+    corners = [_worst_corner(model, layout, theta, z, D, J, half, i) for i in range(theta.shape[0])]
     return Band(problem.tolerance, half, parts, corners)
 
 
@@ -151,13 +151,13 @@ def _directions(problem: Problem, design: Design, layout: _Layout) -> dict[str, 
 CORNER_NEWTON_STEPS = 8
 
 
-def _worst_corner(problem, design, layout, theta, z, D, J, half, i: int) -> dict:
+def _worst_corner(model, layout, theta, z, D, J, half, i: int) -> dict:
     """Joint ``i``'s worst corner re-checked: at its grid point of widest band, every step of
     ``D`` taken to the end that moves τ_i the way its derivative says, the poses re-solved there
-    by Newton from the nominal ones, and the torque evaluated without linearising."""
+    by Newton from the nominal ones, and the torque of ``model``
+    (:func:`cadcam.verify.model.parameter_model`) evaluated without linearising."""
     n = int(np.argmax(half[i]))
     corner = layout.nominal + D @ np.sign(J[i, n] @ D)
-    model = parameter_model(problem, design.bases, ORDER)
     at, zc = theta[:, n], z[:, n].copy()
     for _ in range(CORNER_NEWTON_STEPS):
         _, R, Rz, _ = model(at, *layout.split(corner), zc)
