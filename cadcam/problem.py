@@ -261,6 +261,9 @@ class Options:
         return (self.grid - 1) * self.recheck_factor + 1
 
 
+MIN_WALL = 1e-3
+"""Least material [m] left between the bore, the anchor hole, the groove and the profile."""
+
 #: Workshop sizes [m] a spec's ``[workshop]`` table or a ``cadcam design`` flag may set:
 #: (smallest, largest); a chordal tolerance below 0.1 µm would make polygons of unbounded size.
 WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "tolerance": (1e-7, 1e-3),
@@ -302,6 +305,18 @@ class Workshop:
             value = getattr(self, name)
             if value is not None and not lo <= value <= hi:
                 raise ValueError(f"{name} = {value!r}: expected a length from {lo:g} to {hi:g} m")
+
+    @property
+    def hub_radius(self) -> float:
+        """Radius [m] of the hub every outline closes around: the bore's and a wall."""
+        return self.bore_diameter / 2 + MIN_WALL
+
+    @property
+    def anchor_radius(self) -> float:
+        """Least radius [m] of an outline's anchor φ = 0: the hub, the anchor hole and a wall
+        between the hole and the profile (the hole's centre lies a wall and its radius inside
+        the outline, :func:`cadcam.make.workshop.anchor_centre`)."""
+        return self.hub_radius + self.anchor_diameter + MIN_WALL
 
     def to_dict(self) -> dict:
         """The sizes as a spec's ``[workshop]`` table (no ``stl`` without one)."""

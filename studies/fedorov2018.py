@@ -26,7 +26,7 @@ from cadcam.files import write_json
 from cadcam.optimize import start_design
 from cadcam.mechanisms.differential_pulley.output_laws import robot_cable, spring_elongation
 from cadcam.outputs.plots import output_figure, profile_figure, save_figure
-from cadcam.make.workshop import chord_outline, helical_groove, write_points_csv, write_groove_csv
+from cadcam.make.workshop import cut_outline, helical_groove, write_points_csv, write_groove_csv
 from reporting import figures, finish, limit_lines, provenance, provenance_info
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,7 +118,8 @@ def balancer() -> list[str]:
     save_figure(output_figure(ev), OUT / "balancer_x.png")
     plot_elongation(ev, OUT / "balancer_elongation.png")
     for k, (basis, c, prof) in enumerate(zip(result.design.bases, result.design.coefficients, ev.profiles)):
-        write_points_csv(OUT / f"pulley{k + 1}_points.csv", chord_outline(basis, c, float(prof.alpha.max())))
+        write_points_csv(OUT / f"pulley{k + 1}_points.csv",
+                         cut_outline(basis, c, float(prof.alpha.max()), result.problem.workshop.hub_radius))
     write_json(OUT / "balancer_result.json", result.to_dict())
     return lines
 

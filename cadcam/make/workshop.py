@@ -17,19 +17,20 @@ from numpy.polynomial import Legendre, Polynomial
 
 from ..files import atomic_path, write_csv as write_table, write_text
 from ..physics.profile import Basis, convexity_margin, profile_function
+from ..problem import MIN_WALL
 from .biarc import ArcChain, arc_geometry, biarc_fit, segment_distance
 
 TWO_PI = 2 * np.pi
 MM = 1e3
 """Millimetres per metre: the length unit of every exported file."""
-MIN_WALL = 1e-3
-"""Least material [m] left between the bore, the anchor hole, the groove and the profile."""
 DEFAULT_TOLERANCE = 1e-5
 """Default chordal tolerance [m] (0.01 mm)."""
 CLOSURE_FREE = 8
 """Free coefficients of the closing polynomial beyond the six matching conditions."""
 CLOSURE_GRID = 400
 """Points of the closing arc at which the programs of :func:`closed_outline` impose constraints."""
+ROUNDING = 1e-9
+"""Shortfall [m] of a wall that is rounding, not a thinner wall (a hull closure runs on the hub)."""
 CHECK_GRID = 8000
 """Points at which the designed arc and the closing arc found are checked to be convex."""
 CHORD_SPARE = 1.05
@@ -47,8 +48,8 @@ class Outline:
     """A closed convex cam outline: the designed arc and the arc that closes it.
 
     The designed arc is ρ(φ) of the optimised profile for φ ∈ [0, ``phi_end``]; the closing arc
-    is ρ = 1/u with u a polynomial of x = (φ − φ_end)/(2π − φ_end) ∈ [0, 1]. Angles outside
-    [0, 2π) are taken modulo 2π.
+    is ρ = 1/u with u given by ``closing`` (:class:`SmoothClosing` or :class:`HullClosing`).
+    Angles outside [0, 2π) are taken modulo 2π.
 
     Attributes
     ----------
@@ -58,8 +59,8 @@ class Outline:
         The designed profile's coefficients [m].
     phi_end : float
         Angle where the designed (wrapped) arc ends and the closing arc begins [rad].
-    closing : numpy.polynomial.Polynomial
-        u(x) = 1/ρ [1/m] on the closing arc.
+    closing : SmoothClosing or HullClosing
+        u = 1/ρ [1/m] and its φ-derivatives on the closing arc.
     samples : int
         Number of points of the dense sample.
     phi : ndarray
@@ -71,7 +72,7 @@ class Outline:
     profile: ca.Function = field(repr=False)
     coefficients: np.ndarray
     phi_end: float
-    closing: Polynomial
+    closing: SmoothClosing | HullClosing
     samples: int = 2048
     phi: np.ndarray = field(init=False, repr=False)
     points: np.ndarray = field(init=False, repr=False)
@@ -104,8 +105,7 @@ class Outline:
         if on.any():
             out[:, on] = designed_values(self.profile, self.coefficients, phi[on])[:3]
         if not on.all():
-            x = (phi[~on] - self.phi_end) / self.closing_span
-            out[:, ~on] = _rho_from_u(*self._u(x))
+            out[:, ~on] = _rho_from_u(*self.closing.u(phi[~on]))
         return out
 
     def piece_derivatives(self, phi, closing: bool) -> np.ndarray:
@@ -114,13 +114,8 @@ class Outline:
         closure has corners."""
         phi = np.atleast_1d(np.asarray(phi, dtype=float))
         if closing:
-            return _rho_from_u(*self._u((phi - self.phi_end) / self.closing_span))
+            return _rho_from_u(*self.closing.u(phi))
         return designed_values(self.profile, self.coefficients, phi)[:3]
-
-    def _u(self, x) -> np.ndarray:
-        """u, u′, u″ with respect to φ on the closing arc at x ∈ [0, 1]."""
-        p, span = self.closing, self.closing_span
-        return np.array([p(x), p.deriv(1)(x) / span, p.deriv(2)(x) / span**2])
 
     def rho(self, phi) -> np.ndarray:
         """ρ(φ) [m] on the full circle."""
@@ -204,7 +199,7 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
         raise ValueError(f"free = {free!r} must be at least 1")
     profile = profile_function(basis)
     _check_designed_arc(profile, coefficients, phi_max)
-    closing = _closing_polynomial(profile, coefficients, phi_max, rho_bounds, free)
+    closing = SmoothClosing(_closing_polynomial(profile, coefficients, phi_max, rho_bounds, free), float(phi_max))
     outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
     _check_closing_arc(outline)
     return outline
@@ -226,34 +221,114 @@ def _closing_polynomial(profile, coefficients, phi_max: float, rho_bounds, free:
     return scale * (hermite + sum((aj * t for aj, t in zip(a, terms)), Polynomial([0.0])))
 
 
-def chord_outline(basis: Basis, coefficients, phi_max: float) -> Outline:
-    """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], by the straight chord from its end
-    back to its anchor at φ = 0 ≡ 2π.
+def hull_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float) -> Outline:
+    """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], by the convex hull of the arc and the
+    hub, a disk of ``hub_radius`` [m] about the axis.
 
-    For a pulley whose cable wraps nearly a whole turn (a differential pair over 360°) no
-    smooth convex closure fits in the gap. The chord leaves two corners, at the anchor and at
-    φ_max — a notch where ρ(φ_max) > ρ(0) — where the cable never lies: it is anchored at φ = 0
-    and leaves the profile after it. In u = 1/ρ a straight line is u = a cos φ + b sin φ; it is stored as a
-    polynomial of x = (φ − φ_max)/(2π − φ_max) fitted to it (exact to rounding over the gap).
+    From the arc's end the hull runs straight to its anchor at φ = 2π ≡ 0 where that chord
+    passes outside the hub; otherwise straight to the hub, round it, and straight on to the
+    anchor, each line a tangent of the hub. The design NLP's outline rows (every tangent of the
+    arc outside the hub, with both of the arc's ends inside it) keep the whole arc on the hull,
+    so the hull always exists for a design that met them: it is checked here.
 
     Raises
     ------
     ValueError
-        If ``phi_max`` is outside (0, 2π) or the designed arc is not positive and convex.
+        If ``phi_max`` is outside (0, 2π), the designed arc is not positive and convex, or
+        part of it falls inside the hull (a design that breaks the outline rows).
     """
     if not 0 < phi_max < TWO_PI:
         raise ValueError(f"phi_max = {phi_max!r} rad must lie in (0, 2π)")
     profile = profile_function(basis)
     _check_designed_arc(profile, coefficients, phi_max)
     (r1,), (r0,) = (designed_values(profile, coefficients, phi)[:1, 0] for phi in (phi_max, 0.0))
-    p1, p0 = r1 * np.array([np.cos(phi_max), np.sin(phi_max)]), np.array([r0, 0.0])
-    normal = np.array([p0[1] - p1[1], p1[0] - p0[0]])  # the chord's line: normal · p = c
-    level = float(normal @ p0)
-    x = np.linspace(0.0, 1.0, 64)
-    phi = phi_max + x * (TWO_PI - phi_max)
-    u = (normal[0] * np.cos(phi) + normal[1] * np.sin(phi)) / level
-    closing = Polynomial.fit(x, u, 9, domain=[0, 1], window=[0, 1])
-    return Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
+    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max),
+                      HullClosing.around(phi_max, r1, r0, _positive("hub_radius", hub_radius)))
+    _check_on_hull(outline)
+    return outline
+
+
+@dataclass(frozen=True)
+class HullClosing:
+    """u = 1/ρ [1/m] of a closing arc made of lines and an arc of the hub: piece j covers
+    φ ∈ [``starts[j]``, ``starts[j + 1]``) and is u = ``a[j]`` cos φ + ``b[j]`` sin φ (a line:
+    u + u″ = 0) or, with a = b = 0, the hub's circle u = ``level[j]``."""
+
+    starts: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    level: np.ndarray
+
+    @classmethod
+    def around(cls, phi_end: float, rho_end: float, rho_anchor: float, hub: float) -> HullClosing:
+        """The hull's closing arc from (ρ_end, φ_end) to (ρ_anchor, 2π) round a hub of radius
+        ``hub`` [m]: the chord if it clears the hub, else tangent, hub arc, tangent."""
+        p1 = rho_end * np.array([np.cos(phi_end), np.sin(phi_end)])
+        p0 = np.array([rho_anchor, 0.0])
+        normal = np.array([p0[1] - p1[1], p1[0] - p0[0]])  # the chord's line: normal · p = level
+        level = float(normal @ p0)
+        if level >= hub * np.hypot(*normal):
+            return cls(np.array([phi_end]), normal[:1] / level, normal[1:] / level, np.zeros(1))
+        leave = phi_end + np.arccos(min(1.0, hub / rho_end))      # where the tangent from the
+        arrive = TWO_PI - np.arccos(min(1.0, hub / rho_anchor))    # end and to the anchor touch
+        return cls(np.array([phi_end, leave, arrive]),
+                   np.array([np.cos(leave), 0.0, np.cos(arrive)]) / hub,
+                   np.array([np.sin(leave), 0.0, np.sin(arrive)]) / hub, np.array([0.0, 1 / hub, 0.0]))
+
+    def u(self, phi) -> np.ndarray:
+        """u, u′, u″ [1/m, 1/(m·rad), 1/(m·rad²)] at ``phi`` [rad] on the closing arc, (3, N)."""
+        phi = np.atleast_1d(np.asarray(phi, dtype=float))
+        j = np.clip(np.searchsorted(self.starts, phi, side="right") - 1, 0, self.starts.size - 1)
+        a, b, c, s = self.a[j], self.b[j], np.cos(phi), np.sin(phi)
+        line = a * c + b * s
+        return np.array([line + self.level[j], b * c - a * s, -line])
+
+
+@dataclass(frozen=True)
+class SmoothClosing:
+    """u = 1/ρ [1/m] of a closing arc given as a polynomial ``poly`` of
+    x = (φ − ``phi_end``)/(2π − ``phi_end``) ∈ [0, 1] (:func:`closed_outline`)."""
+
+    poly: Polynomial
+    phi_end: float
+
+    def u(self, phi) -> np.ndarray:
+        """u, u′, u″ [1/m, 1/(m·rad), 1/(m·rad²)] at ``phi`` [rad] on the closing arc, (3, N)."""
+        span = TWO_PI - self.phi_end
+        x = (np.atleast_1d(np.asarray(phi, dtype=float)) - self.phi_end) / span
+        p = self.poly
+        return np.array([p(x), p.deriv(1)(x) / span, p.deriv(2)(x) / span**2])
+
+
+def cut_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float) -> Outline:
+    """The outline a workshop cuts: the designed arc closed by the smoothest convex C2 arc that
+    stays outside the hub of ``hub_radius`` [m] (:func:`closed_outline`) where one exists, else
+    by the hull of the arc and the hub (:func:`hull_outline`), which the design NLP's outline
+    rows guarantee."""
+    try:
+        return closed_outline(basis, coefficients, phi_max, rho_bounds=(hub_radius, np.inf))
+    except ValueError:
+        return hull_outline(basis, coefficients, phi_max, hub_radius)
+
+
+def _check_on_hull(outline: Outline) -> None:
+    """ValueError unless every point of the designed arc is on the outline's convex hull (to
+    rounding): the whole outline turns one way (its edges' cross products ≥ 0)."""
+    phi = np.union1d(np.linspace(0.0, TWO_PI, CHECK_GRID, endpoint=False), [outline.phi_end])
+    p = outline.xy(phi)
+    edge = np.diff(np.vstack((p, p[:1])), axis=0)
+    turn = edge[:, 0] * np.roll(edge[:, 1], -1) - edge[:, 1] * np.roll(edge[:, 0], -1)
+    scale = np.linalg.norm(edge, axis=1) * np.roll(np.linalg.norm(edge, axis=1), -1)
+    bad = turn < -HULL_TOLERANCE * scale
+    if bad.any():
+        raise ValueError(f"the designed arc does not lie on the convex hull of itself and the hub "
+                         f"near φ = {phi[(np.flatnonzero(bad)[0] + 1) % phi.size]:.4f} rad: "
+                         "the design breaks its outline rows (design it again with this bore)")
+
+
+#: Least turn, as a share of the product of two edges' lengths, that counts as turning the
+#: wrong way in :func:`_check_on_hull` (rounding of a straight stretch is far smaller).
+HULL_TOLERANCE = 1e-9
 
 
 #: Relative margin by which ρ bounds are tightened on the closure's grid, so that the curve
@@ -267,7 +342,8 @@ def _u_bounds(rho_bounds, scale) -> tuple[float, float]:
         return 0.0, np.inf
     lo, hi = (float(v) for v in rho_bounds)
     if not 0 < lo < hi:
-        raise ValueError(f"rho_bounds = {rho_bounds!r} must be (ρ_lo, ρ_hi) [m], 0 < ρ_lo < ρ_hi")
+        raise ValueError(f"rho_bounds = {rho_bounds!r} must be (ρ_lo, ρ_hi) [m], 0 < ρ_lo < ρ_hi "
+                         "(ρ_hi may be inf)")
     return 1 / (hi * (1 - RHO_BOUND_MARGIN) * scale), 1 / (lo * (1 + RHO_BOUND_MARGIN) * scale)
 
 
@@ -328,7 +404,7 @@ def _solve_qp(h, g, a, lba, uba):
 
 def _check_closing_arc(outline):
     """Raise ValueError unless u > 0 and u + u″ > 0 on a fine grid of the closing arc."""
-    u, _, ddu = outline._u(np.linspace(0.0, 1.0, CHECK_GRID))
+    u, _, ddu = outline.closing.u(np.linspace(outline.phi_end, TWO_PI, CHECK_GRID))
     if np.any(u <= 0) or np.any(u + ddu <= 0):
         raise ValueError("the closing arc found is not convex between its grid points; "
                          "try a different number of free coefficients")
@@ -416,7 +492,7 @@ def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
     depths = radius + MIN_WALL + np.linspace(0.0, max(rho - radius - MIN_WALL, 0.0), 200)
     for depth in depths:  # the first depth that leaves the wall to the whole outline
         centre = np.array([rho, 0.0]) - depth * outward
-        if np.min(np.hypot(*(outline.points - centre).T)) - radius >= MIN_WALL - 1e-9:
+        if np.min(np.hypot(*(outline.points - centre).T)) - radius >= MIN_WALL - ROUNDING:
             return centre
     return np.array([rho, 0.0]) - depths[0] * outward  # none: holes() names the shortfall
 
@@ -435,7 +511,7 @@ def holes(outline: Outline, bore_diameter: float,
     anchor = anchor_centre(outline, _positive("anchor_diameter", anchor_diameter))
     to_bore = np.hypot(*anchor) - (anchor_diameter + bore_diameter) / 2
     to_profile = np.min(np.hypot(*(outline.points - anchor).T)) - anchor_diameter / 2
-    if min(to_bore, to_profile) < MIN_WALL - 1e-9:  # 1 nm: rounding, not a wall
+    if min(to_bore, to_profile) < MIN_WALL - ROUNDING:
         raise ValueError(f"anchor_diameter = {_length(anchor_diameter)} does not fit near the "
                          f"anchor point: it leaves {_length(min(to_bore, to_profile))} of wall "
                          f"to the {'bore' if to_bore < to_profile else 'profile'}; at least "
@@ -446,7 +522,7 @@ def holes(outline: Outline, bore_diameter: float,
 def _check_bore(outline, bore_diameter):
     """ValueError naming ``bore_diameter`` unless the bore leaves MIN_WALL inside ρ_min."""
     rho_min = outline.rho_range[0]
-    if _positive("bore_diameter", bore_diameter) / 2 + MIN_WALL > rho_min:
+    if _positive("bore_diameter", bore_diameter) / 2 + MIN_WALL > rho_min + ROUNDING:
         raise ValueError(f"bore_diameter = {_length(bore_diameter)} is too large: with a "
                          f"{_length(MIN_WALL)} wall inside the least outline radius ρ_min = "
                          f"{_length(rho_min)} it may be at most "

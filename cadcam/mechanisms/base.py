@@ -236,9 +236,6 @@ class Mechanism:
     n_profiles: ClassVar[int] = 1
     #: Number of :meth:`closure` rows (residual rows that need the wound lengths).
     closure_rows: ClassVar[int] = 0
-    #: How workshop outlines close a profile's wrapped arc: "convex" (a smooth C2 arc) or
-    #: "chord" (a straight chord to the anchor, for wraps of nearly a whole turn).
-    outline_closure: ClassVar[str] = "convex"
     #: The unknown that is the mechanism's output displacement [m] ("" if none), and the law
     #: it should follow (a :class:`cadcam.targets.Target` of the joint angle, or None).
     output: ClassVar[str] = ""
@@ -382,6 +379,11 @@ class Mechanism:
         runs on a planar profile, which holds at most one turn; a mechanism whose profiles
         climb a helical groove allows more."""
         return 2 * np.pi
+
+    def planar(self) -> bool:
+        """Whether its profiles are cut as planar outlines (a turn at most), which the NLP
+        closes around the hub: not a helical groove."""
+        return self.max_span() <= 2 * np.pi
 
     def offers(self, method: str) -> bool:
         """Whether this mechanism can be designed by its own ``method``."""

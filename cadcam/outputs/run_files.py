@@ -131,7 +131,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                 notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
                              f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
             else:
-                outlines[i] = _outline(ev, i, mech)
+                outlines[i] = _outline(ev, i, args.hub_radius)
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     tolerance, chains, checks = _fitted_dxfs(result, out, args, outlines)
@@ -148,13 +148,12 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     return notes
 
 
-def _outline(ev, i: int, mech):
-    """Profile ``i`` of mechanism ``mech`` closed into a planar outline its way
-    (:attr:`~cadcam.mechanisms.base.Mechanism.outline_closure`)."""
-    from ..make.workshop import chord_outline, closed_outline
+def _outline(ev, i: int, hub_radius: float):
+    """Profile ``i`` closed into the planar outline a workshop cuts, round a hub of
+    ``hub_radius`` [m] (:func:`cadcam.make.workshop.cut_outline`)."""
+    from ..make.workshop import cut_outline
 
-    close = chord_outline if mech.outline_closure == "chord" else closed_outline
-    return close(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()))
+    return cut_outline(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()), hub_radius)
 
 
 def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):

@@ -106,6 +106,29 @@ def convexity_margin(rho, drho, ddrho):
     return rho**2 + 2 * drho**2 - rho * ddrho  # Johnston2023 Eq. 40
 
 
+def support_distance(rho, drho):
+    """Distance [m] from the rotation axis to the profile's tangent line at φ: ρ²/√(ρ² + ρ′²).
+
+    The tangent t = (ρ′cos φ − ρ sin φ, ρ′sin φ + ρ cos φ) (Johnston2023 Eq. 3) turned by −90°
+    is the outward normal n, and n·p = ρ² with |n| = √(ρ² + ρ′²). A convex outline holds a disk
+    of radius R about the axis wherever this is ≥ R at every point.
+    """
+    return rho**2 / ca.sqrt(rho**2 + drho**2)
+
+
+def inside_tangent(rho, drho, rho_e, delta):
+    """How far the point (ρ_e, φ − δ) lies inside the profile's tangent line at (ρ, φ), over
+    δ²/2: [ρ² − ρ_e(ρ cos δ + ρ′ sin δ)] / (δ²/2) [m²]; ≥ 0 when it is on the axis's side.
+
+    The numerator is n·(p − p_e) with n the unnormalised outward normal of
+    :func:`support_distance`; dividing by δ²/2 keeps the row of order ρ² for points near φ (on
+    a circle it is ρ²(1 − cos δ)/(δ²/2)). A locally convex arc whose tangent turns by less than
+    a turn lies inside the tangent line at each of its points if both its ends do: along the
+    arc, n·(p − p_e) changes sign at most once, where the tangent has turned by half a turn.
+    """
+    return (rho**2 - rho_e * (rho * ca.cos(delta) + drho * ca.sin(delta))) / (delta**2 / 2)
+
+
 @lru_cache(maxsize=64)
 def profile_function(basis: Basis) -> ca.Function:
     """CasADi Function ``profile(phi, c) -> (rho, drho, ddrho, convexity)``.

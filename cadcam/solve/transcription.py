@@ -34,7 +34,7 @@ from . import compiled
 from .blocks import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from ..mechanisms.base import (Mechanism, margin_function, port_function,
                                pose_residual_function, split_coefficients, wound_lengths)
-from ..physics.profile import convexity_margin, profile_function
+from ..physics.profile import convexity_margin, inside_tangent, profile_function, support_distance
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.springs import Network
 from ..physics.wrap import length_function, segment_lengths
@@ -58,6 +58,16 @@ LIFTED_PROFILE_SIZE = 20
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
 #: (and the 1-DOF and Sec. 10.4 problems converge in fewer iterations).
 OBJECTIVE_SCALE = 1000.0
+#: IPOPT options of the solve that imposes the deferred rows: it starts from the optimum
+#: without them and its multipliers, so from a small barrier parameter and without pushing that
+#: point off its active bounds. From IPOPT's default μ = 0.1 the restart lost the optimum's
+#: active set and ended at max_iterations on Endo2010's weak-spring pendulum and its ``low``
+#: variant; warm, both converge.
+IMPOSING_IPOPT = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-6,
+                  "ipopt.warm_start_bound_push": 1e-9, "ipopt.warm_start_mult_bound_push": 1e-9}
+#: How far below its bound a deferred row may end, in its scaled units (mm, mm²), before the
+#: solve is repeated with it imposed (IPOPT's own constraint tolerance is 1e-8 of these).
+DEFERRED_TOL = 1e-6
 
 IPOPT_STATUS = {
     "Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "acceptable",
@@ -191,10 +201,12 @@ class Transcription:
         self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
                            for name, expr in rows.lifted]
         self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
-        self._bounds = rows.bounds
+        self._bounds, self._deferred_bounds = rows.bounds, rows.deferred_bounds
+        self._deferred = ca.Function("deferred", [x, P], [ca.vertcat(*rows.deferred_g, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
                     "g": ca.vertcat(*rows.g)}
         self.solver, self.compiled_now = _ipopt_solver(self.nlp, opt)
+        self._imposing = None  # the solver with the deferred rows, built when first needed
         self.build_time_s = time.perf_counter() - t0
 
     # -- numbers of a case -------------------------------------------------------------------
@@ -262,10 +274,14 @@ class Transcription:
         self.p.put(vec, f"td{i}", own[:, 0])
         return float(np.sqrt(np.mean(td**2)))
 
-    def bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of the constraint rows for ``problem``'s limits."""
+    def bounds(self, problem: Problem, deferred: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the constraint rows (``deferred``: of the deferred rows)
+        for ``problem``'s limits."""
+        blocks = self._deferred_bounds if deferred else self._bounds
+        if not blocks:
+            return np.zeros(0), np.zeros(0)
         lo, hi = zip(*[np.broadcast_arrays(*(np.broadcast_to(b, (size,)) for b in fn(problem)))
-                       for size, fn in self._bounds])
+                       for size, fn in blocks])
         return np.concatenate(lo), np.concatenate(hi)
 
     def variable_bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
@@ -335,6 +351,24 @@ class Transcription:
             v.put(w0, f"sn{i}_{j}", np.maximum(-s_ij, 0))
         return w0
 
+    def _breaks_deferred(self, problem: Problem, w, pv) -> bool:
+        """Whether the NLP point ``w`` breaks a deferred row by more than DEFERRED_TOL. The
+        deferred rows are left out of the first solve: a local optimum that meets them is one
+        with them, and their barrier terms and their place in the KKT matrix would otherwise
+        move IPOPT's path and its optimum where they never bind."""
+        if not self._deferred_bounds:
+            return False
+        g = np.asarray(self._deferred(w, pv)).ravel()
+        lo, hi = self.bounds(problem, deferred=True)
+        return bool(np.any(g < lo - DEFERRED_TOL) or np.any(g > hi + DEFERRED_TOL))
+
+    def _imposing_solver(self) -> ca.Function:
+        """IPOPT on the NLP with its deferred rows after the others, built on first use."""
+        if self._imposing is None:
+            nlp = {**self.nlp, "g": ca.vertcat(self.nlp["g"], self._deferred(self.nlp["x"], self.nlp["p"]))}
+            self._imposing, _ = _ipopt_solver(nlp, self.problem.options, IMPOSING_IPOPT)
+        return self._imposing
+
     def design_of(self, w) -> Design:
         """The design held in an NLP vector."""
         profiles = self.problem.profiles
@@ -350,19 +384,26 @@ class Transcription:
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
+        runs = []
         with signals_kept():
             sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            runs.append(self.solver.stats())
+            if self._breaks_deferred(problem, sol["x"], pv):
+                dlo, dhi = self.bounds(problem, deferred=True)
+                lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(dlo.size)]
+                sol = self._imposing_solver()(x0=sol["x"], lam_x0=sol["lam_x"], lam_g0=lam_g0, p=pv,
+                                              lbx=lbx, ubx=ubx, lbg=np.r_[lbg, dlo], ubg=np.r_[ubg, dhi])
+                runs.append(self._imposing.stats())
         elapsed = time.perf_counter() - t0
-        stats = self.solver.stats()
-        w = np.asarray(sol["x"]).ravel()
-        ret = stats.get("return_status", "unknown")
+        w, ret = np.asarray(sol["x"]).ravel(), runs[-1].get("return_status", "unknown")
+        histories = [iteration_history(stats) for stats in runs]
         return Solve(
             design=self.design_of(w), status=IPOPT_STATUS.get(ret, "solver_error"),
-            return_status=ret, iterations=int(stats.get("iter_count", -1)),
+            return_status=ret, iterations=sum(int(stats.get("iter_count", -1)) for stats in runs),
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
-            history=iteration_history(stats))
+            history=_joined(histories))
 
 
 # -- building the NLP, step by step (Transcription.__init__ calls them in this order) ----------
@@ -388,12 +429,14 @@ class _Rows:
 
     def __init__(self, v: _Vars):
         self.v, self.g, self.bounds, self.lifted = v, [], [], []
+        self.deferred_g, self.deferred_bounds = [], []
 
-    def constrain(self, expr, bounds):
+    def constrain(self, expr, bounds, deferred: bool = False):
         """Add constraint rows; ``bounds(problem) -> (lo, hi)`` gives their numbers at
-        solve time, so limits change between cases without a rebuild."""
-        self.g.append(expr)
-        self.bounds.append((expr.shape[0], bounds))
+        solve time, so limits change between cases without a rebuild. ``deferred`` rows are
+        imposed only where the optimum without them breaks them (:meth:`Transcription.solve`)."""
+        (self.deferred_g if deferred else self.g).append(expr)
+        (self.deferred_bounds if deferred else self.bounds).append((expr.shape[0], bounds))
 
     def lift(self, family: str, expr, scale: float, *index):
         """A new variable of ``family`` at ``index`` tied to ``expr`` by an equality: keeps the
@@ -544,9 +587,26 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
         rows.constrain(rho / L, lambda pr, pk=pk: (
             pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
             pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
+        if mech.planar():
+            _outline_rows(rows, phi.T, rho, drho)
         if mech.profiles[k].min_curvature_radius > 0:
             rc = p.add("rc", 1, pk)
             rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv) / L**3, _nonnegative)
+
+
+def _outline_rows(rows: _Rows, phi, rho, drho):
+    """Rows that let the designed arc, given as ρ, ρ′ at the check angles ``phi`` [rad] from
+    its anchor φ = 0 to its most-wound end (columns), be closed into a convex outline around
+    the hub: the convex hull of the arc and the hub's disk keeps the whole arc on its boundary
+    (every free cable span a tangent of a convex part, clear of it) when each tangent line
+    passes outside the hub and has both ends of the arc inside it; the anchor lies far enough
+    from the axis for the anchor hole, a wall deep, to clear the hub."""
+    support = support_distance(rho, drho)
+    rows.constrain(support / LENGTH_SCALE, lambda pr: (pr.workshop.hub_radius / LENGTH_SCALE, np.inf), True)
+    rows.constrain(rho[0] / LENGTH_SCALE, lambda pr: (pr.workshop.anchor_radius / LENGTH_SCALE, np.inf), True)
+    for inner, end in ((slice(1, None), 0), (slice(None, -1), -1)):
+        rows.constrain(inside_tangent(rho[inner], drho[inner], rho[end], phi[inner] - phi[end])
+                       / LENGTH_SCALE**2, _nonnegative, True)
 
 
 def _lifted_profile(rows: _Rows, basis, phi, c, pk: int):
@@ -703,15 +763,16 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     return out
 
 
-def _ipopt_solver(nlp: dict, opt: Options) -> tuple[ca.Function, bool]:
-    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says, and whether this
-    call compiled their library (False: found in the cache, or functions not ``compiled``)."""
+def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[ca.Function, bool]:
+    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
+    CasADi options), and whether this call compiled their library (False: found in the cache,
+    or functions not ``compiled``)."""
     # show_eval_warnings: a NaN at a trial point is IPOPT's to handle (it shortens the step);
     # CasADi's warning for each one flooded a study's stderr, and a solve that cannot recover
     # ends with its own status
     ipopt = {"print_time": False, "show_eval_warnings": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
              "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-             "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}}
+             "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}, **(extra or {})}
     if opt.functions == "compiled":
         lib, compiled_now = compiled.library(nlp)
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), compiled_now
@@ -774,6 +835,13 @@ def iteration_history(stats: dict) -> dict:
     its = stats.get("iterations") or {}
     out = {"iteration": list(range(len(its.get("obj", []))))}
     out.update({name: [float(v) for v in its.get(key, [])] for key, name in HISTORY_FIELDS.items()})
+    return out
+
+
+def _joined(histories: list[dict]) -> dict:
+    """One :func:`iteration_history` of consecutive IPOPT runs, numbered on."""
+    out = {key: sum((h[key] for h in histories), []) for key in histories[0]}
+    out["iteration"] = list(range(len(out["iteration"])))
     return out
 
 

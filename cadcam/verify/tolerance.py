@@ -161,7 +161,9 @@ def _worst_corner(model, layout, theta, z, D, J, half, i: int) -> dict:
     at, zc = theta[:, n], z[:, n].copy()
     for _ in range(CORNER_NEWTON_STEPS):
         _, R, Rz, _ = model(at, *layout.split(corner), zc)
-        zc -= np.linalg.solve(np.asarray(Rz), np.asarray(R).ravel())
+        # least squares: a pose where the residual's Jacobian is singular (a cable leaving at
+        # a flat stretch) takes the least step; the residual reported says how far it got
+        zc -= np.linalg.lstsq(np.asarray(Rz), np.asarray(R).ravel(), rcond=None)[0]
     tau_corner, R = (np.asarray(v).ravel() for v in model(at, *layout.split(corner), zc)[:2])
     tau = np.asarray(model(at, *layout.split(layout.nominal), z[:, n])[0]).ravel()
     return {"theta": [float(t) for t in at], "predicted": float(half[i, n]),

@@ -98,7 +98,6 @@ class DifferentialPulley(Mechanism):
     spec_units = {"slider_angle": "rad", "idler_radius": "m", "anchor_angles": "rad", "cable_length": "m", "reference_angle": "rad", "slider_range": "m", "min_free_span": "m", "rolling_radius": "m"}
     n_profiles: ClassVar[int] = 2
     closure_rows: ClassVar[int] = 1
-    outline_closure: ClassVar[str] = "chord"  # a wrap of nearly a turn leaves no room to round
     ports = ("slider",)
     per_angle = (Quantity("alpha1", "rad", "the departure angle α₁ on profile 1"),
                  Quantity("alpha2", "rad", "the departure angle α₂ on profile 2"),

@@ -233,19 +233,21 @@ def test_malformed_differential_specs_get_one_line_errors(key, value, message):
     assert "\n" not in str(err.value)
 
 
-def test_balancer_outlines_close_with_a_chord_at_the_anchor(balancer):
-    """Wraps of nearly a turn leave no room for a rounded closure: the outline closes with the
-    straight chord from the wrap's end to the anchor, and the holes still fit."""
-    from cadcam.make.workshop import chord_outline, closed_outline, holes, polyline
+def test_balancer_outlines_close_round_the_hub_as_the_nlp_designed_them(balancer):
+    """Wraps of nearly a turn leave no room for a rounded closure: the outline closes by the
+    convex hull of the designed arc and the hub, which the NLP's outline rows keep the whole
+    arc on, and the holes fit a 6 mm bore."""
+    from cadcam.make.workshop import closed_outline, cut_outline, holes, polyline
+    hub = balancer.problem.workshop.hub_radius
     for basis, c, prof in zip(balancer.design.bases, balancer.design.coefficients, balancer.recheck.profiles):
         end = float(prof.alpha.max())
         with pytest.raises(ValueError):
             closed_outline(basis, c, end)
-        outline = chord_outline(basis, c, end)
+        outline = cut_outline(basis, c, end, hub)
         pts = polyline(outline, 1e-5)
-        ends = [np.array(outline.points[0]), np.array(outline.points[-1])]
-        rho0, rho_end = (float(profile_function(basis)(p, c)[0]) for p in (0.0, end))
-        assert np.hypot(*ends[0]) == pytest.approx(rho0, rel=1e-9)
-        assert len(pts) > 50
-        holes(outline, 0.006, 0.0025)  # raises if a hole leaves less than the minimum wall
-        assert rho_end != pytest.approx(rho0, rel=1e-3)  # a real step: the chord is needed
+        turn = np.cross(np.roll(pts, -1, axis=0) - pts, np.roll(pts, -2, axis=0) - np.roll(pts, -1, axis=0))
+        assert turn.min() > -1e-12  # convex: every corner turns left
+        rho0 = float(profile_function(basis)(0.0, c)[0])
+        assert np.hypot(*outline.points[0]) == pytest.approx(rho0, rel=1e-9)
+        assert outline.rho_range[0] >= hub - 1e-9
+        holes(outline, balancer.problem.workshop.bore_diameter, 0.0025)  # raises if a wall is short
