@@ -122,7 +122,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     ev = result.evaluation
     notes, outlines = [], {}
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
-    for i, (cs, mech) in enumerate(zip(ev.profiles, owners)):
+    for i, cs in enumerate(ev.profiles):
         try:
             if cs.alpha.max() >= TWO_PI:
                 groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
