@@ -298,3 +298,31 @@ def test_large_cam_is_drawn_reduced(tmp_path):
     np.testing.assert_allclose(disc.rho_range, 0.2, rtol=1e-12)
     # 400 mm at 1:2 is 200 mm, more than the 160 mm high drawing area: 1:5
     assert draw_sheet(tmp_path / "disc.pdf", disc, 0.05, 0.01, 0.15, 0.25, "disc") == 5
+
+
+def test_hull_closure_goes_round_the_hub_and_keeps_the_arc():
+    """A growing spiral over 200°: the chord back to the anchor would cut a 9 mm hub, so the
+    hull runs straight to the hub, round it and straight on; the designed arc is kept."""
+    from cadcam.make.workshop import HullClosing, hull_outline
+    basis, c, end, hub = Basis("monomial", 1, (0.0, 3.5)), np.array([0.012, 0.004]), np.radians(200), 0.009
+    outline = hull_outline(basis, c, end, hub)
+    assert isinstance(outline.closing, HullClosing) and outline.closing.starts.size == 3
+    phi = np.linspace(0.0, end, 50)
+    np.testing.assert_allclose(outline.rho(phi), c[0] + c[1] * phi, rtol=1e-12)
+    assert outline.rho_range[0] == pytest.approx(hub, rel=1e-6)
+    xy = outline.xy(np.linspace(0.0, TWO_PI, 5000, endpoint=False))
+    edge = np.diff(np.vstack((xy, xy[:1])), axis=0)
+    nxt = np.roll(edge, -1, axis=0)
+    assert (edge[:, 0] * nxt[:, 1] - edge[:, 1] * nxt[:, 0]).min() > -1e-15
+    # the closing lines touch the hub: each is a tangent, at distance hub from the axis
+    for j in (0, 2):
+        a, b = outline.closing.a[j], outline.closing.b[j]
+        assert 1 / np.hypot(a, b) == pytest.approx(hub, rel=1e-12)
+
+
+def test_hull_closure_refuses_an_arc_that_leaves_the_hull():
+    """A spiral of nearly a turn whose end overhangs its anchor: the arc near φ = 0 is not on
+    the hull (the design broke its outline rows), and the closure says so."""
+    from cadcam.make.workshop import hull_outline
+    with pytest.raises(ValueError, match="does not lie on the convex hull"):
+        hull_outline(Basis("monomial", 1, (0.0, 6.0)), np.array([0.01, 0.002]), 6.0, 0.004)

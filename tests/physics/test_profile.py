@@ -68,3 +68,38 @@ def test_refining_steps_around_angles_where_the_profile_is_not_finite():
     phi = np.linspace(0.0, 1.0, 11)
     local = lambda p, c: [np.where(p < a, np.nan, p - a)]  # noqa: E731 — the profile function, mapped
     assert 0.0 <= _refine_min(local, None, phi, np.abs(phi - a), 0) < 1e-11
+
+
+def _tangent_geometry(basis, c, phi):
+    """Points, outward unit normals and tangent distances from the axis of a profile, by plane
+    geometry on finite differences of its points (not the profile's own derivatives)."""
+    rho = np.asarray(profile_function(basis).map(phi.size)(phi, c)[0]).ravel()
+    p = np.column_stack((rho * np.cos(phi), rho * np.sin(phi)))
+    t = np.gradient(p, phi, axis=0, edge_order=2)
+    n = np.column_stack((t[:, 1], -t[:, 0])) / np.hypot(*t.T)[:, None]
+    return p, n, np.sum(n * p, axis=1)
+
+
+def test_support_distance_is_the_tangent_lines_distance_from_the_axis():
+    from cadcam.physics.profile import support_distance
+    basis, c = Basis("monomial", 2, (0.0, 3.0)), np.array([0.01, 0.004, -0.0006])
+    phi = np.linspace(0.0, 3.0, 4001)
+    _, _, distance = _tangent_geometry(basis, c, phi)
+    rho, drho = (np.asarray(v).ravel() for v in profile_function(basis).map(phi.size)(phi, c)[:2])
+    np.testing.assert_allclose(np.asarray(support_distance(rho, drho)).ravel()[5:-5], distance[5:-5], rtol=1e-6)
+
+
+def test_inside_tangent_has_the_sign_of_the_ends_side_of_each_tangent():
+    """A spiral of nearly a turn whose end overhangs its start: the end lies outside the
+    tangents near the start and inside the others; the row's sign says which everywhere."""
+    from cadcam.physics.profile import inside_tangent
+    basis, c, end = Basis("monomial", 1, (0.0, 6.0)), np.array([0.01, 0.002]), 6.0
+    phi = np.linspace(0.0, 5.9, 600)
+    p, n, _ = _tangent_geometry(basis, c, phi)
+    rho, drho = (np.asarray(v).ravel() for v in profile_function(basis).map(phi.size)(phi, c)[:2])
+    rho_e = c[0] + c[1] * end
+    side = np.sum(n * (rho_e * np.array([np.cos(end), np.sin(end)]) - p), axis=1)  # ≤ 0: inside
+    row = np.asarray(inside_tangent(rho, drho, rho_e, phi - end)).ravel()
+    assert (side > 1e-7).any() and (side < -1e-7).any()
+    clear = np.abs(side) > 1e-7
+    np.testing.assert_array_equal(row[clear] >= 0, side[clear] < 0)

@@ -245,8 +245,9 @@ def test_balancer_outlines_close_round_the_hub_as_the_nlp_designed_them(balancer
             closed_outline(basis, c, end)
         outline = cut_outline(basis, c, end, hub)
         pts = polyline(outline, 1e-5)
-        turn = np.cross(np.roll(pts, -1, axis=0) - pts, np.roll(pts, -2, axis=0) - np.roll(pts, -1, axis=0))
-        assert turn.min() > -1e-12  # convex: every corner turns left
+        edge = np.roll(pts, -1, axis=0) - pts
+        nxt = np.roll(edge, -1, axis=0)
+        assert (edge[:, 0] * nxt[:, 1] - edge[:, 1] * nxt[:, 0]).min() > -1e-12  # convex: every corner turns left
         rho0 = float(profile_function(basis)(0.0, c)[0])
         assert np.hypot(*outline.points[0]) == pytest.approx(rho0, rel=1e-9)
         assert outline.rho_range[0] >= hub - 1e-9
