@@ -109,13 +109,13 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 def problem_functions(problem: Problem):
     """The NLP functions of ``problem`` and the Transcription that built them: the functions
-    that ``solver.functions = "compiled"`` compiles (:func:`cadcam.solve.compiled.oracle_functions`),
-    from the graph of mapped per-angle functions, whose C holds each per-angle function once
-    inside loops over the grid."""
+    of its whole NLP, deferred outline rows included, that ``solver.functions = "compiled"``
+    compiles (:func:`cadcam.solve.compiled.oracle_functions`), from the graph of mapped
+    per-angle functions, whose C holds each per-angle function once inside loops over the grid."""
     from ..solve.transcription import Transcription
 
     tr = Transcription(problem.with_options(functions="mapped"))
-    generated = oracle_functions(tr.nlp)
+    generated = oracle_functions(tr.whole_nlp)
     fns = [_renamed(generated[name], f"cadcam_{name}")
            for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")]
     return fns, tr
@@ -252,7 +252,7 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
 def _problem_data(problem: Problem, design: Design, tr) -> dict:
     """``problem_data.json``: the NLP's vector layouts, parameter vector, bounds and the
     starting point of ``design``, from its transcription ``tr``."""
-    lbg, ubg = tr.bounds(problem)
+    lbg, ubg = tr.whole_bounds(problem)
     lbx, ubx = tr.variable_bounds(problem)
     return {
         "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},

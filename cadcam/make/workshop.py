@@ -544,14 +544,22 @@ def _positive(name: str, value) -> float:
 
 # --------------------------------------------------------------------------------------- writers
 
+#: What a DXF or SVG says of an outline drawn in its own frame where the cable winds clockwise
+#: on the part: the frame has the cable wound counter-clockwise, so the drawing is the part seen
+#: from its back.
+MIRRORED_NOTE = ("SEEN FROM THE BACK: the cable winds clockwise on this part, so this outline "
+                 "(drawn with the cable counter-clockwise) is its mirror image; cut it and turn it over")
+
+
 def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
-              tolerance: float = DEFAULT_TOLERANCE) -> ArcChain:
+              tolerance: float = DEFAULT_TOLERANCE, mirrored: bool = False) -> ArcChain:
     """Write the cam as a DXF drawing in millimetres ($INSUNITS = 4), atomically.
 
     The outline as a closed LWPOLYLINE of circular arcs (bulges) on layer PROFILE, the biarc fit
     of :func:`cadcam.make.biarc.biarc_fit` within ``tolerance`` [m], its first vertex the anchor
     point φ = 0 on the +x axis; the bore (centred on the rotation axis, the origin) and the
-    anchor hole (:func:`anchor_centre`) as CIRCLEs on layer HOLES. Returns the fitted chain.
+    anchor hole (:func:`anchor_centre`) as CIRCLEs on layer HOLES; where ``mirrored`` (a
+    clockwise-wound part), :data:`MIRRORED_NOTE` as TEXT on layer NOTES. Returns the fitted chain.
     """
     circles = holes(outline, bore_diameter, anchor_diameter)
     chain = biarc_fit(outline, tolerance)
@@ -563,6 +571,10 @@ def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
                        dxfattribs={"layer": "PROFILE"})
     for centre, diameter in circles:
         msp.add_circle(tuple(centre * MM), diameter * MM / 2, dxfattribs={"layer": "HOLES"})
+    if mirrored:
+        doc.layers.add("NOTES", color=3)
+        low = chain.sample(SVG_BOX_SAMPLES).min(axis=0) * MM
+        msp.add_text(MIRRORED_NOTE, height=2.0, dxfattribs={"layer": "NOTES", "insert": (low[0], low[1] - 5.0)})
     with atomic_path(path) as tmp:
         doc.saveas(tmp)
     return chain
@@ -586,13 +598,14 @@ def _svg_arcs(chain: ArcChain, flip) -> str:
 
 
 def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
-              tolerance: float = DEFAULT_TOLERANCE) -> None:
+              tolerance: float = DEFAULT_TOLERANCE, mirrored: bool = False) -> None:
     """Write the cam as an SVG at 1:1 scale, atomically.
 
     ``width`` and ``height`` are in millimetres and the viewBox, in millimetres, is the bounding
     box of the profile, seen from +z (SVG's y axis points down, so y is negated). One path for
     the profile — the same biarcs as the DXF (:func:`cadcam.make.biarc.biarc_fit` within
-    ``tolerance``), as SVG arcs — and one circle per hole, as hairlines for a laser cutter.
+    ``tolerance``), as SVG arcs — and one circle per hole, as hairlines for a laser cutter;
+    where ``mirrored``, :data:`MIRRORED_NOTE` as the drawing's title (not cut).
     """
     circles = holes(outline, bore_diameter, anchor_diameter)
     flip = np.array([MM, -MM])
@@ -607,6 +620,7 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{size[0]:.6f}mm" '
         f'height="{size[1]:.6f}mm" viewBox="{lo[0]:.6f} {lo[1]:.6f} {size[0]:.6f} {size[1]:.6f}">',
+        *([f"<title>{MIRRORED_NOTE}</title>"] if mirrored else []),
         '<g fill="none" stroke="black" stroke-width="0.05">', *shapes, "</g>", "</svg>", ""]))
 
 

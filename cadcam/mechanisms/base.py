@@ -380,6 +380,14 @@ class Mechanism:
         climb a helical groove allows more."""
         return 2 * np.pi
 
+    @property
+    def windings(self) -> tuple[float, ...]:
+        """Each profile's winding on the part seen from the front: +1 counter-clockwise, −1
+        clockwise. Outlines are drawn in the profile's own frame, where the cable winds
+        counter-clockwise, so a −1 profile's drawing is the part seen from its back. Default:
+        every profile as drawn."""
+        return (1.0,) * self.n_profiles
+
     def planar(self) -> bool:
         """Whether its profiles are cut as planar outlines (a turn at most), which the NLP
         closes around the hub: not a helical groove."""

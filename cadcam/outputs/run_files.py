@@ -169,7 +169,8 @@ def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):
         chains = {}
         for i, outline in outlines.items():
             try:
-                write_dxf(out / f"cam{i + 1}.dxf", outline, args.bore_diameter, args.anchor_diameter, tolerance)
+                write_dxf(out / f"cam{i + 1}.dxf", outline, args.bore_diameter, args.anchor_diameter, tolerance,
+                          _mirrored(result.evaluation.problem, i))
             except ValueError as exc:
                 raise WorkshopError(f"cam{i + 1}: {exc}") from exc
             chains[i] = read_dxf(out / f"cam{i + 1}.dxf")
@@ -179,6 +180,13 @@ def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):
             return tolerance, chains, checks
         tolerance = max(MIN_FIT, tolerance / (2 * miss))
     raise AssertionError("unreachable")
+
+
+def _mirrored(problem, i: int) -> bool:
+    """Whether profile ``i``'s outline, drawn in its own frame, is its part seen from the back
+    (its cable winds clockwise: :attr:`cadcam.mechanisms.base.Mechanism.windings`)."""
+    windings = [w for mech in problem.mechanisms for w in mech.windings]
+    return windings[i] < 0
 
 
 def _polygon_tolerance(tolerance: float) -> float:
@@ -198,7 +206,8 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
     cam = ev.problem.profiles[i]
     stem = out / f"cam{i + 1}"
     polygon = _polygon_tolerance(tolerance)
-    write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance)
+    write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance,
+              _mirrored(ev.problem, i))
     write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon)
     if sheets:
         from ..make.drawing import save_sheet, sheet_figure

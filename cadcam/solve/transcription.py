@@ -362,11 +362,21 @@ class Transcription:
         lo, hi = self.bounds(problem, deferred=True)
         return bool(np.any(g < lo - DEFERRED_TOL) or np.any(g > hi + DEFERRED_TOL))
 
+    @property
+    def whole_nlp(self) -> dict:
+        """The NLP with its deferred rows after the others: the whole problem, which the export
+        writes and the second solve of :meth:`solve` solves."""
+        return {**self.nlp, "g": ca.vertcat(self.nlp["g"], self._deferred(self.nlp["x"], self.nlp["p"]))}
+
+    def whole_bounds(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the rows of :attr:`whole_nlp` for ``problem``'s limits."""
+        (lo, hi), (dlo, dhi) = self.bounds(problem), self.bounds(problem, deferred=True)
+        return np.r_[lo, dlo], np.r_[hi, dhi]
+
     def _imposing_solver(self) -> ca.Function:
-        """IPOPT on the NLP with its deferred rows after the others, built on first use."""
+        """IPOPT on :attr:`whole_nlp`, built on first use."""
         if self._imposing is None:
-            nlp = {**self.nlp, "g": ca.vertcat(self.nlp["g"], self._deferred(self.nlp["x"], self.nlp["p"]))}
-            self._imposing, _ = _ipopt_solver(nlp, self.problem.options, IMPOSING_IPOPT)
+            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options, IMPOSING_IPOPT)
         return self._imposing
 
     def design_of(self, w) -> Design:
@@ -389,10 +399,10 @@ class Transcription:
             sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
             runs.append(self.solver.stats())
             if self._breaks_deferred(problem, sol["x"], pv):
-                dlo, dhi = self.bounds(problem, deferred=True)
-                lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(dlo.size)]
+                wlo, whi = self.whole_bounds(problem)
+                lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(wlo.size - lbg.size)]
                 sol = self._imposing_solver()(x0=sol["x"], lam_x0=sol["lam_x"], lam_g0=lam_g0, p=pv,
-                                              lbx=lbx, ubx=ubx, lbg=np.r_[lbg, dlo], ubg=np.r_[ubg, dhi])
+                                              lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
                 runs.append(self._imposing.stats())
         elapsed = time.perf_counter() - t0
         w, ret = np.asarray(sol["x"]).ravel(), runs[-1].get("return_status", "unknown")

@@ -326,3 +326,22 @@ def test_hull_closure_refuses_an_arc_that_leaves_the_hull():
     from cadcam.make.workshop import hull_outline
     with pytest.raises(ValueError, match="does not lie on the convex hull"):
         hull_outline(Basis("monomial", 1, (0.0, 6.0)), np.array([0.01, 0.002]), 6.0, 0.004)
+
+
+def test_a_clockwise_wound_part_says_its_drawing_is_seen_from_the_back(tmp_path):
+    """Outlines are drawn with the cable counter-clockwise; a clockwise-wound pulley's DXF and
+    SVG say that they show it from the back, and a counter-clockwise one's say nothing."""
+    from pathlib import Path
+
+    from cadcam.make.workshop import MIRRORED_NOTE
+    from cadcam.outputs.run_files import _mirrored
+    from cadcam.spec import load_spec
+    pendulum = load_spec(Path(__file__).resolve().parents[2] / "models" / "ludovico2021_pendulum.toml")
+    assert [_mirrored(pendulum, i) for i in range(2)] == [True, False]  # its winding: "cw", "ccw"
+    disc = closed_outline(Basis("monomial", 0, (0.0, 2.0)), [0.03], 2.0)
+    for mirrored in (True, False):
+        write_dxf(tmp_path / "c.dxf", disc, BORE, ANCHOR, mirrored=mirrored)
+        write_svg(tmp_path / "c.svg", disc, BORE, ANCHOR, mirrored=mirrored)
+        texts = [t.dxf.text for t in ezdxf.readfile(tmp_path / "c.dxf").modelspace().query("TEXT")]
+        assert texts == ([MIRRORED_NOTE] if mirrored else [])
+        assert (MIRRORED_NOTE in (tmp_path / "c.svg").read_text()) == mirrored

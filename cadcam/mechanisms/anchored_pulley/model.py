@@ -112,6 +112,11 @@ class AnchoredPulley(Mechanism):
         return ("Ludovico2021", "Endo2010") if self.turning == "pulley" else ("Ludovico2021",)
 
     @property
+    def windings(self) -> tuple[float]:
+        """The cable's winding on the pulley seen from the front: +1 ``ccw``, −1 ``cw``."""
+        return (WINDING[self.winding],)
+
+    @property
     def sigma(self) -> float:
         """σ = ±1: the canonical spring end turns by σθ around the pulley."""
         turn = -1.0 if self.turning == "pulley" else 1.0
