@@ -191,7 +191,7 @@ def _import_in_background(*modules: str) -> threading.Thread:
 
 
 #: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.problem.Workshop`).
-WORKSHOP_FLAGS = ("bore_diameter", "anchor_diameter", "tolerance", "stl", "groove_depth", "groove_width",
+WORKSHOP_FLAGS = ("bore_diameter", "anchor_diameter", "cable_diameter", "tolerance", "stl", "groove_depth", "groove_width",
                   "groove_pitch")
 
 
@@ -405,6 +405,9 @@ def _add_design_command(sub) -> None:
                              "[workshop] table, whose defaults are given)")
     w.add_argument("--bore-diameter", type=float, help="shaft bore (default 0.006)")
     w.add_argument("--anchor-diameter", type=float, help="cable anchor hole near φ = 0 (default 0.0025)")
+    w.add_argument("--cable-diameter", type=float,
+                   help="the cable's diameter: the designed profile is its centre line, the cut outline "
+                        "lies its radius inside (default 0)")
     w.add_argument("--tolerance", type=float,
                    help="loosest fit of the DXF/SVG arcs and CSV/STL polygons (default 1e-5 = 0.01 mm); "
                         "tighter where the design's accuracy asks (verification.md)")

@@ -263,10 +263,14 @@ class Options:
 
 MIN_WALL = 1e-3
 """Least material [m] left between the bore, the anchor hole, the groove and the profile."""
+MIN_CUT_RADIUS = 5e-4
+"""Least radius of curvature [m] of a cut outline under a cable of some diameter: the designed
+centre line's, less the cable's radius (a cutter's radius, and no cusp in the offset)."""
 
 #: Workshop sizes [m] a spec's ``[workshop]`` table or a ``cadcam design`` flag may set:
 #: (smallest, largest); a chordal tolerance below 0.1 µm would make polygons of unbounded size.
-WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "tolerance": (1e-7, 1e-3),
+WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "cable_diameter": (0.0, 0.02),
+                   "tolerance": (1e-7, 1e-3),
                    "stl": (1e-4, 1.0), "groove_depth": (0.0, 0.1), "groove_width": (0.0, 0.1),
                    "groove_pitch": (1e-4, 0.1)}
 
@@ -281,6 +285,9 @@ class Workshop:
         Shaft bore of every planar outline.
     anchor_diameter : float
         Cable-anchor hole near φ = 0.
+    cable_diameter : float
+        The cable's diameter (0: an ideal thread). The designed profile is the cable's centre
+        line, on which torques and lengths are computed; the cut outline lies its radius inside.
     tolerance : float
         Loosest fit of the DXF and SVG arcs and the CSV and STL polygons; the files are fitted
         tighter where the design's accuracy asks (:mod:`cadcam.outputs.verification`).
@@ -294,6 +301,7 @@ class Workshop:
 
     bore_diameter: float = 0.006
     anchor_diameter: float = 0.0025
+    cable_diameter: float = 0.0
     tolerance: float = 1e-5
     stl: float | None = None
     groove_depth: float = 0.0
@@ -308,8 +316,19 @@ class Workshop:
 
     @property
     def hub_radius(self) -> float:
-        """Radius [m] of the hub every outline closes around: the bore's and a wall."""
+        """Radius [m] of the hub every cut outline closes around: the bore's and a wall."""
         return self.bore_diameter / 2 + MIN_WALL
+
+    @property
+    def cable_radius(self) -> float:
+        """Half the cable's diameter [m]: how far the cut outline lies inside the designed one."""
+        return self.cable_diameter / 2
+
+    @property
+    def greatest_curvature(self) -> float:
+        """Greatest curvature [1/m] of a designed profile, the cable's centre line, where the
+        cable has a diameter: one over its radius and MIN_CUT_RADIUS (inf without one)."""
+        return 1 / (self.cable_radius + MIN_CUT_RADIUS) if self.cable_diameter > 0 else np.inf
 
     @property
     def anchor_radius(self) -> float:

@@ -142,15 +142,6 @@ def _bulge(a, b, t) -> np.ndarray:
     return np.tan(half / 2)
 
 
-def _unit_tangents(outline: Outline, phi, closing: bool) -> np.ndarray:
-    """Unit tangents dp/dφ/|dp/dφ| of the designed or the closing arc at ``phi`` (one-sided
-    at the joints, where the chord closure has corners)."""
-    rho, drho, _ = outline.piece_derivatives(phi, closing)
-    c, s = np.cos(phi), np.sin(phi)
-    t = np.column_stack([drho * c - rho * s, drho * s + rho * c])  # Johnston2023 Eq. 3
-    return t / np.linalg.norm(t, axis=1, keepdims=True)
-
-
 def _fit_piece(outline: Outline, start: float, stop: float, closing: bool, tolerance: float):
     """Knots, joints, bulges and errors of the biarcs over [start, stop], intervals halved
     until each is within ``tolerance``."""
@@ -159,8 +150,8 @@ def _fit_piece(outline: Outline, start: float, stop: float, closing: bool, toler
     for _ in range(MAX_ROUNDS):
         a, b = knots[:-1], knots[1:]
         p0, p1 = outline.xy(a), outline.xy(b)
-        joint, bulge = biarcs(p0, _unit_tangents(outline, a, closing), p1,
-                              _unit_tangents(outline, b, closing))
+        joint, bulge = biarcs(p0, outline.unit_tangents(a, closing), p1,
+                              outline.unit_tangents(b, closing))
         inner = outline.xy((a[:, None] + (b - a)[:, None] * s).ravel()).reshape(a.size, s.size, 2)
         error = np.minimum(arc_distance(inner, p0[:, None], joint[:, None], bulge[:, :1]),
                            arc_distance(inner, joint[:, None], p1[:, None], bulge[:, 1:])).max(axis=1)

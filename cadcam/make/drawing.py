@@ -166,7 +166,7 @@ def _circle(centre, radius, **style):
 
 def _outline_radius(outline, angle) -> float:
     """Radius of the outline [mm] along the ray at polar ``angle`` [rad]."""
-    return float(outline.rho(angle)[0]) * MM
+    return outline.radius_at(angle) * MM
 
 
 def _spread(taken, candidates) -> float:

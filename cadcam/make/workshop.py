@@ -45,11 +45,15 @@ SVG_BOX_SAMPLES = 64
 
 @dataclass
 class Outline:
-    """A closed convex cam outline: the designed arc and the arc that closes it.
+    """A closed convex cam outline as cut: the designed arc and the arc that closes it.
 
-    The designed arc is ρ(φ) of the optimised profile for φ ∈ [0, ``phi_end``]; the closing arc
-    is ρ = 1/u with u given by ``closing`` (:class:`SmoothClosing` or :class:`HullClosing`).
-    Angles outside [0, 2π) are taken modulo 2π.
+    The designed arc is ρ(φ) of the optimised profile for φ ∈ [0, ``phi_end``], the cable's
+    centre line, cut ``offset`` (the cable's radius) inside it: p(φ) − offset·n̂(φ), n̂ the
+    outward unit normal. The closing arc is ρ = 1/u in the polar angle ψ, u given by ``closing``:
+    a :class:`SmoothClosing` closes the designed arc itself (C2 at both joints) and is cut the
+    same offset inside; a :class:`HullClosing` closes the cut arc, from its end round to its
+    anchor, and the parameter φ ∈ [φ_end, 2π] runs over it at a constant rate of ψ (ψ = φ
+    without offset). Angles outside [0, 2π) are taken modulo 2π.
 
     Attributes
     ----------
@@ -60,7 +64,9 @@ class Outline:
     phi_end : float
         Angle where the designed (wrapped) arc ends and the closing arc begins [rad].
     closing : SmoothClosing or HullClosing
-        u = 1/ρ [1/m] and its φ-derivatives on the closing arc.
+        u = 1/ρ [1/m] and its ψ-derivatives on the closing arc.
+    offset : float
+        How far inside the designed arc the cut arc lies [m] (a cable's radius; 0: on it).
     samples : int
         Number of points of the dense sample.
     phi : ndarray
@@ -73,18 +79,23 @@ class Outline:
     coefficients: np.ndarray
     phi_end: float
     closing: SmoothClosing | HullClosing
+    offset: float = 0.0
     samples: int = 2048
     phi: np.ndarray = field(init=False, repr=False)
     points: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
+        #: the closing arc's own offset [m]: a smooth closure's is the arc's, a hull's none
+        self.closing_offset = self.offset if isinstance(self.closing, SmoothClosing) else 0.0
+        self.closing_angles = closing_angles(self.profile, self.coefficients, self.phi_end,
+                                             self.offset - self.closing_offset)
         grid = np.linspace(0.0, TWO_PI, self.samples, endpoint=False)
         self.phi = np.union1d(grid, [self.phi_end])
         self.points = self.xy(self.phi)
 
     @property
     def closing_span(self) -> float:
-        """Angle 2π − φ_end covered by the closing arc [rad]."""
+        """Angle 2π − φ_end of the parameter covered by the closing arc [rad]."""
         return TWO_PI - self.phi_end
 
     @property
@@ -98,7 +109,10 @@ class Outline:
         return np.mod(np.asarray(phi, dtype=float), TWO_PI) <= self.phi_end
 
     def derivatives(self, phi) -> np.ndarray:
-        """ρ, ρ′, ρ″ [m, m/rad, m/rad²] at the angles ``phi``, as a (3, N) array."""
+        """ρ, ρ′, ρ″ [m, m/rad, m/rad²] at the polar angles ``phi``, as a (3, N) array, of an
+        outline cut on its designed arc (``offset`` 0), where φ is the polar angle."""
+        if self.offset:
+            raise ValueError("an outline cut a cable's radius inside its designed arc is not ρ(φ)")
         phi = np.mod(np.atleast_1d(np.asarray(phi, dtype=float)), TWO_PI)
         out = np.empty((3, phi.size))
         on = self.designed(phi)
@@ -108,28 +122,108 @@ class Outline:
             out[:, ~on] = _rho_from_u(*self.closing.u(phi[~on]))
         return out
 
-    def piece_derivatives(self, phi, closing: bool) -> np.ndarray:
-        """ρ, ρ′, ρ″ of the designed arc (``closing`` False) or of the closing arc's polynomial
-        at ``phi`` [rad] in [0, φ_end] or [φ_end, 2π]: one-sided at the joints, where a chord
-        closure has corners."""
-        phi = np.atleast_1d(np.asarray(phi, dtype=float))
-        if closing:
-            return _rho_from_u(*self.closing.u(phi))
-        return designed_values(self.profile, self.coefficients, phi)[:3]
-
     def rho(self, phi) -> np.ndarray:
-        """ρ(φ) [m] on the full circle."""
+        """ρ(φ) [m] on the full circle (``offset`` 0)."""
         return self.derivatives(phi)[0]
 
     def margin(self, phi) -> np.ndarray:
-        """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] on the full circle (Johnston2023 Eq. 40)."""
+        """Convexity margin ρ² + 2ρ′² − ρρ″ [m²] on the full circle (Johnston2023 Eq. 40;
+        ``offset`` 0)."""
         return convexity_margin(*self.derivatives(phi))
 
+    def radius_at(self, angle: float) -> float:
+        """Distance [m] from the axis to the outline along the ray at polar ``angle`` [rad]."""
+        if not self.offset:
+            return float(self.rho(angle)[0])
+        polar = np.unwrap(np.arctan2(self.points[:, 1], self.points[:, 0]))
+        return float(np.interp(np.mod(angle - polar[0], TWO_PI) + polar[0], polar, np.hypot(*self.points.T),
+                               period=TWO_PI))
+
+    def _psi(self, phi) -> np.ndarray:
+        """Polar angle ψ [rad] of the closing arc at parameter φ ∈ [φ_end, 2π]."""
+        start, stop = self.closing_angles
+        return start + (np.asarray(phi, dtype=float) - self.phi_end) * (stop - start) / self.closing_span
+
     def xy(self, phi) -> np.ndarray:
-        """Points (ρ cos φ, ρ sin φ) [m] of the outline, shape (N, 2)."""
+        """Points [m] of the outline at the parameters ``phi``, shape (N, 2)."""
+        phi = np.mod(np.atleast_1d(np.asarray(phi, dtype=float)), TWO_PI)
+        out = np.empty((phi.size, 2))
+        on = self.designed(phi)
+        if on.any():
+            out[on] = cut_points(self.profile, self.coefficients, phi[on], self.offset)
+        if not on.all():
+            psi = self._psi(phi[~on])
+            rho, drho, _ = _rho_from_u(*self.closing.u(psi))
+            out[~on] = _offset_inward(psi, rho, drho, self.closing_offset)
+        return out
+
+    def unit_tangents(self, phi, closing: bool) -> np.ndarray:
+        """Unit tangents (N, 2) of the designed arc (``closing`` False) or of the closing arc at
+        the parameters ``phi`` [rad] in [0, φ_end] or [φ_end, 2π]: one-sided at the joints,
+        where a hull closure has corners. An offset arc's tangent is its designed arc's."""
         phi = np.atleast_1d(np.asarray(phi, dtype=float))
-        rho = self.rho(phi)
-        return np.column_stack((rho * np.cos(phi), rho * np.sin(phi)))
+        if closing:
+            psi = self._psi(phi)
+            rho, drho, _ = _rho_from_u(*self.closing.u(psi))
+        else:
+            psi = phi
+            rho, drho = designed_values(self.profile, self.coefficients, phi)[:2]
+        t = _polar_tangent(psi, rho, drho)
+        return t / np.linalg.norm(t, axis=1, keepdims=True)
+
+    def speed_curvature(self, phi) -> tuple[np.ndarray, np.ndarray]:
+        """|dp/dφ| [m/rad] and the curvature κ [1/m] of the outline at the parameters ``phi``
+        in [0, 2π] (the designed arc's where φ = φ_end). Johnston2023 Eq. 40: κ is the margin
+        over the speed cubed; an offset d inside a curve of curvature κ has speed s(1 − dκ)
+        and curvature κ/(1 − dκ)."""
+        phi = np.atleast_1d(np.asarray(phi, dtype=float))
+        on = phi <= self.phi_end
+        speed, kappa = np.empty(phi.size), np.empty(phi.size)
+        if on.any():
+            rho, drho, ddrho = designed_values(self.profile, self.coefficients, phi[on])[:3]
+            s = np.hypot(rho, drho)
+            k = convexity_margin(rho, drho, ddrho) / s**3
+            speed[on], kappa[on] = s * (1 - self.offset * k), k / (1 - self.offset * k)
+        if not on.all():
+            rho, drho, ddrho = _rho_from_u(*self.closing.u(self._psi(phi[~on])))
+            s = np.hypot(rho, drho)
+            k = convexity_margin(rho, drho, ddrho) / s**3
+            start, stop = self.closing_angles
+            speed[~on] = s * (1 - self.closing_offset * k) * (stop - start) / self.closing_span
+            kappa[~on] = k / (1 - self.closing_offset * k)
+        return speed, kappa
+
+
+def _polar_tangent(phi, rho, drho) -> np.ndarray:
+    """dp/dφ (N, 2) of the polar curve (ρ cos φ, ρ sin φ) (Johnston2023 Eq. 3)."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.column_stack((drho * c - rho * s, drho * s + rho * c))
+
+
+def _offset_inward(phi, rho, drho, offset: float) -> np.ndarray:
+    """Points (N, 2) [m] of the polar curve ρ(φ) moved ``offset`` [m] along its inward normal:
+    the tangent (Johnston2023 Eq. 3) turned by +90°."""
+    t = _polar_tangent(phi, rho, drho)
+    inward = np.column_stack((-t[:, 1], t[:, 0])) / np.linalg.norm(t, axis=1, keepdims=True)
+    return np.column_stack((rho * np.cos(phi), rho * np.sin(phi))) + offset * inward
+
+
+def cut_points(profile: ca.Function, coefficients, phi, offset: float) -> np.ndarray:
+    """Points (N, 2) [m] of the designed arc at ``phi`` cut ``offset`` [m] inside it."""
+    phi = np.atleast_1d(np.asarray(phi, dtype=float))
+    rho, drho = designed_values(profile, coefficients, phi)[:2]
+    return _offset_inward(phi, rho, drho, offset)
+
+
+def closing_angles(profile: ca.Function, coefficients, phi_end: float, offset: float) -> tuple[float, float]:
+    """Polar angles [rad] where the closing arc of an outline cut ``offset`` inside its designed
+    arc starts (the cut arc's end) and stops (its anchor, a turn on): (φ_end, 2π) without offset."""
+    if not offset:
+        return float(phi_end), TWO_PI
+    end, anchor = cut_points(profile, coefficients, [phi_end, 0.0], offset)
+    start = float(np.arctan2(end[1], end[0]))
+    stop = float(np.arctan2(anchor[1], anchor[0])) + TWO_PI
+    return start, stop - TWO_PI * np.floor((stop - start) / TWO_PI)
 
 
 def designed_values(profile: ca.Function, coefficients, phi) -> np.ndarray:
@@ -150,7 +244,7 @@ def _rho_from_u(u, du, ddu) -> np.ndarray:
 
 
 def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
-                   free: int = CLOSURE_FREE) -> Outline:
+                   free: int = CLOSURE_FREE, offset: float = 0.0) -> Outline:
     """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], into a convex C2 outline.
 
     Method. In u = 1/ρ a polar curve is convex where u + u″ > 0: u + u″ is the Eq. 40 margin
@@ -200,7 +294,7 @@ def closed_outline(basis: Basis, coefficients, phi_max: float, rho_bounds=None,
     profile = profile_function(basis)
     _check_designed_arc(profile, coefficients, phi_max)
     closing = SmoothClosing(_closing_polynomial(profile, coefficients, phi_max, rho_bounds, free), float(phi_max))
-    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing)
+    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing, offset)
     _check_closing_arc(outline)
     return outline
 
@@ -221,15 +315,17 @@ def _closing_polynomial(profile, coefficients, phi_max: float, rho_bounds, free:
     return scale * (hermite + sum((aj * t for aj, t in zip(a, terms)), Polynomial([0.0])))
 
 
-def hull_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float) -> Outline:
-    """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], by the convex hull of the arc and the
-    hub, a disk of ``hub_radius`` [m] about the axis.
+def hull_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float, offset: float = 0.0) -> Outline:
+    """Close the designed arc ρ(φ), φ ∈ [0, ``phi_max``], cut ``offset`` [m] inside it (a cable's
+    radius), by the convex hull of that cut arc and the hub, a disk of ``hub_radius`` [m] about
+    the axis.
 
-    From the arc's end the hull runs straight to its anchor at φ = 2π ≡ 0 where that chord
-    passes outside the hub; otherwise straight to the hub, round it, and straight on to the
-    anchor, each line a tangent of the hub. The design NLP's outline rows (every tangent of the
-    arc outside the hub, with both of the arc's ends inside it) keep the whole arc on the hull,
-    so the hull always exists for a design that met them: it is checked here.
+    From the arc's end the hull runs straight to its anchor where that chord passes outside the
+    hub; otherwise straight to the hub, round it, and straight on to the anchor, each line a
+    tangent of the hub. The design NLP's outline rows (every tangent of the designed arc a
+    cable's radius outside the hub, both of the arc's ends inside it, no bend tighter than the
+    cable) keep the whole cut arc on the hull, so the hull exists for a design that met them:
+    it is checked here.
 
     Raises
     ------
@@ -241,18 +337,19 @@ def hull_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float) 
         raise ValueError(f"phi_max = {phi_max!r} rad must lie in (0, 2π)")
     profile = profile_function(basis)
     _check_designed_arc(profile, coefficients, phi_max)
-    (r1,), (r0,) = (designed_values(profile, coefficients, phi)[:1, 0] for phi in (phi_max, 0.0))
-    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max),
-                      HullClosing.around(phi_max, r1, r0, _positive("hub_radius", hub_radius)))
+    start, stop = closing_angles(profile, coefficients, phi_max, offset)
+    end, anchor = np.hypot(*cut_points(profile, coefficients, [phi_max, 0.0], offset).T)
+    closing = HullClosing.around(start, end, stop, anchor, _positive("hub_radius", hub_radius))
+    outline = Outline(profile, np.asarray(coefficients, dtype=float), float(phi_max), closing, offset)
     _check_on_hull(outline)
     return outline
 
 
 @dataclass(frozen=True)
 class HullClosing:
-    """u = 1/ρ [1/m] of a closing arc made of lines and an arc of the hub: piece j covers
-    φ ∈ [``starts[j]``, ``starts[j + 1]``) and is u = ``a[j]`` cos φ + ``b[j]`` sin φ (a line:
-    u + u″ = 0) or, with a = b = 0, the hub's circle u = ``level[j]``."""
+    """u = 1/ρ [1/m] of a closing arc made of lines and an arc of the hub in the polar angle ψ:
+    piece j covers ψ ∈ [``starts[j]``, ``starts[j + 1]``) and is u = ``a[j]`` cos ψ + ``b[j]`` sin ψ
+    (a line: u + u″ = 0) or, with a = b = 0, the hub's circle u = ``level[j]``."""
 
     starts: np.ndarray
     a: np.ndarray
@@ -260,18 +357,19 @@ class HullClosing:
     level: np.ndarray
 
     @classmethod
-    def around(cls, phi_end: float, rho_end: float, rho_anchor: float, hub: float) -> HullClosing:
-        """The hull's closing arc from (ρ_end, φ_end) to (ρ_anchor, 2π) round a hub of radius
+    def around(cls, start: float, rho_end: float, stop: float, rho_anchor: float, hub: float) -> HullClosing:
+        """The hull's closing arc from the arc's end (ρ_end, ψ = ``start``) to its anchor
+        (ρ_anchor, ψ = ``stop``, a turn on from the anchor's own angle) round a hub of radius
         ``hub`` [m]: the chord if it clears the hub, else tangent, hub arc, tangent."""
-        p1 = rho_end * np.array([np.cos(phi_end), np.sin(phi_end)])
-        p0 = np.array([rho_anchor, 0.0])
+        p1 = rho_end * np.array([np.cos(start), np.sin(start)])
+        p0 = rho_anchor * np.array([np.cos(stop), np.sin(stop)])
         normal = np.array([p0[1] - p1[1], p1[0] - p0[0]])  # the chord's line: normal · p = level
         level = float(normal @ p0)
         if level >= hub * np.hypot(*normal):
-            return cls(np.array([phi_end]), normal[:1] / level, normal[1:] / level, np.zeros(1))
-        leave = phi_end + np.arccos(min(1.0, hub / rho_end))      # where the tangent from the
-        arrive = TWO_PI - np.arccos(min(1.0, hub / rho_anchor))    # end and to the anchor touch
-        return cls(np.array([phi_end, leave, arrive]),
+            return cls(np.array([start]), normal[:1] / level, normal[1:] / level, np.zeros(1))
+        leave = start + np.arccos(min(1.0, hub / rho_end))      # where the tangent from the
+        arrive = stop - np.arccos(min(1.0, hub / rho_anchor))   # end and to the anchor touch
+        return cls(np.array([start, leave, arrive]),
                    np.array([np.cos(leave), 0.0, np.cos(arrive)]) / hub,
                    np.array([np.sin(leave), 0.0, np.sin(arrive)]) / hub, np.array([0.0, 1 / hub, 0.0]))
 
@@ -300,15 +398,17 @@ class SmoothClosing:
         return np.array([p(x), p.deriv(1)(x) / span, p.deriv(2)(x) / span**2])
 
 
-def cut_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float) -> Outline:
-    """The outline a workshop cuts: the designed arc closed by the smoothest convex C2 arc that
-    stays outside the hub of ``hub_radius`` [m] (:func:`closed_outline`) where one exists, else
-    by the hull of the arc and the hub (:func:`hull_outline`), which the design NLP's outline
-    rows guarantee."""
+def cut_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float, cable_radius: float = 0.0) -> Outline:
+    """The outline a workshop cuts: the designed arc, the centre line of a cable of
+    ``cable_radius`` [m], cut that far inside it and closed round the hub of ``hub_radius`` [m]:
+    by the smoothest convex C2 arc that keeps the cut outline clear of the hub and bends no
+    tighter than the cable (:func:`closed_outline`) where one exists, else by the hull of the
+    cut arc and the hub (:func:`hull_outline`), which the design NLP's outline rows guarantee."""
     try:
-        return closed_outline(basis, coefficients, phi_max, rho_bounds=(hub_radius, np.inf))
+        return closed_outline(basis, coefficients, phi_max, rho_bounds=(hub_radius + cable_radius, np.inf),
+                              offset=cable_radius)
     except ValueError:
-        return hull_outline(basis, coefficients, phi_max, hub_radius)
+        return hull_outline(basis, coefficients, phi_max, hub_radius, cable_radius)
 
 
 def _check_on_hull(outline: Outline) -> None:
@@ -403,11 +503,15 @@ def _solve_qp(h, g, a, lba, uba):
 
 
 def _check_closing_arc(outline):
-    """Raise ValueError unless u > 0 and u + u″ > 0 on a fine grid of the closing arc."""
+    """Raise ValueError unless u > 0 and u + u″ > 0 on a fine grid of the closing arc, and its
+    radius of curvature exceeds the outline's offset (the cut curve has no cusp)."""
     u, _, ddu = outline.closing.u(np.linspace(outline.phi_end, TWO_PI, CHECK_GRID))
     if np.any(u <= 0) or np.any(u + ddu <= 0):
         raise ValueError("the closing arc found is not convex between its grid points; "
                          "try a different number of free coefficients")
+    _, kappa = outline.speed_curvature(np.linspace(outline.phi_end, TWO_PI, CHECK_GRID))
+    if outline.offset and np.any(kappa <= 0):  # κ/(1 − dκ) turns negative past 1/d
+        raise ValueError("the closing arc found bends tighter than the cable's radius")
 
 
 # -------------------------------------------------------------------------------------- polyline
@@ -445,16 +549,12 @@ def polyline(outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> np.ndarr
 
 
 def _even_chords(outline, start, stop, tolerance) -> np.ndarray:
-    """Angles from ``start`` to ``stop`` [rad] spreading chords evenly in ∫ √(κ/8·tolerance) ds.
-
-    With ds/dφ = √(ρ² + ρ′²) and κ = (ρ² + 2ρ′² − ρρ″)/(ρ² + ρ′²)^(3/2) (Johnston2023 Eq. 40),
-    the chord count per radian is √(margin/8·tolerance)/(ρ² + ρ′²)^(1/4).
-    """
+    """Parameters from ``start`` to ``stop`` [rad] spreading chords evenly in ∫ √(κ/8·tolerance) ds:
+    the chord count per radian is |dp/dφ| √(κ/8·tolerance) (:meth:`Outline.speed_curvature`)."""
     phi = np.linspace(start, stop, 513)
-    rho, drho, ddrho = outline.derivatives(phi)
-    margin = convexity_margin(rho, drho, ddrho)  # Johnston2023 Eq. 40
-    # a straight chord (margin 0, rounding either side) needs no vertices of its own
-    density = np.sqrt(np.maximum(margin, 0) / (8 * tolerance)) / (rho**2 + drho**2) ** 0.25
+    speed, kappa = outline.speed_curvature(phi)
+    # a straight chord (κ 0, rounding either side) needs no vertices of its own
+    density = speed * np.sqrt(np.maximum(kappa, 0) / (8 * tolerance))
     count = np.concatenate(([0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(phi))))
     chords = max(1, int(np.ceil(CHORD_SPARE * count[-1])))
     if count[-1] == 0:
@@ -486,15 +586,16 @@ def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
     MIN_WALL of material between the hole and the profile (deeper where a corner of the
     outline, such as a chord closure's, comes near).
     """
-    rho, drho, _ = outline.derivatives(0.0)[:, 0]
-    outward = np.array([rho, -drho]) / np.hypot(rho, drho)  # tangent (ρ′, ρ) turned by −90°
+    point = outline.xy(0.0)[0]
+    tx, ty = outline.unit_tangents(0.0, closing=False)[0]
+    outward = np.array([ty, -tx])  # the tangent turned by −90°
     radius = anchor_diameter / 2
-    depths = radius + MIN_WALL + np.linspace(0.0, max(rho - radius - MIN_WALL, 0.0), 200)
+    depths = radius + MIN_WALL + np.linspace(0.0, max(np.hypot(*point) - radius - MIN_WALL, 0.0), 200)
     for depth in depths:  # the first depth that leaves the wall to the whole outline
-        centre = np.array([rho, 0.0]) - depth * outward
+        centre = point - depth * outward
         if np.min(np.hypot(*(outline.points - centre).T)) - radius >= MIN_WALL - ROUNDING:
             return centre
-    return np.array([rho, 0.0]) - depths[0] * outward  # none: holes() names the shortfall
+    return point - depths[0] * outward  # none: holes() names the shortfall
 
 
 def holes(outline: Outline, bore_diameter: float,

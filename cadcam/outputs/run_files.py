@@ -131,7 +131,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                 notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
                              f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
             else:
-                outlines[i] = _outline(ev, i, args.hub_radius)
+                outlines[i] = _outline(ev, i, args)
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     tolerance, chains, checks = _fitted_dxfs(result, out, args, outlines)
@@ -148,12 +148,13 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     return notes
 
 
-def _outline(ev, i: int, hub_radius: float):
-    """Profile ``i`` closed into the planar outline a workshop cuts, round a hub of
-    ``hub_radius`` [m] (:func:`cadcam.make.workshop.cut_outline`)."""
+def _outline(ev, i: int, args: Workshop):
+    """Profile ``i`` cut and closed into the planar outline a workshop cuts, round the hub and
+    a cable's radius inside the designed arc (:func:`cadcam.make.workshop.cut_outline`)."""
     from ..make.workshop import cut_outline
 
-    return cut_outline(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()), hub_radius)
+    return cut_outline(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()),
+                       args.hub_radius, args.cable_radius)
 
 
 def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):

@@ -164,6 +164,9 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     """The torque and output checks with the values recomputed from the files (profile index →
     outline read back), or a note where no file model covers a mechanism."""
     problem, fine = result.problem, _grid(result)
+    # the files hold the cut outlines; the cable's centre line, on which the design is, lies its
+    # radius outside them
+    chains = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
     owner = [u for u, mech in enumerate(problem.mechanisms) for _ in mech.profiles]
     kinds = {mech.kind for mech in problem.mechanisms}
     checks = []

@@ -598,25 +598,29 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
             pr.profiles[pk].rho_min * (1 + pr.options.limit_margin) / L,
             pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
         if mech.planar():
-            _outline_rows(rows, phi.T, rho, drho)
+            _outline_rows(rows, phi.T, rho, drho, conv)
         if mech.profiles[k].min_curvature_radius > 0:
             rc = p.add("rc", 1, pk)
             rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv) / L**3, _nonnegative)
 
 
-def _outline_rows(rows: _Rows, phi, rho, drho):
-    """Rows that let the designed arc, given as ρ, ρ′ at the check angles ``phi`` [rad] from
-    its anchor φ = 0 to its most-wound end (columns), be closed into a convex outline around
-    the hub: the convex hull of the arc and the hub's disk keeps the whole arc on its boundary
-    (every free cable span a tangent of a convex part, clear of it) when each tangent line
-    passes outside the hub and has both ends of the arc inside it; the anchor lies far enough
-    from the axis for the anchor hole, a wall deep, to clear the hub."""
-    support = support_distance(rho, drho)
-    rows.constrain(support / LENGTH_SCALE, lambda pr: (pr.workshop.hub_radius / LENGTH_SCALE, np.inf), True)
-    rows.constrain(rho[0] / LENGTH_SCALE, lambda pr: (pr.workshop.anchor_radius / LENGTH_SCALE, np.inf), True)
+def _outline_rows(rows: _Rows, phi, rho, drho, conv):
+    """Rows that let the designed arc, given as ρ, ρ′ and the Eq. 40 margin at the check angles
+    ``phi`` [rad] from its anchor φ = 0 to its most-wound end (columns), be closed into a
+    convex outline round the hub once cut a cable's radius inside it: the convex hull of the
+    arc and the hub's disk keeps the whole arc on its boundary (every free cable span a tangent
+    of a convex part, clear of it) when each tangent line passes outside the hub and has both
+    ends of the arc inside it; the anchor lies far enough out for the anchor hole, a wall deep,
+    to clear the hub; and the arc bends no tighter than the cable's radius and a cutter's."""
+    L = LENGTH_SCALE
+    rows.constrain(support_distance(rho, drho) / L,
+                   lambda pr: ((pr.workshop.hub_radius + pr.workshop.cable_radius) / L, np.inf), True)
+    rows.constrain(rho[0] / L, lambda pr: ((pr.workshop.anchor_radius + pr.workshop.cable_radius) / L, np.inf), True)
     for inner, end in ((slice(1, None), 0), (slice(None, -1), -1)):
-        rows.constrain(inside_tangent(rho[inner], drho[inner], rho[end], phi[inner] - phi[end])
-                       / LENGTH_SCALE**2, _nonnegative, True)
+        rows.constrain(inside_tangent(rho[inner], drho[inner], rho[end], phi[inner] - phi[end]) / L**2,
+                       _nonnegative, True)
+    curvature = conv / (rho**2 + drho**2) ** 1.5  # Johnston2023 Eq. 40 over the arc's speed cubed
+    rows.constrain(curvature * L, lambda pr: (-np.inf, pr.workshop.greatest_curvature * L), True)
 
 
 def _lifted_profile(rows: _Rows, basis, phi, c, pk: int):

@@ -25,7 +25,8 @@ counter-clockwise from it (the mechanism's ``winding`` = "cw" part is this outli
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import ezdxf
@@ -86,6 +87,18 @@ class FileOutline:
     end: np.ndarray
     length_at: np.ndarray
     reflex: int
+
+    def centre_line(self, cable_radius: float) -> FileOutline:
+        """The centre line of a cable of ``cable_radius`` [m] lying on this outline: its outward
+        offset, the same pieces about the same centres with their radii grown by the cable's
+        (a corner becomes an arc of that radius), each piece's start that much farther along
+        (the offset of a convex chain is longer by the radius times the normal's turn)."""
+        if not cable_radius:
+            return self
+        out = replace(self, radius=self.radius + cable_radius,
+                                  length_at=self.length_at + cable_radius * (self.start - self.start[0]))
+        object.__setattr__(out, "_perimeter", self._perimeter + cable_radius * (self.end[-1] - self.start[0]))
+        return out
 
     @property
     def perimeter(self) -> float:

@@ -178,3 +178,30 @@ def test_biarcs_of_a_convex_outline_all_turn_left():
     every arc turns counter-clockwise, like the outline."""
     chain = biarc_fit(spiral(r0=0.02, s=0.0, q=-5e-4, phi_max=4.5), 1e-5)
     assert np.all(chain.bulges > 0)
+
+
+def test_a_cable_with_a_diameter_lies_on_the_designed_curve_and_the_part_is_cut_inside_it(tmp_path, pendulum,
+                                                                                        random_pendulum):
+    """Under a 1 mm cable the cut outline lies 0.5 mm inside the designed curve, the cable's
+    centre line: the torque recomputed from the written DXFs about that centre line meets the
+    design, and the same files taken as the centre line itself (no cable) are far off."""
+    import dataclasses
+
+    from cadcam.make.workshop import cut_outline, designed_values
+    design, ev = random_pendulum
+    cabled = dataclasses.replace(pendulum, workshop=dataclasses.replace(pendulum.workshop, cable_diameter=1e-3))
+    result = types.SimpleNamespace(problem=cabled, evaluation=ev, recheck=ev)
+    write_workshop_files(result, tmp_path, cabled.workshop, sheets=False)
+    report = json.loads((tmp_path / "verification.json").read_text())
+    assert report["passed"] and all(c["passed"] for c in report["checks"])
+    b, c, end = design.bases[0], design.coefficients[0], float(ev.profiles[0].alpha.max())
+    cut = cut_outline(b, c, end, cabled.workshop.hub_radius, 5e-4)
+    phi = np.linspace(0.0, end, 300)
+    rho = designed_values(cut.profile, c, phi)[0]
+    centre = np.column_stack((rho * np.cos(phi), rho * np.sin(phi)))
+    gap = np.min(np.linalg.norm(centre[:, None] - cut.xy(np.linspace(0.0, end, 20000))[None], axis=2), axis=1)
+    np.testing.assert_allclose(gap, 5e-4, rtol=1e-4)
+    chains = {i: read_dxf(tmp_path / f"cam{i + 1}.dxf") for i in range(len(design.bases))}
+    (about_centre,), (ignored,) = (recompute(types.SimpleNamespace(problem=p, evaluation=ev, recheck=ev), chains)
+                                   for p in (cabled, pendulum))
+    assert ignored["file_max_abs_error"] > 100 * about_centre["file_max_abs_error"]

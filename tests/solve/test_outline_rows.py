@@ -9,12 +9,14 @@ from cadcam import optimize
 from cadcam.make.workshop import TWO_PI, cut_outline, holes
 from cadcam.physics.profile import profile_function, support_distance
 
-BORE = 0.012  # [m]: hub 7 mm, anchor at least 10.5 mm out; the 1-DOF cam's ρ(0) is about 10.07 mm
+BORE, CABLE = 0.012, 0.002  # [m]: hub 7 mm, anchor 10.5 mm out, each a cable's radius more on the
+# designed curve (the cable's centre line); the 1-DOF cam's ρ(0) is about 10.07 mm
 
 
 @pytest.fixture(scope="module")
 def wide_bore(problem_1dof):
-    problem = dataclasses.replace(problem_1dof, workshop=dataclasses.replace(problem_1dof.workshop, bore_diameter=BORE))
+    problem = dataclasses.replace(problem_1dof, workshop=dataclasses.replace(
+        problem_1dof.workshop, bore_diameter=BORE, cable_diameter=CABLE))
     return optimize(problem_1dof), optimize(problem)
 
 
@@ -35,10 +37,11 @@ def test_a_bore_that_binds_designs_the_arc_round_it(wide_bore):
     assert wide.success and wide.solve.iterations > default.solve.iterations  # solved again, with them
     d, alpha = wide.design, float(wide.evaluation.profiles[0].alpha.max())
     phi = np.linspace(0.0, alpha, 20001)
-    rho, drho = (np.asarray(v).ravel() for v in profile_function(d.bases[0]).map(phi.size)(phi, d.coefficients[0])[:2])
-    assert np.asarray(support_distance(rho, drho)).min() >= workshop.hub_radius * (1 - 1e-4)
-    assert rho[0] >= workshop.anchor_radius * (1 - 1e-6)
-    outline = cut_outline(d.bases[0], d.coefficients[0], alpha, workshop.hub_radius)
+    rho, drho, ddrho, margin = (np.asarray(v).ravel() for v in profile_function(d.bases[0]).map(phi.size)(phi, d.coefficients[0]))
+    assert np.asarray(support_distance(rho, drho)).min() >= (workshop.hub_radius + workshop.cable_radius) * (1 - 1e-4)
+    assert rho[0] >= (workshop.anchor_radius + workshop.cable_radius) * (1 - 1e-6)
+    assert np.max(margin / (rho**2 + drho**2) ** 1.5) <= workshop.greatest_curvature
+    outline = cut_outline(d.bases[0], d.coefficients[0], alpha, workshop.hub_radius, workshop.cable_radius)
     assert outline.rho_range[0] >= workshop.hub_radius - 1e-9
     holes(outline, BORE, workshop.anchor_diameter)  # raises if a wall is short
     xy = outline.xy(np.linspace(0.0, TWO_PI, 4000, endpoint=False))
