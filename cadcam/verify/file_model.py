@@ -51,8 +51,9 @@ END_SLACK = 1e-9
 CORNER = 1e-9
 #: Deepest notch [m] that counts as no notch: a joint turning inwards so little that the cable
 #: bridging its two segments passes within this of the joint (as :data:`END_SLACK`, far below
-#: any error the file is judged by). A hull closure's tangent leaving the designed arc's end
-#: along the arc's own tangent turns either way by the design's rounding.
+#: any error the file is judged by). A hull closure's tangent that leaves the designed arc's end
+#: along the arc's own tangent (an outline row met with equality) turns either way by the
+#: design's rounding (the solver's tolerance on that row).
 NOTCH = 1e-9
 
 
@@ -71,8 +72,9 @@ class FileOutline:
     circles : list of (ndarray, float)
         Centres [m] and diameters [m] of the CIRCLEs on layer HOLES.
     centre, radius, start, end, length_at : ndarray
-        The turning pieces in order from the anchor up to the first corner or arc turning
-        inwards (a chord closure's notch, where the cable never lies): each an arc (radius > 0)
+        The turning pieces in order from the anchor up to the first corner (deeper than
+        :data:`NOTCH`) or arc turning inwards (a chord closure's notch, where the cable never
+        lies): each an arc (radius > 0)
         or a corner (radius 0, centre the corner), its outward normal angle running from
         ``start`` to ``end`` [rad] (unwrapped, increasing), and the outline's length from the
         anchor to its start [m].
@@ -212,8 +214,9 @@ def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
 
 def _notch_depth(turn: float, before: float, after: float) -> float:
     """How far [m] a joint turning inwards by −``turn`` [rad] between segments of lengths
-    ``before`` and ``after`` [m] lies inside the chord over both: sin(−turn)·ab/c, c that chord's
-    length (0 for a joint turning outwards)."""
+    ``before`` and ``after`` [m] lies inside the chord over both, taken straight: sin(−turn)·ab/c,
+    c that chord's length (0 for a joint turning outwards). Where a segment is an arc turning
+    outwards the cable bridging the joint passes nearer it: this bounds the notch's depth."""
     if turn >= 0:
         return 0.0
     return float(np.sin(-turn) * before * after / np.hypot(before + after * np.cos(turn), after * np.sin(turn)))
