@@ -171,7 +171,7 @@ def biarc_fit(outline: Outline, tolerance: float) -> ArcChain:
     """The closed outline as biarcs within ``tolerance`` [m] of it, from φ = 0 counter-clockwise.
 
     The designed arc [0, φ_end] and the closing arc [φ_end, 2π] are fitted on their own, so
-    that both ends of the designed arc are vertices and a corner of a chord closure stays a
+    that both ends of the designed arc are vertices and a corner of a hull closure stays a
     corner. Intervals start at :data:`START_DENSITY` per radian and are halved until the
     largest distance from the outline, measured at :data:`ERROR_SAMPLES` points of each, is
     within ``tolerance`` and no biarc is S-shaped, so that a convex outline stays convex.
@@ -182,5 +182,5 @@ def biarc_fit(outline: Outline, tolerance: float) -> ArcChain:
               _fit_piece(outline, outline.phi_end, TWO_PI, True, tolerance)]
     vertices = np.concatenate([np.stack([p0, joint], axis=1).reshape(-1, 2) for p0, joint, _, _ in pieces])
     bulges = np.concatenate([bulge.ravel() for _, _, bulge, _ in pieces])
-    bulges[np.abs(bulges) < STRAIGHT] = 0.0  # a straight stretch (a chord closure's) as lines
+    bulges[np.abs(bulges) < STRAIGHT] = 0.0  # a straight stretch (a hull closure's) as lines
     return ArcChain(vertices, bulges, float(max(error.max() for *_, error in pieces)))

@@ -584,7 +584,7 @@ def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
 
     On the inward normal of the outline at the anchor point φ = 0, deep enough to leave
     MIN_WALL of material between the hole and the profile (deeper where a corner of the
-    outline, such as a chord closure's, comes near).
+    outline, such as a hull closure's, comes near).
     """
     point = outline.xy(0.0)[0]
     tx, ty = outline.unit_tangents(0.0, closing=False)[0]

@@ -46,8 +46,7 @@ FIELDS = {
     "cam": ("-", "the cam's number (camN.dxf)"),
     "units": ("-", "the DXF's units ($INSUNITS 4: mm)"),
     "closed": ("-", "the profile polyline is closed"),
-    "convex": ("-", "no arc or corner of the profile turns inwards (false for a chord closure: its notch, where the "
-                    "cable never lies)"),
+    "convex": ("-", "no arc or corner of the profile turns inwards more than 1 nm deep"),
     "vertices": ("-", "vertices of the profile polyline (each segment an arc or a line)"),
     "fit_tolerance_m": ("m", "the biarc fit's tolerance, from the design's accuracy"),
     "file_error_m": ("m", "largest distance from the designed outline to the outline read back from the DXF"),

@@ -50,6 +50,12 @@ END_SLACK = 1e-9
 #: Smallest turn [rad] between two segments that counts as a corner of the outline (below it,
 #: a tangent-continuous joint seen through the file's rounding).
 CORNER = 1e-9
+#: Deepest notch [m] that counts as no notch: a joint turning inwards so little that the cable
+#: bridging its two segments passes within this of the joint (as :data:`END_SLACK`, far below
+#: any error the file is judged by). A hull closure's tangent that leaves the designed arc's end
+#: along the arc's own tangent (an outline row met with equality) turns either way by the
+#: design's rounding (the solver's tolerance on that row).
+NOTCH = 1e-9
 
 
 @dataclass(frozen=True)
@@ -67,9 +73,9 @@ class FileOutline:
     circles : list of (ndarray, float)
         Centres [m] and diameters [m] of the CIRCLEs on layer HOLES.
     centre, radius, start, end, length_at : ndarray
-        The turning pieces in order from the anchor up to the first corner or arc turning
-        inwards (a chord closure's notch, where the cable never lies): each an arc (radius > 0)
-        or a corner (radius 0, centre the corner), its outward normal angle running from
+        The turning pieces in order from the anchor up to the first corner (deeper than
+        :data:`NOTCH`) or arc turning inwards (a notch, where no cable can lie): each an arc
+        (radius > 0) or a corner (radius 0, centre the corner), its outward normal angle running from
         ``start`` to ``end`` [rad] (unwrapped, increasing), and the outline's length from the
         anchor to its start [m].
     reflex : int
@@ -128,8 +134,9 @@ class FileOutline:
         cable leaves where g(ψ) = n·target + offset − h(ψ) turns positive in
         [around − π, around], the one root there on a convex outline, found by bisection; NaN
         where that bracket leaves the outline's span (but for :data:`END_SLACK` at its end).
-        A point target outside the tangent at the anchor is reached straight from the anchor
-        (nothing is wound; ψ is then the anchor's normal).
+        A target outside the tangent at the anchor is reached straight from the anchor, where
+        the cable is tied and may leave at any angle (nothing is wound; ψ is then the normal of
+        the line from the anchor, :meth:`from_anchor`).
         """
         lo = np.maximum(np.asarray(around, dtype=float) - np.pi, self.start[0])
         hi = np.minimum(np.asarray(around, dtype=float), self.end[-1])
@@ -139,17 +146,27 @@ class FileOutline:
 
         top, bottom = g(hi), g(lo)
         at_end = (hi == self.end[-1]) & (top <= 0) & (top > -END_SLACK)
-        # a point target outside the anchor's tangent: the cable runs straight from the anchor
-        at_anchor = (lo == self.start[0]) & (bottom > 0) & (offset == 0)
+        # a target outside the anchor's tangent: the cable runs straight from the anchor
+        at_anchor = (lo == self.start[0]) & (bottom > 0)
         bracketed = (bottom <= 0) & (top > 0)
         for _ in range(BISECTIONS):
             mid = (lo + hi) / 2
             below = g(mid) <= 0
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        psi = np.where(bracketed, (lo + hi) / 2,
-                       np.where(at_end, self.end[-1], np.where(at_anchor, self.start[0], np.nan)))
+        psi = np.where(bracketed, (lo + hi) / 2, np.where(at_end, self.end[-1], np.nan))
         _, point, wrapped = self.support(psi)
-        return psi, point, wrapped
+        return (np.where(at_anchor, self.from_anchor(target, offset), psi),
+                np.where(at_anchor[:, None], self.vertices[0], point), np.where(at_anchor, 0.0, wrapped))
+
+    def from_anchor(self, target, offset: float = 0.0):
+        """Normal angle [rad] (n,) of the line from the anchor A to ``target`` P (n, 2) [m], or
+        tangent to a circle of radius ``offset`` about it on the line's left: the root of
+        g(ψ) = n·(P − A) + offset where it turns positive, ψ = β + acos(offset/|A − P|) with β
+        the angle of A − P, taken in (ψ_A − 2π, ψ_A] below the anchor's normal ψ_A (NaN where
+        A lies inside the circle)."""
+        d = self.vertices[0] - target
+        psi = np.arctan2(d[:, 1], d[:, 0]) + np.arccos(offset / np.hypot(d[:, 0], d[:, 1]))
+        return self.start[0] - np.mod(self.start[0] - psi, TWO_PI)
 
 
 def read_dxf(path) -> FileOutline:
@@ -195,7 +212,7 @@ def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
         turn = np.angle(np.exp(1j * (heading[nxt] - (heading[i] + sweep[i]))))
         if nxt == 0 and not reflex:  # back at the anchor: the normals close a full turn
             turn = start[0] + TWO_PI - psi
-        if turn < -CORNER:
+        if _notch_depth(turn, seg_length[i], seg_length[nxt]) > NOTCH:
             reflex += 1
         elif not reflex and turn > 0 and (turn > CORNER or nxt == 0):
             centre.append(ends[i]), r.append(0.0), start.append(psi), stop.append(psi + turn)
@@ -205,6 +222,16 @@ def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
                       np.array(start), np.array(stop), np.array(at), reflex)
     object.__setattr__(out, "_perimeter", s)
     return out
+
+
+def _notch_depth(turn: float, before: float, after: float) -> float:
+    """How far [m] a joint turning inwards by −``turn`` [rad] between segments of lengths
+    ``before`` and ``after`` [m] lies inside the chord over both, taken straight: sin(−turn)·ab/c,
+    c that chord's length (0 for a joint turning outwards). Where a segment is an arc turning
+    outwards the cable bridging the joint passes nearer it: this bounds the notch's depth."""
+    if turn >= 0:
+        return 0.0
+    return float(np.sin(-turn) * before * after / np.hypot(before + after * np.cos(turn), after * np.sin(turn)))
 
 
 # ------------------------------------------------------------------------------- anchored pulley

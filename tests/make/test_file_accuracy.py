@@ -10,11 +10,11 @@ import pytest
 
 import cadcam
 from cadcam.make.biarc import arc_distance, biarc_fit
-from cadcam.make.workshop import MIN_WALL, closed_outline, write_dxf
+from cadcam.make.workshop import MIN_WALL, closed_outline, hull_outline, write_dxf
 from cadcam.outputs.run_files import write_workshop_files
 from cadcam.outputs.verification import FIELDS, recompute
 from cadcam.physics.profile import Basis
-from cadcam.verify.file_model import anchored_path, anchored_torque, read_dxf
+from cadcam.verify.file_model import STEP, anchored_path, anchored_torque, read_dxf
 
 from ..mechanisms.anchored_pulley.test_anchored_pulley import random_convex_design
 
@@ -101,6 +101,60 @@ def test_cable_round_a_circle_from_the_file_is_the_closed_form(tmp_path, pendulu
     expected = r * (theta - a0 - np.arccos(r / ell)) + np.sqrt(ell**2 - r**2)
     np.testing.assert_allclose(anchored_path(read_dxf(tmp_path / "c.dxf"), mech, theta), expected,
                                rtol=0, atol=1e-12)
+
+
+def test_cable_to_an_idler_beyond_the_anchors_tangent_runs_straight_from_the_anchor(tmp_path):
+    """A circular pulley of radius r anchored at (r, 0), an idler of radius q at P = (r − q + s,
+    40 mm) (a differential pair's idler near the profile that unwinds): for s ≤ 0 the cable is
+    wound to the two circles' common tangent, n·P + q = r at ψ = α − acos((r − q)/|P|), length
+    rψ + √(|P|² − (r − q)²); for s > 0 the idler pokes out past the anchor's tangent and the
+    cable runs straight from the anchor A, ψ = β + acos(q/|A − P|) < 0 (β the angle of A − P),
+    length √(|A − P|² − q²): both sides by closed form, meeting at s = 0."""
+    r, q = 0.03, 0.008
+    b = Basis("monomial", 0, (0.0, 4.0))
+    write_dxf(tmp_path / "c.dxf", closed_outline(b, b.from_monomial(np.array([r])), 4.0), BORE, ANCHOR, 1e-9)
+    shift = np.linspace(-q / 2, q / 2, 9)
+    target = np.column_stack([r - q + shift, np.full(shift.size, 0.04)])
+    psi, point, wrapped = read_dxf(tmp_path / "c.dxf").tangent(target, np.arctan2(target[:, 1], target[:, 0]), q)
+    wound = shift <= 0
+    norm, away = np.hypot(*target.T), np.hypot(*(np.array([r, 0.0]) - target).T)
+    beta = np.arctan2(-target[:, 1], r - target[:, 0])
+    expected_psi = np.where(wound, np.arctan2(target[:, 1], target[:, 0]) - np.arccos((r - q) / norm),
+                            beta + np.arccos(q / away))
+    expected_length = np.where(wound, r * expected_psi + np.sqrt(norm**2 - (r - q) ** 2), np.sqrt(away**2 - q**2))
+    n = np.column_stack([np.cos(psi), np.sin(psi)])
+    np.testing.assert_allclose(psi, expected_psi, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(wrapped + np.hypot(*(target + q * n - point).T), expected_length, rtol=0, atol=1e-9)
+
+
+def test_cable_wound_past_a_hull_closures_grazing_end_runs_on_round_the_hub(tmp_path, pendulum):
+    """A spiral ρ = 25 mm − 2 mm/rad φ over 4.5 rad closed by its hull round a hub that its end
+    tangent, at ρ₁²/√(ρ₁² + ρ′²) from the axis, misses by 10 pm (a design meeting its outline
+    row to the solver's tolerance): the hull leaves the arc's end turning inwards by ~5e-9 rad, a
+    notch 1e-11 m deep. The file's outline is convex and the cable wound a step past the arc's
+    end (the central difference of the torque at the most-wound pose) runs on round the hub:
+    from the pose leaving the arc's end, L grows by the hub's radius per radian the spring end
+    turns about the axis (dL/dθ is the cable's distance from the axis), to the fit's 1 nm."""
+    r0, slope, phi_max = 0.025, -0.002, 4.5
+    b = Basis("monomial", 1, (0.0, phi_max))
+    r1 = r0 + slope * phi_max
+    arm = r1**2 / np.hypot(r1, slope)
+    hub, fit = arm + 1e-11, 1e-9
+    write_dxf(tmp_path / "h.dxf", hull_outline(b, b.from_monomial(np.array([r0, slope])), phi_max, hub),
+              BORE, ANCHOR, fit)
+    file = read_dxf(tmp_path / "h.dxf")
+    assert file.reflex == 0 and file.end[-1] - file.start[0] == pytest.approx(2 * np.pi, abs=1e-12)
+    ell, a0 = 0.2, -0.5
+    mech = dataclasses.replace(pendulum.mechanisms[1], spring_end_x=ell, spring_end_y=0.0, turning="spring_end",
+                               sense=1.0, winding="ccw", anchor_angle=a0)
+    # the spring end on the end's tangent, ℓ from the axis: p₁ + t·T with |p₁ + t·T| = ℓ
+    p1 = r1 * np.array([np.cos(phi_max), np.sin(phi_max)])
+    tangent = np.array([slope * np.cos(phi_max) - r1 * np.sin(phi_max),
+                        slope * np.sin(phi_max) + r1 * np.cos(phi_max)]) / np.hypot(r1, slope)
+    t = -p1 @ tangent + np.sqrt((p1 @ tangent) ** 2 - p1 @ p1 + ell**2)
+    leaving = np.unwrap([phi_max, np.arctan2(*(p1 + t * tangent)[::-1])])[1] + a0
+    path = anchored_path(file, mech, leaving + np.array([0.0, STEP]))
+    assert np.diff(path)[0] / STEP == pytest.approx(hub, abs=fit)
 
 
 @pytest.fixture(scope="module")
