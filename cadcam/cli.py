@@ -111,7 +111,11 @@ def cmd_design(args) -> int:
     from .verify.reachable import advice
 
     _check_workshop_args(args)
+    # each flag given overrides the spec's [workshop] (the NLP designs round the bore it gives);
+    # result.json records the sizes used
+    flags = {name: getattr(args, name) for name in WORKSHOP_FLAGS if getattr(args, name) is not None}
     problem = _problem(args)
+    problem = replace(problem, workshop=replace(problem.workshop, **flags))
     _check_output_dir(args.output)
     refuse_unreachable(problem)
     for note in advice(problem):
@@ -143,9 +147,6 @@ def _design_into(args, problem, out: Path) -> int:
     from .optimize import optimize
     from .outputs.run_files import WorkshopError
 
-    # each flag given overrides the spec's [workshop]; result.json records the sizes used
-    flags = {name: getattr(args, name) for name in WORKSHOP_FLAGS if getattr(args, name) is not None}
-    problem = replace(problem, workshop=replace(problem.workshop, **flags))
     writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
     writers.join()  # the drawings are forked from a process of one thread

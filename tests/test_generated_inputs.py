@@ -244,7 +244,7 @@ def replace_is_bad(old, new) -> bool:
     return False
 
 
-SPEC_REQUIRED = {"name", "source", "cams", "cams.*", "cams.*.theta_range_deg", "cams.*.theta_range_deg.*",
+SPEC_REQUIRED = {"cams", "cams.*", "cams.*.theta_range_deg", "cams.*.theta_range_deg.*",
                  "cams.*.sensitivity_weights.*", "cams.*.rho_min", "cams.*.rho_max", "cams.*.mu",
                  "cams.*.idler", "cams.*.idler.radius", "cams.*.idler.offset", "cams.*.target",
                  "cams.*.target.kind", "springs", "springs.*", "springs.*.rate", "springs.*.travel",

@@ -51,13 +51,13 @@ CASES = {
     "wrong number of weights": ("sensitivity_weights = [1.0, 1.0]", "sensitivity_weights = [1.0]",
                                 "a list of 2 weights"),
     "not TOML": ("[solver]", "[solver", "not valid TOML"),
-    "workshop bore of zero": ("[solver]", "[workshop]\nbore_diameter = 0.0\n\n[solver]",
+    "workshop bore of zero": ("[workshop]", "[workshop]\nbore_diameter = 0.0",
                               "workshop.bore_diameter = 0.0: expected a length from 0.0001 to 1 m"),
-    "workshop tolerance in mm": ("[solver]", "[workshop]\ntolerance = 0.01\n\n[solver]",
+    "workshop tolerance in mm": ("[workshop]", "[workshop]\ntolerance = 0.01",
                                  "workshop.tolerance = 0.01: expected a length from 1e-07 to 0.001 m"),
-    "unknown workshop key": ("[solver]", "[workshop]\nbore = 0.004\n\n[solver]",
+    "unknown workshop key": ("[workshop]", "[workshop]\nbore = 0.004",
                              "unknown key 'workshop.bore'"),
-    "workshop not a table": ("torque_model = \"energy\"", "torque_model = \"energy\"\nworkshop = 0.004",
+    "workshop not a table": ("[workshop]\n", "workshop = 0.004\n[ignored]\n",
                              "workshop = 0.004: expected a [workshop] table"),
 }
 

@@ -40,6 +40,8 @@ def unreachable(problem: Problem) -> str | None:
     """The first joint whose target no design can meet within its acceptance limits, in one
     line with what to change; None if neither bound rules the target out (which does not
     promise that a design meets it)."""
+    if (no_room := _no_room_for_the_hub(problem)) is not None:
+        return no_room
     if problem.torque_model != "energy":
         return None  # the bounds rest on τ = ∂V/∂θ
     start = _CircularStart(problem)
@@ -49,6 +51,23 @@ def unreachable(problem: Problem) -> str | None:
         for bound in (_energy_bound(problem, i), _sign_bound(problem, i, start)):
             if bound is not None and (missed := _over_limit(joint, *bound[:2])):
                 return f"joint {joint.name!r}: {bound[2]}, so no design comes within {missed}: {bound[3]}"
+    return None
+
+
+def _no_room_for_the_hub(problem: Problem) -> str | None:
+    """The first planar profile whose ρ limit leaves no room for its anchor round the hub: the
+    outline rows ask ρ(0) ≥ the anchor's radius and a cable's radius (:class:`cadcam.problem.Workshop`), which
+    ρ ≤ rho_max rules out. None if every profile has room."""
+    w = problem.workshop
+    need = w.anchor_radius + w.cable_radius
+    for mech in problem.mechanisms:
+        if mech.planar():
+            for prof in mech.profiles:
+                if prof.rho_max <= need:
+                    return (f"profile {prof.name!r}: rho_max = {prof.rho_max:g} m leaves no room for its outline "
+                            f"round the hub: its anchor needs ρ ≥ {need:g} m (bore {w.bore_diameter:g} m, anchor hole "
+                            f"{w.anchor_diameter:g} m, cable {w.cable_diameter:g} m and 1 mm walls): a larger rho_max "
+                            "or a smaller workshop.bore_diameter, anchor_diameter or cable_diameter")
     return None
 
 

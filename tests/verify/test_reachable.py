@@ -70,3 +70,16 @@ def test_a_range_below_endo2010s_convexity_bound_is_noted_before_the_solve():
     assert reachable.advice(cadcam.load_problem(SPEC)) == []
     (note,) = reachable.advice(cadcam.load_problem(SPEC, variant="low"))
     assert "starts at 5°, below Endo2010's convexity bound θ0 ≥ 15.9°" in note and "\n" not in note
+
+
+def test_a_bore_with_no_room_inside_the_radius_limit_is_refused_before_solving(capsys, tmp_path):
+    """The 1-DOF cam may reach 100 mm: a 0.2 m bore leaves its anchor no room, and cadcam design
+    says so in one line, exit 2, before any solve and without writing anything."""
+    from cadcam.cli import main
+    out = tmp_path / "o"
+    spec = MODELS / "johnston2023_1dof.toml"
+    assert main(["design", str(spec), "-o", str(out), "--bore-diameter", "0.2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "rho_max = 0.1 m leaves no room" in err and "bore_diameter" in err
+    assert not out.exists()
+    assert reachable.unreachable(cadcam.load_problem(spec)) is None

@@ -411,10 +411,12 @@ def test_independent_model_on_a_polygonal_circle():
 def designed_folder(tmp_path_factory):
     """`cadcam design models/ludovico2021_pendulum.toml` in a subprocess (the spec's grid,
     46: from the default start the coarser grids 21–36 do not converge), workshop polygons at
-    0.01 mm."""
+    0.01 mm, under an ideal cable: the independent model wraps a thread on the polygon (a
+    cable's diameter, the cut outline inside its centre line, is checked from the DXF by
+    tests/make/test_file_accuracy.py)."""
     out = tmp_path_factory.mktemp("pendulum") / "out"
     proc = subprocess.run([sys.executable, "-m", "cadcam", "design", str(PENDULUM), "-o", str(out),
-                           "--tolerance", repr(CHORD)], capture_output=True, text=True, cwd=ROOT,
+                           "--tolerance", repr(CHORD), "--cable-diameter", "0"], capture_output=True, text=True, cwd=ROOT,
                           timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return out

@@ -105,8 +105,13 @@ def test_design_leaves_a_dxf_of_a_closed_cam_with_its_bore(run):
     assert profile.closed
     pts = np.array([p[:2] for p in profile.get_points()])
     radii = np.hypot(*pts.T)
-    # the designed arc starts at the anchor: ρ(0) is the first vertex, in mm
-    assert radii[0] == pytest.approx(1e3 * res["design"]["cams"][0]["monomial_coefficients"][0], rel=1e-9)
+    # the designed arc, the cable's centre line, starts at the anchor (ρ(0), 0); the first vertex
+    # is the cut outline's, the cable's radius r inside along the outward normal (ρ(0), −ρ′(0))
+    rho0, drho0 = (1e3 * v for v in res["design"]["cams"][0]["monomial_coefficients"][:2])
+    r = 1e3 * res["problem"]["workshop"]["cable_diameter"] / 2
+    assert r > 0
+    cut = np.array([rho0, 0.0]) - r * np.array([rho0, -drho0]) / np.hypot(rho0, drho0)
+    np.testing.assert_allclose(pts[0], cut, rtol=0, atol=1e-9)
     bores = [c.dxf.radius for c in msp.query('CIRCLE[layer=="HOLES"]')]
     assert 3.0 in bores  # the default Ø6 mm bore on the rotation axis
     assert radii.min() > 3.0 + 1.0  # at least 1 mm of wall around it
@@ -117,13 +122,15 @@ def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
     assert main(["design", str(SPEC_1DOF), "-o", str(out), "--stl", "0.005"]) == 0
     reported = float(capsys.readouterr().out.split("STL ")[1].split(" mm³")[0])
     assert check_output_file(out / "cam1.stl") == pytest.approx(reported, rel=1e-3)  # the file's own volume
-    assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "b"), "--bore-diameter", "0.05"]) == 1
+    # a groove deeper than the part's wall: the design stands, its solid cannot be made
+    assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "b"), "--stl", "0.005",
+                 "--groove-depth", "0.02", "--groove-width", "0.002"]) == 1
     err = capsys.readouterr().err
-    assert "workshop files cannot be made: cam1: bore_diameter" in err and "--bore-diameter" in err
+    assert "workshop files cannot be made: cam1:" in err and "groove_depth" in err
     assert err.count("\n") == 1 and (tmp_path / "b" / "result.json").exists()
     record = json.loads((tmp_path / "b" / "result.json").read_text())
     assert record["status"] == "success"  # the design's own outcome, beside the workshop's
-    assert record["workshop"]["status"] == "failed" and "bore_diameter" in record["workshop"]["message"]
+    assert record["workshop"]["status"] == "failed" and "groove_depth" in record["workshop"]["message"]
     assert json.loads((out / "result.json").read_text())["workshop"]["status"] == "written"
 
 
@@ -131,7 +138,7 @@ def test_spec_workshop_table_sizes_the_files_and_a_flag_overrides_it(tmp_path):
     import ezdxf
     spec = tmp_path / "sized.toml"
     spec.write_text(SPEC_1DOF.read_text().replace(
-        "[solver]", "[workshop]\nbore_diameter = 0.005\nanchor_diameter = 0.002\n\n[solver]", 1))
+        "[workshop]\n", "[workshop]\nbore_diameter = 0.005\nanchor_diameter = 0.002\n", 1))
     out = tmp_path / "o"
     assert main(["design", str(spec), "-o", str(out), "--no-figures", "--bore-diameter", "0.004"]) == 0
     holes = ezdxf.readfile(out / "cam1.dxf").modelspace().query('CIRCLE[layer=="HOLES"]')
