@@ -693,7 +693,7 @@ def _optional_float(v):
 def _shorthand_table(data) -> str:
     """The mechanism shorthand (:attr:`Mechanism.shorthand`: ``[[cams]]`` for the wire joint,
     cadcam ≤ 0.1) a spec is written in, or ""."""
-    if not isinstance(data, dict) or "joints" in data:
+    if not isinstance(data, dict):
         return ""
     tables = [mechanism_class(kind).shorthand for kind in mechanism_kinds()]
     return next((t for t in tables if t and t in data), "")
@@ -701,9 +701,10 @@ def _shorthand_table(data) -> str:
 
 def _check_shorthand(origin, data: dict, table: str) -> None:
     """Refuse a shorthand beside the general form, or one that is not a list of tables."""
-    if "mechanisms" in data:
-        raise SpecError(f"{origin}: unknown key 'mechanisms' beside '{table}'; expected either [[{table}]] "
-                        "tables or [[joints]] and [[mechanisms]] tables")
+    for general in ("joints", "mechanisms"):
+        if general in data:
+            raise SpecError(f"{origin}: unknown key '{general}' beside '{table}'; expected either [[{table}]] "
+                            "tables or [[joints]] and [[mechanisms]] tables")
     if not isinstance(data[table], list) or not data[table]:
         raise SpecError(f"{origin}: {table} = {data[table]!r}: expected a non-empty array of [[{table}]] tables")
     for i, entry in enumerate(data[table]):
