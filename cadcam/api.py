@@ -26,7 +26,7 @@ import numpy as np
 from .verify import derivatives
 from .verify.evaluate import Evaluation, start_samples
 from .verify.evaluate import evaluate as evaluate_design
-from .verify.model import torque_function, torque_jacobian_function
+from .verify.model import solved_poses, torque_function, torque_jacobian_function
 from .verify.reachable import unreachable
 from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
@@ -317,14 +317,16 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
 def _torque_model_partials(problem: Problem, start: Design, points: int, rng: np.random.Generator) -> list:
     """∂τ and ∂x of the torque model (rootfinder tangency, CasADi's derivatives) and of the
     exported Jacobian (Newton tangency, implicit function theorem by hand) against central
-    differences, at ``points`` random poses in the joints' ranges."""
-    model = torque_function(problem, start.bases)
+    differences, at ``points`` random poses in the joints' ranges, each model started from the
+    design's solved poses."""
+    poses = solved_poses(problem, start)
+    model = torque_function(problem, start.bases, poses=poses)
     point: dict[str, Any] = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
                              "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
     lo = np.array([j.theta_range[0] for j in problem.joints])
     hi = np.array([j.theta_range[1] for j in problem.joints])
-    newton = torque_function(problem, start.bases, tangency="newton")
-    exported = torque_jacobian_function(problem, start.bases)
+    newton = torque_function(problem, start.bases, tangency="newton", poses=poses)
+    exported = torque_jacobian_function(problem, start.bases, poses=poses)
     rows = []
     for _ in range(points):
         point["theta"] = lo + (hi - lo) * rng.uniform(0.05, 0.95, lo.size)
