@@ -27,7 +27,7 @@ from ..mechanisms.base import (departure_solver, guess_function, newton_from_fun
                                residual_function, split_coefficients)
 from ..physics.profile import Basis
 from ..problem import Problem
-from .evaluate import mechanism_samples
+from .evaluate import mechanism_samples, poses_of
 
 #: Unrolled Newton steps of the exported departure: from the design's poses 4 reach 1e-12 rad
 #: where the residual is steep; near a fold of the departure (the end of Endo2010's ordinary
@@ -39,16 +39,14 @@ INPUTS = ("theta", "c", "k", "x0", "F0")
 
 def solved_poses(problem: Problem, design: Design, grid: int | None = None) -> list:
     """Each mechanism's departure unknowns of ``design``, solved as the re-check solves them (the
-    rootfinder with continuation along the grid, :meth:`DepartureSolver.solve`) at its joint's
-    ``grid`` angles (default the design grid) and at its reference angle: per mechanism
-    (θ [rad] increasing, z (unknowns × angles), SI), the start of the torque model's Newton."""
-    out = []
-    for u, mech in enumerate(problem.mechanisms):
-        unit, _ = mechanism_samples(problem, design, u, problem.joints[mech.joint].grid(grid or problem.options.grid),
-                                    profile=False)
-        theta, first = np.unique(np.r_[mech.reference_angle, unit.theta], return_index=True)
-        out.append((theta, np.column_stack([unit.z_ref, unit.z])[:, first]))
-    return out
+    rootfinder from the design's own :attr:`~cadcam.designs.Design.poses` where it has them,
+    with continuation along the grid) at its joint's ``grid`` angles (default the design grid)
+    and at its reference angle, as :func:`cadcam.verify.evaluate.poses_of` lists them: the
+    start of the torque model's Newton."""
+    units = [mechanism_samples(problem, design, u, problem.joints[mech.joint].grid(grid or problem.options.grid),
+                               profile=False, seed=None if design.poses is None else design.poses[u])[0]
+             for u, mech in enumerate(problem.mechanisms)]
+    return poses_of(problem, units)
 
 
 def _pose_table(structure, theta: np.ndarray, z: np.ndarray) -> ca.Function:
