@@ -32,7 +32,7 @@ from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
 from .solve.transcription import Transcription
-from .optimize import optimize, start_design, warm_optimize
+from .optimize import completed, optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
@@ -212,9 +212,10 @@ class Session:
 def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **options) -> Evaluation:
     """Metrics of ``design`` (a Design, dict or JSON file) for ``spec`` on a ``grid``-angle
     grid per joint (default the spec's), as ``cadcam evaluate`` (``profile=False`` skips the
-    dense profile scan); ``options`` as for :func:`load_problem`. A ``grid`` beyond
+    dense profile scan); ``options`` as for :func:`load_problem`, the problem completed as a
+    design run completes it (:func:`cadcam.optimize.completed`). A ``grid`` beyond
     :func:`cadcam.problem.evaluation_size_error`'s caps raises :class:`SpecError`."""
-    problem = load_problem(spec, **options)
+    problem = completed(load_problem(spec, **options))
     grid_ok = SOLVER["grid"].ok
     if grid is not None and grid_ok is not None and not grid_ok(grid):
         raise SpecError(f"grid = {short_repr(grid)}: expected {SOLVER['grid'].form}")
@@ -296,6 +297,7 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
     if design is None:
         problem, start = start_design(problem)
     else:
+        problem = completed(problem)
         start = load_design(design, problem)
     rng = np.random.default_rng(seed)
     rows, notes = [], []

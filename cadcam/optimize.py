@@ -30,6 +30,14 @@ def start_design(problem: Problem) -> tuple[Problem, Design]:
     return problem, design
 
 
+def completed(problem: Problem) -> Problem:
+    """``problem`` with the numbers its default start completes (:func:`start_design`: a
+    differential pair's cable length and anchor angles from Fedorov's envelope, where the spec
+    leaves them to it): the problem a design made from the same spec was solved for, against
+    which that design is evaluated (with a cable length of zero there is no pose at all)."""
+    return start_design(problem)[0]
+
+
 def random_start(problem: Problem, rng: np.random.Generator) -> Design:
     """A random convex start: ρ = ρ₀ + sφ with ρ₀ ∈ [ρ_min, 3ρ_min], s ∈ [0, ρ₀/2] per rad,
     pre-extensions uniform in [0, 0.9 travel]."""
