@@ -514,17 +514,6 @@ def newton_from_function(structure, steps: int = 8) -> ca.Function:
     return ca.Function("newton_from", [theta, z0, c, q], [zk], ["theta", "z0", "c", "q"], ["z"])
 
 
-@lru_cache(maxsize=64)
-def newton_function(structure, steps: int = 8) -> ca.Function:
-    """``newton(theta, c, q) -> z`` by ``steps`` unrolled Newton iterations
-    (:func:`newton_from_function`) from the closed-form guess (tests check 8 steps against the
-    converged rootfinder to 1e-12 where the guess is close: near-circular profiles)."""
-    cls, bases = structure
-    theta, _, c, q = _symbols(cls, bases)
-    z = newton_from_function(structure, steps)(theta, guess_function(structure)(theta, c, q), c, q)
-    return ca.Function("newton", [theta, c, q], [z], ["theta", "c", "q"], ["z"])
-
-
 def energy_arms(structure, theta, z, wound, wrapped, c, q, d):
     """dd/dθ [m/rad] of port displacements ``d`` (expressions of θ, z, the wrapped lengths and
     c) along the solution manifold R(θ, z, W(z)) = 0, by the implicit function theorem
