@@ -26,13 +26,13 @@ import numpy as np
 from .verify import derivatives
 from .verify.evaluate import Evaluation, start_samples
 from .verify.evaluate import evaluate as evaluate_design
-from .verify.model import torque_function, torque_jacobian_function
+from .verify.model import solved_poses, torque_function, torque_jacobian_function
 from .verify.reachable import unreachable
 from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
 from .solve.transcription import Transcription
-from .optimize import optimize, start_design, warm_optimize
+from .optimize import completed, optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
 from .result import Result
 from .spec import SpecError, parse_spec, read_spec_data, with_overrides
@@ -212,9 +212,10 @@ class Session:
 def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **options) -> Evaluation:
     """Metrics of ``design`` (a Design, dict or JSON file) for ``spec`` on a ``grid``-angle
     grid per joint (default the spec's), as ``cadcam evaluate`` (``profile=False`` skips the
-    dense profile scan); ``options`` as for :func:`load_problem`. A ``grid`` beyond
+    dense profile scan); ``options`` as for :func:`load_problem`, the problem completed as a
+    design run completes it (:func:`cadcam.optimize.completed`). A ``grid`` beyond
     :func:`cadcam.problem.evaluation_size_error`'s caps raises :class:`SpecError`."""
-    problem = load_problem(spec, **options)
+    problem = completed(load_problem(spec, **options))
     grid_ok = SOLVER["grid"].ok
     if grid is not None and grid_ok is not None and not grid_ok(grid):
         raise SpecError(f"grid = {short_repr(grid)}: expected {SOLVER['grid'].form}")
@@ -296,6 +297,7 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
     if design is None:
         problem, start = start_design(problem)
     else:
+        problem = completed(problem)
         start = load_design(design, problem)
     rng = np.random.default_rng(seed)
     rows, notes = [], []
@@ -317,14 +319,16 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
 def _torque_model_partials(problem: Problem, start: Design, points: int, rng: np.random.Generator) -> list:
     """∂τ and ∂x of the torque model (rootfinder tangency, CasADi's derivatives) and of the
     exported Jacobian (Newton tangency, implicit function theorem by hand) against central
-    differences, at ``points`` random poses in the joints' ranges."""
-    model = torque_function(problem, start.bases)
+    differences, at ``points`` random poses in the joints' ranges, each model started from the
+    design's solved poses."""
+    poses = solved_poses(problem, start)
+    model = torque_function(problem, start.bases, poses=poses)
     point: dict[str, Any] = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
                              "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
     lo = np.array([j.theta_range[0] for j in problem.joints])
     hi = np.array([j.theta_range[1] for j in problem.joints])
-    newton = torque_function(problem, start.bases, tangency="newton")
-    exported = torque_jacobian_function(problem, start.bases)
+    newton = torque_function(problem, start.bases, tangency="newton", poses=poses)
+    exported = torque_jacobian_function(problem, start.bases, poses=poses)
     rows = []
     for _ in range(points):
         point["theta"] = lo + (hi - lo) * rng.uniform(0.05, 0.95, lo.size)

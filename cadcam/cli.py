@@ -102,7 +102,11 @@ def _design(args, problem):
 
 
 def _problem_and_design(args):
-    problem = _problem(args)
+    """The problem, completed as a design run completes it (:func:`cadcam.optimize.completed`),
+    and the design the command line names."""
+    from .optimize import completed
+
+    problem = completed(_problem(args))
     return problem, _design(args, problem)
 
 
@@ -262,12 +266,14 @@ def cmd_evaluate(args) -> int:
     """Metrics of a design as JSON on stdout. ``--grid`` is the evaluation's own grid, streamed
     exactly in bounded memory and nothing of its size written, so it is capped like the fine
     re-check (:func:`cadcam.problem.evaluation_size_error`), not like a design grid."""
+    from .optimize import completed
     from .verify.evaluate import evaluate
 
     problem = _problem(args, design_grid=False)
     too_big = None if args.grid is None else evaluation_size_error(args.grid, len(problem.joints))
     if too_big:
         raise InputError(f"--grid: {too_big}")
+    problem = completed(problem)
     design = _design(args, problem)
     ev = evaluate(problem, design, grid=args.grid)
     print(json.dumps({"torque_model": problem.torque_model, "design": design.to_dict(),

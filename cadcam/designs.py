@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,11 +36,19 @@ class Design:
         ρ coefficients of each profile in its basis [m].
     preextension : ndarray
         x₀ of each spring at θ = 0 [m].
+    poses : list of (ndarray, ndarray), optional
+        Per mechanism, the departure unknowns the design was checked at: the angles θ [rad]
+        (increasing: its joint's design grid and its reference angle) and z (unknowns × angles,
+        SI). A design run keeps them, so that re-evaluating the design starts its rootfinder
+        where the run's converged (:func:`cadcam.verify.evaluate.evaluate`) and finds the same
+        roots: from the closed-form guess alone it can land on another branch (Endo2010's
+        five-bar arm's second pulley). None: not known.
     """
 
     bases: list[Basis]
     coefficients: list[np.ndarray]
     preextension: np.ndarray
+    poses: list | None = field(default=None, repr=False)
 
     def monomial(self, i: int) -> np.ndarray:
         """Cam ``i``'s ρ coefficients in increasing powers of φ [m·rad⁻ᵏ]."""
@@ -55,7 +63,11 @@ class Design:
                          "coefficients": [float(v) for v in self.coefficients[i]],
                          "monomial_coefficients": [float(v) for v in m],
                          "monomial_coefficients_highest_first": [float(v) for v in m[::-1]]})
-        return {"cams": cams, "preextension": [float(v) for v in self.preextension]}
+        out = {"cams": cams, "preextension": [float(v) for v in self.preextension]}
+        if self.poses is not None:
+            out["poses"] = [{"theta": [float(v) for v in theta], "z": np.asarray(z, dtype=float).tolist()}
+                            for theta, z in self.poses]
+        return out
 
     @classmethod
     def from_dict(cls, data: dict, problem: Problem, origin: str = "<design>") -> "Design":
@@ -64,7 +76,8 @@ class Design:
         Each cam gives ``basis`` + ``coefficients`` (+ ``domain`` for Chebyshev), or only
         ``monomial_coefficients`` (increasing powers) or ``monomial_coefficients_highest_first``
         (the papers' order); any polynomial degree is accepted. ``preextension`` lists one
-        value per spring [m].
+        value per spring [m]; ``poses`` (optional, as a design run writes them) per mechanism
+        ``theta`` [rad] (increasing) and ``z`` (one row per unknown).
         """
         if isinstance(data, dict) and "design" in data:
             data = data["design"]
@@ -108,7 +121,32 @@ class Design:
         if not (isinstance(x0, list) and len(x0) == len(problem.springs) and all(map(_is_number, x0))):
             raise DesignError(f"{origin}: design.preextension must hold {len(problem.springs)} finite "
                               f"numbers [m], one per spring; got {short_repr(x0)}")
-        return cls(bases, coefs, np.asarray(x0, dtype=float))
+        poses = None if data.get("poses") is None else _poses(data["poses"], problem, origin)
+        return cls(bases, coefs, np.asarray(x0, dtype=float), poses)
+
+
+def _poses(data, problem: Problem, origin: str) -> list:
+    """``design.poses`` read for ``problem``'s mechanisms; DesignError (one line) if malformed."""
+    form = ("one entry per mechanism, each {theta: [increasing angles, rad], z: [one list per "
+            "unknown, as long as theta]}")
+    if not (isinstance(data, list) and len(data) == len(problem.mechanisms)):
+        raise DesignError(f"{origin}: design.poses must hold {form}; got {short_repr(data)}")
+    out = []
+    for u, (entry, mech) in enumerate(zip(data, problem.mechanisms)):
+        where = f"{origin}: design.poses[{u + 1}]"
+        if not (isinstance(entry, dict) and isinstance(entry.get("z"), list)
+                and len(entry["z"]) == len(mech.unknowns)):
+            raise DesignError(f"{where} must be {{theta, z}} with {len(mech.unknowns)} rows of z "
+                              f"({', '.join(mech.unknowns)}); got {short_repr(entry)}")
+        theta = _numbers(entry.get("theta"), f"{where}.theta", "[rad]")
+        if not np.all(np.diff(theta) > 0):
+            raise DesignError(f"{where}.theta must increase; got {short_repr(entry['theta'])}")
+        if not all(isinstance(row, list) and len(row) == theta.size for row in entry["z"]):
+            raise DesignError(f"{where}.z must hold rows of {theta.size} numbers, as many as theta; "
+                              f"got {short_repr(entry['z'])}")
+        z = np.vstack([_numbers(row, f"{where}.z", "(SI)") for row in entry["z"]])
+        out.append((theta, z))
+    return out
 
 
 def _is_number(v) -> bool:

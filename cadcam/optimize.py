@@ -7,11 +7,13 @@ every constraint satisfied (status ``success``); otherwise the status says what 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
+
 import numpy as np
 
 from .designs import Design, default_start, preextensions
 from .mechanisms.base import design_methods, kinds_in
-from .verify.evaluate import evaluate, start_samples
+from .verify.evaluate import evaluate, poses_of, start_samples
 from .problem import ACCEPTANCE, Problem
 from .result import Result
 from .solve.transcription import Solve, Transcription
@@ -26,6 +28,14 @@ def start_design(problem: Problem) -> tuple[Problem, Design]:
     for kind in kinds_in(problem.mechanisms):
         problem, design = kind.prepare_start(problem, design)
     return problem, design
+
+
+def completed(problem: Problem) -> Problem:
+    """``problem`` with the numbers its default start completes (:func:`start_design`: a
+    differential pair's cable length and anchor angles from Fedorov's envelope, where the spec
+    leaves them to it): the problem a design made from the same spec was solved for, against
+    which that design is evaluated (with a cable length of zero there is no pose at all)."""
+    return start_design(problem)[0]
 
 
 def random_start(problem: Problem, rng: np.random.Generator) -> Design:
@@ -117,7 +127,8 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
                   z=[u.z for u in on_grid.units])
     solve.trials = [_trial(solve)]
     status, message = verdict(problem, solve, fine, f"{method.name} design")
-    return Result(status=status, message=message, problem=problem, design=design,
+    return Result(status=status, message=message, problem=problem,
+                  design=replace(design, poses=poses_of(problem, on_grid.units)),
                   evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s)
 
 
@@ -167,7 +178,10 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     on_grid = evaluate(problem, best.design, seeds=seeds)
     fine, recheck_s = _recheck(problem, best.design, seeds)
     status, message = verdict(problem, best, fine, "converged")
-    return Result(status=status, message=message, problem=problem, design=best.design,
+    # the result's design keeps the poses it was checked at: re-evaluated from result.json, it
+    # starts the rootfinder there and finds the same roots
+    return Result(status=status, message=message, problem=problem,
+                  design=replace(best.design, poses=poses_of(problem, on_grid.units)),
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,
                   recheck_time_s=recheck_s)
 

@@ -9,7 +9,8 @@ What can be exported:
     with respect to the angles, the design coefficients, the spring rates, the pre-extensions
     and the preloads; ∂z with respect to the angles and the coefficients) of
     :func:`cadcam.verify.model.torque_function` with the tangency by unrolled Newton steps (no
-    callback), and ``cadcam_design.h`` holding the design's numbers.
+    callback) from the design's solved poses interpolated in θ, and ``cadcam_design.h``
+    holding the design's numbers.
 ``problem``
     The design NLP of :class:`cadcam.solve.transcription.Transcription`: objective, constraints,
     objective gradient, constraint Jacobian and Lagrangian Hessian, with the problem's
@@ -35,7 +36,7 @@ from ..version import __version__
 from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
 from ..verify.evaluate import start_samples
-from ..verify.model import NEWTON_STEPS, torque_function, torque_jacobian_function
+from ..verify.model import NEWTON_STEPS, solved_poses, torque_function, torque_jacobian_function
 from ..solve.blocks import P_BLOCKS, X_BLOCKS, describe
 from ..solve.compiled import CompileError, compiler, oracle_functions, run_compiler
 from ..problem import Problem
@@ -95,8 +96,10 @@ class ExportError(ValueError):
 
 
 def model_functions(problem: Problem, design: Design) -> list[ca.Function]:
-    """The torque model of ``design`` and its Jacobians, code-generable (SX, no callbacks)."""
-    kw = dict(order=EXPORT_QUADRATURE_ORDER, integrals="closed-form")
+    """The torque model of ``design`` and its Jacobians, code-generable (SX, no callbacks), their
+    Newton started from the design's poses solved on the design grid
+    (:func:`cadcam.verify.model.solved_poses`)."""
+    kw = dict(order=EXPORT_QUADRATURE_ORDER, integrals="closed-form", poses=solved_poses(problem, design))
     f = torque_function(problem, design.bases, tangency="newton", **kw)
     jac = torque_jacobian_function(problem, design.bases, **kw)
     return [_renamed(f, "cadcam_torque"), _renamed(jac, "cadcam_torque_jacobian")]
@@ -211,8 +214,10 @@ def _write(problem: Problem, design: Design, what: str, formats: list[str], out:
     """The files of :func:`export` written into ``out`` (a staging folder); the manifest."""
     if what == "model":
         functions, extra = model_functions(problem, design), {}
-        layouts = {"tangency": {"method": "unrolled Newton from each mechanism's closed-form guess",
-                                "steps": NEWTON_STEPS, "accuracy_rad": 1e-12},
+        layouts = {"tangency": {"method": "unrolled Newton from the design's poses, solved on the design "
+                                          "grid and interpolated linearly in the joint angle",
+                                "steps": NEWTON_STEPS, "pose_angles": problem.options.grid,
+                                "accuracy_rad": 1e-12},
                    "z_layout": [{"mechanism": mech.name, "unknown": name, "unit": unit}
                                 for mech in problem.mechanisms
                                 for name, unit in zip(mech.unknowns, mech.unknown_units)]}

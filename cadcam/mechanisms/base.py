@@ -494,22 +494,34 @@ def guess_function(structure) -> ca.Function:
                        ["theta", "c", "q"], ["z"])
 
 
-@lru_cache(maxsize=64)
-def newton_function(structure, steps: int = 8) -> ca.Function:
-    """``newton(theta, c, q) -> z`` by ``steps`` unrolled Newton iterations from the guess.
+#: Largest turn [rad] of any departure angle in one Newton step (:func:`newton_from_function`).
+NEWTON_MAX_TURN = 0.1
 
-    A closed-form expression (no callback, no loop) that code-generates and differentiates like
-    any other; Newton converges quadratically from the guess (tests check 8 steps against the
-    converged rootfinder to 1e-12).
+
+@lru_cache(maxsize=64)
+def newton_from_function(structure, steps: int = 8) -> ca.Function:
+    """``newton_from(theta, z0, c, q) -> z`` by ``steps`` unrolled Newton iterations from z0,
+    each step shortened so that no angle among the unknowns turns by more than
+    :data:`NEWTON_MAX_TURN`.
+
+    Near the root the full step is short and Newton converges quadratically; where the residual
+    is nearly flat (a profile nearly straight where the cable leaves it, near a fold of the
+    departure at the end of Endo2010's ordinary pendulum's range) the full step would land far
+    outside the wrap, where other roots lie. A closed-form expression (no callback, no loop)
+    that code-generates and differentiates like any other.
     """
     cls, bases = structure
     theta, z, c, q = _symbols(cls, bases)
     R = residual_function(structure)(theta, z, c, q)[0]
-    step = ca.Function("step", [z, theta, c, q], [z - ca.solve(ca.jacobian(R, z), R)])
-    zk = guess_function(structure)(theta, c, q)
+    delta = ca.solve(ca.jacobian(R, z), R)
+    turn = ca.mmax(ca.fabs(ca.vertcat(*[delta[k] for k, unit in enumerate(cls.unknown_units) if unit == "rad"])))
+    z_next = z - delta * ca.fmin(1, NEWTON_MAX_TURN / turn)
+    step = ca.Function("step", [z, theta, c, q], [z_next])
+    z0 = ca.SX.sym("z0", z.shape[0])
+    zk = z0
     for _ in range(steps):
         zk = step(zk, theta, c, q)
-    return ca.Function("newton", [theta, c, q], [zk], ["theta", "c", "q"], ["z"])
+    return ca.Function("newton_from", [theta, z0, c, q], [zk], ["theta", "z0", "c", "q"], ["z"])
 
 
 def energy_arms(structure, theta, z, wound, wrapped, c, q, d):
@@ -600,10 +612,11 @@ class DepartureSolver:
                                  {"abstol": abstol, "max_iter": max_iter, "error_on_fail": False,
                                   "show_eval_warnings": False})  # failures show in the residual
 
-    def symbolic(self, theta, c, q):
-        """z at θ as an expression (MX) of θ, c and q: the rootfinder from the guess, its
-        derivatives by the implicit function theorem (the exported model's departure)."""
-        return self._rf(self._guess(theta, c, q), ca.vertcat(theta, c, q))
+    def symbolic(self, theta, c, q, start=None):
+        """z at θ as an expression (MX) of θ, c and q: the rootfinder from ``start`` (default
+        the guess), its derivatives by the implicit function theorem (the torque model's
+        departure)."""
+        return self._rf(self._guess(theta, c, q) if start is None else start, ca.vertcat(theta, c, q))
 
     def guess(self, theta, c, q) -> np.ndarray:
         """Initial z (rows: unknowns) at each θ in ``theta``."""

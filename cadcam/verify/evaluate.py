@@ -625,6 +625,16 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     return unit, profiles
 
 
+def poses_of(problem: Problem, units: list[UnitSamples]) -> list:
+    """Each mechanism's solved unknowns in ``units`` at its reference angle and grid angles, as
+    :attr:`cadcam.designs.Design.poses` holds them: (θ increasing [rad], z (unknowns × angles))."""
+    out = []
+    for mech, unit in zip(problem.mechanisms, units):
+        theta, first = np.unique(np.r_[mech.reference_angle, unit.theta], return_index=True)
+        out.append((theta, np.column_stack([unit.z_ref, unit.z])[:, first]))
+    return out
+
+
 def start_samples(problem: Problem, design: Design, grid: int, order: int) -> list:
     """Per-mechanism samples of ``design`` on a ``grid``-angle grid with quadrature ``order``, for
     :meth:`cadcam.solve.transcription.Transcription.initial_guess`: departure by the rootfinder,
@@ -647,9 +657,10 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     ``objective`` (Johnston2023 Eq. 46/47); ``margins`` (positive = satisfied) and
     ``violations``. ``profile = False`` skips the profile scans (their metrics are then NaN);
     ``seeds`` (per mechanism, see :func:`mechanism_samples`) start the rootfinder from known
-    unknowns.
+    unknowns, by default the design's :attr:`~cadcam.designs.Design.poses` where it has them.
     """
     n = grid or problem.options.grid
+    seeds = design.poses if seeds is None else seeds
     units, profiles = [], []
     for u, mech in enumerate(problem.mechanisms):
         unit, profs = mechanism_samples(problem, design, u, problem.joints[mech.joint].grid(n),

@@ -55,7 +55,7 @@ def closed_form_start(problem, start, shares=None, samples: int = 400):
                            spring.rate, u0, ell, spring.preload, chi0)
         k = slices[u].start
         coefs[k] = fit_profile(problem.profiles[k].basis, *uniform_polar(form.envelope, samples))
-    return replace(start, coefficients=coefs)
+    return replace(start, coefficients=coefs, poses=None)  # new profiles: their poses are not known
 
 
 def own_spring(problem, u: int):

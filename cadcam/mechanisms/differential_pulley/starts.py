@@ -40,7 +40,7 @@ def envelope_start(kind, problem, design, samples: int = 2001):
         mechanisms[u] = replace(mech, cable_length=length)
         coefs[sl] = fitted
     return (replace(problem, mechanisms=tuple(mechanisms)),
-            replace(design, coefficients=coefs))
+            replace(design, coefficients=coefs, poses=None))  # new profiles: their poses are not known
 
 
 def _check_law_in_slider_range(mech, x: np.ndarray) -> None:

@@ -201,17 +201,22 @@ def test_balancer_energy_is_constant_over_the_turn(balancer):
 
 
 def test_balancer_result_recomputes_from_its_json(balancer, tmp_path):
-    """The result's problem (anchors, cable length, slider) re-evaluates to the same x(θ)."""
-    import json
+    """Saved and loaded, the result's problem (anchors, cable length, slider) and design (with
+    the poses it was checked at) re-evaluate to the run's x(θ) and torques, on the design grid
+    and on the fine one; so does the design against its spec, whose pair's cable length and
+    anchors are completed as the run completed them (left at zero, no cable reaches: α
+    beyond 7 rad)."""
+    import cadcam
 
-    from cadcam.verify.evaluate import evaluate
-    from cadcam.designs import Design
-    data = json.loads(json.dumps(balancer.to_dict()))
-    problem = parse_spec(data["problem"])
-    design = Design.from_dict(data, problem, "result.json")
-    again = evaluate(problem, design, grid=121)
-    assert again.metrics.output_max_abs_error[0] < 1e-5
-    assert problem.mechanisms[0].cable_length == balancer.problem.mechanisms[0].cable_length
+    balancer.save(tmp_path, workshop=None, figures=False)
+    path = tmp_path / "result.json"
+    assert cadcam.load_problem(path).mechanisms[0].cable_length == balancer.problem.mechanisms[0].cable_length
+    for spec, run, grid in ((path, balancer.evaluation, None), (BALANCER, balancer.evaluation, None),
+                            (path, balancer.recheck, balancer.problem.options.recheck_grid)):
+        again = cadcam.evaluate(spec, path, grid=grid)
+        np.testing.assert_allclose(again.units[0].z, run.units[0].z, rtol=0, atol=1e-9)  # α₁, α₂, x, …
+        assert np.abs(again.tau - run.tau).max() <= 1e-9 * np.abs(run.tau).max()
+        assert max(again.metrics.alpha_max) < 2 * np.pi and again.violations == run.violations
 
 
 @pytest.mark.parametrize("key, value, message", [
