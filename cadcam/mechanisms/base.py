@@ -349,6 +349,14 @@ class Mechanism:
         know which way its link points (the default)."""
         return None
 
+    def spring_line(self, theta: float, z: np.ndarray, c: np.ndarray, port: str,
+                    sign: float) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """For drawings: the line a spring on ``port`` (with ``sign``, ±1, in its ports) lies
+        on at the pose θ: the end it is drawn from (a world point [m]), the unit vector it runs
+        along from there, and the room it has along it [m] (inf: no bound). None where the
+        mechanism does not place the springs of that port (the default)."""
+        return None
+
     def segments(self, theta: float, z: np.ndarray, c: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Straight cable spans (start, end) [m] to draw at the pose θ."""
         return []

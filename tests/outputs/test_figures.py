@@ -121,7 +121,7 @@ def test_profile_view_draws_a_published_design_in_its_own_basis(ev_rr):
     from cadcam.outputs.plots import _row
     for u in range(2):  # Table 3 is typed in as monomials; the spec's cams are Chebyshev
         panels, _, _ = _row(ev_rr, u, 3)
-        for _, prof, _, circles, _, _ in panels:
+        for _, prof, _, circles, *_ in panels:
             departure = prof[0][3]
             (centre, radius), = circles
             # Johnston2023's cam touches its idler where the wire departs (Eq. 7, 15) [mm]
@@ -331,3 +331,32 @@ def test_the_pose_figure_draws_the_link_to_its_mass_where_the_mechanism_knows_it
         assert any(np.allclose([ln.get_xdata()[1], ln.get_ydata()[1]], 1e3 * end) for ln in lines)
         assert any(words in t.get_text() for t in ax.texts) and words == "arm: 0.5 kg at 200 mm"
     assert mech.arm(0.3, replace(target, kind="expression")) is None
+
+
+def test_the_pose_figure_draws_each_spring_from_its_end_to_its_length():
+    """Ludovico2021's springs hang from their ends on the link along the free cable; each is
+    drawn as a zigzag from the spring end over its drawn free length plus its extension at
+    that pose, so that it is longer where it is stretched more."""
+    from cadcam.designs import default_start
+    from cadcam.outputs.plots import COIL_FILL, _mechanism_springs, profile_figure
+
+    problem = load_spec(ROOT / "models" / "ludovico2021_pendulum.toml")
+    ev = evaluate(problem, default_start(problem), grid=7)
+    fig = profile_figure(ev, n_poses=3)
+    for u, mech in enumerate(problem.mechanisms):
+        (j, port, x), = _mechanism_springs(ev, u)
+        unit, c = ev.units[u], ev.design.coefficients[u]
+        np.testing.assert_allclose(x, ev.x[j])  # one joint: the spring's extension on its grid
+        spans = [np.hypot(*np.subtract(*mech.segments(th, unit.z[:, k], c)[0])) for k, th in enumerate(unit.theta)]
+        drawn = [0, 3, 6]
+        free = min(problem.springs[j].travel, COIL_FILL * min(spans[k] for k in drawn) - x.max())
+        for ax, k in zip(fig.axes[3 * u:3 * u + 3], drawn):
+            coils = [ln.get_xydata() for ln in ax.get_lines() if ln.get_color() == "tab:purple" and len(ln.get_xdata()) > 5]
+            (points,) = coils
+            end = 1e3 * mech.spring_end(unit.theta[k])
+            np.testing.assert_allclose(points[0], end, atol=1e-9)
+            np.testing.assert_allclose(np.hypot(*(points[-1] - points[0])), 1e3 * (free + x[k]), rtol=1e-12)
+            cable = (mech.segments(unit.theta[k], unit.z[:, k], c)[0][0] - end / 1e3) * 1e3
+            along = points[-1] - points[0]
+            assert abs(cable[0] * along[1] - cable[1] * along[0]) < 1e-9 * np.hypot(*cable) ** 2  # on the cable
+    assert "spring: extension + a free length to fit (none given)" in _texts(fig)

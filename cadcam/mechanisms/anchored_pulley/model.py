@@ -219,6 +219,14 @@ class AnchoredPulley(Mechanism):
         p = np.array(self.world_points(theta, alpha, rho), dtype=float)
         return [(p, self.spring_end(theta))]
 
+    def spring_line(self, theta, z, c, port, sign):
+        """The spring hangs from its end S along the free cable towards the departure point:
+        the cable's path from the anchor to S (constant but for the spring) grows by the
+        spring's extension. Its room is the free span."""
+        (p, end), = self.segments(theta, z, c)
+        span = float(np.hypot(*(p - end)))
+        return end, (p - end) / span, span
+
     def arm(self, theta, target):
         """With the pulley on the link (``turning = "pulley"``), the link points up at θ = 0
         (angles from the upright) and turns with the pulley by σθ: a pendulum target's mass sits

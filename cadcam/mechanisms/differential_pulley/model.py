@@ -341,6 +341,13 @@ class DifferentialPulley(Mechanism):
         """The idler at its pose."""
         return [(self.idler_centre(self.named_unknowns(z).x), float(self.idler_radius))]
 
+    def spring_line(self, theta, z, c, port, sign):
+        """A spring on the slider pulls the idler's centre along the slider's line: it runs
+        from the centre away from the way that stretches it (towards the shaft when x growing
+        stretches it, outward when ``sign`` = −1), as far as it likes."""
+        direction = np.array([np.cos(self.slider_angle), np.sin(self.slider_angle)])
+        return self.idler_centre(self.named_unknowns(z).x), -sign * direction, np.inf
+
     def segments(self, theta, z, c):
         """Both free spans, from each departure point to its tangent point on the idler."""
         out = []
