@@ -268,6 +268,11 @@ WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1),
                    "groove_pitch": (1e-4, 0.1)}
 
 
+#: Thickness [m] of the solids (STL, STEP) the design page offers for a spec that sets no
+#: ``[workshop] stl``: a 5 mm plate, a common stock for laser-cut or printed pulleys and cams.
+SOLID_THICKNESS = 0.005
+
+
 @dataclass(frozen=True)
 class Workshop:
     """Sizes of the workshop files [m]: a spec's ``[workshop]`` table, each overridden by the
@@ -302,6 +307,10 @@ class Workshop:
             value = getattr(self, name)
             if value is not None and not lo <= value <= hi:
                 raise ValueError(f"{name} = {value!r}: expected a length from {lo:g} to {hi:g} m")
+
+    def with_solids(self) -> "Workshop":
+        """These sizes with a solid's thickness: ``stl``'s, else :data:`SOLID_THICKNESS`."""
+        return self if self.stl is not None else replace(self, stl=SOLID_THICKNESS)
 
     def to_dict(self) -> dict:
         """The sizes as a spec's ``[workshop]`` table (no ``stl`` without one)."""
