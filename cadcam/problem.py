@@ -488,6 +488,7 @@ class Problem:
                 "rho_min": prof.rho_min, "rho_max": prof.rho_max,
                 **({"min_curvature_radius": prof.min_curvature_radius}
                    if prof.min_curvature_radius > 0 else {}),
+                **({"link_angle": m.link_angle} if m.link_angle is not None else {}),
                 **m.spec_fields()})
         return {
             "name": self.name, "source": self.source, "notes": self.notes,

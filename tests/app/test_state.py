@@ -154,3 +154,14 @@ def test_the_solids_to_download_need_no_stl_thickness_in_the_spec():
     z = np.frombuffer(files["cam1.stl"][84:], dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)),
                                                               ("a", "<u2")]))["v"][..., 2]
     assert z.max() - z.min() == pytest.approx(1e3 * SOLID_THICKNESS)  # the STL is in millimetres
+
+
+def test_the_link_angle_is_a_geometry_field_of_every_mechanism():
+    from cadcam.mechanisms.base import LINK_ANGLE
+
+    state = DesignState.template("roller_follower_pendulum")
+    link = state.field("mechanisms.1.link_angle")
+    assert (link.group, link.label, link.value) == ("Geometry", "link_angle [rad]", None)
+    assert link.help == f"{LINK_ANGLE.description} [rad]"
+    assert state.edit("mechanisms.1.link_angle", "1.2") is None
+    assert load_problem(state.path, overrides=state.override_pairs()).mechanisms[0].link_angle == 1.2

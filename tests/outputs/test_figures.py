@@ -360,3 +360,35 @@ def test_the_pose_figure_draws_each_spring_from_its_end_to_its_length():
             along = points[-1] - points[0]
             assert abs(cable[0] * along[1] - cable[1] * along[0]) < 1e-9 * np.hypot(*cable) ** 2  # on the cable
     assert "spring: extension + a free length to fit (none given)" in _texts(fig)
+
+
+@pytest.mark.parametrize("spec", ["models/roller_follower_pendulum.toml", "models/fedorov2018_balancer.toml",
+                                  "docs/first_balancer.toml"])
+def test_the_link_turns_with_its_body_and_gravity_on_its_mass_is_the_target(spec):
+    """The link to a pendulum's mass is fixed to the body that turns with the joint (it turns as
+    the profile's anchor does) and points where gravity along −y on its mass asks the springs
+    for the target's torque, −m g dy/dθ = m g l sin(θ + phase), at three angles; drawn from the
+    joint axis to the mass. A spec's ``link_angle`` turns it to point there at θ = 0."""
+    from cadcam.designs import default_start
+    from cadcam.outputs.plots import profile_figure
+
+    problem = load_spec(ROOT / spec)
+    mech, target = problem.mechanisms[0], problem.joints[0].target
+    mass, length, g = (target.data[k] for k in ("mass", "length", "g"))
+    ev = evaluate(problem, default_start(problem), grid=7)
+    fig = profile_figure(ev, n_poses=3)
+    h = 1e-6
+    for ax, k in zip(fig.axes, [0, 3, 6]):
+        theta = ev.units[0].theta[k]
+        end, words = mech.arm(theta, target)
+        assert np.hypot(*end) == pytest.approx(length) and words == f"arm: {mass:g} kg at {1e3 * length:g} mm"
+        lift = (mech.arm(theta + h, target)[0][1] - mech.arm(theta - h, target)[0][1]) / (2 * h)
+        assert -mass * g * lift == pytest.approx(ev.tau_d[0, k], rel=1e-6, abs=1e-9)
+        turned = [np.arctan2(*np.array(mech.world_points(t, 0.0, 1.0))[::-1]) for t in (0.0, theta)]
+        link = [np.arctan2(*mech.arm(t, target)[0][::-1]) for t in (0.0, theta)]
+        assert np.cos((link[1] - link[0]) - (turned[1] - turned[0])) == pytest.approx(1.0)
+        lines = [ln for ln in ax.get_lines() if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == 0]
+        assert any(np.allclose([ln.get_xdata()[1], ln.get_ydata()[1]], 1e3 * end) for ln in lines)
+    pointed = load_spec(ROOT / spec, overrides=[("mechanisms.1.link_angle", 0.25)]).mechanisms[0]
+    assert pointed.link_angle == 0.25
+    np.testing.assert_allclose(pointed.arm(0.0, target)[0], length * np.array([np.cos(0.25), np.sin(0.25)]))

@@ -333,6 +333,10 @@ class DifferentialPulley(Mechanism):
         ang = self.anchor_angles[k] + self.sense * theta + self.windings[k] * np.asarray(phi)
         return rho * np.cos(ang), rho * np.sin(ang)
 
+    def link_rotation(self, theta):
+        """The link is fixed to the shaft, which turns by sense·θ."""
+        return self.sense * theta
+
     def idler_centre(self, x) -> np.ndarray:
         """World position of the idler centre at distance ``x`` [m]."""
         return float(x) * np.array([np.cos(self.slider_angle), np.sin(self.slider_angle)])
