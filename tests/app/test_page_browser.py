@@ -153,6 +153,7 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     page.get_by_text("Torque", exact=True).click()
 
     # the spec downloaded opens again, with the edit in its form
+    designed = page.locator(".verdict small").inner_text()  # "(designed in … s)" of the design shown
     page.locator(".open-file input[type=file]").set_input_files(str(tmp_path / "spec.toml"))
     page.get_by_text("open spec.toml").wait_for(timeout=10_000)
     deadline = time.monotonic() + 20
@@ -160,6 +161,9 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     while rate.input_value() != "1200" and time.monotonic() < deadline:
         page.wait_for_timeout(100)
     assert rate.input_value() == "1200"
+    while page.locator(".verdict small").count() == 0 or page.locator(".verdict small").inner_text() == designed:
+        assert time.monotonic() < deadline + 20, "the file opened was not designed"
+        page.wait_for_timeout(100)
     page.wait_for_selector(".verdict-success", timeout=20_000)
     page.screenshot(path=str(SCREENS / "5_reopened.png"), full_page=True)
 
