@@ -275,6 +275,11 @@ WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1),
                    "groove_pitch": (1e-4, 0.1)}
 
 
+#: Thickness [m] of the solids (STL, STEP) the design page offers for a spec that sets no
+#: ``[workshop] stl``: a 5 mm plate, a common stock for laser-cut or printed pulleys and cams.
+SOLID_THICKNESS = 0.005
+
+
 @dataclass(frozen=True)
 class Workshop:
     """Sizes of the workshop files [m]: a spec's ``[workshop]`` table, each overridden by the
@@ -336,6 +341,10 @@ class Workshop:
         between the hole and the profile (the hole's centre lies a wall and its radius inside
         the outline, :func:`cadcam.make.workshop.anchor_centre`)."""
         return self.hub_radius + self.anchor_diameter + MIN_WALL
+
+    def with_solids(self) -> "Workshop":
+        """These sizes with a solid's thickness: ``stl``'s, else :data:`SOLID_THICKNESS`."""
+        return self if self.stl is not None else replace(self, stl=SOLID_THICKNESS)
 
     def to_dict(self) -> dict:
         """The sizes as a spec's ``[workshop]`` table (no ``stl`` without one)."""
@@ -513,6 +522,7 @@ class Problem:
                 "rho_min": prof.rho_min, "rho_max": prof.rho_max,
                 **({"min_curvature_radius": prof.min_curvature_radius}
                    if prof.min_curvature_radius > 0 else {}),
+                **({"link_angle": m.link_angle} if m.link_angle is not None else {}),
                 **m.spec_fields()})
         return {
             "name": self.name, "source": self.source, "notes": self.notes,

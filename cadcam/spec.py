@@ -24,7 +24,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .mechanisms.base import (ENERGY, Profile, design_methods, legacy_torque_models, mechanism_class,
+from .mechanisms.base import (ENERGY, LINK_ANGLE, Profile, design_methods, legacy_torque_models, mechanism_class,
                               mechanism_kinds, torque_models)
 from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
@@ -643,6 +643,9 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
     profiles = tuple(Profile(n, Basis(basis_name, order, domain), rho_min, rho_max, curvature)
                      for n in names)
     mech = cls.from_spec(r, name=name, joint=joint, profiles=profiles, theta_range=theta_range)
+    link = r.get(LINK_ANGLE.name, _number, f"{LINK_ANGLE.description} [{LINK_ANGLE.unit}]", None)
+    if link is not None:
+        mech = replace(mech, link_angle=float(link))
     if cls.output and "output_target" in r.table:
         where = r.key("output_target")
         target = _target(_Reader(r.origin, r.get("output_target", lambda v: isinstance(v, dict),

@@ -23,6 +23,7 @@ from pathlib import Path
 import panel as pn
 from matplotlib.figure import Figure
 
+from ..make.step import available as step_available
 from ..outputs.plots import springs_figure, torque_figure
 from ..spec import SpecError
 from .state import TEMPLATES, DesignState, Outcome, catalogue, result_json, zipped
@@ -61,6 +62,7 @@ class DesignPage:
         self.state = state
         self.inputs: dict[str, pn.widgets.TextInput] = {}
         self.errors: dict[str, pn.pane.HTML] = {}
+        self.headings: dict[int, pn.pane.HTML] = {}  # each spring's, by its number
         self.frames: Frames | None = None
         self._shown = 0  # designs asked for: only the last one's figures are shown
         self._error_key: str | None = None  # the field whose error is shown
@@ -104,15 +106,20 @@ class DesignPage:
         """One card per group of fields, the fields of each numbered table under its name."""
         self.inputs.clear()
         self.errors.clear()
+        self.headings.clear()
         cards: dict[str, list] = {}
         heading = None
         for f in self.state.fields:
             items = cards.setdefault(f.group, [])
-            title = table_title(f.key, self.state.names)
+            title = table_title(f.key, self.state.table_names())
             if title and title != heading and f.group in ("Springs", "Geometry", "Target and range"):
-                items.append(pn.pane.HTML(f"<b>{_escape(title)}</b>", margin=(8, 10, 0, 10)))
+                table = ".".join(f.key.split(".")[:2])
+                head = pn.pane.HTML(_heading(title), margin=(8, 10, 0, 10), css_classes=[f"heading-{slug(table)}"])
+                items.append(head)
                 if f.group == "Springs":
-                    items.append(self._catalogue_pick(int(f.key.split(".")[1])))
+                    number = int(f.key.split(".")[1])
+                    self.headings[number] = head
+                    items.append(self._catalogue_pick(number))
             heading = title
             box = pn.widgets.TextInput(name=f.label, value=f.text, description=f.help,
                                        placeholder="default", css_classes=["field", f"field-{slug(f.key)}"],
@@ -138,6 +145,7 @@ class DesignPage:
 
         async def picked(event):
             self.state.pick_spring(number, None if event.new == own else event.new)
+            self.headings[number].object = _heading(self.state.table_names()[f"springs.{number}"])
             for key, box in self.inputs.items():  # the fields show the spring now chosen
                 box.value = value_text(self.state.value(key))
             await self.design()
@@ -254,9 +262,17 @@ class DesignPage:
             files = self._result_files(False)
             return io.BytesIO(zipped({n: d for n, d in files.items() if n.endswith(".dxf")}))
 
+        def solids():
+            files = self._result_files(False, solids=True)
+            return io.BytesIO(zipped({n: d for n, d in files.items() if n.endswith(".step")}))
+
         def everything():  # with the page's verdict lines, as summary.txt
-            files = self._result_files(True)
+            files = self._result_files(True, solids=True)
             return io.BytesIO(zipped({**files, "summary.txt": (self._result().summary() + "\n").encode("utf-8")}))
+
+        step_button = ([pn.widgets.FileDownload(callback=solids, filename="step.zip", label="STEP solids (zip)",
+                                                css_classes=["download-step"], button_type="primary")]
+                       if step_available() else [])
 
         return [pn.widgets.FileDownload(callback=spec, filename="spec.toml", label="spec (TOML)",
                                         css_classes=["download-spec"], button_type="primary"),
@@ -264,8 +280,9 @@ class DesignPage:
                                         css_classes=["download-result"], button_type="primary"),
                 pn.widgets.FileDownload(callback=dxf, filename="dxf.zip", label="DXF outlines (zip)",
                                         css_classes=["download-dxf"], button_type="primary"),
+                *step_button,
                 pn.widgets.FileDownload(callback=everything, filename="outputs.zip",
-                                        label="every file: SVG, STL, sheets, figures, summary (zip)",
+                                        label="every file: SVG, solids, sheets, figures, summary (zip)",
                                         css_classes=["download-all"], button_type="primary")]
 
     def _result(self):
@@ -274,8 +291,13 @@ class DesignPage:
             raise ValueError("no design yet: the spec has an error")
         return result
 
-    def _result_files(self, figures: bool) -> dict[str, bytes]:
-        return self.state.result_files(self._result(), figures=figures)
+    def _result_files(self, figures: bool, solids: bool = False) -> dict[str, bytes]:
+        return self.state.result_files(self._result(), figures=figures, solids=solids)
+
+
+def _heading(title: str) -> str:
+    """A numbered table's heading in the form."""
+    return f"<b>{_escape(title)}</b>"
 
 
 def _escape(text: str) -> str:

@@ -90,6 +90,11 @@ class DesignState:
         """The state of the example spec ``name`` (:data:`TEMPLATES`)."""
         return cls(examples.path(name), **kwargs)
 
+    def table_names(self) -> dict[str, str]:
+        """The numbered tables' names (:attr:`names`), a spring picked from the catalogue named
+        as the catalogue names it."""
+        return self.names | {f"springs.{n}": pick["name"] for n, pick in self.picks.items()}
+
     def field(self, key: str) -> Field:
         return next(f for f in self.fields if f.key == key)
 
@@ -167,13 +172,15 @@ class DesignState:
             apply_override(doc, key, value, "the page's edits")
         return tomlkit.dumps(doc)
 
-    def result_files(self, result: Result, figures: bool = False) -> dict[str, bytes]:
+    def result_files(self, result: Result, figures: bool = False, solids: bool = False) -> dict[str, bytes]:
         """What ``cadcam design`` writes for ``result`` (:meth:`Result.save`: result.json, the
-        tables, the workshop files; with ``figures`` the PNG figures and drawing sheets), by
-        file name."""
+        tables, the workshop files; with ``figures`` the PNG figures and drawing sheets; with
+        ``solids`` the STL and, where the extra ``step`` is installed, the STEP solids, of the
+        spec's ``stl`` thickness or :data:`cadcam.problem.SOLID_THICKNESS`), by file name."""
+        workshop = result.problem.workshop.with_solids() if solids else "spec"
         with tempfile.TemporaryDirectory(prefix="cadcam-app-") as tmp:
             try:
-                result.save(tmp, figures=figures)
+                result.save(tmp, workshop=workshop, figures=figures)
             except ValueError:  # a workshop file that cannot be made: the others are written
                 pass
             return {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file()}

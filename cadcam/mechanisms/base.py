@@ -183,6 +183,13 @@ class Picture:
     runs_on: str = "the cable runs on the red arc only"
 
 
+#: The optional key every ``[[mechanisms]]`` table may have for its drawings (the spec reader,
+#: the reference page and the result's schema read it).
+LINK_ANGLE = Quantity("link_angle", "rad", "The world angle of the joint's link, from the joint axis towards its "
+                      "mass, at θ = 0; the link turns with the mechanism's turning body (drawings only; default, for "
+                      "a pendulum target, where gravity along −y gives the target's torque m g l sin(θ + phase))")
+
+
 @dataclass(frozen=True)
 class Profile:
     """One designed profile ρ(φ) of a mechanism, with its radius and curvature limits [m]."""
@@ -206,6 +213,8 @@ class Mechanism:
     name: str
     joint: int
     profiles: tuple[Profile, ...]
+    #: :data:`LINK_ANGLE` [rad], or None (its default).
+    link_angle: float | None = None
 
     kind: ClassVar[str] = ""
     citation: ClassVar[str] = ""
@@ -340,10 +349,36 @@ class Mechanism:
         ang = np.asarray(phi) + self.profile_rotation(theta)
         return rho * np.cos(ang), rho * np.sin(ang)
 
+    def link_rotation(self, theta):
+        """World angle [rad] by which the joint's link has turned at joint angle θ: the link is
+        fixed to the body that turns with the joint, by default the profile
+        (:meth:`profile_rotation`)."""
+        return self.profile_rotation(theta)
+
     def arm(self, theta: float, target) -> tuple[np.ndarray, str] | None:
-        """For drawings: where the joint's link puts the mass its ``target`` names, at joint
-        angle θ (a world point [m]), and the words for it; None where the mechanism does not
-        know which way its link points (the default)."""
+        """For drawings: where the joint's link puts the mass of a pendulum ``target`` at joint
+        angle θ (a world point [m]), and the words for it; None for other targets.
+
+        The link points along :attr:`link_angle` at θ = 0 and turns by :meth:`link_rotation`.
+        Without ``link_angle`` it points where gravity along −y gives the target's torque: the
+        mass at height l sin ψ asks the springs for dV/dθ = −m g l cos ψ · dψ/dθ, which is
+        m g l sin(θ + phase) for ψ = π/2 + r(θ + phase), r = ±1 the link's turn per radian."""
+        if target.kind != "pendulum":
+            return None
+        d = target.data
+        if self.link_angle is None:
+            angle = np.pi / 2 + self.link_rotation(theta + d["phase"])
+        else:
+            angle = self.link_angle + self.link_rotation(theta)
+        return (d["length"] * np.array([np.cos(angle), np.sin(angle)]),
+                f"arm: {d['mass']:g} kg at {1e3 * d['length']:g} mm")
+
+    def spring_line(self, theta: float, z: np.ndarray, c: np.ndarray, port: str,
+                    sign: float) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """For drawings: the line a spring on ``port`` (with ``sign``, ±1, in its ports) lies
+        on at the pose θ: the end it is drawn from (a world point [m]), the unit vector it runs
+        along from there, and the room it has along it [m] (inf: no bound). None where the
+        mechanism does not place the springs of that port (the default)."""
         return None
 
     def segments(self, theta: float, z: np.ndarray, c: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:

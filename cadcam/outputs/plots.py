@@ -42,6 +42,7 @@ DEPARTURE = dict(marker="o", color="tab:red", ms=6, ls="none", zorder=5)
 ANCHOR = dict(marker="s", color="black", ms=5, ls="none", zorder=5)
 IDLER = dict(color="0.25", lw=1.0, ls="--")
 SPRING_END = dict(marker="o", mfc="white", mec="tab:purple", mew=1.5, ms=7, ls="none", zorder=5)
+SPRING_COIL = dict(color="tab:purple", lw=1.2, zorder=4)
 LINK = dict(color="0.55", lw=5.0, alpha=0.45, solid_capstyle="round", zorder=0)
 MASS = dict(marker="o", color="0.3", ms=11, ls="none", zorder=1)
 LIMIT = dict(color="0.55", lw=0.8, ls=":")
@@ -129,6 +130,71 @@ def _edge_label(ax, lo, hi, a, b, text):
                 bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.7", lw=0.5, alpha=0.9), zorder=8)
 
 
+#: A spring is drawn as a zigzag of this many coils between its two ends, as wide as this
+#: fraction of its drawn free length (at most this fraction of its mechanism's largest radius,
+#: not to hide the profile), with a straight hook of this fraction of its length at each end:
+#: stretched, its coils spread and its width stays.
+COILS = 8
+COIL_WIDTH = 0.16
+COIL_WIDTH_RADII = 0.5
+COIL_HOOK = 0.08
+#: A spring with no free length given is drawn with one equal to its travel, shortened so that
+#: at its longest it fills at most this fraction of the least room it has, and not below this
+#: fraction of its travel.
+COIL_FILL = 0.8
+COIL_LEAST = 0.2
+
+
+def coil(start, direction, length: float, width: float, coils: int = COILS) -> np.ndarray:
+    """The zigzag of a spring (points, (2·coils + 3) × 2) from ``start`` along the unit vector
+    ``direction`` over ``length``, ``width`` wide; in the units of ``start``."""
+    start, direction = np.asarray(start, float), np.asarray(direction, float)
+    normal = np.array([-direction[1], direction[0]])
+    hook = COIL_HOOK * length
+    t = np.r_[0.0, hook + (length - 2 * hook) * np.arange(2 * coils + 1) / (2 * coils), length]
+    side = np.r_[0.0, 0.0, np.tile([1.0, -1.0], coils)[:-1], 0.0, 0.0] * width / 2
+    return start + t[:, None] * direction + side[:, None] * normal
+
+
+def _mechanism_springs(ev: Evaluation, u: int) -> list[tuple[int, object, np.ndarray]]:
+    """(j, port, x) of each spring port on mechanism ``u``: the spring's index, the port, and
+    its extension [m] over the mechanism's joint grid (other joints at their first angle)."""
+    problem, tensor = ev.problem, ev.tensor
+    joint = problem.mechanisms[u].joint
+    line = tensor.line([0] * tensor.m, joint)
+    return [(j, port, np.ravel(tensor.extension(j, line)) * np.ones(tensor.n))
+            for j, spring in enumerate(problem.springs) for port in spring.ports if port.mechanism == u]
+
+
+def _drawn_free_length(spring, x: np.ndarray, rooms: list[float]) -> float:
+    """The free length [m] a spring is drawn with: its own, else its travel, shortened to fit
+    (:data:`COIL_FILL`, :data:`COIL_LEAST`) at its longest extension ``x`` in its least room."""
+    if spring.free_length is not None:
+        return spring.free_length
+    fit = COIL_FILL * min(rooms, default=np.inf) - float(np.max(x))
+    return max(min(spring.travel, fit), COIL_LEAST * spring.travel)
+
+
+def _coils(ev: Evaluation, u: int, mech, poses: list[tuple[int, float, np.ndarray, np.ndarray]],
+           radius: float) -> list[list]:
+    """The springs of mechanism ``u`` (``mech``, its largest radius ``radius`` [m]) drawn at
+    each of its ``poses`` (grid index, θ, z, c), each a zigzag [mm] from the mechanism's
+    ``spring_line`` over its drawn free length plus its extension there (at most its room),
+    and whether that free length is the spring's own."""
+    out: list[list] = [[] for _ in poses]
+    for j, port, x in _mechanism_springs(ev, u):
+        spring = ev.problem.springs[j]
+        lines = [(i, k, mech.spring_line(th, z, c, port.name, port.sign)) for i, (k, th, z, c) in enumerate(poses)]
+        drawn = [(i, k, line) for i, k, line in lines if line is not None]
+        free = _drawn_free_length(spring, x, [room for _, _, (_, _, room) in drawn])
+        width = MM * min(COIL_WIDTH * free, COIL_WIDTH_RADII * radius)
+        for i, k, (start, direction, room) in drawn:
+            length = min(free + float(x[k]), room)
+            points = coil(MM * np.asarray(start, float), direction, MM * length, width)
+            out[i].append((points, spring.free_length is not None))
+    return out
+
+
 def _inside(lo, hi, pt) -> bool:
     return bool(np.all(pt >= lo - 1e-9) and np.all(pt <= hi + 1e-9))
 
@@ -146,7 +212,9 @@ def _row(ev: Evaluation, u: int, n_poses: int):
     marks = {p: _profile_marks(ev, p) for p in range(sl.start, sl.stop)}
     radius = max(float(np.nanmax(rho)) for _, rho in curves.values())
     panels = []
-    for k in _pose_indices(unit.theta.size, n_poses):
+    poses = [(int(k), float(unit.theta[k]), unit.z[:, k], c) for k in _pose_indices(unit.theta.size, n_poses)]
+    coils = _coils(ev, u, mech, poses, radius) if problem.springs else [[] for _ in poses]
+    for k, _, _, _ in poses:
         th, z = float(unit.theta[k]), unit.z[:, k]
         prof = []
         for p, (phi, rho) in curves.items():
@@ -163,11 +231,12 @@ def _row(ev: Evaluation, u: int, n_poses: int):
         wraps = [(MM * np.asarray(x, float), MM * np.asarray(y, float)) for x, y in mech.wraps(th, z, c)]
         arm = mech.arm(th, problem.joints[mech.joint].target)
         arms = [] if arm is None else [(MM * np.asarray(arm[0], float), arm[1])]
-        panels.append((th, prof, spans, circles, wraps, arms))
-    # the view: the profiles at every drawn pose, and what lies near them
-    pts = [np.column_stack((x, y)) for _, prof, *_ in panels for x, y, *_ in prof] + [np.zeros((1, 2))]
+        panels.append((th, prof, spans, circles, wraps, arms, coils[len(panels)]))
+    # the view: the profiles and springs at every drawn pose, and what lies near them
+    pts = ([np.column_stack((x, y)) for _, prof, *_ in panels for x, y, *_ in prof] + [np.zeros((1, 2))]
+           + [points for *_, springs in panels for points, _ in springs])
     near = REACH * MM * radius
-    for _, prof, spans, circles, _, _ in panels:
+    for _, prof, spans, circles, *_ in panels:
         extra = [d for _, _, _, d, _, _ in prof] + [v for s in spans for v in s] + [ctr for ctr, _ in circles]
         pts += [e[None, :] for e in extra if np.all(np.isfinite(e)) and np.hypot(*e) <= near]
     allp = np.vstack(pts)
@@ -227,8 +296,9 @@ def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
             if columns[col] >= len(panels):
                 ax.set_axis_off()
                 continue
-            th, prof, spans, circles, wraps, arms = panels[columns[col]]
+            th, prof, spans, circles, wraps, arms, springs = panels[columns[col]]
             seen |= _draw_arms(ax, lo, hi, arms)
+            seen |= _draw_springs(ax, springs)
             seen |= _draw_pose(ax, lo, hi, [r for r, _ in limits], prof, spans, circles, wraps)
             _label_off_view(ax, lo, hi, spans, circles)
             angle = f"θ{mech.joint + 1}" if len(problem.joints) > 1 else "θ"
@@ -304,6 +374,14 @@ def _draw_arms(ax, lo, hi, arms) -> set[str]:
     return {"arm"} if arms else set()
 
 
+def _draw_springs(ax, springs) -> set[str]:
+    """The springs' zigzags [mm] (``springs``: points and whether the free length drawn is the
+    spring's own); returns the legend entries they need."""
+    for points, _ in springs:
+        ax.plot(*points.T, **SPRING_COIL)
+    return {"coil" if own else "coil-nominal" for _, own in springs}
+
+
 def _label_off_view(ax, lo, hi, spans, circles) -> None:
     """Name at the edge of the view (``lo``, ``hi``) [mm] what lies off it: an idler once (not
     the cable's tangent points on it), a spring end where its cable leaves the view."""
@@ -325,6 +403,8 @@ def _label_off_view(ax, lo, hi, spans, circles) -> None:
 #: The optional entries of the profile view's legend, in their order: (key of what
 #: :func:`_draw_pose` returns, its label (None: the mechanisms' word for their circles), style).
 OPTIONAL_LEGEND = (("arm", "the link (to its mass)", LINK),
+                   ("coil", "spring: free length + extension", SPRING_COIL),
+                   ("coil-nominal", "spring: extension + a free length to fit (none given)", SPRING_COIL),
                    ("idler", None, IDLER),
                    ("end", "spring end / point idler", SPRING_END),
                    ("rho", "ρ at its limit", RHO_BINDING),

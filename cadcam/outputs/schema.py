@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..files import atomic_path
-from ..mechanisms.base import design_methods, mechanism_class, mechanism_kinds, torque_models
+from ..mechanisms.base import LINK_ANGLE, design_methods, mechanism_class, mechanism_kinds, torque_models
 from ..problem import ACCEPTANCE, TOLERANCES
 from ..targets import target_kind, target_kinds
 
@@ -45,7 +45,11 @@ def mechanism_schemas() -> dict[str, dict]:
         package = mechanism_class(kind).__module__.rsplit(".", 1)[0]
         path = resources.files(package) / MECHANISM_SCHEMA
         if path.is_file():
-            out[kind] = json.loads(path.read_text(encoding="utf-8"))
+            schema = json.loads(path.read_text(encoding="utf-8"))
+            keys = schema.get("propertyNames", {}).get("enum")
+            if keys is not None and LINK_ANGLE.name not in keys:  # every mechanism's optional key
+                keys.append(LINK_ANGLE.name)
+            out[kind] = schema
     return out
 
 
@@ -61,6 +65,8 @@ def result_schema(schema: dict) -> dict:
     defs["target"]["allOf"] = _declared(defs["target"]["allOf"], {
         k: target_kind(k).schema for k in kinds if target_kind(k).schema is not None})
     defs["mechanism"]["allOf"] = _declared(defs["mechanism"]["allOf"], mechanism_schemas())
+    defs["mechanism"]["properties"][LINK_ANGLE.name] = {
+        "description": f"{LINK_ANGLE.description} [{LINK_ANGLE.unit}].", "type": "number"}
     defs["joint"]["properties"]["acceptance"]["properties"] = {
         key: {"description": f"{a.description} [{a.unit}]", "type": "number", "exclusiveMinimum": 0}
         for key, a in ACCEPTANCE.items()}

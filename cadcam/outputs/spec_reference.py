@@ -17,7 +17,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from ..files import atomic_path
-from ..mechanisms.base import mechanism_class
+from ..mechanisms.base import LINK_ANGLE, mechanism_class
 from ..problem import ACCEPTANCE, IPOPT_OPTIONS, TOLERANCES, SOLVER, WORKSHOP_LIMITS, Workshop
 from ..targets import target_kinds
 from .schema import mechanism_schemas
@@ -117,7 +117,8 @@ def reference() -> str:
     """The page's text."""
     rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_acceptance(), "", *_tolerances(), "", *_targets(), "", "## Mechanisms", "",
             "Keys every `[[mechanisms]]` table has: `kind`, `name`, `joint` (1-based), the profile's "
-            "`basis`, `order`, `rho_min`, `rho_max` and optional `min_curvature_radius`; then its own:"]
+            "`basis`, `order`, `rho_min`, `rho_max`, optional `min_curvature_radius` and optional "
+            f"`{LINK_ANGLE.name}` [{LINK_ANGLE.unit}] ({_cell(LINK_ANGLE.description)}); then its own:"]
     for kind, schema in mechanism_schemas().items():
         rows += ["", *_mechanism(kind, schema)]
     return "\n".join(rows) + "\n"

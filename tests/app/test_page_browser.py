@@ -25,6 +25,8 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
 SCREENS = Path(tempfile.gettempdir()) / "cadcam-app-screens"
 #: Longest wait from a changed value to its new torque curve on the page [s] (the issue's).
 NEW_CURVE_S = 3.0
+#: A spring of the shipped catalogue.
+PICKED = "ACM12-100 (Endo2010 Sec. II-C (Endo et al. 2010))"
 
 
 def _free_port() -> int:
@@ -133,6 +135,11 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
         assert z.namelist() == ["cam1.dxf"]
         dxf_bytes = z.read("cam1.dxf")
     _check_dxf(dxf_bytes, spec["cams"][0]["rho_max"])
+    from cadcam.make.step import available
+    if available():  # the spec sets no thickness: the STEP solid is the default plate's
+        assert "stl" not in spec.get("workshop", {})
+        with zipfile.ZipFile(_download(page, "step", tmp_path)) as z:
+            assert z.namelist() == ["cam1.step"] and z.read("cam1.step").startswith(b"ISO-10303-21;")
 
     # the mechanism runs over the range: playing shows another joint angle
     page.get_by_text("Mechanism", exact=True).click()
@@ -146,6 +153,7 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     page.get_by_text("Torque", exact=True).click()
 
     # the spec downloaded opens again, with the edit in its form
+    designed = page.locator(".verdict small").inner_text()  # "(designed in … s)" of the design shown
     page.locator(".open-file input[type=file]").set_input_files(str(tmp_path / "spec.toml"))
     page.get_by_text("open spec.toml").wait_for(timeout=10_000)
     deadline = time.monotonic() + 20
@@ -153,8 +161,22 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     while rate.input_value() != "1200" and time.monotonic() < deadline:
         page.wait_for_timeout(100)
     assert rate.input_value() == "1200"
+    while page.locator(".verdict small").count() == 0 or page.locator(".verdict small").inner_text() == designed:
+        assert time.monotonic() < deadline + 20, "the file opened was not designed"
+        page.wait_for_timeout(100)
     page.wait_for_selector(".verdict-success", timeout=20_000)
     page.screenshot(path=str(SCREENS / "5_reopened.png"), full_page=True)
+
+    # a catalogue spring: its heading names it, its rate fills the field
+    heading = page.locator(".heading-springs-1 b")
+    own = heading.inner_text()
+    page.locator(".catalogue-springs-1 select").select_option(label=PICKED)
+    deadline = time.monotonic() + 10
+    while (heading.inner_text(), rate.input_value()) != (PICKED, "1150.0") and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    assert (heading.inner_text(), rate.input_value()) == (PICKED, "1150.0") and own != PICKED
+    page.wait_for_selector(".verdict-success", timeout=20_000)
+    page.screenshot(path=str(SCREENS / "6_picked.png"), full_page=True)
 
     outside = [u for u in requests if not u.startswith(("http://127.0.0.1:", "ws://127.0.0.1:", "data:",
                                                          "blob:http://127.0.0.1:"))]

@@ -1,5 +1,6 @@
 """The design page's state without a browser: the form from the reader's declarations, edits as
 overrides, errors named by field, the spec written back with the edits."""
+import numpy as np
 import pytest
 
 from cadcam import load_problem
@@ -92,6 +93,19 @@ def test_a_catalogue_spring_replaces_the_specs_and_an_edit_still_wins():
     assert state.value("springs.1.rate") == 1100.0
 
 
+def test_a_picked_springs_table_is_named_as_the_catalogue_names_it():
+    state = DesignState.template("johnston2023_1dof")
+    own = state.table_names()["springs.1"]
+    assert own == load_problem(state.path).springs[0].name
+    name = "ACM12-100 (Endo2010 Sec. II-C (Endo et al. 2010))"
+    state.pick_spring(1, name)
+    assert state.table_names()["springs.1"] == name
+    assert load_problem(state.path, overrides=state.override_pairs()).springs[0].name == name
+    assert state.table_names()["springs.2"] == load_problem(state.path).springs[1].name
+    state.pick_spring(1, None)
+    assert state.table_names()["springs.1"] == own
+
+
 def test_a_result_json_opens_with_its_resolved_problem(tmp_path):
     from cadcam.app.state import result_json
 
@@ -125,3 +139,29 @@ def test_the_files_to_download_are_those_cadcam_design_writes(tmp_path):
     assert not any(name.endswith(".png") for name in files)  # figures=False draws none
     result.save(tmp_path, figures=False)
     assert files["cam1.dxf"].count(b"LWPOLYLINE") == (tmp_path / "cam1.dxf").read_bytes().count(b"LWPOLYLINE")
+
+
+def test_the_solids_to_download_need_no_stl_thickness_in_the_spec():
+    from cadcam.make.step import available
+    from cadcam.problem import SOLID_THICKNESS
+
+    state = DesignState.template("johnston2023_1dof")
+    result = state.design().result
+    assert result.problem.workshop.stl is None
+    assert not any(name.endswith((".stl", ".step")) for name in state.result_files(result))
+    files = state.result_files(result, solids=True)
+    assert "cam1.stl" in files and ("cam1.step" in files) == available()
+    z = np.frombuffer(files["cam1.stl"][84:], dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)),
+                                                              ("a", "<u2")]))["v"][..., 2]
+    assert z.max() - z.min() == pytest.approx(1e3 * SOLID_THICKNESS)  # the STL is in millimetres
+
+
+def test_the_link_angle_is_a_geometry_field_of_every_mechanism():
+    from cadcam.mechanisms.base import LINK_ANGLE
+
+    state = DesignState.template("roller_follower_pendulum")
+    link = state.field("mechanisms.1.link_angle")
+    assert (link.group, link.label, link.value) == ("Geometry", "link_angle [rad]", None)
+    assert link.help == f"{LINK_ANGLE.description} [rad]"
+    assert state.edit("mechanisms.1.link_angle", "1.2") is None
+    assert load_problem(state.path, overrides=state.override_pairs()).mechanisms[0].link_angle == 1.2

@@ -121,7 +121,7 @@ def test_profile_view_draws_a_published_design_in_its_own_basis(ev_rr):
     from cadcam.outputs.plots import _row
     for u in range(2):  # Table 3 is typed in as monomials; the spec's cams are Chebyshev
         panels, _, _ = _row(ev_rr, u, 3)
-        for _, prof, _, circles, _, _ in panels:
+        for _, prof, _, circles, *_ in panels:
             departure = prof[0][3]
             (centre, radius), = circles
             # Johnston2023's cam touches its idler where the wire departs (Eq. 7, 15) [mm]
@@ -331,3 +331,64 @@ def test_the_pose_figure_draws_the_link_to_its_mass_where_the_mechanism_knows_it
         assert any(np.allclose([ln.get_xdata()[1], ln.get_ydata()[1]], 1e3 * end) for ln in lines)
         assert any(words in t.get_text() for t in ax.texts) and words == "arm: 0.5 kg at 200 mm"
     assert mech.arm(0.3, replace(target, kind="expression")) is None
+
+
+def test_the_pose_figure_draws_each_spring_from_its_end_to_its_length():
+    """Ludovico2021's springs hang from their ends on the link along the free cable; each is
+    drawn as a zigzag from the spring end over its drawn free length plus its extension at
+    that pose, so that it is longer where it is stretched more."""
+    from cadcam.designs import default_start
+    from cadcam.outputs.plots import COIL_FILL, _mechanism_springs, profile_figure
+
+    problem = load_spec(ROOT / "models" / "ludovico2021_pendulum.toml")
+    ev = evaluate(problem, default_start(problem), grid=7)
+    fig = profile_figure(ev, n_poses=3)
+    for u, mech in enumerate(problem.mechanisms):
+        (j, port, x), = _mechanism_springs(ev, u)
+        unit, c = ev.units[u], ev.design.coefficients[u]
+        np.testing.assert_allclose(x, ev.x[j])  # one joint: the spring's extension on its grid
+        spans = [np.hypot(*np.subtract(*mech.segments(th, unit.z[:, k], c)[0])) for k, th in enumerate(unit.theta)]
+        drawn = [0, 3, 6]
+        free = min(problem.springs[j].travel, COIL_FILL * min(spans[k] for k in drawn) - x.max())
+        for ax, k in zip(fig.axes[3 * u:3 * u + 3], drawn):
+            coils = [ln.get_xydata() for ln in ax.get_lines() if ln.get_color() == "tab:purple" and len(ln.get_xdata()) > 5]
+            (points,) = coils
+            end = 1e3 * mech.spring_end(unit.theta[k])
+            np.testing.assert_allclose(points[0], end, atol=1e-9)
+            np.testing.assert_allclose(np.hypot(*(points[-1] - points[0])), 1e3 * (free + x[k]), rtol=1e-12)
+            cable = (mech.segments(unit.theta[k], unit.z[:, k], c)[0][0] - end / 1e3) * 1e3
+            along = points[-1] - points[0]
+            assert abs(cable[0] * along[1] - cable[1] * along[0]) < 1e-9 * np.hypot(*cable) ** 2  # on the cable
+    assert "spring: extension + a free length to fit (none given)" in _texts(fig)
+
+
+@pytest.mark.parametrize("spec", ["models/roller_follower_pendulum.toml", "models/fedorov2018_balancer.toml",
+                                  "docs/first_balancer.toml"])
+def test_the_link_turns_with_its_body_and_gravity_on_its_mass_is_the_target(spec):
+    """The link to a pendulum's mass is fixed to the body that turns with the joint (it turns as
+    the profile's anchor does) and points where gravity along −y on its mass asks the springs
+    for the target's torque, −m g dy/dθ = m g l sin(θ + phase), at three angles; drawn from the
+    joint axis to the mass. A spec's ``link_angle`` turns it to point there at θ = 0."""
+    from cadcam.designs import default_start
+    from cadcam.outputs.plots import profile_figure
+
+    problem = load_spec(ROOT / spec)
+    mech, target = problem.mechanisms[0], problem.joints[0].target
+    mass, length, g = (target.data[k] for k in ("mass", "length", "g"))
+    ev = evaluate(problem, default_start(problem), grid=7)
+    fig = profile_figure(ev, n_poses=3)
+    h = 1e-6
+    for ax, k in zip(fig.axes, [0, 3, 6]):
+        theta = ev.units[0].theta[k]
+        end, words = mech.arm(theta, target)
+        assert np.hypot(*end) == pytest.approx(length) and words == f"arm: {mass:g} kg at {1e3 * length:g} mm"
+        lift = (mech.arm(theta + h, target)[0][1] - mech.arm(theta - h, target)[0][1]) / (2 * h)
+        assert -mass * g * lift == pytest.approx(ev.tau_d[0, k], rel=1e-6, abs=1e-9)
+        turned = [np.arctan2(*np.array(mech.world_points(t, 0.0, 1.0))[::-1]) for t in (0.0, theta)]
+        link = [np.arctan2(*mech.arm(t, target)[0][::-1]) for t in (0.0, theta)]
+        assert np.cos((link[1] - link[0]) - (turned[1] - turned[0])) == pytest.approx(1.0)
+        lines = [ln for ln in ax.get_lines() if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == 0]
+        assert any(np.allclose([ln.get_xdata()[1], ln.get_ydata()[1]], 1e3 * end) for ln in lines)
+    pointed = load_spec(ROOT / spec, overrides=[("mechanisms.1.link_angle", 0.25)]).mechanisms[0]
+    assert pointed.link_angle == 0.25
+    np.testing.assert_allclose(pointed.arm(0.0, target)[0], length * np.array([np.cos(0.25), np.sin(0.25)]))

@@ -224,17 +224,17 @@ class AnchoredPulley(Mechanism):
         p = np.array(self.world_points(theta, alpha, rho), dtype=float)
         return [(p, self.spring_end(theta))]
 
-    def arm(self, theta, target):
-        """With the pulley on the link (``turning = "pulley"``), the link points up at θ = 0
-        (angles from the upright) and turns with the pulley by σθ: a pendulum target's mass sits
-        at l·(−sin σ(θ + phase), cos σ(θ + phase)), where gravity's torque about the joint is
-        m g l sin(θ + phase), the torque the spring resists."""
-        if self.turning != "pulley" or target.kind != "pendulum":
-            return None
-        d = target.data
-        a = self.sigma * (theta + d["phase"])
-        return (d["length"] * np.array([-np.sin(a), np.cos(a)]),
-                f"arm: {d['mass']:g} kg at {1e3 * d['length']:g} mm")
+    def spring_line(self, theta, z, c, port, sign):
+        """The spring hangs from its end S along the free cable towards the departure point:
+        the cable's path from the anchor to S (constant but for the spring) grows by the
+        spring's extension. Its room is the free span."""
+        (p, end), = self.segments(theta, z, c)
+        span = float(np.hypot(*(p - end)))
+        return end, (p - end) / span, span
+
+    def link_rotation(self, theta):
+        """The link carries the turning body (the pulley, or the spring end): sense·θ."""
+        return self.sense * theta
 
     def start_radius(self, profile):
         """``initial_radius`` if given, else mid-range of ρ, at most 40 % of the spring end's

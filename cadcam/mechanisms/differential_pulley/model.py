@@ -332,6 +332,10 @@ class DifferentialPulley(Mechanism):
         ang = self.anchor_angles[k] + self.sense * theta + self.windings[k] * np.asarray(phi)
         return rho * np.cos(ang), rho * np.sin(ang)
 
+    def link_rotation(self, theta):
+        """The link is fixed to the shaft, which turns by sense·θ."""
+        return self.sense * theta
+
     def idler_centre(self, x) -> np.ndarray:
         """World position of the idler centre at distance ``x`` [m]."""
         return float(x) * np.array([np.cos(self.slider_angle), np.sin(self.slider_angle)])
@@ -339,6 +343,13 @@ class DifferentialPulley(Mechanism):
     def circles(self, theta, z, c):
         """The idler at its pose."""
         return [(self.idler_centre(self.named_unknowns(z).x), float(self.idler_radius))]
+
+    def spring_line(self, theta, z, c, port, sign):
+        """A spring on the slider pulls the idler's centre along the slider's line: it runs
+        from the centre away from the way that stretches it (towards the shaft when x growing
+        stretches it, outward when ``sign`` = −1), as far as it likes."""
+        direction = np.array([np.cos(self.slider_angle), np.sin(self.slider_angle)])
+        return self.idler_centre(self.named_unknowns(z).x), -sign * direction, np.inf
 
     def segments(self, theta, z, c):
         """Both free spans, from each departure point to its tangent point on the idler."""

@@ -130,6 +130,20 @@ class WireCam(Mechanism):
         t = np.linspace(float(self.named_unknowns(z).gamma), 0.0, 60)
         return [(centre[0] + r * np.cos(t), centre[1] + r * np.sin(t))]
 
+    def spring_line(self, theta, z, c, port, sign):
+        """Spring 1 (``wire``) takes the wire where it leaves the idler (γ = 0) and runs on
+        along it; spring 2 (``platform``) holds the idler's centre and runs along the platform
+        away from the way that stretches it (Johnston2023 Fig. 1)."""
+        (centre, r), = self.circles(theta, z, c)
+        if port == "platform":
+            return centre, np.array([-sign, 0.0]), np.inf
+        wraps = self.wraps(theta, z, c)
+        if not wraps:  # a point idler: the wire's way on is not drawn
+            return None
+        x, y = wraps[0]
+        heading = np.array([x[-1] - x[-2], y[-1] - y[-2]])
+        return np.array([x[-1], y[-1]]), heading / np.hypot(*heading), np.inf
+
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
         idler = reader.table_reader("idler", "a table with radius and offset [m]")
