@@ -195,6 +195,16 @@ def _coils(ev: Evaluation, u: int, mech, poses: list[tuple[int, float, np.ndarra
     return out
 
 
+def _cable_to_coils(spans: list, coils: list) -> list:
+    """The free cable spans [mm], each that ends where a spring's coil starts (its fixed end)
+    cut back to the coil's other end: the cable pulls the spring, it does not run through it."""
+    out = []
+    for a, b in spans:
+        ends = [points[-1] for points, _ in coils if np.allclose(points[0], b, atol=1e-6)]
+        out.append((a, ends[0] if ends else b))
+    return out
+
+
 def _inside(lo, hi, pt) -> bool:
     return bool(np.all(pt >= lo - 1e-9) and np.all(pt <= hi + 1e-9))
 
@@ -226,7 +236,8 @@ def _row(ev: Evaluation, u: int, n_poses: int):
             bind = [(kind, MM * np.array(mech.world_points(th, f, r, kk), dtype=float)) for kind, f, r in marks[p]]
             wound = phi <= alpha if mech.picture.wound else np.zeros(phi.shape, dtype=bool)
             prof.append((x, y, wound, dep, anchor, bind))
-        spans = [(MM * np.asarray(a, float), MM * np.asarray(b, float)) for a, b in mech.segments(th, z, c)]
+        spans = _cable_to_coils([(MM * np.asarray(a, float), MM * np.asarray(b, float))
+                                 for a, b in mech.segments(th, z, c)], coils[len(panels)])
         circles = [(MM * np.asarray(ctr, float), MM * float(r)) for ctr, r in mech.circles(th, z, c)]
         wraps = [(MM * np.asarray(x, float), MM * np.asarray(y, float)) for x, y in mech.wraps(th, z, c)]
         arm = mech.arm(th, problem.joints[mech.joint].target)

@@ -392,3 +392,14 @@ def test_the_link_turns_with_its_body_and_gravity_on_its_mass_is_the_target(spec
     pointed = load_spec(ROOT / spec, overrides=[("mechanisms.1.link_angle", 0.25)]).mechanisms[0]
     assert pointed.link_angle == 0.25
     np.testing.assert_allclose(pointed.arm(0.0, target)[0], length * np.array([np.cos(0.25), np.sin(0.25)]))
+
+
+def test_a_cable_span_stops_where_its_spring_begins():
+    """A span ending at a spring's fixed end is cut back to the coil's far end; others are kept."""
+    from cadcam.outputs.plots import _cable_to_coils
+    coil = np.array([[0.0, -200.0], [3.0, -190.0], [-3.0, -180.0], [0.0, -170.0]])
+    spans = [(np.array([30.0, 0.0]), np.array([0.0, -200.0])), (np.array([5.0, 5.0]), np.array([9.0, 9.0]))]
+    (a, b), kept = _cable_to_coils(spans, [(coil, True)])
+    np.testing.assert_array_equal(b, coil[-1])
+    np.testing.assert_array_equal(a, spans[0][0])
+    assert kept[1] is spans[1][1]
