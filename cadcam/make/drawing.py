@@ -263,6 +263,8 @@ def _notes(fig, outline, rho_min, rho_max, shown, words):
         f"Dimensions in mm. Red: {words.arc}, "
         f"φ = 0° to {np.degrees(outline.phi_end):.1f}° from the anchor point; black: closing arc.",
         f"Outline radius {lo * MM:.2f} to {hi * MM:.2f}; {words.runs_on}.",
+        *([f"The cable's centre line lies {outline.offset * MM:.2f} mm (its radius) outside this cut outline."]
+          if outline.offset else []),
         f"Dashed: radius limits ρ_min = {rho_min * MM:.2f}, ρ_max = {rho_max * MM:.2f}"
         + (f" ({', '.join(off)} off the sheet)." if off else "."),
         "The outline's full definition: camN_points.csv / camN.dxf (this sheet is for checking).",
