@@ -1,6 +1,8 @@
 """The result of a design run as plain data, and its JSON form (schema: result.schema.json)."""
 from __future__ import annotations
 
+import html
+
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -16,7 +18,7 @@ from .verify.tolerance import Band, tolerance_band
 from .files import staged_folder
 from .version import __version__
 from .outputs.forked import Drawing, draw
-from .outputs.run_files import RUN_FILES, WorkshopError, write_outputs, write_workshop_files
+from .outputs.run_files import RUN_FILES, WorkshopError, torque_table, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -116,6 +118,19 @@ class Result:
         """Constraints that bind on the fine re-check, one sentence each
         (:func:`cadcam.verify.binding.binding_constraints`)."""
         return binding_constraints(self.recheck.metrics, self.problem)
+
+    def to_frame(self):
+        """The fine re-check as a :class:`pandas.DataFrame`: θ [rad], τ, τ_d and τ − τ_d [N·m] per
+        joint and the spring extensions [m], one row per grid point (the columns and rows of
+        ``torque_recheck.csv``, :func:`cadcam.outputs.run_files.torque_table`)."""
+        import pandas as pd
+
+        header, rows = torque_table(self.recheck)
+        return pd.DataFrame(rows, columns=header)
+
+    def _repr_html_(self) -> str:
+        """The summary, for a notebook's output cell."""
+        return f"<pre>{html.escape(self.summary())}</pre>"
 
     def summary(self) -> str:
         """A few lines: status and message, RMSE per joint, iterations and times, output and

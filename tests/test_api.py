@@ -103,6 +103,20 @@ def test_plot_returns_figures_and_leaves_the_backend_alone(small):
         small.plot("output")  # no output law in this problem
 
 
+def test_the_result_is_a_dataframe_and_a_notebook_cell(small, tmp_path):
+    """to_frame holds the fine re-check as torque_recheck.csv does; a notebook shows the summary."""
+    import pandas as pd
+    frame = small.to_frame()
+    small.save(tmp_path / "f", workshop=None, figures=False)
+    written = pd.read_csv(tmp_path / "f" / "torque_recheck.csv")
+    assert list(frame.columns) == list(written.columns) and len(frame) == small.recheck.theta.shape[1]
+    np.testing.assert_allclose(frame.to_numpy(), written.to_numpy(), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(frame["error1_Nm"], frame["tau1_Nm"] - frame["tau_d1_Nm"], rtol=0, atol=1e-15)
+    cell = small._repr_html_()
+    assert cell.startswith("<pre>") and cell.endswith("</pre>")
+    assert __import__("html").unescape(cell[len("<pre>"):-len("</pre>")]) == small.summary()
+
+
 def test_save_writes_what_the_cli_writes(small, tmp_path):
     notes = small.save(tmp_path / "r")
     names = {p.name for p in (tmp_path / "r").iterdir()}

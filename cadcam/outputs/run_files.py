@@ -39,11 +39,11 @@ RUN_FILES = re.compile(r"result\.json|(torque|torque_recheck|profile|output)\.cs
 TABLE_POINTS = 1_000_000
 
 
-def write_torque_csv(path: Path, ev) -> None:
+def torque_table(ev) -> tuple[list[str], np.ndarray]:
     """θ [rad], τ, τ_d and τ − τ_d [N·m] per joint and the spring extensions [m] at grid points
-    of the evaluation ``ev``, one row per point.
+    of the evaluation ``ev``: the column names and one row per point.
 
-    A tensor grid of at most :data:`TABLE_POINTS` points is written whole, in C order of the
+    A tensor grid of at most :data:`TABLE_POINTS` points is given whole, in C order of the
     joints' angles (one joint: every angle; two joints at the default fine grid: 451² =
     203 401 rows). A larger one (three joints at the default fine grid hold 451³ ≈ 9.2·10⁷
     points) is represented by the grid lines through each joint's worst point (largest
@@ -65,7 +65,12 @@ def write_torque_csv(path: Path, ev) -> None:
         cols = [*s["theta"]] + [v for i in range(m) for v in (s["tau"][i], s["tau_d"][i],
                                                                s["tau"][i] - s["tau_d"][i])]
         rows.append(np.column_stack(cols + [*s["x"]]))
-    write_csv(path, header, np.vstack(rows))
+    return header, np.vstack(rows)
+
+
+def write_torque_csv(path: Path, ev) -> None:
+    """The :func:`torque_table` of the evaluation ``ev`` as a CSV file."""
+    write_csv(path, *torque_table(ev))
 
 
 def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawing] | None = None,
