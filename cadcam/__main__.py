@@ -4,26 +4,42 @@ The signal handler of :mod:`cadcam.interrupts` is installed before the engine is
 an interrupt at start-up exits 130 like one during the work; once the command has finished,
 further signals are ignored while the interpreter ends.
 """
+import os
 import sys
 
 from .interrupts import INTERRUPTED, STOP, ignore_further_signals, interrupt_arrived, stop_on_signals
 
 
 def main() -> int:
-    """Run ``cadcam`` with ``sys.argv``; return its exit code (:mod:`cadcam.cli`)."""
+    """Run ``cadcam`` with ``sys.argv``; return its exit code (:mod:`cadcam.cli`), or, when it
+    was interrupted, end the process with :data:`INTERRUPTED` (see :func:`_end_interrupted`)."""
     stop_on_signals()
     try:
         from .cli import main as run_command
-        return run_command()
+        code = run_command()
     except Exception:  # while importing: a library may turn the interrupt into its own error
         if not interrupt_arrived():
             raise
-        return _interrupted()
+        code = _interrupted()
     except KeyboardInterrupt:  # before the command line took over the signals
-        return _interrupted()
+        code = _interrupted()
     finally:
         STOP.finished = True  # first, and without a call: nothing can interrupt it
         ignore_further_signals()
+    if code == INTERRUPTED:
+        _end_interrupted()
+    return code
+
+
+def _end_interrupted() -> None:
+    """End the process now with :data:`INTERRUPTED`, its output flushed. CPython marks a
+    KeyboardInterrupt raised inside code run by ``exec`` of a string (a dataclass's generated
+    ``__init__`` while a module imports) as unhandled even when it was caught, and then ends
+    the interpreter by SIGINT (exit −2) instead of with the code returned; the work that an
+    interrupt stops has left nothing behind to clean up (:mod:`cadcam.cli`)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(INTERRUPTED)
 
 
 
