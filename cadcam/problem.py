@@ -321,8 +321,9 @@ class Workshop:
 
     @property
     def hub_radius(self) -> float:
-        """Radius [m] of the hub every cut outline closes around: the bore's and a wall."""
-        return self.bore_diameter / 2 + MIN_WALL
+        """Radius [m] of the hub every cut outline closes around: the bore's, a wall, and the
+        depth of a groove cut round the outline (:func:`cadcam.make.workshop.write_stl`)."""
+        return self.bore_diameter / 2 + MIN_WALL + self.groove_depth
 
     @property
     def cable_radius(self) -> float:

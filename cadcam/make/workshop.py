@@ -808,8 +808,8 @@ def _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width):
         raise ValueError(f"groove_width = {_length(width)} must be less than thickness = "
                          f"{_length(thickness)}")
     deepest = outline.rho_range[0] - bore_diameter / 2 - MIN_WALL
-    if depth >= deepest:
-        raise ValueError(f"groove_depth = {_length(depth)} is too deep: it must be less than "
+    if depth > deepest + ROUNDING:
+        raise ValueError(f"groove_depth = {_length(depth)} is too deep: it may be at most "
                          f"ρ_min − bore radius − wall = {_length(deepest)}")
 
 

@@ -1,6 +1,8 @@
 """The NLP's outline rows: deferred, and imposed by a warm second solve where the optimum without
 them breaks them, so that every outline closes convex round its hub."""
 import dataclasses
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -48,3 +50,18 @@ def test_a_bore_that_binds_designs_the_arc_round_it(wide_bore):
     edge = np.diff(np.vstack((xy, xy[:1])), axis=0)
     nxt = np.roll(edge, -1, axis=0)
     assert (edge[:, 0] * nxt[:, 1] - edge[:, 1] * nxt[:, 0]).min() > -1e-15  # convex
+
+
+def test_a_groove_widens_the_hub_every_outline_closes_round(tmp_path):
+    """A groove cut round the outline needs its depth of material outside the bore's wall: the
+    hub grows by it, the outline keeps clear of it, and the STL with its groove is made."""
+    from cadcam.cli import main
+    from cadcam.verify.file_model import read_dxf
+    spec = Path(__file__).resolve().parents[2] / "docs" / "first_balancer.toml"
+    out = tmp_path / "o"
+    assert main(["design", str(spec), "-o", str(out), "--no-figures",
+                 "--stl", "0.005", "--groove-depth", "0.008", "--groove-width", "0.002"]) == 0
+    record = json.loads((out / "result.json").read_text())
+    assert record["workshop"]["status"] == "written" and (out / "cam1.stl").is_file()
+    outline = read_dxf(out / "cam1.dxf")
+    assert np.hypot(*outline.vertices.T).min() >= (0.006 / 2 + 0.001 + 0.008) - 1e-9

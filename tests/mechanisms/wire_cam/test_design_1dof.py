@@ -122,15 +122,15 @@ def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
     assert main(["design", str(SPEC_1DOF), "-o", str(out), "--stl", "0.005"]) == 0
     reported = float(capsys.readouterr().out.split("STL ")[1].split(" mm³")[0])
     assert check_output_file(out / "cam1.stl") == pytest.approx(reported, rel=1e-3)  # the file's own volume
-    # a groove deeper than the part's wall: the design stands, its solid cannot be made
+    # a groove wider than the part is thick: the design stands, its solid cannot be made
     assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "b"), "--stl", "0.005",
-                 "--groove-depth", "0.02", "--groove-width", "0.002"]) == 1
+                 "--groove-depth", "0.001", "--groove-width", "0.006"]) == 1
     err = capsys.readouterr().err
-    assert "workshop files cannot be made: cam1:" in err and "groove_depth" in err
+    assert "workshop files cannot be made: cam1:" in err and "groove_width" in err
     assert err.count("\n") == 1 and (tmp_path / "b" / "result.json").exists()
     record = json.loads((tmp_path / "b" / "result.json").read_text())
     assert record["status"] == "success"  # the design's own outcome, beside the workshop's
-    assert record["workshop"]["status"] == "failed" and "groove_depth" in record["workshop"]["message"]
+    assert record["workshop"]["status"] == "failed" and "groove_width" in record["workshop"]["message"]
     assert json.loads((out / "result.json").read_text())["workshop"]["status"] == "written"
 
 
