@@ -16,7 +16,7 @@ from manifold3d import CrossSection, JoinType, Manifold
 from numpy.polynomial import Legendre, Polynomial
 
 from ..files import atomic_path, write_csv as write_table, write_text
-from ..physics.profile import Basis, convexity_margin, profile_function
+from ..physics.profile import Basis, convexity_margin, curvature, profile_function
 from ..problem import MIN_WALL
 from .biarc import ArcChain, arc_geometry, biarc_fit, segment_distance
 
@@ -180,14 +180,12 @@ class Outline:
         on = phi <= self.phi_end
         speed, kappa = np.empty(phi.size), np.empty(phi.size)
         if on.any():
-            rho, drho, ddrho = designed_values(self.profile, self.coefficients, phi[on])[:3]
-            s = np.hypot(rho, drho)
-            k = convexity_margin(rho, drho, ddrho) / s**3
+            rho, drho, _, margin = designed_values(self.profile, self.coefficients, phi[on])
+            s, k = np.hypot(rho, drho), curvature(rho, drho, margin)
             speed[on], kappa[on] = s * (1 - self.offset * k), k / (1 - self.offset * k)
         if not on.all():
             rho, drho, ddrho = _rho_from_u(*self.closing.u(self._psi(phi[~on])))
-            s = np.hypot(rho, drho)
-            k = convexity_margin(rho, drho, ddrho) / s**3
+            s, k = np.hypot(rho, drho), curvature(rho, drho, convexity_margin(rho, drho, ddrho))
             start, stop = self.closing_angles
             speed[~on] = s * (1 - self.closing_offset * k) * (stop - start) / self.closing_span
             kappa[~on] = k / (1 - self.closing_offset * k)

@@ -106,6 +106,12 @@ def convexity_margin(rho, drho, ddrho):
     return rho**2 + 2 * drho**2 - rho * ddrho  # Johnston2023 Eq. 40
 
 
+def curvature(rho, drho, margin):
+    """Curvature κ [1/m] of the polar curve ρ(φ) from its Eq. 40 ``margin`` [m²]: the margin
+    over the speed |dp/dφ| = √(ρ² + ρ′²) cubed (Johnston2023 Eq. 37, 40)."""
+    return margin / (rho**2 + drho**2) ** 1.5
+
+
 def support_distance(rho, drho):
     """Distance [m] from the rotation axis to the profile's tangent line at φ: ρ²/√(ρ² + ρ′²).
 

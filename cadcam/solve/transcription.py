@@ -34,7 +34,7 @@ from . import compiled
 from .blocks import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from ..mechanisms.base import (Mechanism, margin_function, port_function,
                                pose_residual_function, split_coefficients, wound_lengths)
-from ..physics.profile import convexity_margin, inside_tangent, profile_function, support_distance
+from ..physics.profile import convexity_margin, curvature, inside_tangent, profile_function, support_distance
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.springs import Network
 from ..physics.wrap import length_function, segment_lengths
@@ -619,8 +619,7 @@ def _outline_rows(rows: _Rows, phi, rho, drho, conv):
     for inner, end in ((slice(1, None), 0), (slice(None, -1), -1)):
         rows.constrain(inside_tangent(rho[inner], drho[inner], rho[end], phi[inner] - phi[end]) / L**2,
                        _nonnegative, True)
-    curvature = conv / (rho**2 + drho**2) ** 1.5  # Johnston2023 Eq. 40 over the arc's speed cubed
-    rows.constrain(curvature * L, lambda pr: (-np.inf, pr.workshop.greatest_curvature * L), True)
+    rows.constrain(curvature(rho, drho, conv) * L, lambda pr: (-np.inf, pr.workshop.greatest_curvature * L), True)
 
 
 def _lifted_profile(rows: _Rows, basis, phi, c, pk: int):
