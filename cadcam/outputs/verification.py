@@ -19,7 +19,8 @@ import numpy as np
 
 from ..files import write_json, write_text
 from ..make.biarc import arc_distance
-from ..verify.file_model import FileOutline, anchored_torque, differential_output
+from ..mechanisms.base import ENERGY
+from ..verify.file_model import TORQUE_KINDS, FileOutline, differential_output, file_torque
 
 #: Share of the design's own largest error the file may add (issue 31).
 DESIGN_SHARE = 0.1
@@ -170,17 +171,19 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     kinds = {mech.kind for mech in problem.mechanisms}
     checks = []
     torque = _torque_checks(result)
-    if kinds <= {"anchored_pulley"} and len(chains) == len(owner):
+    missing = sorted(kinds - set(TORQUE_KINDS)) or (["a profile without a planar outline"]
+                                                    if len(chains) < len(owner) else [])
+    if not missing and problem.torque_model == ENERGY:
         sample = fine.tensor.sample(fine.tensor.whole())
-        tau = anchored_torque(problem, fine.design, {owner[i]: c for i, c in chains.items()}, sample["theta"])
+        tau = file_torque(problem, fine.design, {owner[i]: c for i, c in chains.items()}, sample["theta"])
         for i, check in enumerate(torque):
             found = np.isfinite(tau[i])
             checks.append(_judged(check, float(np.max(np.abs(tau[i] - sample["tau"][i])[found], initial=0.0)),
                                   int(np.sum(~found))))
     else:
-        missing = sorted(kinds - {"anchored_pulley"}) or ["a profile without a planar outline"]
-        checks += [{**c, "note": f"not recomputed from the files: no file model of {', '.join(missing)}"}
-                   for c in torque]
+        why = (f"no file model of {', '.join(missing)}" if missing
+               else f"the file model computes the energy torque, the design the {problem.torque_model} model")
+        checks += [{**c, "note": f"not recomputed from the files: {why}"} for c in torque]
     for check in _output_checks(result):
         u = check.pop("mechanism")
         profiles = [i for i, o in enumerate(owner) if o == u]

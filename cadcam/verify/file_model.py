@@ -15,13 +15,19 @@ pre-extensions):
   cable's left, like the outline, the root of n·P + q − h(ψ) = 0;
 - the wrapped length is the arcs' length from the anchor (the first vertex) to the contact
   point, the free span the distance from it to S (or to the idler's contact P + q n);
-- an anchored pulley's spring extension is x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref)) and the
-  joint torque τ = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ, dL/dθ by a central difference;
+- a follower circle of radius r pressed onto the cam along a line (a wire cam's idler riding
+  its platform at height a₀, a roller follower on its stem) has its centre where that line
+  meets the outline grown by r, on the side the line comes from, found by bisection; a wire
+  cam's wire port is the wrapped length plus r γ, γ the idler's contact angle, its platform
+  port the idler centre's x, a roller follower's port its centre's position on the line;
+- a spring's extension is x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref)), L_p a port's length, and
+  the joint torque τ = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ, dL/dθ by a central difference;
 - a differential pair's output x is the idler distance at which the two paths and the arc on
   the idler add up to the cable's length, found by bisection.
 
 The DXF is in the profile's own frame: the cable anchored at the first vertex on +x and wound
-counter-clockwise from it (the mechanism's ``winding`` = "cw" part is this outline mirrored).
+counter-clockwise from it (the mechanism's ``winding`` = "cw" part is this outline mirrored); a
+wire cam's frame turns by −θ in the world (a point at polar angle φ sits at world angle φ − θ).
 """
 from __future__ import annotations
 
@@ -278,9 +284,73 @@ def anchored_path(outline: FileOutline, mech, theta) -> np.ndarray:
     return wrapped + np.hypot(*(end - point).T)
 
 
-def anchored_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
+# ------------------------------------------------------------------- followers: wire cam, roller
+
+def follower_contact(outline: FileOutline, rotation, direction: float, offset: float, radius: float):
+    """A circle of ``radius`` [m] (an idler, a roller) whose centre slides along the line
+    s û + e v̂ (û at world angle ``direction`` β, v̂ a quarter turn on, e = ``offset`` [m]),
+    pressed onto the outline turned by ``rotation`` (n,) [rad] in the world: its outline-frame
+    normal angle ψ (n,), the wrapped length from the anchor to the contact (n,) [m], the centre's
+    position s (n,) [m] and the pressure angle φ_p (n,) [rad], the normal's world angle less β
+    (NaN where the contact lies outside the outline's chain).
+
+    The centre is R(rotation)·P(ψ) + r n, P the outline's point of normal ψ: a point of the
+    outline grown by r, whose height along v̂ grows with φ_p over (−π/2, π/2) on a convex
+    outline, so the height e is met by bisection in φ_p.
+    """
+    rotation = np.atleast_1d(np.asarray(rotation, dtype=float))
+    u, v = np.array([np.cos(direction), np.sin(direction)]), np.array([-np.sin(direction), np.cos(direction)])
+
+    def centre(lean):
+        psi = direction + lean - rotation
+        _, point, wrapped = outline.support(psi)
+        world = _rotate(rotation, point)
+        return world @ u + radius * np.cos(lean), world @ v + radius * np.sin(lean), wrapped, psi
+
+    lo, hi = np.full(rotation.shape, -np.pi / 2), np.full(rotation.shape, np.pi / 2)
+    for _ in range(BISECTIONS):
+        mid = (lo + hi) / 2
+        below = centre(mid)[1] <= offset
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    lean = (lo + hi) / 2
+    position, _, wrapped, psi = centre(lean)
+    on = (psi >= outline.start[0]) & (psi <= outline.end[-1])
+    return tuple(np.where(on, v, np.nan) for v in (psi, wrapped, position, lean))
+
+
+def wire_cam_port(outline: FileOutline, mech, port: str, theta) -> np.ndarray:
+    """Length [m] of a wire cam's port at ``theta``: its follower idler rides the platform at
+    height a₀, the cam turned by −θ (Johnston2023 Eq. 7); ``wire`` is the wrapped length plus the
+    wire on the idler r γ, γ = φ_p + π the contact's angle on the idler (Eq. 6, 14);
+    ``platform`` the idler centre's x (Eq. 15, 16)."""
+    theta = np.asarray(theta, dtype=float)
+    _, wrapped, qx, lean = follower_contact(outline, -theta, 0.0, mech.idler_offset, mech.idler_radius)
+    return wrapped + mech.idler_radius * (lean + np.pi) if port == "wire" else qx
+
+
+def roller_follower_port(outline: FileOutline, mech, theta) -> np.ndarray:
+    """Position s [m] of a roller follower's centre along its line at ``theta``, the cam turned
+    by γ₀ − θ (Norton2009; :mod:`cadcam.mechanisms.roller_follower`)."""
+    rotation = mech.axis_angle - np.asarray(theta, dtype=float)
+    return follower_contact(outline, rotation, mech.follower_angle, mech.offset, mech.roller_radius)[2]
+
+
+def port_length(outline: FileOutline, mech, port: str, theta) -> np.ndarray:
+    """Length [m] of port ``port`` of ``mech`` at joint angles ``theta`` from its file outline."""
+    if mech.kind == "wire_cam":
+        return wire_cam_port(outline, mech, port, theta)
+    if mech.kind == "roller_follower":
+        return roller_follower_port(outline, mech, theta)
+    return anchored_path(outline, mech, theta)
+
+
+#: Mechanisms whose joint torque :func:`file_torque` recomputes from their files.
+TORQUE_KINDS = ("anchored_pulley", "wire_cam", "roller_follower")
+
+
+def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
     """Joint torques [N·m] (m, P) at the points ``thetas`` (m, P) of a problem whose mechanisms
-    are all anchored pulleys, from their file outlines (mechanism index → FileOutline).
+    are all of :data:`TORQUE_KINDS`, from their file outlines (mechanism index → FileOutline).
 
     τ_i = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ_i, x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref))
     (the energy V = Σ ½k x² + F0 x differentiated, Johnston2023 Eq. 14, 36).
@@ -288,10 +358,10 @@ def anchored_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
     network = problem.network()
     P = thetas.shape[1]
     d, dd = np.zeros((network.P.shape[1], P)), np.zeros((network.P.shape[1], P))
-    for g, (u, _) in enumerate(problem.ports):
+    for g, (u, port) in enumerate(problem.ports):
         mech = problem.mechanisms[u]
         th, at = np.unique(thetas[mech.joint], return_inverse=True)  # a tensor grid repeats each angle
-        path = lambda t: anchored_path(outlines[u], mech, t)  # noqa: E731
+        path = lambda t: port_length(outlines[u], mech, port, t)  # noqa: E731
         d[g] = (path(th) - path(mech.reference_angle))[at]
         dd[g] = ((path(th + STEP) - path(th - STEP)) / (2 * STEP))[at]
     k = np.array([s.rate for s in problem.springs])

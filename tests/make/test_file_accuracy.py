@@ -10,11 +10,11 @@ import pytest
 
 import cadcam
 from cadcam.make.biarc import arc_distance, biarc_fit
-from cadcam.make.workshop import MIN_WALL, closed_outline, hull_outline, write_dxf
+from cadcam.make.workshop import MIN_WALL, closed_outline, cut_outline, hull_outline, write_dxf
 from cadcam.outputs.run_files import write_workshop_files
 from cadcam.outputs.verification import FIELDS, recompute
 from cadcam.physics.profile import Basis
-from cadcam.verify.file_model import STEP, anchored_path, anchored_torque, read_dxf
+from cadcam.verify.file_model import STEP, anchored_path, file_torque, read_dxf
 
 from ..mechanisms.anchored_pulley.test_anchored_pulley import random_convex_design
 
@@ -171,7 +171,7 @@ def _file_torque(tmp_path, problem, design, ev, tolerance, coefficients=None):
         outline = closed_outline(b, c, float(ev.profiles[i].alpha.max()))
         write_dxf(tmp_path / f"cam{i + 1}.dxf", outline, BORE, ANCHOR, tolerance)
         chains[i] = read_dxf(tmp_path / f"cam{i + 1}.dxf")
-    return anchored_torque(problem, design, chains, np.atleast_2d(ev.units[0].theta))[0], chains
+    return file_torque(problem, design, chains, np.atleast_2d(ev.units[0].theta))[0], chains
 
 
 def test_torque_from_the_file_converges_to_the_design(tmp_path, pendulum, random_pendulum):
@@ -259,3 +259,88 @@ def test_a_cable_with_a_diameter_lies_on_the_designed_curve_and_the_part_is_cut_
     (about_centre,), (ignored,) = (recompute(types.SimpleNamespace(problem=p, evaluation=ev, recheck=ev), chains)
                                    for p in (cabled, pendulum))
     assert ignored["file_max_abs_error"] > 100 * about_centre["file_max_abs_error"]
+
+
+# ------------------------------------------------------------------------------------ wire cam
+
+@pytest.fixture(scope="module")
+def table3_ev(rr_problem, table3):
+    """Johnston2023's Table 3 cams on the RR arm, evaluated on a 31 × 31 grid."""
+    return cadcam.evaluate(rr_problem, table3, grid=31)
+
+
+def _wire_cam_files(tmp_path, problem, design, ev, tolerance, grow=0.0):
+    """The RR arm's cams (their designed curves ``grow`` [m] larger) written as DXFs fitted within
+    ``tolerance`` and read back (the cut outlines, the cable's radius inside its centre line)."""
+    chains = {}
+    for i, (b, c) in enumerate(zip(design.bases, design.coefficients)):
+        end = float(max(ev.profiles[i].alpha.max(), ev.profiles[i].phi.max()))
+        outline = cut_outline(b, c + _constant(b, grow), end, problem.workshop.hub_radius,
+                              problem.workshop.cable_radius)
+        write_dxf(tmp_path / f"cam{i + 1}.dxf", outline, BORE, ANCHOR, tolerance)
+        chains[i] = read_dxf(tmp_path / f"cam{i + 1}.dxf")
+    return chains
+
+
+def test_wire_cam_torque_from_the_file_converges_to_the_design(tmp_path, rr_problem, table3, table3_ev):
+    """Each joint's torque of the RR arm recomputed from its cams' files (the follower idler
+    pressed against the cam at its platform's height, the wire wrapped to it) meets cadcam's
+    energy torque as the fit tightens: 100× looser is over 10× further off, so the recompute
+    sees the file's error and not a floor of its own."""
+    sample = table3_ev.tensor.sample(table3_ev.tensor.whole())
+    off = {}
+    for tolerance in (1e-9, 1e-7):
+        chains = _wire_cam_files(tmp_path, rr_problem, table3, table3_ev, tolerance)
+        centre = {i: c.centre_line(rr_problem.workshop.cable_radius) for i, c in chains.items()}
+        off[tolerance] = np.abs(file_torque(rr_problem, table3, centre, sample["theta"]) - sample["tau"]).max()
+    assert off[1e-9] < 1e-4 * np.abs(sample["tau"]).max()
+    assert off[1e-7] > 10 * off[1e-9]
+
+
+def test_a_wire_cam_file_of_a_larger_cam_fails_the_check(tmp_path, rr_problem, table3, table3_ev):
+    """Cams 20 µm larger than designed push each idler, and so its platform spring, out: the
+    torque from those files moves as the symbolic model's torque of the larger cams does (two
+    paths, to 5 %), and the check of the files against the design fails."""
+    grown = dataclasses.replace(table3, coefficients=[c + _constant(b, 2e-5)
+                                                      for b, c in zip(table3.bases, table3.coefficients)])
+    sample = table3_ev.tensor.sample(table3_ev.tensor.whole())
+    chains = _wire_cam_files(tmp_path, rr_problem, grown, table3_ev, 1e-9)
+    centre = {i: c.centre_line(rr_problem.workshop.cable_radius) for i, c in chains.items()}
+    by_file = file_torque(rr_problem, table3, centre, sample["theta"]) - sample["tau"]
+    by_model = cadcam.evaluate(rr_problem, grown, grid=31).tau - sample["tau"]
+    np.testing.assert_allclose(by_file, by_model, atol=0.05 * np.abs(by_model).max())
+    accurate = types.SimpleNamespace(problem=rr_problem, design=table3, tensor=table3_ev.tensor,
+                                     units=table3_ev.units, metrics=types.SimpleNamespace(max_abs_error=[1e-6] * 2))
+    result = types.SimpleNamespace(problem=rr_problem, evaluation=table3_ev, recheck=accurate)
+    assert not any(c["passed"] for c in recompute(result, chains))
+
+
+def test_a_force_model_design_is_not_judged_by_the_energy_file_model(tmp_path, rr_problem, table3, table3_ev):
+    """Under Johnston2023's force model the design's torque is not the energy torque the files
+    give: the check says so instead of failing the part."""
+    chains = _wire_cam_files(tmp_path, rr_problem, table3, table3_ev, 1e-7)
+    forced = rr_problem.with_torque_model("force")
+    result = types.SimpleNamespace(problem=forced, evaluation=table3_ev, recheck=table3_ev)
+    checks = recompute(result, chains)
+    assert all("passed" not in c and "force model" in c["note"] for c in checks)
+
+
+# ------------------------------------------------------------------------------ roller follower
+
+def test_roller_follower_torque_from_the_file_converges_to_the_design(tmp_path):
+    """The roller pendulum's torque recomputed from its cam's file (the roller pressed onto the
+    outline along its stem) meets cadcam's energy torque as the fit tightens, 100× looser
+    over 10× further off."""
+    problem = cadcam.load_problem(Path(__file__).resolve().parents[2] / "models" / "roller_follower_pendulum.toml",
+                                  overrides={"solver.grid": 21})
+    design = cadcam.design(problem).design
+    ev = cadcam.evaluate(problem, design, grid=41)
+    end = float(ev.profiles[0].alpha.max())
+    off = {}
+    for tolerance in (1e-9, 1e-7):
+        outline = cut_outline(design.bases[0], design.coefficients[0], end, problem.workshop.hub_radius)
+        write_dxf(tmp_path / "cam1.dxf", outline, BORE, ANCHOR, tolerance)
+        tau = file_torque(problem, design, {0: read_dxf(tmp_path / "cam1.dxf")}, np.atleast_2d(ev.units[0].theta))
+        off[tolerance] = np.abs(tau - ev.tau).max()
+    assert off[1e-9] < 1e-4 * np.abs(ev.tau).max()
+    assert off[1e-7] > 10 * off[1e-9]
