@@ -84,14 +84,17 @@ def _grid(result):
 
 
 def _torque_checks(result) -> list[dict]:
-    """Per joint: the design's torque on the fine grid, its own error, peak and requirement."""
+    """Per joint with a torque target: the design's torque on the fine grid, its own error,
+    peak and requirement (``joint``: its index)."""
     fine = _grid(result)
     sample = fine.tensor.sample(fine.tensor.whole())
     out = []
     for i, joint in enumerate(fine.problem.joints):
+        if joint.target.kind == "none":
+            continue
         own, peak = float(fine.metrics.max_abs_error[i]), float(np.abs(sample["tau"][i]).max())
-        out.append({"quantity": "torque", "where": joint.name, "design_max_abs_error": own, "peak": peak,
-                    "required": _requirement(own, peak)})
+        out.append({"quantity": "torque", "where": joint.name, "joint": i, "design_max_abs_error": own,
+                    "peak": peak, "required": _requirement(own, peak)})
     return out
 
 
@@ -175,15 +178,18 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
                                                     if len(chains) < len(owner) else [])
     if not missing and problem.torque_model == ENERGY:
         sample = fine.tensor.sample(fine.tensor.whole())
-        tau = file_torque(problem, fine.design, {owner[i]: c for i, c in chains.items()}, sample["theta"])
-        for i, check in enumerate(torque):
+        outlines = {u: [chains[i] for i, o in enumerate(owner) if o == u] for u in set(owner)}
+        tau = file_torque(problem, fine.design, outlines, sample["theta"])
+        for check in torque:
+            i = check.pop("joint")
             found = np.isfinite(tau[i])
             checks.append(_judged(check, float(np.max(np.abs(tau[i] - sample["tau"][i])[found], initial=0.0)),
                                   int(np.sum(~found))))
     else:
         why = (f"no file model of {', '.join(missing)}" if missing
                else f"the file model computes the energy torque, the design the {problem.torque_model} model")
-        checks += [{**c, "note": f"not recomputed from the files: {why}"} for c in torque]
+        checks += [{**{k: v for k, v in c.items() if k != "joint"}, "note": f"not recomputed from the files: {why}"}
+                   for c in torque]
     for check in _output_checks(result):
         u = check.pop("mechanism")
         profiles = [i for i, o in enumerate(owner) if o == u]

@@ -86,6 +86,9 @@ class FileOutline:
         anchor to its start [m].
     reflex : int
         Corners and arcs turning inwards (0 for a convex outline).
+    lift : float
+        How far [m] the chain lies outside the file's outline: 0 as read, the cable's radius
+        on its centre line (:meth:`centre_line`).
     """
 
     vertices: np.ndarray
@@ -99,6 +102,7 @@ class FileOutline:
     end: np.ndarray
     length_at: np.ndarray
     reflex: int
+    lift: float = 0.0
 
     def centre_line(self, cable_radius: float) -> FileOutline:
         """The centre line of a cable of ``cable_radius`` [m] lying on this outline: its outward
@@ -107,8 +111,8 @@ class FileOutline:
         (the offset of a convex chain is longer by the radius times the normal's turn)."""
         if not cable_radius:
             return self
-        out = replace(self, radius=self.radius + cable_radius,
-                                  length_at=self.length_at + cable_radius * (self.start - self.start[0]))
+        out = replace(self, radius=self.radius + cable_radius, lift=self.lift + cable_radius,
+                      length_at=self.length_at + cable_radius * (self.start - self.start[0]))
         object.__setattr__(out, "_perimeter", self._perimeter + cable_radius * (self.end[-1] - self.start[0]))
         return out
 
@@ -162,7 +166,13 @@ class FileOutline:
         psi = np.where(bracketed, (lo + hi) / 2, np.where(at_end, self.end[-1], np.nan))
         _, point, wrapped = self.support(psi)
         return (np.where(at_anchor, self.from_anchor(target, offset), psi),
-                np.where(at_anchor[:, None], self.vertices[0], point), np.where(at_anchor, 0.0, wrapped))
+                np.where(at_anchor[:, None], self.anchor, point), np.where(at_anchor, 0.0, wrapped))
+
+    @property
+    def anchor(self) -> np.ndarray:
+        """Where the cable is tied [m]: the first vertex, the cable's radius out along the
+        outline's normal there on a centre line (:meth:`centre_line`)."""
+        return self.vertices[0] + self.lift * np.array([np.cos(self.start[0]), np.sin(self.start[0])])
 
     def from_anchor(self, target, offset: float = 0.0):
         """Normal angle [rad] (n,) of the line from the anchor A to ``target`` P (n, 2) [m], or
@@ -170,7 +180,7 @@ class FileOutline:
         g(ψ) = n·(P − A) + offset where it turns positive, ψ = β + acos(offset/|A − P|) with β
         the angle of A − P, taken in (ψ_A − 2π, ψ_A] below the anchor's normal ψ_A (NaN where
         A lies inside the circle)."""
-        d = self.vertices[0] - target
+        d = self.anchor - target
         psi = np.arctan2(d[:, 1], d[:, 0]) + np.arccos(offset / np.hypot(d[:, 0], d[:, 1]))
         return self.start[0] - np.mod(self.start[0] - psi, TWO_PI)
 
@@ -335,22 +345,26 @@ def roller_follower_port(outline: FileOutline, mech, theta) -> np.ndarray:
     return follower_contact(outline, rotation, mech.follower_angle, mech.offset, mech.roller_radius)[2]
 
 
-def port_length(outline: FileOutline, mech, port: str, theta) -> np.ndarray:
-    """Length [m] of port ``port`` of ``mech`` at joint angles ``theta`` from its file outline."""
+def port_length(outlines: list, mech, port: str, theta) -> np.ndarray:
+    """Length [m] of port ``port`` of ``mech`` at joint angles ``theta`` from its profiles' file
+    outlines (a differential pair's port is its output x)."""
     if mech.kind == "wire_cam":
-        return wire_cam_port(outline, mech, port, theta)
+        return wire_cam_port(outlines[0], mech, port, theta)
     if mech.kind == "roller_follower":
-        return roller_follower_port(outline, mech, theta)
-    return anchored_path(outline, mech, theta)
+        return roller_follower_port(outlines[0], mech, theta)
+    if mech.kind == "differential_pulley":
+        return differential_output(outlines, mech, np.atleast_1d(np.asarray(theta, dtype=float)))
+    return anchored_path(outlines[0], mech, theta)
 
 
 #: Mechanisms whose joint torque :func:`file_torque` recomputes from their files.
-TORQUE_KINDS = ("anchored_pulley", "wire_cam", "roller_follower")
+TORQUE_KINDS = ("anchored_pulley", "wire_cam", "roller_follower", "differential_pulley")
 
 
 def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
     """Joint torques [N·m] (m, P) at the points ``thetas`` (m, P) of a problem whose mechanisms
-    are all of :data:`TORQUE_KINDS`, from their file outlines (mechanism index → FileOutline).
+    are all of :data:`TORQUE_KINDS`, from their file outlines (mechanism index → its profiles'
+    FileOutlines).
 
     τ_i = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ_i, x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref))
     (the energy V = Σ ½k x² + F0 x differentiated, Johnston2023 Eq. 14, 36).

@@ -171,7 +171,7 @@ def _file_torque(tmp_path, problem, design, ev, tolerance, coefficients=None):
         outline = closed_outline(b, c, float(ev.profiles[i].alpha.max()))
         write_dxf(tmp_path / f"cam{i + 1}.dxf", outline, BORE, ANCHOR, tolerance)
         chains[i] = read_dxf(tmp_path / f"cam{i + 1}.dxf")
-    return file_torque(problem, design, chains, np.atleast_2d(ev.units[0].theta))[0], chains
+    return file_torque(problem, design, {i: [c] for i, c in chains.items()}, np.atleast_2d(ev.units[0].theta))[0], chains
 
 
 def test_torque_from_the_file_converges_to_the_design(tmp_path, pendulum, random_pendulum):
@@ -291,7 +291,7 @@ def test_wire_cam_torque_from_the_file_converges_to_the_design(tmp_path, rr_prob
     off = {}
     for tolerance in (1e-9, 1e-7):
         chains = _wire_cam_files(tmp_path, rr_problem, table3, table3_ev, tolerance)
-        centre = {i: c.centre_line(rr_problem.workshop.cable_radius) for i, c in chains.items()}
+        centre = {i: [c.centre_line(rr_problem.workshop.cable_radius)] for i, c in chains.items()}
         off[tolerance] = np.abs(file_torque(rr_problem, table3, centre, sample["theta"]) - sample["tau"]).max()
     assert off[1e-9] < 1e-4 * np.abs(sample["tau"]).max()
     assert off[1e-7] > 10 * off[1e-9]
@@ -305,7 +305,7 @@ def test_a_wire_cam_file_of_a_larger_cam_fails_the_check(tmp_path, rr_problem, t
                                                       for b, c in zip(table3.bases, table3.coefficients)])
     sample = table3_ev.tensor.sample(table3_ev.tensor.whole())
     chains = _wire_cam_files(tmp_path, rr_problem, grown, table3_ev, 1e-9)
-    centre = {i: c.centre_line(rr_problem.workshop.cable_radius) for i, c in chains.items()}
+    centre = {i: [c.centre_line(rr_problem.workshop.cable_radius)] for i, c in chains.items()}
     by_file = file_torque(rr_problem, table3, centre, sample["theta"]) - sample["tau"]
     by_model = cadcam.evaluate(rr_problem, grown, grid=31).tau - sample["tau"]
     np.testing.assert_allclose(by_file, by_model, atol=0.05 * np.abs(by_model).max())
@@ -340,7 +340,20 @@ def test_roller_follower_torque_from_the_file_converges_to_the_design(tmp_path):
     for tolerance in (1e-9, 1e-7):
         outline = cut_outline(design.bases[0], design.coefficients[0], end, problem.workshop.hub_radius)
         write_dxf(tmp_path / "cam1.dxf", outline, BORE, ANCHOR, tolerance)
-        tau = file_torque(problem, design, {0: read_dxf(tmp_path / "cam1.dxf")}, np.atleast_2d(ev.units[0].theta))
+        tau = file_torque(problem, design, {0: [read_dxf(tmp_path / "cam1.dxf")]}, np.atleast_2d(ev.units[0].theta))
         off[tolerance] = np.abs(tau - ev.tau).max()
     assert off[1e-9] < 1e-4 * np.abs(ev.tau).max()
     assert off[1e-7] > 10 * off[1e-9]
+
+
+def test_a_centre_lines_anchor_lies_the_cable_radius_out(tmp_path):
+    """The cable is tied at the cut outline's first vertex: its centre line starts the cable's
+    radius out along the outline's normal there, and a cable straight from the anchor leaves
+    from that point (before, from the cut outline's vertex: a kink in its length where the
+    cable's wrap runs out)."""
+    write_dxf(tmp_path / "cam.dxf", spiral(), BORE, ANCHOR, 1e-8)
+    cut = read_dxf(tmp_path / "cam.dxf")
+    centre = cut.centre_line(5e-4)
+    normal = np.array([np.cos(cut.start[0]), np.sin(cut.start[0])])
+    np.testing.assert_allclose(centre.anchor, cut.vertices[0] + 5e-4 * normal, atol=1e-15)
+    assert centre.support(np.array([cut.start[0]]))[1][0] == pytest.approx(centre.anchor, abs=1e-9)
