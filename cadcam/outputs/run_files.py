@@ -145,11 +145,13 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
             notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, sheets, owners[i], drawings))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
-    from .verification import cam_report, verdict, write_report
+    from .verification import cable_clearances, cam_report, verdict, write_report
 
-    cams = [cam_report(i + 1, outlines[i], chains[i], tolerance, _polygon_tolerance(tolerance)) for i in outlines]
+    clearance = cable_clearances(result, chains)
+    cams = [cam_report(i + 1, outlines[i], chains[i], tolerance, _polygon_tolerance(tolerance), args.cable_radius,
+                       clearance[i]) for i in outlines]
     write_report(out, cams, checks)
-    notes.append(f"verification.md: {verdict(checks)}")
+    notes.append(f"verification.md: {verdict(checks, cams)}")
     return notes
 
 

@@ -20,7 +20,8 @@ import numpy as np
 from ..files import write_json, write_text
 from ..make.biarc import arc_distance
 from ..mechanisms.base import ENERGY
-from ..verify.file_model import TORQUE_KINDS, FileOutline, differential_output, file_torque
+from ..verify.file_model import (NOTCH, TORQUE_KINDS, FileOutline, differential_output, file_torque, free_spans,
+                                 outline_points, span_clearance)
 
 #: Share of the design's own largest error the file may add (issue 31).
 DESIGN_SHARE = 0.1
@@ -53,6 +54,12 @@ FIELDS = {
     "file_error_m": ("m", "largest distance from the designed outline to the outline read back from the DXF"),
     "points_csv_tolerance_m": ("m", "chordal tolerance of camN_points.csv (and camN.stl)"),
     "clearance_m": ("m", "least material between the bore, the anchor hole and the profile, from the DXF"),
+    "cable_radius_m": ("m", "the cable's radius: the clearance its free spans keep from the part"),
+    "cable_clearance_m": ("m", "least distance from the centre line of the cable's free span to the cut outline "
+                               "read from the DXF (its anchor and closure included) over the fine re-check grid; "
+                               "negative where the span runs through the part; blank where the cable runs from "
+                               "the part onto a follower or there is no cable"),
+    "spans_clear": ("-", "cable_clearance_m ≥ cable_radius_m less 1 nm: no free span touches the part"),
     "quantity": ("-", "what is recomputed from the files: a joint's torque or a differential pair's output x"),
     "where": ("-", "the joint or mechanism it belongs to"),
     "file_max_abs_error": ("N·m or m", "largest |file − design| over the fine re-check grid (the design grid "
@@ -154,13 +161,36 @@ def _clearance(chain: FileOutline) -> float:
     return float(min(walls)) if walls else float("nan")
 
 
-def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_tolerance: float) -> dict:
-    """The file fields of one cam's DXF read back (see :data:`FIELDS`)."""
+def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_tolerance: float,
+               cable_radius: float, cable_clearance: float | None) -> dict:
+    """The file fields of one cam's DXF read back (see :data:`FIELDS`); ``cable_clearance``
+    from :func:`cable_clearances`."""
+    spans = {} if cable_clearance is None else {
+        "cable_clearance_m": cable_clearance, "spans_clear": bool(cable_clearance >= cable_radius - NOTCH)}
     return {"cam": cam, "units": "mm" if chain.units == MILLIMETRES else f"$INSUNITS {chain.units}",
             "closed": chain.closed, "convex": chain.reflex == 0 and bool(np.all(chain.bulges >= 0)),
             "vertices": len(chain.vertices), "fit_tolerance_m": tolerance,
             "file_error_m": _file_error(outline, chain), "points_csv_tolerance_m": polygon_tolerance,
-            "clearance_m": _clearance(chain)}
+            "clearance_m": _clearance(chain), "cable_radius_m": cable_radius, **spans}
+
+
+def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float | None]:
+    """Per profile read back (index → its cut outline): the least distance [m] from its cable's
+    free span, over the fine re-check's angles, to the whole cut outline (the span's centre
+    line found about the outline's centre line); None where no free span leaves it."""
+    problem, fine = result.problem, result.recheck
+    centre = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
+    out: dict[int, float | None] = {i: None for i in chains}
+    first = 0
+    for u, mech in enumerate(problem.mechanisms):
+        profiles = list(range(first, first + mech.n_profiles))
+        first += mech.n_profiles
+        if not all(i in chains for i in profiles):
+            continue
+        spans = free_spans([centre[i] for i in profiles], mech, fine.units[u].theta)
+        for i, (start, end) in zip(profiles, spans or []):
+            out[i] = float(np.nanmin(span_clearance(outline_points(chains[i]), start, end)))
+    return out
 
 
 def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
@@ -210,22 +240,22 @@ def _judged(check: dict, error: float, unresolved: int) -> dict:
             "passed": bool(error <= check["required"] and unresolved == 0)}
 
 
-def passed(checks: list[dict]) -> bool | None:
-    """Every recomputed check met its requirement (those not recomputed do not count); None
-    when none could be recomputed."""
+def passed(checks: list[dict], cams: list[dict]) -> bool | None:
+    """Every recomputed check met its requirement (those not recomputed do not count) and every
+    free span measured kept its clearance; None when none could be recomputed."""
     judged = [c["passed"] for c in checks if "passed" in c]
-    return all(judged) if judged else None
+    return all(judged) and all(c.get("spans_clear", True) for c in cams) if judged else None
 
 
-def verdict(checks: list[dict]) -> str:
+def verdict(checks: list[dict], cams: list[dict]) -> str:
     """The report's one word: PASSED, FAILED or NOT CHECKED (no file model covers the design)."""
-    return {True: "PASSED", False: "FAILED", None: "NOT CHECKED"}[passed(checks)]
+    return {True: "PASSED", False: "FAILED", None: "NOT CHECKED"}[passed(checks, cams)]
 
 
 def write_report(out: Path, cams: list[dict], checks: list[dict]) -> None:
     """``verification.json`` (the fields, the cams' files, the checks) and ``verification.md``."""
     write_json(out / "verification.json", {"fields": {k: {"unit": u, "description": d} for k, (u, d) in FIELDS.items()},
-                                           "cams": cams, "checks": checks, "passed": passed(checks)})
+                                           "cams": cams, "checks": checks, "passed": passed(checks, cams)})
     write_text(out / "verification.md", _markdown(cams, checks))
 
 
@@ -240,13 +270,16 @@ def _table(rows: list[dict], names: list[str]) -> list[str]:
 
 def _markdown(cams: list[dict], checks: list[dict]) -> str:
     """The report as markdown: the verdict, the checks, the files, then the fields' meanings."""
-    lines = [f"# Workshop files against the design: {verdict(checks)}", "",
+    lines = [f"# Workshop files against the design: {verdict(checks, cams)}", "",
              "Read `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
-             "recomputed from the written DXF outlines by plane geometry, against the design's.", ""]
+             "recomputed from the written DXF outlines by plane geometry, against the design's; and, "
+             "under Files, `cable_clearance_m` against `cable_radius_m`: how near the free cable comes to the part.",
+             ""]
     lines += _table(checks, ["quantity", "where", "file_max_abs_error", "required", "passed", "unresolved_points",
                              "design_max_abs_error", "peak", "note"])
     lines += ["", "## Files", ""]
     lines += _table(cams, ["cam", "units", "closed", "convex", "vertices", "fit_tolerance_m", "file_error_m",
-                           "points_csv_tolerance_m", "clearance_m"])
+                           "points_csv_tolerance_m", "clearance_m", "cable_radius_m", "cable_clearance_m",
+                           "spans_clear"])
     lines += ["", "## Fields", ""] + [f"- `{k}` [{u}]: {d}" for k, (u, d) in FIELDS.items()] + [""]
     return "\n".join(lines)

@@ -287,10 +287,18 @@ def spring_end_turns(mech, theta) -> np.ndarray:
     return _winding(mech) * (np.arctan2(mech.spring_end_y, mech.spring_end_x) - mech.anchor_angle + turn)
 
 
-def anchored_path(outline: FileOutline, mech, theta) -> np.ndarray:
-    """Length [m] of the cable from the anchor round the outline to the spring end at ``theta``."""
+def anchored_span(outline: FileOutline, mech, theta):
+    """The free span of an anchored pulley's cable at ``theta`` (n,) in its outline's frame:
+    where it leaves the outline and the spring end (both (n, 2) [m]), and the length wrapped
+    from the anchor (n,) [m]."""
     end = spring_end_in_outline_frame(mech, theta)
     _, point, wrapped = outline.tangent(end, spring_end_turns(mech, theta))
+    return point, end, wrapped
+
+
+def anchored_path(outline: FileOutline, mech, theta) -> np.ndarray:
+    """Length [m] of the cable from the anchor round the outline to the spring end at ``theta``."""
+    point, end, wrapped = anchored_span(outline, mech, theta)
     return wrapped + np.hypot(*(end - point).T)
 
 
@@ -405,12 +413,13 @@ def _from_world(v, angle, w):
     return _rotate(-angle, v) * np.array([1.0, w])
 
 
-def differential_length(outlines, mech, theta, x) -> np.ndarray:
-    """Cable length [m] from anchor to anchor of a differential pair at joint angles ``theta``
-    with the idler's centre at distance ``x`` along the slider (both (n,)): both paths round
-    their outlines to the idler and the arc q·ω the cable turns on the idler."""
+def differential_spans(outlines, mech, theta, x):
+    """Both free spans of a differential pair at joint angles ``theta`` with the idler's centre
+    at distance ``x`` along the slider (both (n,)), each in its outline's frame: where the cable
+    leaves the outline and where it meets the idler (both (n, 2) [m]), the length wrapped from
+    the anchor (n,) [m] and the span's heading in the world (n, 2)."""
     slider = np.stack([np.cos(mech.slider_angle), np.sin(mech.slider_angle)])
-    q, total, heading = mech.idler_radius, 0.0, []
+    q, spans = mech.idler_radius, []
     for k in (0, 1):
         angle, w = _frame(mech, k, theta)
         idler = _from_world(x[:, None] * slider, angle, w)
@@ -418,13 +427,20 @@ def differential_length(outlines, mech, theta, x) -> np.ndarray:
         around = w * (mech.slider_angle - angle)
         psi, point, wrapped = outlines[k].tangent(idler, around, q)
         n = np.stack([np.cos(psi), np.sin(psi)], axis=1)
-        total = total + wrapped + np.hypot(*(idler + q * n - point).T)
-        heading.append(_to_world(np.stack([-n[:, 1], n[:, 0]], axis=1), angle, w))
-    w1 = _winding(mech)
+        spans.append((point, idler + q * n, wrapped, _to_world(np.stack([-n[:, 1], n[:, 0]], axis=1), angle, w)))
+    return spans
+
+
+def differential_length(outlines, mech, theta, x) -> np.ndarray:
+    """Cable length [m] from anchor to anchor of a differential pair at joint angles ``theta``
+    with the idler's centre at distance ``x`` along the slider (both (n,)): both paths round
+    their outlines to the idler and the arc q·ω the cable turns on the idler."""
+    spans = differential_spans(outlines, mech, theta, x)
+    total = sum(wrapped + np.hypot(*(far - point).T) for point, far, wrapped, _ in spans)
     # in: along the cable from profile 1; out: from the idler back to profile 2
-    into, out = heading[0], -heading[1]
-    omega = np.mod(w1 * (np.arctan2(out[:, 1], out[:, 0]) - np.arctan2(into[:, 1], into[:, 0])), TWO_PI)
-    return total + q * omega
+    into, out = spans[0][3], -spans[1][3]
+    omega = np.mod(_winding(mech) * (np.arctan2(out[:, 1], out[:, 0]) - np.arctan2(into[:, 1], into[:, 0])), TWO_PI)
+    return total + mech.idler_radius * omega
 
 
 def differential_output(outlines, mech, theta) -> np.ndarray:
@@ -447,3 +463,70 @@ def differential_output(outlines, mech, theta) -> np.ndarray:
     x = (lo + hi) / 2
     found = inside & np.isfinite(differential_length(outlines, mech, theta, x))
     return np.where(found, x, np.nan)
+
+
+# ------------------------------------------------------------------------------------ clearance
+
+def free_spans(outlines: list, mech, theta) -> list | None:
+    """Each profile's free span of ``mech`` at joint angles ``theta`` (n,) from its centre-line
+    outlines: (where the cable leaves the outline, where it ends) (both (n, 2) [m], the
+    outline's frame) per profile; None for a follower, onto which the cable runs without a span
+    (a wire cam's idler) or which carries none (a roller)."""
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    if mech.kind == "anchored_pulley":
+        return [anchored_span(outlines[0], mech, theta)[:2]]
+    if mech.kind == "differential_pulley":
+        spans = differential_spans(outlines, mech, theta, differential_output(outlines, mech, theta))
+        return [(point, far) for point, far, _, _ in spans]
+    return None
+
+
+#: Largest gap [m] between the outline's arcs and the chords through their sampled points (the
+#: samples' sagitta): how far a clearance may be read long.
+SAGITTA = 1e-9
+#: Spans by outline points measured at once (memory: three arrays of that many floats).
+CLEARANCE_BLOCK = 4_000_000
+
+
+def outline_points(outline: FileOutline) -> np.ndarray:
+    """Points (K, 2) [m] of the whole closed outline, the anchor and every vertex among them,
+    each arc sampled so finely that its chords stay within :data:`SAGITTA` of it."""
+    a, b = outline.vertices, np.roll(outline.vertices, -1, axis=0)
+    out = []
+    for p, q, bulge in zip(a, b, outline.bulges):
+        sweep = 4 * np.arctan(bulge)
+        chord = q - p
+        half = np.hypot(*chord) / 2
+        if abs(bulge) < STRAIGHT or half == 0:
+            out.append(p[None])
+            continue
+        radius = half / abs(np.sin(sweep / 2))
+        n = int(np.ceil(abs(sweep) / (2 * np.arccos(max(-1.0, 1 - SAGITTA / radius))))) + 1
+        # the centre lies off the chord's midpoint, to the left of a counter-clockwise arc
+        centre = (p + q) / 2 + np.array([-chord[1], chord[0]]) / 2 / np.tan(sweep / 2)
+        turn = np.linspace(0.0, sweep, n, endpoint=False)
+        start = p - centre
+        out.append(centre + np.stack([np.cos(turn) * start[0] - np.sin(turn) * start[1],
+                                      np.sin(turn) * start[0] + np.cos(turn) * start[1]], axis=1))
+    return np.concatenate(out)
+
+
+def span_clearance(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Least signed distance [m] (n,) from the outline ``points`` (K, 2) to each free span from
+    ``start`` to ``end`` (n, 2), the outline on the span's left: a point beside the span counts
+    its distance from the span's line, positive on the left, negative on the right (the span
+    runs through the part); a point beyond either end its distance from that end. NaN where a
+    span is."""
+    d = end - start
+    length = np.hypot(*d.T)
+    u = d / length[:, None]
+    out = np.full(len(start), np.inf)
+    for rows in np.array_split(np.arange(len(start)), max(1, len(start) * len(points) // CLEARANCE_BLOCK)):
+        rel = points[None] - start[rows, None]
+        along = rel[..., 0] * u[rows, None, 0] + rel[..., 1] * u[rows, None, 1]
+        side = u[rows, None, 0] * rel[..., 1] - u[rows, None, 1] * rel[..., 0]
+        beyond = np.minimum(np.hypot(rel[..., 0], rel[..., 1]),
+                            np.hypot(*(points[None] - end[rows, None]).transpose(2, 0, 1)))
+        beside = (along > 0) & (along < length[rows, None])
+        out[rows] = np.where(beside, side, beyond).min(axis=1)
+    return np.where(np.isfinite(length), out, np.nan)

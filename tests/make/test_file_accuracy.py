@@ -14,7 +14,8 @@ from cadcam.make.workshop import MIN_WALL, closed_outline, cut_outline, hull_out
 from cadcam.outputs.run_files import write_workshop_files
 from cadcam.outputs.verification import FIELDS, recompute
 from cadcam.physics.profile import Basis
-from cadcam.verify.file_model import STEP, anchored_path, file_torque, read_dxf
+from cadcam.verify.file_model import (SAGITTA, STEP, anchored_path, file_torque, outline_points, read_dxf,
+                                      span_clearance)
 
 from ..mechanisms.anchored_pulley.test_anchored_pulley import random_convex_design
 
@@ -223,6 +224,8 @@ def test_every_design_writes_its_verification_report(tmp_path, pendulum, random_
         assert cam["vertices"] <= 2000
         assert cam["file_error_m"] <= cam["fit_tolerance_m"]
         assert cam["clearance_m"] >= MIN_WALL - 1e-9
+        # each free span tangent to the centre line, the cable's radius off the part
+        assert cam["spans_clear"] and cam["cable_clearance_m"] == pytest.approx(cam["cable_radius_m"], abs=1e-12)
     assert "file_max_abs_error" in (tmp_path / "verification.md").read_text()
 
 
@@ -248,6 +251,8 @@ def test_a_cable_with_a_diameter_lies_on_the_designed_curve_and_the_part_is_cut_
     write_workshop_files(result, tmp_path, cabled.workshop, sheets=False)
     report = json.loads((tmp_path / "verification.json").read_text())
     assert report["passed"] and all(c["passed"] for c in report["checks"])
+    for cam in report["cams"]:  # each free span tangent to the centre line, its radius off the part
+        assert cam["spans_clear"] and cam["cable_clearance_m"] == pytest.approx(5e-4, abs=1e-9)
     b, c, end = design.bases[0], design.coefficients[0], float(ev.profiles[0].alpha.max())
     cut = cut_outline(b, c, end, cabled.workshop.hub_radius, 5e-4)
     phi = np.linspace(0.0, end, 300)
@@ -357,3 +362,26 @@ def test_a_centre_lines_anchor_lies_the_cable_radius_out(tmp_path):
     normal = np.array([np.cos(cut.start[0]), np.sin(cut.start[0])])
     np.testing.assert_allclose(centre.anchor, cut.vertices[0] + 5e-4 * normal, atol=1e-15)
     assert centre.support(np.array([cut.start[0]]))[1][0] == pytest.approx(centre.anchor, abs=1e-9)
+
+
+
+# ----------------------------------------------------------------------------------- clearance
+
+def test_outline_points_follow_the_arcs_within_the_sagitta(tmp_path):
+    """The points of a circle's file lie on it, and no chord between neighbours strays more
+    than the sagitta from it (its midpoint's distance inside)."""
+    b = Basis("monomial", 0, (0.0, 3.0))
+    write_dxf(tmp_path / "disc.dxf", closed_outline(b, b.from_monomial(np.array([0.04])), 3.0), BORE, ANCHOR, 1e-6)
+    points = outline_points(read_dxf(tmp_path / "disc.dxf"))
+    np.testing.assert_allclose(np.hypot(*points.T), 0.04, atol=1e-12)
+    mid = (points + np.roll(points, -1, axis=0)) / 2
+    assert 0.04 - np.hypot(*mid.T).min() <= SAGITTA
+
+
+def test_span_clearance_is_signed_by_the_side_the_part_is_on():
+    """Spans past a unit square: beside it at 0.25 on its left (+0.25), through it 0.25 deep
+    (−0.25), and ending short of it (the distance from its end)."""
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    start = np.array([[2.0, 1.25], [2.0, 0.75], [3.0, 0.5]])
+    end = np.array([[-1.0, 1.25], [-1.0, 0.75], [1.5, 0.5]])
+    np.testing.assert_allclose(span_clearance(square, start, end), [0.25, -0.25, np.hypot(0.5, 0.5)])
