@@ -12,7 +12,6 @@ nothing from the server's log and gives it nothing.
 from __future__ import annotations
 
 import contextlib
-import io
 import re
 import sys
 import threading
@@ -24,12 +23,13 @@ CASADI_WARNING = re.compile(r'^CasADi - \S+ \S+ WARNING\("(?P<message>.*)"\)(?: 
 _lock = threading.Lock()
 
 
-class _Router(io.TextIOBase):
+class _Router:
     """``sys.stderr`` while warnings are kept: the text a capturing thread writes goes to its
-    buffer, any other thread's to the stream this one replaced (``stream``)."""
+    buffer, any other thread's to the stream this one replaced (``stream``), which answers
+    everything else (``encoding``, ``fileno``, ``isatty``, …: not an ``io`` class, whose own
+    answers would hide the stream's)."""
 
     def __init__(self, stream):
-        super().__init__()
         self.stream = stream
         self.buffers: dict[int, list[str]] = {}
 
@@ -43,7 +43,7 @@ class _Router(io.TextIOBase):
     def flush(self) -> None:
         self.stream.flush()
 
-    def __getattr__(self, name):  # encoding, fileno, isatty, …: the replaced stream's
+    def __getattr__(self, name):
         return getattr(self.stream, name)
 
 

@@ -71,6 +71,7 @@ def test_warnings_are_kept_for_expanded_and_compiled_functions(functions, tmp_pa
 def test_only_the_capturing_threads_writes_are_kept(capsys):
     before = sys.stderr
     with kept_warnings() as kept:
+        assert (sys.stderr.encoding, sys.stderr.isatty()) == (before.encoding, before.isatty())  # the stream's
         other = threading.Thread(target=lambda: print("the server's log line", file=sys.stderr))
         other.start()
         other.join()
