@@ -53,11 +53,13 @@ generated: $(STAMP)
 	$(PY) -m cadcam.outputs.schema
 	$(PY) -m cadcam.outputs.spec_reference
 
-# the pictures of the README and the tutorial: the tutorial's design, drawn as cadcam draws it
+# the pictures of the README and the tutorial: the tutorial's design, drawn as cadcam draws it,
+# and the figure of its conventions (docs/conventions_figure.py: the keys noted on that drawing)
 docs-images: demo
 	mkdir -p docs/images
 	cp out/first_balancer/profile.png docs/images/first_balancer.png
 	cp out/first_balancer/torque.png docs/images/first_balancer_torque.png
+	$(PY) docs/conventions_figure.py
 
 clean:
 	rm -rf out .pytest_cache build *.egg-info

@@ -16,6 +16,7 @@ from .mechanisms.base import design_methods, kinds_in
 from .verify.evaluate import evaluate, poses_of, start_samples
 from .problem import ACCEPTANCE, Problem
 from .result import Result
+from .solve.messages import count, merged
 from .solve.transcription import Solve, Transcription
 
 
@@ -102,7 +103,7 @@ def _missed(joint, key: str, value: float, limit: float) -> str:
 def _trial(s: Solve) -> dict:
     """One start's line in ``result.json``'s ``solver.trials``."""
     return {"start": s.start, "status": s.status, "objective": s.objective, "iterations": s.iterations,
-            "solve_time_s": s.solve_time_s}
+            "solve_time_s": s.solve_time_s, "warnings": count(s.warnings)}
 
 
 def _recheck(problem: Problem, design: Design, seeds=None):
@@ -171,6 +172,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     converged = [s for s in solves if s.status == "converged"]
     best = min(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
     best.trials = [_trial(s) for s in solves]
+    best.warnings = merged([s.warnings for s in solves])  # the run's, every start's
     # the NLP's tangency angles start the independent rootfinder (the roots it converges to
     # are checked by their residuals either way)
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])

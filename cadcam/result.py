@@ -18,6 +18,7 @@ from .verify.tolerance import Band, tolerance_band
 from .files import staged_folder
 from .version import __version__
 from .outputs.forked import Drawing, draw
+from .solve.messages import count
 from .outputs.run_files import RUN_FILES, WorkshopError, torque_table, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
@@ -39,6 +40,13 @@ def _band_line(band: Band, ev: Evaluation) -> str:
                  f"re-checked {1e3 * c['recomputed']:.3g})" if peak > 0 else f"± {1e3 * h.max():.3g} N·mm"
                  for h, c, peak in zip(band.half_width, band.corners, np.abs(ev.tau_d).max(axis=1))]
     return f"  tolerance band ({band.label()}) per joint: {'; '.join(per_joint)}"
+
+
+def _warnings_line(warnings: list[dict]) -> str:
+    """The summary's line on CasADi's warnings during the solves: how many, and the first."""
+    n, first = count(warnings), warnings[0]["message"]
+    distinct = f", {len(warnings)} distinct" if len(warnings) > 1 else ""
+    return f"  CasADi warned {n} time{'s' * (n > 1)} during the solve{distinct} (kept in solver.warnings), first: {first}"
 
 
 @dataclass(repr=False)
@@ -106,12 +114,21 @@ class Result:
         """IPOPT's iterates of the kept start (see :func:`cadcam.solve.transcription.iteration_history`)."""
         return self.solve.history if self.solve is not None else {}
 
+    @property
+    def warnings(self) -> list[dict]:
+        """What CasADi warned during the solves of every start (a NaN in an evaluation at a trial
+        point, …), kept here instead of printed: ``{"message", "count"}`` per distinct message
+        (:func:`cadcam.solve.messages.kept_warnings`); empty without an NLP."""
+        return self.solve.warnings if self.solve is not None else []
+
     @cached_property
     def band(self) -> Band | None:
         """The torque band a built part falls in under the problem's tolerances
         (:func:`cadcam.verify.tolerance.tolerance_band`, on the design grid); None without
-        springs."""
-        return tolerance_band(self.evaluation) if self.problem.springs else None
+        springs, and for a design whose torque is not finite there (a failed solve's design
+        where no pose was found: its band would be NaN, and its least squares fail)."""
+        finite = bool(np.all(np.isfinite(self.evaluation.tau)))
+        return tolerance_band(self.evaluation) if self.problem.springs and finite else None
 
     @property
     def binding(self) -> list[str]:
@@ -151,6 +168,8 @@ class Result:
         if self.band is not None:
             lines.append(_band_line(self.band, self.evaluation))
         lines += [f"  violated: {v}" for v in (self.recheck.violations if not self.success else [])]
+        if self.warnings:
+            lines.append(_warnings_line(self.warnings))
         lines += [f"  binding: {b}" for b in self.binding]
         return "\n".join(lines)
 
@@ -261,7 +280,7 @@ class Result:
                 "iterations": sol.iterations, "solve_time_s": sol.solve_time_s,
                 "build_time_s": self.build_time_s, "recheck_time_s": self.recheck_time_s,
                 "objective": sol.objective,
-                "start": sol.start, "trials": sol.trials, "history": sol.history,
+                "start": sol.start, "trials": sol.trials, "history": sol.history, "warnings": sol.warnings,
                 "tangency_nlp_vs_rootfinder_max": float(max(
                     np.abs(sol.z[u] - unit.z).max() for u, unit in enumerate(ev.units))),
             }

@@ -269,7 +269,7 @@ def profile_figure(ev: Evaluation, n_poses: int = 3) -> Figure:
     what lies further than :data:`REACH` times the largest radius is named at the edge.
     """
     rows = [_row(ev, u, n_poses) for u in range(len(ev.problem.mechanisms))]
-    return _poses_figure(ev, rows, list(range(max(len(panels) for panels, _, _ in rows))))
+    return _poses_figure(ev, rows, [(i, None) for i in range(max(len(panels) for panels, _, _ in rows))])
 
 
 def pose_frames(ev: Evaluation, n_frames: int = 24):
@@ -278,40 +278,51 @@ def pose_frames(ev: Evaluation, n_frames: int = 24):
     ``count`` joint angles spread over the grid, all in the one view that holds every frame."""
     rows = [_row(ev, u, n_frames) for u in range(len(ev.problem.mechanisms))]
     count = max(len(panels) for panels, _, _ in rows)
-    return count, lambda i: _poses_figure(ev, rows, [i])
+    return count, lambda i: _poses_figure(ev, rows, [(i, None)])
+
+
+def pose_views(ev: Evaluation, boxes, pose: int = 0, n_poses: int = 1) -> Figure:
+    """Every mechanism (a row) at the ``pose``-th of ``n_poses`` joint angles spread over its
+    grid, drawn as :func:`profile_figure` draws it, once in each of the views ``boxes``
+    (columns): each ((x_min, y_min), (x_max, y_max)) [mm], or None for the profile view's own;
+    what lies outside a view is named at its edge. A whole mechanism beside a close-up of its
+    profile, say."""
+    rows = [_row(ev, u, n_poses) for u in range(len(ev.problem.mechanisms))]
+    views = [None if box is None else tuple(np.asarray(corner, dtype=float) for corner in box) for box in boxes]
+    return _poses_figure(ev, rows, [(pose, view) for view in views])
 
 
 #: Least width of the profile view [in]: its title and legend fit above and below one pose.
 POSES_MIN_WIDTH = 7.0
 
 
-def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
-    """The figure of :func:`profile_figure`: each mechanism's row of :func:`_row`, at the poses
-    ``columns`` (indices into each row's poses)."""
+def _poses_figure(ev: Evaluation, rows: list, columns: list[tuple]) -> Figure:
+    """The figure of :func:`profile_figure`: each mechanism's row of :func:`_row`, in the
+    ``columns``: (index into each row's poses, view (lo, hi) [mm] or None for the row's own)."""
     problem = ev.problem
     mechs = problem.mechanisms
     ncols = len(columns)
     width = 3.9  # of a panel [in]
-    heights = [width * float(np.clip((hi[1] - lo[1]) / (hi[0] - lo[0]), 0.45, 1.6)) + 0.6
-               for _, lo, hi in rows]
+    heights = [width * max(_aspect(*(view or own)) for _, view in columns) + 0.6 for _, *own in rows]
     fig = Figure(figsize=(max(width * ncols + 0.4, POSES_MIN_WIDTH), sum(heights) + 1.2), layout="constrained")
     axes = fig.subplots(len(mechs), ncols, squeeze=False, gridspec_kw={"height_ratios": heights})
     seen = set()  # what the legend explains, beyond what every view draws
-    for row, (mech, (panels, lo, hi)) in enumerate(zip(mechs, rows)):
+    for row, (mech, (panels, own_lo, own_hi)) in enumerate(zip(mechs, rows)):
         limits = sorted({(MM * pr.rho_min, "ρ_min") for pr in mech.profiles}
                         | {(MM * pr.rho_max, "ρ_max") for pr in mech.profiles})
-        reach = float(np.hypot(*np.maximum(np.abs(lo), np.abs(hi))))
-        off = [f"{name} = {r:.4g} mm" for r, name in limits if r > reach]
-        for col in range(ncols):
+        for col, (index, view) in enumerate(columns):
             ax = axes[row][col]
-            if columns[col] >= len(panels):
+            if index >= len(panels):
                 ax.set_axis_off()
                 continue
-            th, prof, spans, circles, wraps, arms, springs = panels[columns[col]]
+            lo, hi = view or (own_lo, own_hi)
+            reach = float(np.hypot(*np.maximum(np.abs(lo), np.abs(hi))))
+            off = [f"{name} = {r:.4g} mm" for r, name in limits if r > reach]
+            th, prof, spans, circles, wraps, arms, springs = panels[index]
             seen |= _draw_arms(ax, lo, hi, arms)
             seen |= _draw_springs(ax, springs)
             seen |= _draw_pose(ax, lo, hi, [r for r, _ in limits], prof, spans, circles, wraps)
-            _label_off_view(ax, lo, hi, spans, circles)
+            _label_off_view(ax, lo, hi, spans, circles, springs)
             angle = f"θ{mech.joint + 1}" if len(problem.joints) > 1 else "θ"
             ax.set_title(f"{mech.name}: {angle} = {np.degrees(th):.0f}°", fontsize=9)
             ax.tick_params(labelsize=7)
@@ -325,9 +336,15 @@ def _poses_figure(ev: Evaluation, rows: list, columns: list[int]) -> Figure:
     handles = _profile_legend(max(len(mech.profiles) for mech in mechs), seen, words)
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5 if ncols > 1 else 3), fontsize=8,
                frameon=False)
-    at = f"{ncols} joint angles" if ncols > 1 else "one joint angle"
+    angles = len({index for index, _ in columns})
+    at = f"{angles} joint angles" if angles > 1 else "one joint angle"
     fig.suptitle(f"{problem.name}: {words.title} at {at} (+: joint axis)", fontsize=10)
     return fig
+
+
+def _aspect(lo, hi) -> float:
+    """The height of the view (``lo``, ``hi``) over its width, within what a panel is drawn at."""
+    return float(np.clip((hi[1] - lo[1]) / (hi[0] - lo[0]), 0.45, 1.6))
 
 
 def _draw_pose(ax, lo, hi, limits, prof, spans, circles, wraps) -> set[str]:
@@ -393,21 +410,26 @@ def _draw_springs(ax, springs) -> set[str]:
     return {"coil" if own else "coil-nominal" for _, own in springs}
 
 
-def _label_off_view(ax, lo, hi, spans, circles) -> None:
+def _label_off_view(ax, lo, hi, spans, circles, springs) -> None:
     """Name at the edge of the view (``lo``, ``hi``) [mm] what lies off it: an idler once (not
-    the cable's tangent points on it), a spring end where its cable leaves the view."""
+    the cable's tangent points on it), a spring end where its cable leaves the view (with the
+    spring's coil, ``springs``, when the cable pulls one: one label for both)."""
     away = [(ctr, r) for ctr, r in circles if not _inside(lo, hi, ctr)]
+    named = []  # the fixed ends of springs named with the cable that pulls them
     for a, b in spans:
         on_idler = any(r > 0 and np.hypot(*(b - ctr)) <= 1.01 * r for ctr, r in away)
         if not _inside(lo, hi, b) and _inside(lo, hi, a) and not on_idler:
+            fixed = [points[0] for points, _ in springs if np.allclose(points[-1], b, atol=1e-6)]
+            named += fixed
             is_end = any(r == 0 and np.allclose(ctr, b) for ctr, r in circles)
-            what = "spring end" if is_end else "cable end"
-            _edge_label(ax, lo, hi, a, b, f"{what} ({b[0]:.0f}, {b[1]:.0f}) mm")
+            what = f"spring ({b[0]:.0f}, {b[1]:.0f}) to its end" if fixed else "spring end" if is_end else "cable end"
+            at = fixed[0] if fixed else b
+            _edge_label(ax, lo, hi, a, b, f"{what} ({at[0]:.0f}, {at[1]:.0f}) mm")
     for ctr, r in away:
         if r > 0:
             _edge_label(ax, lo, hi, np.zeros(2), ctr,
                         f"idler: centre ({ctr[0]:.0f}, {ctr[1]:.0f}) mm, r {r:.3g} mm")
-        elif not any(np.allclose(ctr, b) for _, b in spans):
+        elif not any(np.allclose(ctr, b) for b in [b for _, b in spans] + named):
             _edge_label(ax, lo, hi, np.zeros(2), ctr, f"spring end ({ctr[0]:.0f}, {ctr[1]:.0f}) mm")
 
 

@@ -32,6 +32,7 @@ import numpy as np
 from ..designs import Design
 from . import compiled
 from .blocks import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
+from .messages import kept_warnings
 from ..mechanisms.base import (Mechanism, margin_function, port_function,
                                pose_residual_function, split_coefficients, wound_lengths)
 from ..physics.profile import convexity_margin, curvature, inside_tangent, profile_function, support_distance
@@ -94,6 +95,10 @@ class Solve:
     #: IPOPT's iterates: ``iteration``, ``objective`` (the scaled NLP objective), ``inf_pr``,
     #: ``inf_du``, ``mu``, ``d_norm`` and ``alpha_pr`` per iteration (empty lists without an NLP)
     history: dict = field(default_factory=lambda: iteration_history({}))
+    #: What CasADi warned during the run (a NaN in an evaluation at a trial point, …), kept
+    #: rather than printed: ``{"message", "count"}`` per distinct message
+    #: (:func:`cadcam.solve.messages.kept_warnings`)
+    warnings: list[dict] = field(default_factory=list)
 
 
 class _Vars:
@@ -395,7 +400,7 @@ class Transcription:
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
         runs = []
-        with signals_kept():
+        with signals_kept(), kept_warnings() as warnings:
             sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
             runs.append(self.solver.stats())
             if self._breaks_deferred(problem, sol["x"], pv):
@@ -413,7 +418,7 @@ class Transcription:
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
-            history=_joined(histories))
+            history=_joined(histories), warnings=warnings)
 
 
 # -- building the NLP, step by step (Transcription.__init__ calls them in this order) ----------
@@ -780,10 +785,9 @@ def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[c
     """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
     CasADi options), and whether this call compiled their library (False: found in the cache,
     or functions not ``compiled``)."""
-    # show_eval_warnings: a NaN at a trial point is IPOPT's to handle (it shortens the step);
-    # CasADi's warning for each one flooded a study's stderr, and a solve that cannot recover
-    # ends with its own status
-    ipopt = {"print_time": False, "show_eval_warnings": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+    # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
+    # shortens the step) is kept in the result by Transcription.solve, not printed
+    ipopt = {"print_time": False, "show_eval_warnings": True, "ipopt.print_level": 0, "ipopt.sb": "yes",
              "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
              "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}, **(extra or {})}
     if opt.functions == "compiled":

@@ -403,3 +403,24 @@ def test_a_cable_span_stops_where_its_spring_begins():
     np.testing.assert_array_equal(b, coil[-1])
     np.testing.assert_array_equal(a, spans[0][0])
     assert kept[1] is spans[1][1]
+
+
+def test_pose_views_draw_one_angle_in_each_view_and_name_the_spring_off_a_close_up():
+    """The same joint angle in the profile view's own box and in a close-up of the pulley; the
+    close-up names the spring its cable leaves to once, with the coil's two ends (not a second
+    label for the spring's end)."""
+    from cadcam.designs import default_start
+    from cadcam.outputs.plots import pose_views
+
+    problem = load_spec(ROOT / "docs" / "first_balancer.toml")
+    ev = evaluate(problem, default_start(problem), grid=7)
+    close = ((-45.0, -45.0), (55.0, 55.0))
+    fig = pose_views(ev, [None, close], pose=1, n_poses=3)
+    whole, near = fig.axes
+    assert whole.get_title() == near.get_title() == f"pulley: θ = {np.degrees(ev.units[0].theta[3]):.0f}°"
+    assert (near.get_xlim(), near.get_ylim()) == ((-45.0, 55.0), (-45.0, 55.0))
+    assert whole.get_ylim()[0] < -200 and "one joint angle" in fig.get_suptitle()
+    (coil,) = [ln.get_xydata() for ln in whole.get_lines() if ln.get_color() == "tab:purple" and len(ln.get_xdata()) > 5]
+    labels = [t.get_text() for t in near.texts if "spring" in t.get_text()]
+    assert labels == [f"spring ({coil[-1][0]:.0f}, {coil[-1][1]:.0f}) to its end ({coil[0][0]:.0f}, {coil[0][1]:.0f}) mm"]
+    assert np.allclose(coil[0], [0.0, -200.0])  # the spec's spring_end, fixed to the base
