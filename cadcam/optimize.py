@@ -13,8 +13,8 @@ import numpy as np
 
 from .designs import Design, default_start, preextensions
 from .mechanisms.base import design_methods, kinds_in
-from .verify.evaluate import evaluate, poses_of, start_samples
-from .problem import ACCEPTANCE, Problem
+from .verify.evaluate import LIMIT_TOL, MARGINS, evaluate, poses_of, start_samples
+from .problem import ACCEPTANCE, Problem, cap
 from .result import Result
 from .solve.messages import count, merged
 from .solve.transcription import Solve, Transcription
@@ -173,6 +173,15 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     best = min(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
     best.trials = [_trial(s) for s in solves]
     best.warnings = merged([s.warnings for s in solves])  # the run's, every start's
+    result = _checked(problem, tr, best)
+    if result.status == "recheck_failed" and _broken_between_checks(result.recheck):
+        result = _refined(result, tr)
+    return result
+
+
+def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
+    """The result of the solve ``best`` of ``tr``: evaluated on the design grid, re-checked on
+    the fine one and judged (:func:`verdict`)."""
     # the NLP's tangency angles start the independent rootfinder (the roots it converges to
     # are checked by their residuals either way)
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])
@@ -186,6 +195,50 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
                   design=replace(best.design, poses=poses_of(problem, on_grid.units)),
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,
                   recheck_time_s=recheck_s)
+
+
+#: Margins of a profile's shape that the NLP holds at its convexity check points only
+#: (:data:`cadcam.problem.SOLVER` ``convexity_points``), so that a profile may break them
+#: between those points, where the fine re-check looks.
+SHAPE_MARGINS = ("convexity", "curvature_radius", "rho_min", "rho_max")
+#: How many times the check points a design that broke only its shape between them is
+#: solved again with (from its own optimum).
+CHECK_REFINEMENT = 4
+
+
+def _broken_between_checks(fine) -> bool:
+    """Whether the fine re-check ``fine`` found only shape margins (:data:`SHAPE_MARGINS`)
+    broken: what more check points can mend."""
+    margins = fine.metrics.margins
+    broken = {key for key, (_, tol, _) in MARGINS.items() if not all(v >= -tol for v in margins[key])}
+    own = any(not m[lim.name] >= -LIMIT_TOL[lim.unit]
+              for mech, m in zip(fine.problem.mechanisms, margins["mechanism"]) for lim in mech.limits)
+    return bool(broken) and broken <= set(SHAPE_MARGINS) and not own
+
+
+def _refined(result: Result, tr: Transcription) -> Result:
+    """``result``, whose profile broke its shape between the NLP's check points, solved again
+    from its own optimum with :data:`CHECK_REFINEMENT` times the points (within their cap); the
+    new result where it passes, else ``result`` with a note of the attempt."""
+    problem = result.problem
+    points = min(CHECK_REFINEMENT * problem.options.convexity_points, cap("convexity_points"))
+    if points <= problem.options.convexity_points:
+        return result
+    finer = replace(problem, options=replace(problem.options, convexity_points=points))
+    finer_tr = Transcription(finer)
+    again = solve(finer_tr, finer, result.design)
+    again.start = result.solve.start
+    again.trials = result.solve.trials + [_trial(again)]
+    again.warnings = merged([result.solve.warnings, again.warnings])
+    refined = _checked(finer, finer_tr, again)
+    refined.build_time_s += tr.build_time_s
+    before = (f"the design with {problem.options.convexity_points} convexity check points broke its shape "
+              f"between them; solved again from it with {points}")
+    if refined.status == "success":
+        refined.message += f" ({before})"
+        return refined
+    result.message += f" ({before}: {refined.status})"
+    return result
 
 
 #: A warm-started design whose objective is worse than its start's by more than this fraction
