@@ -333,7 +333,7 @@ def follower_contact(outline: FileOutline, rotation, direction: float, offset: f
     lean = (lo + hi) / 2
     position, _, wrapped, psi = centre(lean)
     on = (psi >= outline.start[0]) & (psi <= outline.end[-1])
-    return tuple(np.where(on, v, np.nan) for v in (psi, wrapped, position, lean))
+    return tuple(np.where(on, value, np.nan) for value in (psi, wrapped, position, lean))
 
 
 def wire_cam_port(outline: FileOutline, mech, port: str, theta) -> np.ndarray:
