@@ -79,7 +79,7 @@ def test_dxf_holds_arcs_true_circles_and_millimetres(tmp_path):
     (bore, d_bore), (_, d_anchor) = back.circles
     np.testing.assert_allclose([*bore, d_bore, d_anchor], [0, 0, BORE, ANCHOR], atol=1e-15)
     # convex curves within δ of each other differ in length by at most 2πδ
-    assert back.perimeter == pytest.approx(np.sum(np.hypot(*np.diff(outline.xy(
+    assert back.length == pytest.approx(np.sum(np.hypot(*np.diff(outline.xy(
         np.linspace(0, 2 * np.pi, 200001)), axis=0).T)), abs=2 * np.pi * 1e-7)
 
 
