@@ -304,8 +304,9 @@ def _markdown(cams: list[dict], checks: list[dict]) -> str:
     """The report as markdown: the verdict, the checks, the files, then the fields' meanings."""
     lines = [f"# Workshop files against the design: {verdict(checks, cams)}", "",
              "Read `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
-             "recomputed from the written DXF outlines by plane geometry, against the design's; and, "
-             "under Files, `cable_clearance_m` against `cable_radius_m`: how near the free cable comes to the part.",
+             "recomputed from the written DXF outlines (and helical grooves' centre lines) by plane geometry, "
+             "against the design's; and, under Files, `cable_clearance_m` against `cable_radius_m`: how near the "
+             "free cable comes to the part.",
              ""]
     lines += _table(checks, ["quantity", "where", "file_max_abs_error", "required", "passed", "unresolved_points",
                              "design_max_abs_error", "peak", "note"])
