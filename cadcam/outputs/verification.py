@@ -23,8 +23,8 @@ from ..make.biarc import arc_distance, segment_distance
 from ..make.workshop import cut_points
 from ..mechanisms.base import ENERGY
 from ..physics.profile import profile_function
-from ..verify.file_model import (MILLIMETRES, NOTCH, TORQUE_KINDS, FileOutline, differential_output, file_torque, free_spans,
-                                 outline_points, span_clearance)
+from ..verify.file_model import (MILLIMETRES, NOTCH, TORQUE_KINDS, FileOutline, differential_output, file_torque,
+                                 free_spans, outline_points, span_clearance)
 
 #: Share of the design's own largest error the file may add (issue 31).
 DESIGN_SHARE = 0.1
@@ -73,7 +73,8 @@ FIELDS = {
     "peak": ("N·m or m", "the design's peak |τ| (span of x) on that grid"),
     "required": ("N·m or m", "max(0.1 × design_max_abs_error, 1e-4 × peak): what file_max_abs_error must not exceed"),
     "unresolved_points": ("-", "grid points where the cable's departure from the file's outline lies outside "
-                          "the range a convex outline allows (the cable would wrap past its anchor)"),
+                          "the range a convex outline allows (the cable would wrap past its anchor, or leave "
+                          "past a groove's end)"),
     "passed": ("-", "file_max_abs_error ≤ required at every grid point"),
     "note": ("-", "why a quantity is not recomputed"),
 }
@@ -133,9 +134,10 @@ def _force_gain(result) -> float:
 
 
 def fit_tolerance(result, loosest: float) -> float:
-    """The tolerance [m] of ``result``'s files (the biarc fit's; a groove's chords' sag): :data:`FIT_SHARE` of the tightest
-    requirement over the torque and output checks, divided by the torque (N per metre of arm)
-    or output (:data:`OUTPUT_GAIN`) a metre of outline error moves; at most ``loosest`` (the
+    """The tolerance [m] of ``result``'s files (the biarc fit's; a groove's chords' sag):
+    :data:`FIT_SHARE` of the tightest requirement over the torque and output checks, divided by
+    the torque (N per metre of arm) or output (:data:`OUTPUT_GAIN`) a metre of outline error
+    moves; at most ``loosest`` (the
     spec's workshop tolerance), at least :data:`MIN_FIT`. Every mechanism's files are fitted so,
     also those :func:`recompute` has no file model for (their accuracy is then not checked)."""
     gain = _force_gain(result)

@@ -1,10 +1,11 @@
-"""The torque (or a differential pair's output x) of a design recomputed from its written DXF.
+"""The torque (or a differential pair's output x) of a design recomputed from its written files.
 
 What a workshop receives is the file, not the polynomial: this module reads ``camN.dxf`` back
-with ezdxf, rebuilds the outline from its arcs and lines, and computes what that part does by
-plane geometry alone, sharing nothing with the NLP's symbolic model but the spec's physical
-parameters (positions, senses, windings, spring rates, preloads and the design's
-pre-extensions):
+with ezdxf, rebuilds the outline from its arcs and lines (or a helical groove's centre line
+``camN_groove.csv``, an open chain of chords wound turn after turn, projected on the plane as
+the design model projects it), and computes what that part does by plane geometry alone,
+sharing nothing with the NLP's symbolic model but the spec's physical parameters (positions,
+senses, windings, spring rates, preloads and the design's pre-extensions):
 
 - the cable leaves a convex outline along the line n·X = h(ψ) with outward normal
   n = (cos ψ, sin ψ), h the outline's support function along the outline from the anchor (for
@@ -25,7 +26,7 @@ pre-extensions):
 - a differential pair's output x is the idler distance at which the two paths and the arc on
   the idler add up to the cable's length, found by bisection.
 
-The DXF is in the profile's own frame: the cable anchored at the first vertex on +x and wound
+The files are in the profile's own frame: the cable anchored at the first vertex on +x and wound
 counter-clockwise from it (the mechanism's ``winding`` = "cw" part is this outline mirrored); a
 wire cam's frame turns by −θ in the world (a point at polar angle φ sits at world angle φ − θ).
 """
@@ -57,9 +58,9 @@ STRAIGHT = 1e-12
 #: there: a departure exactly at the end of the designed arc (the range's most-wound pose), seen
 #: through the file's rounding.
 END_SLACK = 1e-9
-#: How far [m] the cable's length at a differential pair's x found may miss the cable's: the
-#: bisection closes x to 1e-15 of the slider's range, where the length moves by less than 1e-15 m
-#: (more is a jump of the length, no root).
+#: How far [m] the cable's length at a differential pair's x found may miss the cable's (the
+#: bisection closes x to 1e-15 of the slider's range, where the length moves by about 1e-15 m;
+#: a miss beyond this is a jump of the length, no root).
 LENGTH_SLACK = 1e-9
 #: Smallest turn [rad] between two segments that counts as a corner of the outline (below it,
 #: a tangent-continuous joint seen through the file's rounding).

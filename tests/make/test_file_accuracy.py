@@ -431,7 +431,8 @@ def test_a_groove_read_back_winds_the_spiral_by_closed_form(tmp_path):
     np.testing.assert_allclose([*end[0], wrapped[0]], [*chain.vertices[-1], chain.length], rtol=0, atol=1e-15)
     phi = np.linspace(0.5, 5 * np.pi, 9)
     r = a + b * phi
-    tangent = np.column_stack([b * np.cos(phi) - r * np.sin(phi), b * np.sin(phi) + r * np.cos(phi)]) / np.hypot(r, b)[:, None]
+    tangent = np.column_stack([b * np.cos(phi) - r * np.sin(phi), b * np.sin(phi) + r * np.cos(phi)])
+    tangent /= np.hypot(r, b)[:, None]
     target = np.column_stack([r * np.cos(phi), r * np.sin(phi)]) + d * tangent
     around = phi + np.arctan2(d * r / np.hypot(r, b), r + d * b / np.hypot(r, b))  # the target's polar angle
     leaving, point, wrapped = chain.tangent(target, around)
