@@ -36,9 +36,13 @@ CHECK_GRID = 8000
 CHORD_SPARE = 1.05
 """Chords :func:`polyline` first lays per chord an exact estimate would need (sag ≈ 0.9 tol)."""
 SAG_SAMPLES = 31
+"""Interior samples per chord at which :func:`polyline` measures the sag (odd: with the middle)."""
 SVG_BOX_SAMPLES = 64
 """Points per arc from which the SVG's box is taken (an arc's sag between them is (1/64)²/8 of its own)."""
-"""Interior samples per chord at which :func:`polyline` measures the sag (odd: with the middle)."""
+GROOVE_ROWS = 20_000
+"""Most rows of a helical groove's centre line (:func:`helical_groove`): a CSV a workshop opens."""
+GROOVE_SCAN = 8192
+"""Points at which :func:`helical_groove` finds the spiral's tightest bend."""
 
 
 # --------------------------------------------------------------------------------------- outline
@@ -724,10 +728,17 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
 
 
 def helical_groove(basis: Basis, coefficients, phi_max: float, pitch: float,
-                   step: float = np.radians(1.0)) -> np.ndarray:
+                   tolerance: float = DEFAULT_TOLERANCE) -> np.ndarray:
     """The centre line of a helical groove (a drum whose cable wraps more than one turn,
-    Fedorov2018 Sec. 4.1): the designed spiral ρ(φ), φ ∈ [0, ``phi_max``], climbing the drum's
-    axis by ``pitch`` [m] per turn.
+    Fedorov2018 Sec. 4.1): the designed spiral ρ(φ), φ from 0 to a step past ``phi_max``,
+    climbing the drum's axis by ``pitch`` [m] per turn.
+
+    The rows are equal steps Δφ whose chords stay within ``tolerance`` [m] of the spiral: a
+    chord ℓ ≈ |dp/dφ|Δφ long sags κℓ²/8 where the curvature is κ, so
+    Δφ = √(8·tolerance / max κ|dp/dφ|²) (ρΔφ²/8 on a circle), shortened so that ``phi_max`` is a
+    row; at most :data:`GROOVE_ROWS` rows. The groove runs on a step past ``phi_max``, the
+    most-wound departure, so that the cable leaving there still lies in it (a groove ending at
+    the departure would turn its last chord half a step short of the cable's tangent there).
 
     Returns
     -------
@@ -735,8 +746,13 @@ def helical_groove(basis: Basis, coefficients, phi_max: float, pitch: float,
         φ [rad], ρ [m] and the points x, y, z [m] (z along the shaft from the anchor's turn);
         the planar design model is the projection on z = 0.
     """
-    phi = np.linspace(0.0, phi_max, int(np.ceil(phi_max / step)) + 1)
-    rho = designed_values(profile_function(basis), coefficients, phi)[0]
+    profile = profile_function(basis)
+    rho, drho, _, margin = designed_values(profile, coefficients, np.linspace(0.0, phi_max, GROOVE_SCAN))
+    # κ|dp/dφ|² = margin/|dp/dφ| (Johnston2023 Eq. 40)
+    bend = float(np.max(margin / np.hypot(rho, drho)))
+    steps = min(GROOVE_ROWS - 2, int(np.ceil(phi_max * np.sqrt(bend / (8 * _positive("tolerance", tolerance))))))
+    phi = np.arange(steps + 2) * (phi_max / steps)
+    rho = designed_values(profile, coefficients, phi)[0]
     return np.column_stack([phi, rho, rho * np.cos(phi), rho * np.sin(phi), pitch * phi / TWO_PI])
 
 

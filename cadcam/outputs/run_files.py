@@ -118,38 +118,40 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     With a list ``drawings``, the sheets are built here and appended to it, to be drawn by
     :func:`cadcam.outputs.forked.draw`, not drawn here.
 
-    The outlines are fitted as accurately as the design claims (the tolerance of
+    The outlines and grooves are written as accurately as the design claims (the tolerance of
     :func:`cadcam.outputs.verification.fit_tolerance`, at most ``args.tolerance``), read back
-    from the written DXF and recomputed; a fit that misses its requirement is refitted tighter.
+    from the written files and recomputed; files that miss their requirement are written tighter.
     """
-    from ..make.workshop import TWO_PI, helical_groove, write_groove_csv
+    from ..make.workshop import TWO_PI
 
     ev = result.evaluation
-    notes, outlines = [], {}
+    notes, outlines, grooves = [], {}, {}
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
     for i, cs in enumerate(ev.profiles):
         try:
             if cs.alpha.max() >= TWO_PI:
-                groove = helical_groove(ev.design.bases[i], ev.design.coefficients[i], float(cs.alpha.max()),
-                                        args.groove_pitch)
-                write_groove_csv(out / f"cam{i + 1}_groove.csv", groove)
-                notes.append(f"cam{i + 1}: helical groove centre line, {len(groove)} points, "
-                             f"{cs.alpha.max() / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch")
+                grooves[i] = float(cs.alpha.max())
             else:
                 outlines[i] = _outline(ev, i, args)
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
-    tolerance, chains, checks = _fitted_dxfs(result, out, args, outlines)
+    tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves)
+    notes += [f"cam{i + 1}: helical groove centre line, {len(chains[i].vertices)} points within "
+              f"{1e3 * tolerance:.3g} mm, {phi_max / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch"
+              for i, phi_max in grooves.items()]
     for i, outline in outlines.items():
         try:
             notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, sheets, owners[i], drawings))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
-    from .verification import cable_clearances, cam_report, verdict, write_report
+    from .verification import cable_clearances, cam_report, groove_report, verdict, write_report
 
     clearance = cable_clearances(result, chains)
     cams = [cam_report(i + 1, outlines[i], chains[i], tolerance, _polygon_tolerance(tolerance), args.cable_radius,
-                       clearance[i]) for i in outlines]
+                       clearance[i]) if i in outlines
+            else groove_report(i + 1, ev.design.bases[i], ev.design.coefficients[i], grooves[i], chains[i],
+                               tolerance, args.cable_radius)
+            for i in sorted(chains)]
     write_report(out, cams, checks)
     notes.append(f"verification.md: {verdict(checks, cams)}")
     return notes
@@ -164,14 +166,16 @@ def _outline(ev, i: int, args: Workshop):
                        args.hub_radius, args.cable_radius)
 
 
-def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):
-    """Write every outline's DXF at the fit tolerance the design asks for, read them back and
-    recompute; refit tighter while a check misses (at most ``REFITS`` times). Returns the
-    tolerance [m], the outlines read back (profile index → FileOutline) and the checks."""
-    from ..make.workshop import write_dxf
-    from ..verify.file_model import read_dxf
+def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict):
+    """Write every outline's DXF and every groove's centre line (profile index → its most-wound
+    departure [rad]) at the tolerance the design asks for, read them back and recompute; write
+    them tighter while a check misses (at most ``REFITS`` times). Returns the tolerance [m], the
+    files read back (profile index → FileOutline) and the checks."""
+    from ..make.workshop import helical_groove, write_dxf, write_groove_csv
+    from ..verify.file_model import read_dxf, read_groove
     from .verification import MIN_FIT, REFITS, fit_tolerance, recompute
 
+    design = result.evaluation.design
     tolerance = fit_tolerance(result, args.tolerance)
     for attempt in range(REFITS + 1):
         chains = {}
@@ -182,6 +186,10 @@ def _fitted_dxfs(result, out: Path, args: Workshop, outlines: dict):
             except ValueError as exc:
                 raise WorkshopError(f"cam{i + 1}: {exc}") from exc
             chains[i] = read_dxf(out / f"cam{i + 1}.dxf")
+        for i, phi_max in grooves.items():
+            write_groove_csv(out / f"cam{i + 1}_groove.csv", helical_groove(
+                design.bases[i], design.coefficients[i], phi_max, args.groove_pitch, tolerance))
+            chains[i] = read_groove(out / f"cam{i + 1}_groove.csv")
         checks = recompute(result, chains)
         miss = max((c["file_max_abs_error"] / c["required"] for c in checks if "passed" in c), default=0.0)
         if miss <= 1 or tolerance <= MIN_FIT or attempt == REFITS or not np.isfinite(miss):

@@ -9,7 +9,8 @@ torque; for a differential pair, its output x within max(:data:`DESIGN_SHARE` ×
 largest |x − x_d|, :data:`PEAK_SHARE` × the span of x over the range). The files are fitted to
 :data:`FIT_SHARE` of that requirement divided by how much torque (or x) a metre of outline
 error moves (:func:`fit_tolerance`), then read back and checked; a fit that misses is refitted
-tighter, up to :data:`REFITS` times.
+tighter, up to :data:`REFITS` times. A helical groove's centre line (``camN_groove.csv``) is
+sampled so that its chords sag no more than that tolerance, and checked the same way.
 """
 from __future__ import annotations
 
@@ -18,10 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from ..files import write_json, write_text
-from ..make.biarc import arc_distance
+from ..make.biarc import arc_distance, segment_distance
+from ..make.workshop import cut_points
 from ..mechanisms.base import ENERGY
-from ..verify.file_model import (NOTCH, TORQUE_KINDS, FileOutline, differential_output, file_torque, free_spans,
-                                 outline_points, span_clearance)
+from ..physics.profile import profile_function
+from ..verify.file_model import (MILLIMETRES, NOTCH, TORQUE_KINDS, FileOutline, differential_output, file_torque,
+                                 free_spans, outline_points, span_clearance)
 
 #: Share of the design's own largest error the file may add (issue 31).
 DESIGN_SHARE = 0.1
@@ -40,25 +43,27 @@ MIN_FIT = 1e-10
 REFITS = 3
 #: Points of the designed outline at which the file's distance from it is measured.
 DISTANCE_SAMPLES = 4096
-#: DXF $INSUNITS code of millimetres.
-MILLIMETRES = 4
 
 #: The fields of the report, declared once: name → (unit, description).
 FIELDS = {
-    "cam": ("-", "the cam's number (camN.dxf)"),
-    "units": ("-", "the DXF's units ($INSUNITS 4: mm)"),
-    "closed": ("-", "the profile polyline is closed"),
-    "convex": ("-", "no arc or corner of the profile turns inwards more than 1 nm deep"),
-    "vertices": ("-", "vertices of the profile polyline (each segment an arc or a line)"),
-    "fit_tolerance_m": ("m", "the biarc fit's tolerance, from the design's accuracy"),
-    "file_error_m": ("m", "largest distance from the designed outline to the outline read back from the DXF"),
+    "cam": ("-", "the cam's number (camN.dxf, or camN_groove.csv for a helical groove)"),
+    "units": ("-", "the DXF's units ($INSUNITS 4: mm; a groove's columns are in mm)"),
+    "closed": ("-", "the profile polyline is closed (a groove's centre line is open: it winds on, turn after turn)"),
+    "convex": ("-", "no arc or corner of the profile (of a groove's centre line) turns inwards more than 1 nm deep"),
+    "vertices": ("-", "vertices of the profile polyline (each segment an arc or a line); a groove's rows, "
+                      "joined by straight chords"),
+    "fit_tolerance_m": ("m", "the biarc fit's tolerance (a groove's: its chords' sag), from the design's accuracy"),
+    "file_error_m": ("m", "largest distance from the designed outline (a groove: the designed spiral) to the "
+                          "outline read back from the DXF (the chord of the groove's CSV across its polar angle)"),
     "points_csv_tolerance_m": ("m", "chordal tolerance of camN_points.csv (and camN.stl)"),
     "clearance_m": ("m", "least material between the bore, the anchor hole and the profile, from the DXF"),
     "cable_radius_m": ("m", "the cable's radius: the clearance its free spans keep from the part"),
     "cable_clearance_m": ("m", "least distance from the centre line of the cable's free span to the cut outline "
                                "read from the DXF (its anchor and closure included) over the fine re-check grid; "
                                "negative where the span runs through the part; blank where the cable runs from "
-                               "the part onto a follower or there is no cable"),
+                               "the part onto a follower or there is no cable, and for a helical groove (its file "
+                               "holds the groove's centre line, not the drum between its turns that a span would "
+                               "clear; in the plane a span crosses the other turns, which lie at other heights)"),
     "spans_clear": ("-", "cable_clearance_m ≥ cable_radius_m less 1 nm: no free span touches the part"),
     "quantity": ("-", "what is recomputed from the files: a joint's torque or a differential pair's output x"),
     "where": ("-", "the joint or mechanism it belongs to"),
@@ -68,7 +73,8 @@ FIELDS = {
     "peak": ("N·m or m", "the design's peak |τ| (span of x) on that grid"),
     "required": ("N·m or m", "max(0.1 × design_max_abs_error, 1e-4 × peak): what file_max_abs_error must not exceed"),
     "unresolved_points": ("-", "grid points where the cable's departure from the file's outline lies outside "
-                          "the range a convex outline allows (the cable would wrap past its anchor)"),
+                          "the range a convex outline allows (the cable would wrap past its anchor, or leave "
+                          "past a groove's end)"),
     "passed": ("-", "file_max_abs_error ≤ required at every grid point"),
     "note": ("-", "why a quantity is not recomputed"),
 }
@@ -128,9 +134,10 @@ def _force_gain(result) -> float:
 
 
 def fit_tolerance(result, loosest: float) -> float:
-    """The biarc fit's tolerance [m] for ``result``'s files: :data:`FIT_SHARE` of the tightest
-    requirement over the torque and output checks, divided by the torque (N per metre of arm)
-    or output (:data:`OUTPUT_GAIN`) a metre of outline error moves; at most ``loosest`` (the
+    """The tolerance [m] of ``result``'s files (the biarc fit's; a groove's chords' sag):
+    :data:`FIT_SHARE` of the tightest requirement over the torque and output checks, divided by
+    the torque (N per metre of arm) or output (:data:`OUTPUT_GAIN`) a metre of outline error
+    moves; at most ``loosest`` (the
     spec's workshop tolerance), at least :data:`MIN_FIT`. Every mechanism's files are fitted so,
     also those :func:`recompute` has no file model for (their accuracy is then not checked)."""
     gain = _force_gain(result)
@@ -139,26 +146,59 @@ def fit_tolerance(result, loosest: float) -> float:
     return float(max(MIN_FIT, min(candidates)))
 
 
+def _segments(chain: FileOutline):
+    """Starts, ends (1, K, 2) and bulges (1, K) of the chain's segments: a closed chain's back
+    round to its first vertex, an open one's to its last."""
+    ends = np.roll(chain.vertices, -1, axis=0)
+    count = len(ends) if chain.closed else len(ends) - 1
+    return chain.vertices[None, :count], ends[None, :count], chain.bulges[None, :count]
+
+
 def _file_error(outline, chain: FileOutline) -> float:
     """Largest distance [m] from the designed outline to the chain read back from the file."""
     points = outline.xy(np.linspace(0.0, 2 * np.pi, DISTANCE_SAMPLES, endpoint=False))
-    a = chain.vertices[None]
-    b = np.roll(chain.vertices, -1, axis=0)[None]
+    a, b, bulges = _segments(chain)
     best = np.full(len(points), np.inf)
     for rows in np.array_split(np.arange(len(points)), max(1, len(points) * len(a[0]) // 2_000_000)):
-        best[rows] = arc_distance(points[rows, None], a, b, chain.bulges[None]).min(axis=1)
+        best[rows] = arc_distance(points[rows, None], a, b, bulges).min(axis=1)
     return float(best.max())
+
+
+def _groove_error(basis, coefficients, phi_max: float, chain: FileOutline) -> float:
+    """Largest distance [m] from the designed spiral ρ(φ), φ ∈ [0, ``phi_max``], to the groove's
+    chord across each point's polar angle (not to the nearest chord: in the plane the spiral's
+    turns may cross), at :data:`DISTANCE_SAMPLES` points a turn."""
+    phi = np.linspace(0.0, phi_max, int(np.ceil(DISTANCE_SAMPLES * phi_max / (2 * np.pi))) + 1)
+    points = cut_points(profile_function(basis), coefficients, phi, 0.0)
+    polar = np.unwrap(np.arctan2(chain.vertices[:, 1], chain.vertices[:, 0]))
+    k = np.clip(np.searchsorted(polar, phi, side="right") - 1, 0, len(polar) - 2)
+    return float(segment_distance(points, chain.vertices[k], chain.vertices[k + 1]).max())
 
 
 def _clearance(chain: FileOutline) -> float:
     """Least material [m] between the file's holes and its profile and between the holes."""
-    a, b = chain.vertices[None], np.roll(chain.vertices, -1, axis=0)[None]
+    a, b, bulges = _segments(chain)
     centres = np.array([c for c, _ in chain.circles]).reshape(-1, 2)
     radii = np.array([d / 2 for _, d in chain.circles])
-    walls = list(arc_distance(centres[:, None], a, b, chain.bulges[None]).min(axis=1) - radii)
+    walls = list(arc_distance(centres[:, None], a, b, bulges).min(axis=1) - radii)
     for i in range(len(radii)):
         walls += [np.hypot(*(centres[i] - centres[j])) - radii[i] - radii[j] for j in range(i)]
     return float(min(walls)) if walls else float("nan")
+
+
+def _chain_fields(cam: int, chain: FileOutline, tolerance: float, cable_radius: float) -> dict:
+    """The fields every file read back has (see :data:`FIELDS`)."""
+    return {"cam": cam, "units": "mm" if chain.units == MILLIMETRES else f"$INSUNITS {chain.units}",
+            "closed": chain.closed, "convex": chain.reflex == 0 and bool(np.all(chain.bulges >= 0)),
+            "vertices": len(chain.vertices), "fit_tolerance_m": tolerance, "cable_radius_m": cable_radius}
+
+
+def groove_report(cam: int, basis, coefficients, phi_max: float, chain: FileOutline, tolerance: float,
+                  cable_radius: float) -> dict:
+    """The file fields of one helical groove's centre line read back (see :data:`FIELDS`):
+    those of :func:`cam_report` that a groove has (no holes, no polygon files, no clearance)."""
+    return {**_chain_fields(cam, chain, tolerance, cable_radius),
+            "file_error_m": _groove_error(basis, coefficients, phi_max, chain)}
 
 
 def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_tolerance: float,
@@ -167,17 +207,15 @@ def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_
     from :func:`cable_clearances`."""
     spans = {} if cable_clearance is None else {
         "cable_clearance_m": cable_clearance, "spans_clear": bool(cable_clearance >= cable_radius - NOTCH)}
-    return {"cam": cam, "units": "mm" if chain.units == MILLIMETRES else f"$INSUNITS {chain.units}",
-            "closed": chain.closed, "convex": chain.reflex == 0 and bool(np.all(chain.bulges >= 0)),
-            "vertices": len(chain.vertices), "fit_tolerance_m": tolerance,
-            "file_error_m": _file_error(outline, chain), "points_csv_tolerance_m": polygon_tolerance,
-            "clearance_m": _clearance(chain), "cable_radius_m": cable_radius, **spans}
+    return {**_chain_fields(cam, chain, tolerance, cable_radius), "file_error_m": _file_error(outline, chain),
+            "points_csv_tolerance_m": polygon_tolerance, "clearance_m": _clearance(chain), **spans}
 
 
 def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float | None]:
     """Per profile read back (index → its cut outline): the least distance [m] from its cable's
     free span, over the fine re-check's angles, to the whole cut outline (the span's centre
-    line found about the outline's centre line); None where no free span leaves it."""
+    line found about the outline's centre line); None where no free span leaves it, and on a
+    helical groove (its file holds the centre line only, not the drum between its turns)."""
     problem, fine = result.problem, result.recheck
     centre = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
     out: dict[int, float | None] = {i: None for i in chains}
@@ -185,7 +223,7 @@ def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float 
     for u, mech in enumerate(problem.mechanisms):
         profiles = list(range(first, first + mech.n_profiles))
         first += mech.n_profiles
-        if not all(i in chains for i in profiles):
+        if any(chains[i].groove for i in profiles):
             continue
         spans = free_spans([centre[i] for i in profiles], mech, fine.units[u].theta)
         for i, (start, end) in zip(profiles, spans or []):
@@ -195,18 +233,17 @@ def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float 
 
 def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     """The torque and output checks with the values recomputed from the files (profile index →
-    outline read back), or a note where no file model covers a mechanism."""
+    outline or groove read back), or a note where no file model covers a mechanism."""
     problem, fine = result.problem, _grid(result)
-    # the files hold the cut outlines; the cable's centre line, on which the design is, lies its
-    # radius outside them
+    # the DXFs hold the cut outlines; the cable's centre line, on which the design is, lies its
+    # radius outside them (a groove's file is that centre line)
     chains = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
     owner = [u for u, mech in enumerate(problem.mechanisms) for _ in mech.profiles]
     kinds = {mech.kind for mech in problem.mechanisms}
     checks = []
     torque = _torque_checks(result)
-    missing = sorted(kinds - set(TORQUE_KINDS)) or (["a profile without a planar outline"]
-                                                    if len(chains) < len(owner) else [])
-    if not missing and problem.torque_model == ENERGY:
+    missing = sorted(kinds - set(TORQUE_KINDS))
+    if torque and not missing and problem.torque_model == ENERGY:  # a file torque only against a target
         sample = fine.tensor.sample(fine.tensor.whole())
         outlines = {u: [chains[i] for i, o in enumerate(owner) if o == u] for u in set(owner)}
         tau = file_torque(problem, fine.design, outlines, sample["theta"])
@@ -223,9 +260,6 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     for check in _output_checks(result):
         u = check.pop("mechanism")
         profiles = [i for i, o in enumerate(owner) if o == u]
-        if not all(i in chains for i in profiles):
-            checks.append({**check, "note": "not recomputed: a helical groove has no planar outline"})
-            continue
         x = differential_output([chains[i] for i in profiles], problem.mechanisms[u], fine.units[u].theta)
         xd = fine.units[u].z[problem.mechanisms[u].unknowns.index("x")]
         found = np.isfinite(x)
@@ -272,8 +306,9 @@ def _markdown(cams: list[dict], checks: list[dict]) -> str:
     """The report as markdown: the verdict, the checks, the files, then the fields' meanings."""
     lines = [f"# Workshop files against the design: {verdict(checks, cams)}", "",
              "Read `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
-             "recomputed from the written DXF outlines by plane geometry, against the design's; and, "
-             "under Files, `cable_clearance_m` against `cable_radius_m`: how near the free cable comes to the part.",
+             "recomputed from the written DXF outlines (and helical grooves' centre lines) by plane geometry, "
+             "against the design's; and, under Files, `cable_clearance_m` against `cable_radius_m`: how near the "
+             "free cable comes to the part.",
              ""]
     lines += _table(checks, ["quantity", "where", "file_max_abs_error", "required", "passed", "unresolved_points",
                              "design_max_abs_error", "peak", "note"])

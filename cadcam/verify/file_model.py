@@ -1,10 +1,11 @@
-"""The torque (or a differential pair's output x) of a design recomputed from its written DXF.
+"""The torque (or a differential pair's output x) of a design recomputed from its written files.
 
 What a workshop receives is the file, not the polynomial: this module reads ``camN.dxf`` back
-with ezdxf, rebuilds the outline from its arcs and lines, and computes what that part does by
-plane geometry alone, sharing nothing with the NLP's symbolic model but the spec's physical
-parameters (positions, senses, windings, spring rates, preloads and the design's
-pre-extensions):
+with ezdxf, rebuilds the outline from its arcs and lines (or a helical groove's centre line
+``camN_groove.csv``, an open chain of chords wound turn after turn, projected on the plane as
+the design model projects it), and computes what that part does by plane geometry alone,
+sharing nothing with the NLP's symbolic model but the spec's physical parameters (positions,
+senses, windings, spring rates, preloads and the design's pre-extensions):
 
 - the cable leaves a convex outline along the line n·X = h(ψ) with outward normal
   n = (cos ψ, sin ψ), h the outline's support function along the outline from the anchor (for
@@ -25,7 +26,7 @@ pre-extensions):
 - a differential pair's output x is the idler distance at which the two paths and the arc on
   the idler add up to the cable's length, found by bisection.
 
-The DXF is in the profile's own frame: the cable anchored at the first vertex on +x and wound
+The files are in the profile's own frame: the cable anchored at the first vertex on +x and wound
 counter-clockwise from it (the mechanism's ``winding`` = "cw" part is this outline mirrored); a
 wire cam's frame turns by −θ in the world (a point at polar angle φ sits at world angle φ − θ).
 """
@@ -39,8 +40,12 @@ import ezdxf
 import numpy as np
 
 TWO_PI = 2 * np.pi
-#: Millimetres per metre (the DXF's unit, $INSUNITS = 4).
+#: Millimetres per metre (the files' unit: the DXF's $INSUNITS = 4, a groove's columns ``_mm``).
 MM = 1e3
+#: DXF $INSUNITS code of millimetres (a groove's CSV, in millimetres, is read as such).
+MILLIMETRES = 4
+#: The columns of a groove's CSV the file model reads: its centre line's plane coordinates [mm].
+GROOVE_COLUMNS = ("x_mm", "y_mm")
 #: Bisection steps of a tangency (halving π rad: below 1e-15 rad) and of the slider (halving
 #: the slider's range: below 1e-15 of it).
 BISECTIONS = 52
@@ -53,6 +58,10 @@ STRAIGHT = 1e-12
 #: there: a departure exactly at the end of the designed arc (the range's most-wound pose), seen
 #: through the file's rounding.
 END_SLACK = 1e-9
+#: How far [m] the cable's length at a differential pair's x found may miss the cable's (the
+#: bisection closes x to 1e-15 of the slider's range, where the length moves by about 1e-15 m;
+#: a miss beyond this is a jump of the length, no root).
+LENGTH_SLACK = 1e-9
 #: Smallest turn [rad] between two segments that counts as a corner of the outline (below it,
 #: a tangent-continuous joint seen through the file's rounding).
 CORNER = 1e-9
@@ -66,16 +75,17 @@ NOTCH = 1e-9
 
 @dataclass(frozen=True)
 class FileOutline:
-    """An outline read from a DXF [m]: its segments and their turning pieces.
+    """An outline read from a file [m]: its segments and their turning pieces.
 
     Attributes
     ----------
     vertices, bulges : ndarray
-        The closed LWPOLYLINE on layer PROFILE, vertex 0 the anchor.
+        The closed LWPOLYLINE on layer PROFILE of a DXF, or the open chain of a helical
+        groove's centre line (its rows, joined by straight chords), vertex 0 the anchor.
     units : int
         $INSUNITS of the file (4: millimetres).
     closed : bool
-        The polyline's closed flag.
+        The polyline's closed flag (False: an open chain, a groove's).
     circles : list of (ndarray, float)
         Centres [m] and diameters [m] of the CIRCLEs on layer HOLES.
     centre, radius, start, end, length_at : ndarray
@@ -89,6 +99,9 @@ class FileOutline:
     lift : float
         How far [m] the chain lies outside the file's outline: 0 as read, the cable's radius
         on its centre line (:meth:`centre_line`).
+    groove : bool
+        The chain is a helical groove's centre line: the cable's centre line itself, wound on it
+        turn after turn, its pitch neglected (its normal angles run on across the turns).
     """
 
     vertices: np.ndarray
@@ -103,23 +116,26 @@ class FileOutline:
     length_at: np.ndarray
     reflex: int
     lift: float = 0.0
+    groove: bool = False
 
     def centre_line(self, cable_radius: float) -> FileOutline:
         """The centre line of a cable of ``cable_radius`` [m] lying on this outline: its outward
         offset, the same pieces about the same centres with their radii grown by the cable's
         (a corner becomes an arc of that radius), each piece's start that much farther along
-        (the offset of a convex chain is longer by the radius times the normal's turn)."""
-        if not cable_radius:
+        (the offset of a convex chain is longer by the radius times the normal's turn). A
+        groove's file is the cable's centre line already."""
+        if not cable_radius or self.groove:
             return self
         out = replace(self, radius=self.radius + cable_radius, lift=self.lift + cable_radius,
                       length_at=self.length_at + cable_radius * (self.start - self.start[0]))
-        object.__setattr__(out, "_perimeter", self._perimeter + cable_radius * (self.end[-1] - self.start[0]))
+        object.__setattr__(out, "_length", self._length + cable_radius * (self.end[-1] - self.start[0]))
         return out
 
     @property
-    def perimeter(self) -> float:
-        """Length of the closed outline [m]."""
-        return float(self._perimeter)
+    def length(self) -> float:
+        """Length [m] of the chain along it: a closed outline's perimeter, a groove's centre
+        line from its anchor to its end."""
+        return float(self._length)
 
     def support(self, psi):
         """h(ψ) [m], the contact point (n, 2) [m] and the wrapped length from the anchor [m] at
@@ -205,26 +221,55 @@ def read_dxf(path) -> FileOutline:
                    bool(lines[0].closed), circles)
 
 
-def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
-    """The turning pieces of the closed chain ``vertices``/``bulges`` from the anchor up to its
-    first reflex corner or inward arc, if any (see :class:`FileOutline`)."""
-    ends = np.roll(vertices, -1, axis=0)
-    chord = ends - vertices
+def read_groove(path) -> FileOutline:
+    """The centre line of a helical groove from ``camN_groove.csv`` (its columns
+    :data:`GROOVE_COLUMNS` among others): the rows projected on the drum's plane (the pitch
+    neglected, as the design model neglects it), joined by straight chords into an open chain
+    from the anchor (the first row) that winds on turn after turn to the last row and does not
+    close.
+
+    Raises
+    ------
+    ValueError
+        If the file lacks a column of :data:`GROOVE_COLUMNS` or has fewer than two rows.
+    """
+    with open(path, encoding="utf-8") as f:
+        header = f.readline().strip().split(",")
+    missing = [c for c in GROOVE_COLUMNS if c not in header]
+    if missing:
+        raise ValueError(f"{Path(path).name}: no column {', '.join(missing)}")
+    xy = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)[:, [header.index(c) for c in GROOVE_COLUMNS]] / MM
+    if len(xy) < 2:
+        raise ValueError(f"{Path(path).name}: {len(xy)} rows, a groove needs at least 2")
+    return _pieces(xy, np.zeros(len(xy)), MILLIMETRES, False, [], groove=True)
+
+
+def _pieces(vertices, bulges, units, closed, circles, groove=False) -> FileOutline:
+    """The turning pieces of the chain ``vertices``/``bulges`` from the anchor up to its first
+    reflex corner or inward arc, if any (see :class:`FileOutline`): a closed chain back round
+    to its anchor, an open one (``closed`` False) to its last vertex, where it ends."""
+    count = len(vertices) if closed else len(vertices) - 1  # segments
+    ends = np.roll(vertices, -1, axis=0)[:count]
+    chord = ends - vertices[:count]
     length = np.hypot(*chord.T)
-    arc = np.abs(bulges) >= STRAIGHT
-    sweep = np.where(arc, 4 * np.arctan(bulges), 0.0)
+    arc = np.abs(bulges[:count]) >= STRAIGHT
+    sweep = np.where(arc, 4 * np.arctan(bulges[:count]), 0.0)
     heading = np.arctan2(chord[:, 1], chord[:, 0]) - sweep / 2  # tangent angle at each start
     radius = np.where(arc, length / (2 * np.abs(np.sin(np.where(arc, sweep, 1.0) / 2))), 0.0)
     seg_length = np.where(arc, radius * np.abs(sweep), length)
     centre, r, start, stop, at, reflex = [], [], [], [], [], 0
     psi, s = heading[0] - np.pi / 2, 0.0
-    for i in range(len(vertices)):
+    for i in range(count):
         reflex += int(sweep[i] < 0)
         if arc[i] and not reflex:
             centre.append(vertices[i] - radius[i] * np.array([np.cos(psi), np.sin(psi)]))
             r.append(radius[i]), start.append(psi), stop.append(psi + sweep[i]), at.append(s)
         psi, s = psi + sweep[i], s + seg_length[i]
         nxt = (i + 1) % len(vertices)
+        if nxt == count:  # an open chain's end: a corner of no turn, where a cable along the last
+            if not reflex:  # segment's line leaves it
+                centre.append(ends[i]), r.append(0.0), start.append(psi), stop.append(psi), at.append(s)
+            break
         turn = np.angle(np.exp(1j * (heading[nxt] - (heading[i] + sweep[i]))))
         if nxt == 0 and not reflex:  # back at the anchor: the normals close a full turn
             turn = start[0] + TWO_PI - psi
@@ -235,8 +280,8 @@ def _pieces(vertices, bulges, units, closed, circles) -> FileOutline:
             at.append(s)
         psi = psi + turn
     out = FileOutline(vertices, bulges, units, closed, circles, np.array(centre), np.array(r),
-                      np.array(start), np.array(stop), np.array(at), reflex)
-    object.__setattr__(out, "_perimeter", s)
+                      np.array(start), np.array(stop), np.array(at), reflex, groove=groove)
+    object.__setattr__(out, "_length", s)
     return out
 
 
@@ -447,7 +492,9 @@ def differential_output(outlines, mech, theta) -> np.ndarray:
     """The idler distance x [m] at joint angles ``theta`` (n,) for which the cable has its
     length: bisection of the (increasing) length over the slider's range. Where the idler is so
     near that a cable would wrap past the end of an outline the length is undefined and counts
-    as too short; NaN where no x in the range gives the cable its length."""
+    as too short; NaN where no x in the range gives the cable its length (also where the
+    bisection closes on the edge of that undefined stretch, the length jumping past the cable's
+    there: a groove too short for the cable wound on it)."""
     theta = np.asarray(theta, dtype=float)
     lo = np.full(theta.shape, float(mech.slider_range[0]))
     hi = np.full(theta.shape, float(min(mech.slider_range[1], 10.0)))
@@ -461,7 +508,7 @@ def differential_output(outlines, mech, theta) -> np.ndarray:
         below = short(mid)
         lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
     x = (lo + hi) / 2
-    found = inside & np.isfinite(differential_length(outlines, mech, theta, x))
+    found = inside & (np.abs(differential_length(outlines, mech, theta, x) - mech.cable_length) <= LENGTH_SLACK)
     return np.where(found, x, np.nan)
 
 

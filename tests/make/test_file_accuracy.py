@@ -10,12 +10,13 @@ import pytest
 
 import cadcam
 from cadcam.make.biarc import arc_distance, biarc_fit
-from cadcam.make.workshop import MIN_WALL, closed_outline, cut_outline, hull_outline, write_dxf
+from cadcam.make.workshop import (GROOVE_ROWS, MIN_WALL, closed_outline, cut_outline, helical_groove, hull_outline,
+                                  write_dxf, write_groove_csv)
 from cadcam.outputs.run_files import write_workshop_files
 from cadcam.outputs.verification import FIELDS, recompute
 from cadcam.physics.profile import Basis
 from cadcam.verify.file_model import (SAGITTA, STEP, anchored_path, file_torque, outline_points, read_dxf,
-                                      span_clearance)
+                                      read_groove, span_clearance)
 
 from ..mechanisms.anchored_pulley.test_anchored_pulley import random_convex_design
 
@@ -79,7 +80,7 @@ def test_dxf_holds_arcs_true_circles_and_millimetres(tmp_path):
     (bore, d_bore), (_, d_anchor) = back.circles
     np.testing.assert_allclose([*bore, d_bore, d_anchor], [0, 0, BORE, ANCHOR], atol=1e-15)
     # convex curves within δ of each other differ in length by at most 2πδ
-    assert back.perimeter == pytest.approx(np.sum(np.hypot(*np.diff(outline.xy(
+    assert back.length == pytest.approx(np.sum(np.hypot(*np.diff(outline.xy(
         np.linspace(0, 2 * np.pi, 200001)), axis=0).T)), abs=2 * np.pi * 1e-7)
 
 
@@ -385,3 +386,74 @@ def test_span_clearance_is_signed_by_the_side_the_part_is_on():
     start = np.array([[2.0, 1.25], [2.0, 0.75], [3.0, 0.5]])
     end = np.array([[-1.0, 1.25], [-1.0, 0.75], [1.5, 0.5]])
     np.testing.assert_allclose(span_clearance(square, start, end), [0.25, -0.25, np.hypot(0.5, 0.5)])
+
+
+# ------------------------------------------------------------------------------- helical groove
+
+def _archimedes_groove(tmp_path, tolerance, a=0.03, b=0.002, phi_max=5 * np.pi):
+    """The spiral ρ = a + bφ over 2.5 turns written as a helical groove's centre line within
+    ``tolerance`` [m] and read back: the rows written and the chain."""
+    basis = Basis("monomial", 1, (0.0, phi_max))
+    rows = helical_groove(basis, basis.from_monomial(np.array([a, b])), phi_max, 0.004, tolerance)
+    write_groove_csv(tmp_path / "cam1_groove.csv", rows)
+    return rows, read_groove(tmp_path / "cam1_groove.csv")
+
+
+def test_a_groove_read_back_winds_the_spiral_by_closed_form(tmp_path):
+    """ρ = a + bφ over 2.5 turns, its chords within 10 nm: the file's chain is open, from the
+    anchor on +x winding on, its normal unwrapped across the turns, to the last row a step past
+    the range. Its normal at φ is ψ = φ − atan(b/ρ) and its length from the anchor
+    W(φ) = [ρq + b² ln(ρ + q)]/(2b) from 0, q = √(ρ² + b²). A chord sagging δ over a turn ε of
+    the tangent is shorter than its arc by about δε/3, so the file's length is short of W by
+    at most tolerance·(ψ − ψ₀)/3, never long; so is the cable wound to a target d along the
+    spiral's tangent at φ (its path W(φ) + d), which leaves at ψ(φ) to within the support
+    function's error over d."""
+    a, b, tolerance, d = 0.03, 0.002, 1e-8, 0.1
+    rows, chain = _archimedes_groove(tmp_path, tolerance, a, b)
+    assert chain.groove and not chain.closed and chain.reflex == 0 and chain.units == 4
+    np.testing.assert_allclose(chain.vertices[[0, -1]], rows[[0, -1], 2:4], rtol=0, atol=1e-15)
+
+    def psi(phi):
+        return phi - np.arctan(b / (a + b * phi))
+
+    def wound(phi):
+        r = a + b * phi
+        return (r * np.hypot(r, b) + b**2 * np.log(r + np.hypot(r, b))) / (2 * b)
+
+    last, step = rows[-1, 0], rows[1, 0]
+    assert last == pytest.approx(5 * np.pi + step, abs=1e-12)
+    # the normals run on across the turns, the chords' (parallel to the tangent near their middles)
+    # from half a step past the anchor to half a step short of the last row
+    assert chain.end[-1] - chain.start[0] == pytest.approx(psi(last - step / 2) - psi(step / 2), abs=step**2)
+    short = wound(last) - wound(0.0) - chain.length
+    assert 0 <= short <= tolerance * (psi(last) - psi(0.0)) / 3
+    _, end, wrapped = chain.support(np.array([chain.end[-1]]))
+    np.testing.assert_allclose([*end[0], wrapped[0]], [*chain.vertices[-1], chain.length], rtol=0, atol=1e-15)
+    phi = np.linspace(0.5, 5 * np.pi, 9)
+    r = a + b * phi
+    tangent = np.column_stack([b * np.cos(phi) - r * np.sin(phi), b * np.sin(phi) + r * np.cos(phi)])
+    tangent /= np.hypot(r, b)[:, None]
+    target = np.column_stack([r * np.cos(phi), r * np.sin(phi)]) + d * tangent
+    around = phi + np.arctan2(d * r / np.hypot(r, b), r + d * b / np.hypot(r, b))  # the target's polar angle
+    leaving, point, wrapped = chain.tangent(target, around)
+    np.testing.assert_allclose(leaving, psi(phi), rtol=0, atol=tolerance / d)
+    short = wound(phi) - wound(0.0) + d - (wrapped + np.hypot(*(target - point).T))
+    assert np.all(short >= 0) and np.all(short <= tolerance * (psi(phi) - psi(0.0)) / 3)
+
+
+def test_groove_rows_follow_the_tolerance_up_to_their_cap(tmp_path):
+    """The chords of the groove's CSV sag to within its tolerance and near it (equal steps sized
+    where the spiral bends most: a circle-like spiral's sag varies little); 100× tighter takes
+    10× the rows (sag ∝ step²), and a tolerance needing more than GROOVE_ROWS rows gets that
+    many."""
+    from cadcam.outputs.verification import groove_report
+
+    basis = Basis("monomial", 1, (0.0, 5 * np.pi))
+    coefficients = basis.from_monomial(np.array([0.03, 0.002]))
+    rows = {}
+    for tolerance in (1e-6, 1e-8):
+        rows[tolerance], chain = _archimedes_groove(tmp_path, tolerance)
+        error = groove_report(1, basis, coefficients, 5 * np.pi, chain, tolerance, 0.0)["file_error_m"]
+        assert 0.5 * tolerance < error <= tolerance
+    assert len(rows[1e-8]) / len(rows[1e-6]) == pytest.approx(10, rel=0.01)
+    assert len(_archimedes_groove(tmp_path, 1e-12)[0]) == GROOVE_ROWS
