@@ -138,6 +138,8 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves)
     notes += [f"cam{i + 1}: helical groove centre line, {len(chains[i].vertices)} points within "
               f"{1e3 * tolerance:.3g} mm, {phi_max / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch"
+              + (" (wound clockwise: the CSV is its mirror image, a helix of the other hand; mirror y)"
+                 if _mirrored(ev.problem, i) else "")
               for i, phi_max in grooves.items()]
     for i, outline in outlines.items():
         try:
