@@ -13,7 +13,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .files import env_cap
-from .mechanisms.base import ENERGY, Mechanism, Profile
+from .mechanisms.base import ENERGY, Mechanism, Profile, Quantity
 from .physics.springs import Network, Spring
 from .targets import Target
 
@@ -397,6 +397,16 @@ TOLERANCES = {
     "profile": Tolerance("m", "each profile's radius ρ, as a uniform offset of the cut outline", 0.05e-3),
 }
 
+#: A joint's ``band_weight``: the weight of its tolerance band in the NLP's objective
+#: (:func:`cadcam.solve.transcription._band_rows`); 0, the default, leaves the band out.
+BAND_WEIGHT = Quantity(
+    "band_weight", "N·m",
+    "the weight of the joint's tolerance band in the objective: band_weight × ∫w dθ, w the band's first-order "
+    "half-width under [tolerances] (beside tracking_weight × ∫(τ − τ_d)²; 0, the default, leaves it out). Every part "
+    "of w (rate, preload, spring ends' and idlers' placement, profile offset) on a joint whose springs act on it "
+    "alone, but a differential pulley's profile offset; its springs' parts (rate, preload, spring-end placement) on "
+    "a joint that a spring joins to another")
+
 
 @dataclass(frozen=True)
 class Joint:
@@ -406,6 +416,7 @@ class Joint:
     ``sensitivity_weights`` the w of ∫|∂τ/∂k_j| for each spring j (Johnston2023 Eq. 46, 47).
     The torque on a joint is the sum over the mechanisms on it. ``acceptance``: pairs (a key
     of :data:`ACCEPTANCE`, limit) the spec gives; :attr:`limits` adds the defaults.
+    ``band_weight`` [N·m]: :data:`BAND_WEIGHT`.
     """
 
     name: str
@@ -414,6 +425,7 @@ class Joint:
     tracking_weight: float
     sensitivity_weights: tuple[float, ...]
     acceptance: tuple = ()
+    band_weight: float = 0.0
 
     @property
     def limits(self) -> dict[str, float]:
@@ -505,11 +517,13 @@ class Problem:
             replace(s, rate=s.rate * factor) if springs is None or j in springs else s
             for j, s in enumerate(self.springs)))
 
-    def with_weights(self, tracking: float | None = None, sensitivity=None) -> "Problem":
-        """Copy with every joint's tracking weight and/or sensitivity weights replaced."""
+    def with_weights(self, tracking: float | None = None, sensitivity=None, band: float | None = None) -> "Problem":
+        """Copy with every joint's tracking weight, sensitivity weights and/or band weight
+        replaced."""
         joints = tuple(replace(c, tracking_weight=c.tracking_weight if tracking is None else tracking,
                                sensitivity_weights=c.sensitivity_weights if sensitivity is None
-                               else tuple(sensitivity)) for c in self.joints)
+                               else tuple(sensitivity),
+                               band_weight=c.band_weight if band is None else band) for c in self.joints)
         return replace(self, joints=joints)
 
     def to_dict(self) -> dict:
@@ -534,6 +548,7 @@ class Problem:
                 "theta_range_deg": [float(np.degrees(t)) for t in c.theta_range],
                 "tracking_weight": c.tracking_weight,
                 "sensitivity_weights": list(c.sensitivity_weights),
+                "band_weight": c.band_weight,
                 "target": c.target.to_dict(),
                 **({"acceptance": dict(c.acceptance)} if c.acceptance else {}),
             } for c in self.joints],

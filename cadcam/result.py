@@ -100,7 +100,8 @@ class Result:
 
     @property
     def fun(self) -> float:
-        """The objective reached: Johnston2023 Eq. 46/47 on the design grid (SI units)."""
+        """The objective reached: Johnston2023 Eq. 46/47 on the design grid (SI units), with
+        the tolerance band's term of any joint's ``band_weight``."""
         return self.solve.objective if self.solve is not None else float("nan")
 
     @property

@@ -30,7 +30,7 @@ from .physics.profile import BASES, Basis
 from .physics.springs import Port, Spring
 from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import (ACCEPTANCE, IPOPT_OPTIONS, SOLVER, TOLERANCES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
+from .problem import (ACCEPTANCE, BAND_WEIGHT, IPOPT_OPTIONS, SOLVER, TOLERANCES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
                       size_error)
 from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
 
@@ -521,7 +521,8 @@ def _joint(r: _Reader, i: int, n_springs: int, n_joints: int, arm: dict | None, 
         theta_range=theta_range,
         tracking_weight=float(r.get("tracking_weight", _nonneg, "a weight ≥ 0", 1.0)),
         sensitivity_weights=tuple(float(w) for w in sens),
-        acceptance=_acceptance(r))
+        acceptance=_acceptance(r),
+        band_weight=float(r.get(BAND_WEIGHT.name, _nonneg, f"a weight ≥ 0 [{BAND_WEIGHT.unit}]", 0.0)))
     target = _target(_Reader(r.origin, r.get("target", lambda v: isinstance(v, dict),
                                              f"a [{label}.target] table"), r.key("target")),
                      base, n_joints, arm)
@@ -722,7 +723,7 @@ def _from_shorthand(data: dict, table: str) -> dict:
     kind = next(k for k in mechanism_kinds() if mechanism_class(k).shorthand == table)
     out = {k: v for k, v in data.items() if k != table}
     joint_keys = ("name", "theta_range_deg", "tracking_weight", "sensitivity_weights", "target",
-                  "acceptance")
+                  "acceptance", BAND_WEIGHT.name)
     out["joints"], out["mechanisms"] = [], []
     for i, entry in enumerate(data[table]):
         out["joints"].append({k: entry[k] for k in joint_keys if k in entry})

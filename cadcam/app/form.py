@@ -17,10 +17,10 @@ from ..spec import KeyRead, SpecError, parse_value
 #: Groups of the form, in page order: (title, pattern of the dotted keys it holds).
 GROUPS = (
     ("Target and range", re.compile(r"^(joints|cams)\.\d+\.(theta_range_deg|tracking_weight|sensitivity_weights"
-                                    r"|acceptance\.[a-z_]+|target\.(?!kind$)[a-z_]+)$|^arm\.")),
+                                    r"|band_weight|acceptance\.[a-z_]+|target\.(?!kind$)[a-z_]+)$|^arm\.")),
     ("Springs", re.compile(r"^springs\.\d+\.(rate|preload|travel|preextension|free_length)$")),
     ("Geometry", re.compile(r"^(mechanisms|cams)\.\d+\.(?!(kind|name|joint|target|theta_range_deg|tracking_weight"
-                            r"|sensitivity_weights|acceptance)\b)[a-z_.0-9]+$|^torque_model$")),
+                            r"|sensitivity_weights|band_weight|acceptance)\b)[a-z_.0-9]+$|^torque_model$")),
     ("Solver", re.compile(r"^solver\.(?!ipopt$)[a-z_]+$")),
     ("Workshop files", re.compile(r"^workshop\.[a-z_]+$")),
 )

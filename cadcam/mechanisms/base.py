@@ -286,6 +286,14 @@ class Mechanism:
         """The numbers q of :attr:`parameter_names` (SI)."""
         return tuple(float(getattr(self, n)) for n in self.parameter_names)
 
+    def placement_steps(self, placement: float) -> np.ndarray:
+        """The step of each of :attr:`parameters` [SI] that a part placed ``placement`` [m] off
+        makes (:attr:`Quantity.placed`): ``placement`` for a placed length, ``placement`` over
+        its arm for a placed angle, 0 for a number the workshop does not place."""
+        values = dict(zip(self.parameter_names, self.parameter_values()))
+        return np.array([placement / (values[quantity.placed.split(":")[1]] if ":" in quantity.placed else 1.0)
+                         if quantity.placed else 0.0 for quantity in self.parameters])
+
     @classmethod
     def residual(cls, bases, theta, z, c, q):
         """(R, branch_error): R(z) = 0 fixes z; branch_error ≥ 0 is zero on the physical branch."""
@@ -559,20 +567,94 @@ def newton_from_function(structure, steps: int = 8) -> ca.Function:
     return ca.Function("newton_from", [theta, z0, c, q], [zk], ["theta", "z0", "c", "q"], ["z"])
 
 
+def _density(bases, z, c):
+    """dW/dz (profiles × unknowns): the wound length W_k grows by √(ρ² + ρ′²) per radian of
+    its departure angle α_k = z[k] (Johnston2023 Eq. 10) and depends on no other unknown."""
+    density = ca.SX.zeros(len(bases), z.shape[0])
+    for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
+        rho, drho, _, _ = profile_function(b)(z[k], ck)
+        density[k, k] = arc_length_density(rho, drho)  # Johnston2023 Eq. 10
+    return density
+
+
+def _along_solutions(R, z, wound, density, rhs):
+    """dz that keeps R(z, W(z)) = 0 when the rest of R moves by ``rhs`` (a column per
+    direction): −(R_z + R_W dW/dz)⁻¹ rhs, the implicit function theorem."""
+    return -ca.solve(ca.jacobian(R, z) + ca.mtimes(ca.jacobian(R, wound), density), rhs)
+
+
 def energy_arms(structure, theta, z, wound, wrapped, c, q, d):
     """dd/dθ [m/rad] of port displacements ``d`` (expressions of θ, z, the wrapped lengths and
     c) along the solution manifold R(θ, z, W(z)) = 0, by the implicit function theorem
     (dW_k/dα_k = √(ρ² + ρ′²), Johnston2023 Eq. 10)."""
     cls, bases = structure
     R = pose_residual_function(structure)(theta, z, wound, c, q)[0]
-    density = ca.SX.zeros(len(bases), z.shape[0])
-    for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c))):
-        rho, drho, _, _ = profile_function(b)(z[k], ck)
-        density[k, k] = arc_length_density(rho, drho)  # Johnston2023 Eq. 10
-    dz = -ca.solve(ca.jacobian(R, z) + ca.mtimes(ca.jacobian(R, wound), density), ca.jacobian(R, theta))
+    density = _density(bases, z, c)
+    dz = _along_solutions(R, z, wound, density, ca.jacobian(R, theta))
     dl = ca.mtimes(density, dz)
     return (ca.jacobian(d, theta) + ca.mtimes(ca.jacobian(d, z), dz)
             + ca.mtimes(ca.jacobian(d, wrapped), dl))
+
+
+@lru_cache(maxsize=64)
+def pose_change_function(structure) -> ca.Function:
+    """How a pose moves when the part is made differently, the joint angle held: the change
+    of the residuals R(θ, z, W) to first order, and the change of the unknowns that keeps it
+    zero (the implicit function theorem, as :func:`energy_arms` for a turn of the joint).
+
+    ``pose_change(theta, z, wound, c, q, dz, dW, dc, dq) -> (dR, dz_solution)`` for a change
+    ``dz`` of the unknowns, ``dW`` [m] of the wound lengths at fixed angles (their own change;
+    :func:`wound_change_function`), ``dc`` of the coefficients [m] and ``dq`` of the numbers
+    (SI): dR = (R_z + R_W dW/dz) dz + R_W dW + R_c dc + R_q dq, and the dz at which it is zero.
+    """
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    wound, dW = ca.SX.sym("wound", len(bases)), ca.SX.sym("dW", len(bases))
+    dz, dc, dq = ca.SX.sym("dz", z.shape[0]), ca.SX.sym("dc", c.shape[0]), ca.SX.sym("dq", q.shape[0])
+    R = pose_residual_function(structure)(theta, z, wound, c, q)[0]
+    density = _density(bases, z, c)
+    rhs = ca.mtimes(ca.jacobian(R, wound), dW) + ca.mtimes(ca.jacobian(R, c), dc) + ca.mtimes(ca.jacobian(R, q), dq)
+    dR = ca.mtimes(ca.jacobian(R, z) + ca.mtimes(ca.jacobian(R, wound), density), dz) + rhs
+    return ca.Function("pose_change", [theta, z, wound, c, q, dz, dW, dc, dq],
+                       [dR, _along_solutions(R, z, wound, density, rhs)],
+                       ["theta", "z", "wound", "c", "q", "dz", "dW", "dc", "dq"], ["dR", "dz_solution"])
+
+
+@lru_cache(maxsize=64)
+def wound_change_function(structure) -> ca.Function:
+    """``wound_change(z, c, dc) -> dW``: the change [m] of each profile's wound length
+    (:func:`wound_lengths`) at the angles ``z`` when its coefficients change by ``dc`` [m]."""
+    cls, bases = structure
+    _, z, c, _ = _symbols(cls, bases)
+    dc = ca.SX.sym("dc", c.shape[0])
+    return ca.Function("wound_change", [z, c, dc], [ca.jtimes(wound_lengths(bases, z, c), c, dc)],
+                       ["z", "c", "dc"], ["dW"])
+
+
+@lru_cache(maxsize=64)
+def port_change_function(structure, model: str, order: int, integrals: str = "closed-form") -> ca.Function:
+    """The first-order change of :func:`port_function`'s displacements and moment arms at a
+    pose when the part is made differently, the joint angle held, given how the pose there and
+    at the reference angle move (``dz``, ``dz_ref``; :func:`pose_change_function`) and the
+    wound lengths' own change at both (``dW``, ``dW_ref``): the wrapped and wound lengths
+    move with their ends and their profile.
+
+    ``port_change(theta, z, z_ref, wrapped, wound, c, q, dz, dz_ref, dW, dW_ref, dc, dq) ->
+    (dd, darm)``.
+    """
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    z_ref, dz, dz_ref = (ca.SX.sym(name, z.shape[0]) for name in ("z_ref", "dz", "dz_ref"))
+    wrapped, wound, dW, dW_ref = (ca.SX.sym(name, len(bases)) for name in ("wrapped", "wound", "dW", "dW_ref"))
+    dc, dq = ca.SX.sym("dc", c.shape[0]), ca.SX.sym("dq", q.shape[0])
+    # W(α) = W(α_ref) + wrapped (Johnston2023 Eq. 10, 14): each end moves with its angle
+    dwound = ca.mtimes(_density(bases, z, c), dz) + dW
+    dwrapped = dwound - ca.mtimes(_density(bases, z_ref, c), dz_ref) - dW_ref
+    d, arm, _, _ = port_function(structure, model, order, integrals)(theta, z, z_ref, wrapped, wound, c, q)
+    inputs, steps = ca.vertcat(z, z_ref, wrapped, wound, c, q), ca.vertcat(dz, dz_ref, dwrapped, dwound, dc, dq)
+    names = ["theta", "z", "z_ref", "wrapped", "wound", "c", "q", "dz", "dz_ref", "dW", "dW_ref", "dc", "dq"]
+    return ca.Function("port_change", [theta, z, z_ref, wrapped, wound, c, q, dz, dz_ref, dW, dW_ref, dc, dq],
+                       [ca.jtimes(d, inputs, steps), ca.jtimes(arm, inputs, steps)], names, ["dd", "darm"])
 
 
 @lru_cache(maxsize=64)

@@ -794,7 +794,8 @@ SPEC_UNITS = {
     "crank": ("mm", MM), "fore": ("mm", MM), "rate": ("N/mm", 1 / MM), "preload": ("N", 1.0),
     "mass": ("kg", 1.0), "masses": ("kg", 1.0), "g": ("m/s²", 1.0),
     "theta_range_deg": ("deg", 1.0), "reference_angle": ("deg", 180 / np.pi), "phase": ("deg", 180 / np.pi),
-    "tracking_weight": ("-", 1.0), "sensitivity_weights": ("-", 1.0), "order": ("", 1.0),
+    "tracking_weight": ("-", 1.0), "sensitivity_weights": ("-", 1.0), "band_weight": ("N·m", 1.0),
+    "order": ("", 1.0),
     "grid": ("", 1.0), "convexity_epsilon": ("-", 1.0), "limit_margin": ("-", 1.0),
 }
 

@@ -1,6 +1,6 @@
 """The JSON Schema of ``result.json`` (``cadcam/result.schema.json``): its generic parts are
 written in the file, and the parts that the registries declare are generated from them — the
-torque models, the design methods, the target kinds, the acceptance limits, the tolerances, and each mechanism's own keys (the
+torque models, the design methods, the target kinds, the acceptance limits, the tolerances, a joint's band weight, and each mechanism's own keys (the
 ``spec.schema.json`` beside its model) and each target kind's keys (:attr:`TargetKind.schema`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import LINK_ANGLE, design_methods, mechanism_class, mechanism_kinds, torque_models
-from ..problem import ACCEPTANCE, TOLERANCES
+from ..problem import ACCEPTANCE, BAND_WEIGHT, TOLERANCES
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -70,6 +70,8 @@ def result_schema(schema: dict) -> dict:
     defs["joint"]["properties"]["acceptance"]["properties"] = {
         key: {"description": f"{a.description} [{a.unit}]", "type": "number", "exclusiveMinimum": 0}
         for key, a in ACCEPTANCE.items()}
+    defs["joint"]["properties"][BAND_WEIGHT.name] = {
+        "description": f"{BAND_WEIGHT.description} [{BAND_WEIGHT.unit}]", "type": "number", "minimum": 0}
     defs["problem"]["properties"]["tolerances"]["properties"] = {
         key: {"description": f"± {t.description} [{t.unit}] (default {t.default:g})", "type": "number", "minimum": 0}
         for key, t in TOLERANCES.items()}

@@ -2,7 +2,8 @@
 the ``[solver]`` options (:data:`cadcam.problem.SOLVER`) and the IPOPT options cadcam passes on
 (:data:`cadcam.problem.IPOPT_OPTIONS`), the ``[workshop]`` sizes
 (:class:`cadcam.problem.Workshop`, :data:`cadcam.problem.WORKSHOP_LIMITS`), the acceptance
-limits (:data:`cadcam.problem.ACCEPTANCE`), the tolerances (:data:`cadcam.problem.TOLERANCES`), the target kinds
+limits (:data:`cadcam.problem.ACCEPTANCE`), the tolerances (:data:`cadcam.problem.TOLERANCES`) and a joint's
+band weight (:data:`cadcam.problem.BAND_WEIGHT`), the target kinds
 (:func:`cadcam.targets.target_kinds`) and each mechanism's own keys (the ``spec.schema.json``
 beside its model, with its ports, parameters and limits).
 
@@ -18,7 +19,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import LINK_ANGLE, mechanism_class
-from ..problem import ACCEPTANCE, IPOPT_OPTIONS, TOLERANCES, SOLVER, WORKSHOP_LIMITS, Workshop
+from ..problem import ACCEPTANCE, BAND_WEIGHT, IPOPT_OPTIONS, TOLERANCES, SOLVER, WORKSHOP_LIMITS, Workshop
 from ..targets import target_kinds
 from .schema import mechanism_schemas
 
@@ -76,7 +77,9 @@ def _tolerances() -> list[str]:
     rows = ["## `[tolerances]`", "", "How far a built part may be from its design, ± around each nominal value: "
             "every design reports the torque band they give (`tolerance_band` in `result.json`, the summary, the "
             "shaded band of `torque.png`).", "", "| key | unit | default | tolerance on |", "|---|---|---|---|"]
-    return rows + [f"| `{key}` | {t.unit} | `{t.default!r}` | {_cell(t.description)} |" for key, t in TOLERANCES.items()]
+    rows += [f"| `{key}` | {t.unit} | `{t.default!r}` | {_cell(t.description)} |" for key, t in TOLERANCES.items()]
+    return rows + ["", f"A joint's `{BAND_WEIGHT.name}` [{BAND_WEIGHT.unit}] (`[[joints]]`, default 0): "
+                   f"{_cell(BAND_WEIGHT.description)}."]
 
 
 def _targets() -> list[str]:

@@ -93,6 +93,12 @@ class Basis:
         return np.pad(out, (0, self.size - out.size))
 
 
+    def offset(self, delta: float) -> np.ndarray:
+        """Coefficients in this basis of the constant ρ(φ) = ``delta`` [m]: added to a profile's,
+        they offset it uniformly (a cut outline ``delta`` larger)."""
+        return self.from_monomial(np.eye(self.size)[0] * delta)
+
+
 def monomial_from_highest_first(beta) -> np.ndarray:
     """Papers' β (highest power first, Johnston2023 Tables 3–4) → increasing powers."""
     return np.asarray(beta, dtype=float)[::-1].copy()

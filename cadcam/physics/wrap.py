@@ -32,8 +32,19 @@ def length_function(basis: Basis, order: int) -> ca.Function:
     return ca.Function("length", [a, b, c], [integral], ["a", "b", "c"], ["length"])
 
 
-def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha, c):
-    """Profile lengths of the segments [α_ref, α₀], [α₀, α₁], … [m] (Eq. 10, Johnston2023).
+@lru_cache(maxsize=64)
+def length_change_function(basis: Basis, order: int) -> ca.Function:
+    """``length_change(a, b, c, dc) -> dl``: the change [m] of :func:`length_function`'s
+    length between the fixed angles a and b when the coefficients change by ``dc`` [m]."""
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    c, dc = ca.SX.sym("c", basis.size), ca.SX.sym("dc", basis.size)
+    change = ca.jtimes(length_function(basis, order)(a, b, c), c, dc)
+    return ca.Function("length_change", [a, b, c, dc], [change], ["a", "b", "c", "dc"], ["dl"])
+
+
+def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha, c, dc=None):
+    """Profile lengths of the segments [α_ref, α₀], [α₀, α₁], … [m] (Eq. 10, Johnston2023), or
+    with ``dc`` their changes [m] when the coefficients change by ``dc`` (the ends held).
 
     ``order`` Gauss–Legendre points per segment, ``first_order`` for the first (long when the
     angle range does not start at θ = 0). Segments between neighbouring grid contacts are
@@ -41,8 +52,9 @@ def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha
     the wrapped length at α_i is the running sum (Eq. 14).
     """
     n = alpha.shape[0]
-    first = length_function(basis, first_order)(alpha_ref, alpha[0], c)
-    rest = length_function(basis, order).map(n - 1)(alpha[:n - 1].T, alpha[1:].T, c).T
+    function, args = (length_function, (c,)) if dc is None else (length_change_function, (c, dc))
+    first = function(basis, first_order)(alpha_ref, alpha[0], *args)
+    rest = function(basis, order).map(n - 1)(alpha[:n - 1].T, alpha[1:].T, *args).T
     return ca.vertcat(first, rest)
 
 

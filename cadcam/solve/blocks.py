@@ -18,6 +18,9 @@ FORCE_SCALE = 100.0  # N: scale of lifted coupling terms k_j a_ij
 #: on the 60-case 1-DOF sweep of ``make bench`` against 1e-4 and 1e-3: the fewest iterations
 #: (median 26 against 48 and 44); the local optimum IPOPT reaches changes with the scale.
 SENSITIVITY_SCALE = 1e-5
+#: N·m: scale of the tolerance band's parts ∂τ/∂p Δp in the NLP (a newton-millimetre, the
+#: natural size of a balancer's torque errors).
+BAND_SCALE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,12 @@ def _minimax(problem) -> bool:
 
 MM, FORCE, TORQUE = _length(), _scaled(FORCE_SCALE, "N"), _scaled(TORQUE_SCALE, "N·m")
 SENSITIVITY = f"{SENSITIVITY_SCALE:g} m²"
+BAND = _scaled(BAND_SCALE, "N·m")
+_BAND_PARTS = {
+    "bs": "over spring {1}'s rate, preload and end placements ((Δk·x̄ + ΔF0 + k·Δx₀)·a)",
+    "bq": "over the placement of mechanism {1}'s {2}",
+    "bf": "over a uniform offset of profile {1}",
+}
 
 #: The decision vector's families.
 X_BLOCKS = {
@@ -77,6 +86,15 @@ X_BLOCKS = {
     "sn": Block(SENSITIVITY, "negative part of joint {0}'s torque per unit of spring {1}'s rate, at each "
                 "grid angle", "auxiliary"),
     "to": Block(MM, "bound on mechanism {0}'s largest |x − x_d| (minimax epigraph)", "auxiliary"),
+    **{family + sign: Block(BAND, f"{part} part of joint {{0}}'s torque change {what} at the tolerance's "
+                            "step, at each grid angle (its tolerance band)", "auxiliary")
+       for family, what in _BAND_PARTS.items() for sign, part in (("p", "positive"), ("n", "negative"))},
+    "bz": Block("SI/mm", "change of mechanism {0}'s unknowns per millimetre of {1} (its tolerance band), at each "
+                "grid angle (unknowns × angles, column-major; lengths in mm/mm)", "auxiliary"),
+    "bzr": Block("SI/mm", "change of mechanism {0}'s unknowns at its reference angle per millimetre of {1}",
+                 "auxiliary"),
+    "bl": Block("1", "change of mechanism {0}'s wrapped length per millimetre of {1}, its ends held, at each grid "
+                "angle", "auxiliary"),
     "mom": Block(f"{MM}·rad", "∫ of spring {1}'s share from joint {2} over that joint's angle (in joint "
                  "{0}'s squared error)", "auxiliary"),
     "Me": Block(lambda p: f"N·m·{MM}·{_rad(p)}", "target marginal of joint {0} times spring {1}'s share "
@@ -107,6 +125,13 @@ P_BLOCKS = {
     "rc": Block("m", "smallest radius of curvature of profile {0}, with the limit margin", "limits"),
     "k": Block("N/m", "spring rates", "springs"),
     "F0": Block("N", "spring preloads", "springs"),
+    "wband": Block("N·m", "band weight of joint {0}", "weights"),
+    "dk": Block("N/m", "the rate tolerance's step of each spring rate", "tolerances"),
+    "dF": Block("N", "the force step of each spring's preload and end-placement tolerances", "tolerances"),
+    "dq": Block("SI/mm", "the step of each of mechanism {0}'s parameters per millimetre of misplacement "
+                "(0: not placed)", "tolerances"),
+    "tol": Block("mm", "the placement and profile tolerances (a part's misplacement, a uniform offset of ρ)",
+                 "tolerances"),
     "obj_scale": Block(lambda p: "1/(N·m)" if _minimax(p) else f"1/(N²·m²·{_rad(p)})",
                        "scale of the torque objective (OBJECTIVE_SCALE over its value at zero torque)",
                        "weights"),

@@ -6,7 +6,8 @@ every grid angle of its joint and at its reference angle are NLP variables const
 mechanism's residuals (simultaneous approach); wrapped lengths by Gauss–Legendre integrals
 along each profile, lifted segment by segment; a high-degree profile's ρ, ρ′, ρ″ at its
 convexity check points lifted too; trapezoidal integrals over the angle grid;
-∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised (no ``abs`` in the NLP).
+∂τ/∂k split into non-negative parts s⁺ − s⁻ whose sum is minimised (no ``abs`` in the NLP), and
+so is each part of the tolerance band where a joint weighs it (:func:`_band_rows`).
 
 Everything that is a number of the problem rather than its structure — grid angles, spring
 rates and preloads, the mechanisms' numbers (idler radius and offset, μ, …), weights, target
@@ -15,7 +16,8 @@ pre-extensions) a bound passed at solve time, so one built solver serves every c
 parameter sweep.
 
 Scaling: lengths in millimetres (coefficients, pre-extensions, closure and travel constraints),
-convexity margins in mm², sensitivities in units of :data:`SENSITIVITY_SCALE`, and the objective
+convexity margins in mm², sensitivities in units of :data:`SENSITIVITY_SCALE`, the band's parts
+in units of :data:`BAND_SCALE`, and the objective
 divided by the tracking weight times ∫τ_d² and multiplied by :data:`OBJECTIVE_SCALE`.
 """
 from __future__ import annotations
@@ -31,14 +33,15 @@ import numpy as np
 
 from ..designs import Design
 from . import compiled
-from .blocks import FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
+from .blocks import BAND_SCALE, FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from .messages import kept_warnings
-from ..mechanisms.base import (Mechanism, margin_function, port_function,
-                               pose_residual_function, split_coefficients, wound_lengths)
+from ..mechanisms.base import (Mechanism, margin_function, port_change_function, port_function,
+                               pose_change_function, pose_residual_function, split_coefficients,
+                               wound_change_function, wound_lengths)
 from ..physics.profile import convexity_margin, curvature, inside_tangent, profile_function, support_distance
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.springs import Network
-from ..physics.wrap import length_function, segment_lengths
+from ..physics.wrap import length_change_function, length_function, segment_lengths
 from ..problem import Options, Problem
 from ..errors import SpecError
 
@@ -88,7 +91,7 @@ class Solve:
     return_status: str      # IPOPT's own words
     iterations: int
     solve_time_s: float
-    objective: float        # Eq. 46/47 value in SI units
+    objective: float        # Eq. 46/47 value in SI units, with the band term of any band_weight
     z: list[np.ndarray]     # NLP's departure unknowns per mechanism (unknowns × n)
     start: int = 0
     trials: list[dict] = field(default_factory=list)
@@ -139,8 +142,8 @@ class Transcription:
     ----------
     problem : Problem
         Supplies the structure (joints, mechanisms and their bases, springs and ports, torque
-        model, grid size, quadrature order, convexity points, which sensitivity weights are
-        non-zero).
+        model, grid size, quadrature order, convexity points, which sensitivity and band
+        weights are non-zero).
 
     Attributes
     ----------
@@ -169,13 +172,15 @@ class Transcription:
         self.pairs = [(i, j) for i, c in enumerate(problem.joints)
                       for j, w in enumerate(c.sensitivity_weights)
                       if w > 0 and i in net.joints_of(j)]  # others have ∂τ_i/∂k_j ≡ 0
+        self.banded = [i for i, c in enumerate(problem.joints) if c.band_weight > 0]
         self.v, self.p = _Vars("w"), _parameter_blocks(problem)
         rows = _Rows(self.v)
 
         # -- per mechanism and per angle: O(n) --------------------------------------------------
-        d, arm, outputs = [[] for _ in range(m)], [[] for _ in range(m)], []
+        d, arm, outputs, poses = [[] for _ in range(m)], [[] for _ in range(m)], [], []
         for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
-            du, au, output = _mechanism_rows(rows, self.p, problem, u, sl.start)
+            du, au, output, pose = _mechanism_rows(rows, self.p, problem, u, sl.start)
+            poses.append(pose)
             d[mech.joint] += [du[r, :].T for r in range(du.shape[0])]
             arm[mech.joint] += [au[r, :].T for r in range(au.shape[0])]
             if output is not None:
@@ -186,14 +191,16 @@ class Transcription:
         # -- the spring network over the grid of all joints: still O(n) -------------------------
         e, terms = _spring_network_rows(rows, self.p, net, x0, d, arm)
 
-        # -- the objective: tracking, rate sensitivity, output laws -----------------------------
+        # -- the objective: tracking, rate sensitivity, tolerance band, output laws --------------
         span = [ca.sum1(wc) for wc in w]
         tracking = _tracking_terms(rows, self.p, problem, terms, e, w, span)
         sens, sensitivity = _sensitivity_rows(rows, self.p, net, self.pairs, x0, e, arm, w, span)
+        self._band_splits, band, band_terms = _band_rows(rows, self.p, problem, self.banded, x0, e, d,
+                                                         arm, poses, w, span)
         # summed one term at a time, in this order: the graph, and so the compiled library's
         # cache key and IPOPT's iterates, depend on it
         objective = 0
-        for term in tracking + sensitivity:
+        for term in tracking + sensitivity + band_terms:
             objective += term
         torque_objective = objective
         scaled = 0
@@ -206,6 +213,7 @@ class Transcription:
         self._lifted_fn = [(name, ca.Function(f"lift_{name}", [x, P], [expr]))
                            for name, expr in rows.lifted]
         self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
+        self._band_fn = ca.Function("band", [x, P], [ca.vertcat(*band, ca.MX(0, 1))])
         self._bounds, self._deferred_bounds = rows.bounds, rows.deferred_bounds
         self._deferred = ca.Function("deferred", [x, P], [ca.vertcat(*rows.deferred_g, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
@@ -263,9 +271,35 @@ class Transcription:
                 p.put(vec, f"rc{pk}", prof.min_curvature_radius * (1 + problem.options.limit_margin))
         p.put(vec, "k", [s.rate for s in problem.springs])
         p.put(vec, "F0", [s.preload for s in problem.springs])
+        if self.banded:
+            self._band_parameters(vec, problem)
         scale = minimax_scale if problem.options.objective == "minimax" else energy
         p.put(vec, "obj_scale", OBJECTIVE_SCALE / scale if scale > 0 else 1.0)
         return vec
+
+    def _band_parameters(self, vec, problem: Problem) -> None:
+        """Put the band's weights and steps into ``vec``: each tolerance of
+        :attr:`cadcam.problem.Problem.tolerance` as the step of the NLP's numbers it allows."""
+        p, tol = self.p, problem.tolerance
+        for i in self.banded:
+            p.put(vec, f"wband{i}", problem.joints[i].band_weight)
+        k = np.array([s.rate for s in problem.springs])
+        p.put(vec, "dk", tol["rate"] * k)
+        # a preload's and a spring end's error both move the force by a constant
+        p.put(vec, "dF", tol["preload"] * np.abs([s.preload for s in problem.springs]) + tol["placement"] * k)
+        for u, mech in enumerate(problem.mechanisms):
+            p.put(vec, f"dq{u}", mech.placement_steps(LENGTH_SCALE))
+        p.put(vec, "tol", [tol["placement"] / LENGTH_SCALE, tol["profile"] / LENGTH_SCALE])
+
+    def band_half_width(self, w, pv) -> dict[int, np.ndarray]:
+        """Per joint that weighs its band, the band's first-order half-width [N·m] at its grid
+        angles that the NLP point ``w`` holds (the other joints' angles averaged where a
+        spring joins it to them), with parameters ``pv``: Σ |each part| (:func:`_band_rows`)."""
+        values = np.abs(np.asarray(self._band_fn(w, pv)).reshape(-1, self.n)) * BAND_SCALE
+        out = {i: np.zeros(self.n) for i in self.banded}
+        for (i, _, _), v in zip(self._band_splits, values):
+            out[i] += v
+        return out
 
     def _own_target(self, vec, i: int, joint, td: np.ndarray) -> float:
         """Put joint i's target samples ``td`` (the tensor grid) on its own angles into ``vec``
@@ -307,11 +341,14 @@ class Transcription:
         for i, j in self.pairs:
             v.put(lbx, f"sp{i}_{j}", 0)
             v.put(lbx, f"sn{i}_{j}", 0)
+        for _, pos, neg in self._band_splits:
+            v.put(lbx, pos, 0)
+            v.put(lbx, neg, 0)
         return lbx, ubx
 
     def start_order(self) -> int:
         """Gauss–Legendre order the samples handed to :meth:`initial_guess` should use."""
-        return 4 * self.problem.options.quadrature_order
+        return _start_order(self.problem)
 
     def initial_guess(self, problem: Problem, design: Design, samples, pv=None) -> np.ndarray:
         """NLP start from a design and its per-mechanism ``samples`` on the design grid.
@@ -320,7 +357,8 @@ class Transcription:
         displacements ``d`` and moment arms ``arm`` at the grid angles, as
         :func:`cadcam.verify.evaluate.mechanism_samples` computes them with the rootfinder
         (order :meth:`start_order`); the wrapped lengths follow from the angles, and every
-        lifted variable, then s± (the split of the NLP's own x̄·a), start on their definition
+        lifted variable, then s± (the split of the NLP's own x̄·a) and the band's splits, start
+        on their definition
         (the start's moment arms are not used). ``pv`` is
         :meth:`parameters` of ``problem`` if the caller has it already.
         """
@@ -354,6 +392,10 @@ class Transcription:
         for (i, j), s_ij in zip(self.pairs, sens):  # s± start on the split of x̄·a: feasible, tight
             v.put(w0, f"sp{i}_{j}", np.maximum(s_ij, 0))
             v.put(w0, f"sn{i}_{j}", np.maximum(-s_ij, 0))
+        band = np.asarray(self._band_fn(w0, pv)).reshape(-1, self.n)
+        for (_, pos, neg), part in zip(self._band_splits, band):  # so do the band's
+            v.put(w0, pos, np.maximum(part, 0))
+            v.put(w0, neg, np.maximum(-part, 0))
         return w0
 
     def _breaks_deferred(self, problem: Problem, w, pv) -> bool:
@@ -418,7 +460,13 @@ class Transcription:
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
-            history=_joined(histories), warnings=warnings)
+            history=joined(histories), warnings=warnings)
+
+
+def _start_order(problem: Problem) -> int:
+    """Gauss–Legendre order of the wrapped lengths the NLP starts from, each over its whole
+    wrap (:meth:`Transcription.start_order`)."""
+    return 4 * problem.options.quadrature_order
 
 
 # -- building the NLP, step by step (Transcription.__init__ calls them in this order) ----------
@@ -453,6 +501,17 @@ class _Rows:
         (self.deferred_g if deferred else self.g).append(expr)
         (self.deferred_bounds if deferred else self.bounds).append((expr.shape[0], bounds))
 
+    def tie(self, family: str, row_of, start, scale, *index):
+        """A new variable of ``family`` at ``index`` defined implicitly, by the rows
+        ``row_of(value) = 0`` (``value``: the variable in its units), where solving for it
+        outright would put a dense expression in the NLP; ``start`` is its value at the start
+        (the solution of the rows, or near it). Returns it in its units, ``scale`` (a number
+        or a column) times the variable."""
+        var = self.v.add(family, start.shape[0], *index)
+        self.constrain(row_of(scale * var), _equal)
+        self.lifted.append((block_name(family, index), start / scale))
+        return scale * var
+
     def lift(self, family: str, expr, scale: float, *index):
         """A new variable of ``family`` at ``index`` tied to ``expr`` by an equality: keeps the
         Hessian sparse where ``expr`` would couple many variables through a large graph.
@@ -467,8 +526,9 @@ class _Rows:
 def _parameter_blocks(problem: Problem) -> _Vars:
     """The NLP's parameters, in the order :meth:`Transcription.parameters` fills them: per joint
     its grid, weights and target marginals, per mechanism its numbers q and output law, the
-    springs' rates and preloads and the objective's scale (the curvature limits ``rc`` follow,
-    added by :func:`_profile_rows`)."""
+    springs' rates and preloads and the objective's scale, and where a joint weighs its
+    tolerance band, the band's weights and steps (the curvature limits ``rc`` follow, added by
+    :func:`_profile_rows`)."""
     opt, m, S = problem.options, len(problem.joints), len(problem.springs)
     n = opt.grid
     p = _Vars("p")
@@ -488,6 +548,15 @@ def _parameter_blocks(problem: Problem) -> _Vars:
     p.add("k", S)
     p.add("F0", S)
     p.add("obj_scale", 1)
+    if any(c.band_weight > 0 for c in problem.joints):  # the band's weights and steps
+        for i, c in enumerate(problem.joints):
+            if c.band_weight > 0:
+                p.add("wband", 1, i)
+        p.add("dk", S)
+        p.add("dF", S)
+        for u, mech in enumerate(problem.mechanisms):
+            p.add("dq", len(mech.parameter_names), u)
+        p.add("tol", 2)
     return p
 
 
@@ -504,6 +573,17 @@ class _MechanismSymbols:
     q: ca.MX
 
 
+@dataclass(frozen=True)
+class _Pose:
+    """One mechanism's poses in the NLP: its symbols, its profiles' ``wrapped`` lengths on the
+    grid [m] (profiles × n) and its wound lengths ``wound_ref`` at the reference pose [m]
+    (zeros where no closure row reads them)."""
+
+    s: _MechanismSymbols
+    wrapped: ca.MX
+    wound_ref: ca.MX
+
+
 def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profile: int):
     """Variables and rows of mechanism ``u``, whose profiles start at ``first_profile``.
 
@@ -513,6 +593,8 @@ def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profi
         Its port displacements and moment arms [m] on the grid (ports × n).
     output : casadi.MX or None
         Its output unknown on the grid (n), where it has an output law.
+    pose : _Pose
+        Its poses on the grid, for the tolerance band's rows.
     """
     mech, n, v = problem.mechanisms[u], problem.options.grid, rows.v
     c = ca.vertcat(*[LENGTH_SCALE * v.add("c", b.size, first_profile + k)
@@ -530,7 +612,7 @@ def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profi
     _profile_rows(rows, p, problem, mech, first_profile, s)
     if mech.limits:
         _limit_rows(rows, n, mech, s, arm)
-    return d, arm, output
+    return d, arm, output, _Pose(s, wrapped, wound_ref)
 
 
 def _first_segment_order(problem: Problem, mech: Mechanism) -> int:
@@ -744,9 +826,7 @@ def _sensitivity_rows(rows: _Rows, p: _Vars, net: Network, pairs: list, x0, e: d
         n = w[i].numel()
         sp, sn = rows.v.add("sp", n, i, j), rows.v.add("sn", n, i, j)
         others = [c for c in range(net.m) if c != i]
-        x_mean = x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c]
-                                       for c in others if (j, c) in e)
-        s_ij = x_mean * net.term(j, i, arm[i]) / SENSITIVITY_SCALE
+        s_ij = _mean_extension(x0, e, w, span, i, j) * net.term(j, i, arm[i]) / SENSITIVITY_SCALE
         rows.constrain(sp - sn - s_ij, _equal)
         sens.append(s_ij)
         integral = SENSITIVITY_SCALE * ca.dot(w[i], sp + sn)
@@ -754,6 +834,174 @@ def _sensitivity_rows(rows: _Rows, p: _Vars, net: Network, pairs: list, x0, e: d
             integral = integral * span[c]
         terms.append(p[f"wsens{i}"][j] * integral)  # Eq. 46 terms 2–3, Eq. 47 terms 2–7
     return sens, terms
+
+
+def _mean_extension(x0, e: dict, w: list, span: list, i: int, j: int):
+    """Spring ``j``'s extension x_j = x₀_j + Σ_c e_jc(θ_c) [m] at joint ``i``'s grid angles,
+    averaged over the other joints' angles with their trapezoidal weights ``w`` (sums
+    ``span``): what an integral over them of a term linear in x_j takes."""
+    return x0[j] + e[j, i] + sum(ca.dot(w[c], e[j, c]) / span[c] for c in range(len(w)) if c != i and (j, c) in e)
+
+
+def _band_rows(rows: _Rows, p: _Vars, problem: Problem, banded: list, x0, e: dict, d: list, arm: list,
+               poses: list, w: list, span: list) -> tuple[list, list, list]:
+    """The tolerance band's split rows and objective terms of each joint in ``banded``: the
+    band's first-order half-width w(θ) = Σ_p |∂τ/∂p| Δp (:mod:`cadcam.verify.tolerance`),
+    integrated over the grid and weighed by the joint's ``band_weight``.
+
+    Each part ∂τ/∂p Δp is split, v = s⁺ − s⁻ with s± ≥ 0, and s⁺ + s⁻ is minimised: |v| at
+    the optimum without an ``abs``. The term is ∫w, not ∫w²: linear in s±, it pushes each
+    split with the same weight wherever the band is narrow (the square's push 2w vanishes
+    there and leaves s⁺ and s⁻ to IPOPT's barrier, as :func:`_sensitivity_rows` found), and its
+    rate part is Δk_j times Johnston2023's ∫|∂τ/∂k_j|. Given the pre-extensions ``x0``, the
+    spring shares ``e``, the joints' port displacements ``d`` and moment arms ``arm``, the
+    mechanisms' ``poses`` (:class:`_Pose`), the trapezoidal weights ``w`` and their sums ``span``.
+
+    Returns
+    -------
+    splits : list
+        (joint, positive block, negative block) of each part.
+    values : list
+        Each part's value on its joint's grid, in units of :data:`BAND_SCALE`.
+    terms : list
+        Each joint's objective term.
+    """
+    net = problem.network()
+    splits, values, terms = [], [], []
+    for i in banded:
+        springs = [j for j in range(net.S) if i in net.joints_of(j)]
+        if not springs:
+            continue  # no spring, no band
+        parts = _band_spring_parts(p, net, i, x0, e, arm, w, span)
+        if all(net.joints_of(j) == [i] for j in springs):
+            parts += _band_part_changes(rows, p, problem, net, i, x0, d[i], arm[i], poses)
+        total = 0
+        for family, index, value in parts:
+            n = value.shape[0]
+            pos, neg = rows.v.add(family + "p", n, i, *index), rows.v.add(family + "n", n, i, *index)
+            rows.constrain(pos - neg - value / BAND_SCALE, _equal)
+            splits.append((i, block_name(family + "p", (i, *index)), block_name(family + "n", (i, *index))))
+            values.append(value / BAND_SCALE)
+            total = total + pos + neg
+        integral = BAND_SCALE * ca.dot(w[i], total)
+        for c in range(len(w)):
+            if c != i:
+                integral = integral * span[c]
+        terms.append(p[f"wband{i}"] * integral)
+    return splits, values, terms
+
+
+def _band_spring_parts(p: _Vars, net, i: int, x0, e: dict, arm: list, w: list, span: list) -> list:
+    """The band's parts of joint ``i`` from each spring j on it: ∂τ_i/∂k_j = x_j a_ij,
+    ∂τ_i/∂F0_j = a_ij and ∂τ_i/∂x₀_j = k_j a_ij (Johnston2023 Eq. 36, 43;
+    :meth:`cadcam.physics.springs.Network.term`), whose sum over the three tolerances is
+    |a_ij| (Δk_j x_j + ΔF0_j + k_j Δx₀), x_j ≥ 0 being a row: one split (family ``bs``) of
+    (Δk_j x̄_j + ΔF) a_ij, x̄_j averaged over the other joints' angles (exact in the integral)."""
+    return [("bs", (j,), (p["dk"][j] * _mean_extension(x0, e, w, span, i, j) + p["dF"][j]) * net.term(j, i, arm[i]))
+            for j in range(net.S) if i in net.joints_of(j)]
+
+
+def _band_part_changes(rows: _Rows, p: _Vars, problem: Problem, net, i: int, x0, d_i: list, arm_i: list,
+                       poses: list) -> list:
+    """The band's parts of joint ``i`` (whose springs act on it alone) from each placed number
+    of its mechanisms and a uniform offset of each of their profiles (:func:`_band_columns`):
+    ∂τ_i/∂p Δp at its grid angles. Per millimetre of each, the poses' change at the grid
+    angles and at the reference angle and the change of the wrapped lengths at fixed ends are
+    lifted variables tied by linear rows (:func:`_pose_changes`); the ports' change follows
+    (:func:`cadcam.mechanisms.base.port_change_function`), and the torque's by
+    :meth:`cadcam.physics.springs.Network.torque_terms` differentiated.
+
+    A mechanism with closure rows (a cable of constant length, whose poses at every angle hang
+    on the lengths wound from its anchors) is left out: there the change of every pose hangs on
+    each profile's whole coefficient vector through those lengths, and the exact Hessian of its
+    rows grows too large to build."""
+    n, order = problem.options.grid, FRICTION_ORDER * problem.options.quadrature_order
+    change = _torque_change_function(net, i).map(n)
+    own = [u for u, mech in enumerate(problem.mechanisms) if mech.joint == i]
+    first_port = [int(a) for a in np.cumsum([0] + [len(problem.mechanisms[u].ports) for u in own])]
+    parts = []
+    for slot, u in enumerate(own):
+        mech, pose, s = problem.mechanisms[u], poses[u], poses[u].s
+        if mech.closure_rows:
+            continue
+        ports = port_change_function(mech.structure(), problem.torque_model, order, "closed-form").map(n)
+        for family, index, label, dc, dq, tol in _band_columns(p, problem, u):
+            dz, dz_ref, dW, dW_ref = _pose_changes(rows, problem, u, pose, label, dc, dq)
+            dd, darm = ports(s.theta.T, s.z, s.ref, pose.wrapped, ca.repmat(pose.wound_ref, 1, n) + pose.wrapped,
+                             s.c, s.q, dz, dz_ref, dW, dW_ref, dc, dq)
+            dd_i, darm_i = ca.MX.zeros(first_port[-1], n), ca.MX.zeros(first_port[-1], n)
+            own_ports = slice(first_port[slot], first_port[slot + 1])  # the others' do not change
+            dd_i[own_ports, :], darm_i[own_ports, :] = dd, darm
+            per_mm = change(ca.horzcat(*arm_i).T, ca.horzcat(*d_i).T, darm_i, dd_i, p["k"], p["F0"], x0).T
+            parts.append((family, index, tol * per_mm))
+    return parts
+
+
+def _band_columns(p: _Vars, problem: Problem, u: int) -> list:
+    """Mechanism ``u``'s tolerances other than its springs', per millimetre: (family, index,
+    label, dc, dq, tolerance [mm]) of each placed number (``bq``, index mechanism and name;
+    steps ``dq{u}`` per mm of misplacement, :meth:`cadcam.mechanisms.base.Mechanism.placement_steps`)
+    and of a uniform offset of each of its profiles by a millimetre (``bf``, index profile)."""
+    mech = problem.mechanisms[u]
+    nc, nq = sum(b.size for b in mech.bases), len(mech.parameters)
+    first = problem.profile_slices()[u].start
+    columns = [("bq", (u, quantity.name), quantity.name, ca.DM.zeros(nc), p[f"dq{u}"][r] * ca.DM.eye(nq)[:, r],
+                p["tol"][0]) for r, quantity in enumerate(mech.parameters) if quantity.placed]
+    for k in range(len(mech.bases)):
+        offset = np.concatenate([b.offset(LENGTH_SCALE if kk == k else 0.0) for kk, b in enumerate(mech.bases)])
+        columns.append(("bf", (first + k,), f"profile{first + k + 1}", ca.DM(offset), ca.DM.zeros(nq), p["tol"][1]))
+    return columns
+
+
+def _pose_changes(rows: _Rows, problem: Problem, u: int, pose: _Pose, label: str, dc, dq):
+    """Mechanism ``u``'s change per millimetre of a tolerance (``label`` names its blocks) that
+    changes its coefficients by ``dc`` and its numbers by ``dq`` (per mm): its unknowns' at the
+    grid angles ``dz`` (unknowns × n) and at its reference angle ``dz_ref``, lifted variables
+    tied by the linearised
+    residuals (:func:`cadcam.mechanisms.base.pose_change_function`), and its wound lengths'
+    own change there, ``dW`` (profiles × n) and ``dW_ref`` [m]: at the reference angle by
+    their quadrature, on from there by the change of the wrapped lengths at fixed ends, lifted
+    and summed segment by segment like the lengths themselves (Johnston2023 Eq. 10, 14)."""
+    mech, s, n, L = problem.mechanisms[u], pose.s, problem.options.grid, LENGTH_SCALE
+    structure, nz = mech.structure(), len(mech.unknowns)
+    dW_ref = wound_change_function(structure)(s.ref, s.c, dc)
+    dW = ca.repmat(dW_ref, 1, n)
+    if np.any(np.asarray(dc)):
+        order = problem.options.quadrature_order
+        for k, (b, ck, dck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c),
+                                             split_coefficients(mech.bases, dc))):
+            if np.any(np.asarray(dck)):  # the profile that is offset: its wrapped length grows
+                seg = segment_lengths(b, order, _first_segment_order(problem, mech), s.ref[k], s.z[k, :].T, ck, dck)
+                start = length_change_function(b, _start_order(problem)).map(n)(s.ref[k], s.z[k, :], ck, dck).T
+                dl = rows.tie("bl", lambda v: (v - ca.vertcat(0, v[:n - 1]) - seg) / L, start, L, u, label)
+                dW[k, :] += dl.T
+    scale = ca.DM([L if unit == "m" else 1.0 for unit in mech.unknown_units])  # per mm: mm/mm or rad/mm
+    residual = ca.DM([L if unit == "m" else 1.0 for unit in mech.residual_units])
+    change = pose_change_function(structure)
+    ref_angle = mech.reference_angle
+    at_ref = (ref_angle, s.ref, pose.wound_ref, s.c, s.q)
+    dz_ref = rows.tie("bzr", lambda v: change(*at_ref, v, dW_ref, dc, dq)[0] / residual,
+                      change(*at_ref, ca.MX.zeros(nz), dW_ref, dc, dq)[1], scale, u, label)
+    grid = change.map(n)
+    at_grid = (s.theta.T, s.z, ca.repmat(pose.wound_ref, 1, n) + pose.wrapped, s.c, s.q)
+    dz = rows.tie("bz", lambda v: ca.vec(grid(*at_grid, ca.reshape(v, nz, n), dW, dc, dq)[0] / ca.repmat(residual, 1, n)),
+                  ca.vec(grid(*at_grid, ca.MX.zeros(nz, n), dW, dc, dq)[1]), ca.repmat(scale, n, 1), u, label)
+    return ca.reshape(dz, nz, n), dz_ref, dW, dW_ref
+
+
+def _torque_change_function(net, i: int) -> ca.Function:
+    """``change(arm, d, darm, dd, k, F0, x0) -> dtau``: the first-order change of joint ``i``'s
+    torque [N·m] when its ports' moment arms and displacements (its port order) change by
+    ``darm`` and ``dd``, for a joint whose springs act on it alone: τ_i of
+    :meth:`cadcam.physics.springs.Network.torque_terms` differentiated."""
+    P = len(net.joint_ports[i])
+    arm, d, darm, dd = (ca.SX.sym(name, P) for name in ("arm", "d", "darm", "dd"))
+    k, F0, x0 = (ca.SX.sym(name, net.S) for name in ("k", "F0", "x0"))
+    shares = {(j, i): net.term(j, i, d) for j in range(net.S) if i in net.joints_of(j)}
+    tau, _ = net.torque_terms(i, k, F0, x0, arm, shares)
+    dtau = ca.jtimes(tau, ca.vertcat(arm, d), ca.vertcat(darm, dd))
+    return ca.Function("torque_change", [arm, d, darm, dd, k, F0, x0], [dtau],
+                       ["arm", "d", "darm", "dd", "k", "F0", "x0"], ["dtau"])
 
 
 def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: list) -> list:
@@ -855,7 +1103,7 @@ def iteration_history(stats: dict) -> dict:
     return out
 
 
-def _joined(histories: list[dict]) -> dict:
+def joined(histories: list[dict]) -> dict:
     """One :func:`iteration_history` of consecutive IPOPT runs, numbered on."""
     out = {key: sum((h[key] for h in histories), []) for key in histories[0]}
     out["iteration"] = list(range(len(out["iteration"])))

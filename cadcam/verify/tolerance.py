@@ -132,16 +132,14 @@ def _directions(problem: Problem, design: Design, layout: _Layout) -> dict[str, 
         cols["placement"].append(layout.step(layout.start["x0"] + j, tol["placement"]))
     first = layout.start["q"]
     for mech in problem.mechanisms:
-        values = dict(zip(mech.parameter_names, mech.parameter_values()))
-        for index, quantity in enumerate(mech.parameters):
-            if quantity.placed:  # "length", or "angle:ARM": the placement over that arm
-                arm = values[quantity.placed.split(":")[1]] if ":" in quantity.placed else 1.0
-                cols["placement"].append(layout.step(first + index, tol["placement"] / arm))
+        steps = mech.placement_steps(tol["placement"])
+        cols["placement"] += [layout.step(first + index, step)
+                              for index, (quantity, step) in enumerate(zip(mech.parameters, steps)) if quantity.placed]
         first += len(mech.parameters)
     start = layout.start["c"]
     for basis in design.bases:  # a uniform offset of ρ, in the profile's basis
         offset = np.zeros(layout.size)
-        offset[start:start + basis.size] = basis.from_monomial(np.eye(basis.size)[0] * tol["profile"])
+        offset[start:start + basis.size] = basis.offset(tol["profile"])
         cols["profile"].append(offset)
         start += basis.size
     return {key: np.stack(c, axis=1) if c else np.zeros((layout.size, 0)) for key, c in cols.items()}

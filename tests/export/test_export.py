@@ -207,7 +207,8 @@ def test_model_manifest_labels_every_input_and_output(rr, exported):
 
 
 #: The roles a block of the NLP's vectors may have (cadcam.solve.blocks).
-ROLES = {"design", "departure", "auxiliary", "grid", "weights", "target", "mechanism", "limits", "springs"}
+ROLES = {"design", "departure", "auxiliary", "grid", "weights", "target", "mechanism", "limits", "springs",
+         "tolerances"}
 
 
 def _check_layout(layout, size):
