@@ -171,11 +171,14 @@ def refuse_unreachable(problem: Problem) -> None:
 class Session:
     """Design again and again after small edits, as a design page does: each problem
     structure's NLP is built once and kept (:func:`cadcam.solve.builds.built_for`), and each
-    design starts from the last successful answer of the same structure, falling back on the
-    default start when that does worse (:func:`cadcam.optimize.warm_optimize`).
+    design starts warm from the last successful answer of the same structure and its IPOPT
+    multipliers, falling back on the default start when that fails or does worse
+    (:func:`cadcam.optimize.warm_optimize`).
 
-    A mechanism that completes its problem from its own start (a differential pair's cable
-    length from Fedorov's envelope) is always solved from that start.
+    Where the default start completes the problem's numbers (a differential pair's cable length
+    from Fedorov's envelope of its output law), the last answer starts the next design only if
+    the numbers completed are the same (an edit of a spring, not of the law): an answer made for
+    another cable length is a poor start, and the new envelope a close one.
 
     >>> session = cadcam.Session()
     >>> first = session.design("models/johnston2023_1dof.toml")
@@ -192,15 +195,18 @@ class Session:
         refuse_unreachable(problem)
         if problem.options.method != "nlp":
             return optimize(problem)
-        completed, start = start_design(problem)
+        completed, start = default = start_design(problem)
         transcription, _ = built_for(completed)
         key = structure_key(completed)
-        last = self._last.get(key) if completed is problem else None
-        if last is None:  # the default start, which may have completed the problem
+        last = self._last.get(key)
+        if last is not None and completed is not problem and \
+                completed.to_dict()["mechanisms"] != last.problem.to_dict()["mechanisms"]:
+            last = None  # the default start completed other numbers than the last answer's
+        if last is None:
             result = optimize(completed, transcription=transcription, start=start)
         else:
             result = warm_optimize(problem, transcription, last.design, last.evaluation.metrics.objective,
-                                   "the last design")
+                                   "the last design", last.solve.multipliers if last.solve else None, default)
         if result.success:
             self._last[key] = result
             self._last.move_to_end(key)

@@ -18,7 +18,7 @@ from .problem import ACCEPTANCE, Problem, cap
 from .result import Result
 from .solve.builds import built_for
 from .solve.messages import count, merged
-from .solve.transcription import Solve, Transcription, joined
+from .solve.transcription import Multipliers, Solve, Transcription, joined
 
 
 def start_design(problem: Problem) -> tuple[Problem, Design]:
@@ -56,24 +56,25 @@ def random_start(problem: Problem, rng: np.random.Generator) -> Design:
     return Design(bases, coefs, preextensions(problem, lambda s: rng.uniform(0, 0.9 * s.travel)))
 
 
-def solve(tr: Transcription, problem: Problem, start: Design) -> Solve:
-    """One IPOPT run of ``tr`` from ``start``; see :meth:`Transcription.solve`.
+def solve(tr: Transcription, problem: Problem, start: Design, warm: Multipliers | None = None) -> Solve:
+    """One IPOPT run of ``tr`` from ``start`` (and the multipliers ``warm``); see
+    :meth:`Transcription.solve`.
 
-    Where a joint weighs its tolerance band, the run starts from the optimum without the band,
-    solved first from ``start`` (its iterations and time counted in): the band's splits of
-    parts that are zero at a start (every placement part of a circle) are pushed up by IPOPT's
-    early barrier with nothing to hold them, and from the mechanisms' circular starts that
-    sent Endo2010's ordinary pendulum to the iteration limit at every weight tried, and the
-    1-DOF wire cam to a wider band than without the weight; from the optimum without the band,
-    both converged.
+    Where a joint weighs its tolerance band and no multipliers are given, the run starts from
+    the optimum without the band, solved first from ``start`` (its iterations and time counted
+    in): the band's splits of parts that are zero at a start (every placement part of a circle)
+    are pushed up by IPOPT's early barrier with nothing to hold them, and from the mechanisms'
+    circular starts that sent Endo2010's ordinary pendulum to the iteration limit at every
+    weight tried, and the 1-DOF wire cam to a wider band than without the weight; from the
+    optimum without the band, both converged.
     """
     first = None
-    if tr.banded:
+    if tr.banded and warm is None:
         plain = problem.with_weights(band=0.0)
         first = solve(built_for(plain)[0], plain, start)
         if first.status == "converged":
             start = first.design
-    run = tr.solve(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
+    run = tr.solve(problem, start, start_samples(problem, start, tr.n, tr.start_order()), warm)
     if first is None:
         return run
     return replace(run, iterations=first.iterations + run.iterations,
@@ -154,7 +155,7 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,
-             start: Design | None = None) -> Result:
+             start: Design | None = None, warm: Multipliers | None = None) -> Result:
     """Solve ``problem`` and re-check the optimum.
 
     Parameters
@@ -167,6 +168,8 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         problem's mechanisms);
         ``problem.options.multistart`` random starts follow, and the best converged one is
         kept.
+    warm : Multipliers, optional
+        The multipliers of the answer ``start`` is, to solve from it warm (the first start).
 
     Returns
     -------
@@ -186,7 +189,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     starts += [random_start(problem, rng) for _ in range(problem.options.multistart)]
     solves = []
     for k, s in enumerate(starts):
-        sol = solve(tr, problem, s)
+        sol = solve(tr, problem, s, warm if k == 0 else None)
         sol.start = k
         solves.append(sol)
     converged = [s for s in solves if s.status == "converged"]
@@ -268,21 +271,30 @@ WARM_GUARD = 0.10
 
 
 def warm_optimize(problem: Problem, transcription: Transcription, start: Design | None,
-                  start_objective: float | None, start_name: str) -> Result:
+                  start_objective: float | None, start_name: str, warm: Multipliers | None = None,
+                  default: tuple[Problem, Design] | None = None) -> Result:
     """:func:`optimize` from ``start``, the design of a neighbouring problem named
     ``start_name`` whose objective was ``start_objective`` (a sweep's nearest case, a design
-    session's last answer), and again from the default start when the warm start fails or
-    ends worse than that objective by more than :data:`WARM_GUARD`; the better is kept and
-    its message says which start it came from. Without ``start``, :func:`optimize`."""
-    result = optimize(problem, transcription=transcription, start=start)
+    session's last answer), with that answer's multipliers ``warm`` if given; and again from
+    the default start when the warm start fails or ends worse than that objective by more
+    than :data:`WARM_GUARD`; the better is kept and its message says which start it came from.
+    Without ``start``, :func:`optimize`.
+
+    The problem solved, warm or cold, is the one the default start completes
+    (:func:`start_design`: a differential pair's cable length from the envelope of this
+    problem's output law), so that a warm design answers the problem a cold one would;
+    ``default`` is what :func:`start_design` gives for ``problem``, if the caller has it.
+    """
+    problem, cold_start = default or start_design(problem)
     if start is None:
-        return result
+        return optimize(problem, transcription=transcription, start=cold_start)
+    result = optimize(problem, transcription=transcription, start=start, warm=warm)
     if not result.success:  # a warm start that did not help: start afresh
-        result = optimize(problem, transcription=transcription)
+        result = optimize(problem, transcription=transcription, start=cold_start)
         result.message += " (from the default start, after a failed warm start)"
     elif start_objective is not None and \
             result.evaluation.metrics.objective > (1 + WARM_GUARD) * start_objective:
-        cold = optimize(problem, transcription=transcription)  # a worse basin? compare with a cold start
+        cold = optimize(problem, transcription=transcription, start=cold_start)  # a worse basin? compare
         warm_objective = result.evaluation.metrics.objective
         if cold.success and cold.evaluation.metrics.objective < warm_objective:
             result = cold

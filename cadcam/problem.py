@@ -175,7 +175,10 @@ SOLVER = {
                          "compiled once per problem structure and cached on disk "
                          "(:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, "
                          "then the fastest to build and to solve. The three give the same optimum "
-                         "up to rounding (the iteration count may differ by a few)."),
+                         "up to rounding (the iteration count may differ by a few) where the optimum "
+                         "is isolated; where it is not (an output law met exactly, as by Fedorov2018's "
+                         "balancer) rounding can lead IPOPT to another of its optima, in other "
+                         "iterations."),
 }
 
 

@@ -71,9 +71,18 @@ def cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cadcam"
 
 
+def available() -> bool:
+    """Whether a C compiler is on PATH (:func:`compiler` finds one)."""
+    return _found() is not None
+
+
+def _found() -> str | None:
+    return shutil.which("cc") or shutil.which("gcc")
+
+
 def compiler() -> str:
     """Path of the C compiler (``cc`` or ``gcc`` on PATH); CompileError if there is none."""
-    found = shutil.which("cc") or shutil.which("gcc")
+    found = _found()
     if found is None:
         raise CompileError("solver.functions = 'compiled' needs a C compiler (cc or gcc) on PATH; "
                            "install one or use functions = 'expanded'")

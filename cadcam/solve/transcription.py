@@ -62,13 +62,15 @@ LIFTED_PROFILE_SIZE = 20
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
 #: (and the 1-DOF and Sec. 10.4 problems converge in fewer iterations).
 OBJECTIVE_SCALE = 1000.0
-#: IPOPT options of the solve that imposes the deferred rows: it starts from the optimum
-#: without them and its multipliers, so from a small barrier parameter and without pushing that
-#: point off its active bounds. From IPOPT's default μ = 0.1 the restart lost the optimum's
+#: IPOPT options of a solve that starts from an optimum and its multipliers: the solve that
+#: imposes the deferred rows (from the optimum without them) and a warm re-solve after a small
+#: edit (from the last answer, :class:`Multipliers`). Such a start is already near the central
+#: path's end, so it starts from a small barrier parameter and without pushing the point off
+#: its active bounds. From IPOPT's default μ = 0.1 the imposing restart lost the optimum's
 #: active set and ended at max_iterations on Endo2010's weak-spring pendulum and its ``low``
 #: variant; warm, both converge.
-IMPOSING_IPOPT = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-6,
-                  "ipopt.warm_start_bound_push": 1e-9, "ipopt.warm_start_mult_bound_push": 1e-9}
+WARM_IPOPT = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-6,
+              "ipopt.warm_start_bound_push": 1e-9, "ipopt.warm_start_mult_bound_push": 1e-9}
 #: How far below its bound a deferred row may end, in its scaled units (mm, mm²), before the
 #: solve is repeated with it imposed (IPOPT's own constraint tolerance is 1e-8 of these).
 DEFERRED_TOL = 1e-6
@@ -80,6 +82,26 @@ IPOPT_STATUS = {
     "Diverging_Iterates": "diverging", "Search_Direction_Becomes_Too_Small": "stalled",
     "Error_In_Step_Computation": "step_failed", "Invalid_Number_Detected": "invalid_number",
 }
+
+
+@dataclass(frozen=True)
+class Multipliers:
+    """IPOPT's multipliers at an answer, which warm-start a solve of the same structure from
+    it (:meth:`Transcription.solve`).
+
+    Attributes
+    ----------
+    lam_x : numpy.ndarray
+        Of the variables' bounds.
+    lam_g : numpy.ndarray
+        Of the rows the answer was solved with: the NLP's, then (``whole``) its deferred rows.
+    whole : bool
+        Whether the answer's solve imposed the deferred rows (:attr:`Transcription.whole_nlp`).
+    """
+
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+    whole: bool
 
 
 @dataclass
@@ -102,6 +124,8 @@ class Solve:
     #: rather than printed: ``{"message", "count"}`` per distinct message
     #: (:func:`cadcam.solve.messages.kept_warnings`)
     warnings: list[dict] = field(default_factory=list)
+    #: IPOPT's multipliers at the answer (None without an NLP), for a warm start from it
+    multipliers: Multipliers | None = None
 
 
 class _Vars:
@@ -220,6 +244,7 @@ class Transcription:
                     "g": ca.vertcat(*rows.g)}
         self.solver, self.compiled_now = _ipopt_solver(self.nlp, opt)
         self._imposing = None  # the solver with the deferred rows, built when first needed
+        self._warm = None  # the solver warm from an answer and its multipliers, built when first needed
         self.build_time_s = time.perf_counter() - t0
 
     # -- numbers of a case -------------------------------------------------------------------
@@ -421,10 +446,17 @@ class Transcription:
         return np.r_[lo, dlo], np.r_[hi, dhi]
 
     def _imposing_solver(self) -> ca.Function:
-        """IPOPT on :attr:`whole_nlp`, built on first use."""
+        """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use."""
         if self._imposing is None:
-            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options, IMPOSING_IPOPT)
+            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options, WARM_IPOPT)
         return self._imposing
+
+    def _warm_solver(self) -> ca.Function:
+        """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use (with
+        compiled functions it loads the library :attr:`solver` loaded)."""
+        if self._warm is None:
+            self._warm, _ = _ipopt_solver(self.nlp, self.problem.options, WARM_IPOPT)
+        return self._warm
 
     def design_of(self, w) -> Design:
         """The design held in an NLP vector."""
@@ -433,26 +465,40 @@ class Transcription:
                       [self.v.part(w, f"c{k}") * LENGTH_SCALE for k in range(len(profiles))],
                       self.v.part(w, "x0") * LENGTH_SCALE)
 
-    def solve(self, problem: Problem, start: Design, samples) -> Solve:
+    def solve(self, problem: Problem, start: Design, samples, warm: Multipliers | None = None) -> Solve:
         """Run IPOPT from ``start`` (with its ``samples``, see :meth:`initial_guess`) with
-        ``problem``'s numbers."""
+        ``problem``'s numbers; with ``warm``, the multipliers of the answer ``start`` is (a
+        neighbouring problem's), from them and :data:`WARM_IPOPT`: with the deferred rows
+        at once if that answer's solve imposed them."""
         pv = self.parameters(problem)
         w0 = self.initial_guess(problem, start, samples, pv)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
+        wlo, whi = self.whole_bounds(problem)
         runs = []
+
+        def impose(x0, m: Multipliers):
+            """The solve with the deferred rows, from ``x0`` and ``m`` (of every row)."""
+            sol = self._imposing_solver()(x0=x0, lam_x0=m.lam_x, lam_g0=m.lam_g, p=pv,
+                                          lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
+            runs.append(self._imposing.stats())
+            return sol
+
         with signals_kept(), kept_warnings() as warnings:
-            sol = self.solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-            runs.append(self.solver.stats())
-            if self._breaks_deferred(problem, sol["x"], pv):
-                wlo, whi = self.whole_bounds(problem)
-                lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(wlo.size - lbg.size)]
-                sol = self._imposing_solver()(x0=sol["x"], lam_x0=sol["lam_x"], lam_g0=lam_g0, p=pv,
-                                              lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
-                runs.append(self._imposing.stats())
+            if warm is not None and warm.whole:  # the answer needed the deferred rows: so will this one
+                sol = impose(w0, warm)
+            else:
+                solver = self.solver if warm is None else self._warm_solver()
+                sol = solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
+                             **({} if warm is None else {"lam_x0": warm.lam_x, "lam_g0": warm.lam_g}))
+                runs.append(solver.stats())
+                if self._breaks_deferred(problem, sol["x"], pv):
+                    lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(wlo.size - lbg.size)]
+                    sol = impose(sol["x"], Multipliers(sol["lam_x"], lam_g0, True))
         elapsed = time.perf_counter() - t0
         w, ret = np.asarray(sol["x"]).ravel(), runs[-1].get("return_status", "unknown")
+        lam_g = np.asarray(sol["lam_g"]).ravel()
         histories = [iteration_history(stats) for stats in runs]
         return Solve(
             design=self.design_of(w), status=IPOPT_STATUS.get(ret, "solver_error"),
@@ -460,7 +506,8 @@ class Transcription:
             solve_time_s=elapsed, objective=float(self.objective(w, pv)),
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
-            history=joined(histories), warnings=warnings)
+            history=joined(histories), warnings=warnings,
+            multipliers=Multipliers(np.asarray(sol["lam_x"]).ravel(), lam_g, lam_g.size > lbg.size))
 
 
 def _start_order(problem: Problem) -> int:

@@ -6,6 +6,7 @@ import pytest
 from cadcam import load_problem
 from cadcam.app.form import field_of_error
 from cadcam.app.state import TEMPLATES, DesignState
+from cadcam.solve import compiled
 from cadcam.spec import KeyRead, read_keys, read_spec_data
 
 
@@ -165,3 +166,98 @@ def test_the_link_angle_is_a_geometry_field_of_every_mechanism():
     assert link.help == f"{LINK_ANGLE.description} [rad]"
     assert state.edit("mechanisms.1.link_angle", "1.2") is None
     assert load_problem(state.path, overrides=state.override_pairs()).mechanisms[0].link_angle == 1.2
+
+
+needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler on this machine")
+
+
+@pytest.fixture
+def small_wire_cam(tmp_path, monkeypatch):
+    """The 1-DOF template on a coarse grid (a small NLP of the same structure of functions),
+    compiled at -O0 (faster to compile, the same values) into an empty cache, its NLP built
+    afresh (not kept from another test)."""
+    from cadcam.solve.builds import forget_builds
+
+    forget_builds()
+    monkeypatch.setenv("CADCAM_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(compiled, "CFLAGS", ("-O0", "-fPIC"))
+    state = DesignState.template("johnston2023_1dof")
+    for key, value in (("solver.grid", "10"), ("solver.convexity_points", "12")):
+        assert state.edit(key, value) is None
+    return state
+
+
+@needs_cc
+def test_the_page_designs_with_compiled_functions_where_a_compiler_exists(small_wire_cam):
+    """The page's Session path: functions compiled (the spec names none), the library cached
+    on disk, and an edit designed warm from the last answer through the same library."""
+    state = small_wire_cam
+    assert state.solver_options() == {"functions": "compiled"} and state.value("solver.functions") == "compiled"
+    first = state.design()
+    assert first.result.success and first.result.problem.options.functions == "compiled"
+    libraries = compiled.cached_libraries()
+    assert libraries
+    state.edit("springs.1.rate", "1122")
+    again = state.design("springs.1.rate")
+    assert again.result.success and again.result.problem.options.functions == "compiled"
+    assert again.result.message.endswith("(warm start from the last design)") and again.note is None
+    assert compiled.cached_libraries() == libraries  # loaded, not compiled again
+    assert "functions" not in state.spec_toml()  # the page's choice, not the spec's
+
+
+def test_without_a_compiler_the_page_designs_with_expanded_functions(small_wire_cam, monkeypatch):
+    monkeypatch.setattr(compiled, "available", lambda: False)
+    state = DesignState(small_wire_cam.path, overrides=dict(small_wire_cam.overrides))
+    assert state.solver_options() == {"functions": "expanded"} and state.value("solver.functions") == "expanded"
+    outcome = state.design()
+    assert outcome.result.success and outcome.result.problem.options.functions == "expanded"
+
+
+def test_a_compile_that_fails_gives_way_to_expanded_functions_with_a_note(small_wire_cam, monkeypatch):
+    def no_library(nlp):
+        raise compiled.CompileError("compiling the NLP failed: cc1: out of memory")
+
+    monkeypatch.setattr(compiled, "library", no_library)
+    state = small_wire_cam
+    state.functions = "compiled"  # as where a compiler exists
+    outcome = state.design()
+    assert outcome.result.success and outcome.result.problem.options.functions == "expanded"
+    assert outcome.note == "designed with expanded functions: compiling the NLP failed: cc1: out of memory"
+    assert state.solver_options() == {"functions": "expanded"} and state.value("solver.functions") == "expanded"
+
+
+def test_functions_named_by_the_spec_or_an_edit_are_kept(monkeypatch):
+    """The page's compiled default applies only where neither the spec nor the user names the
+    functions; naming compiled without a compiler is the command line's one-line error."""
+    assert DesignState.template("fedorov2018_balancer").solver_options() == {}
+    state = DesignState.template("johnston2023_1dof")
+    state.edit("solver.functions", "mapped")
+    assert state.solver_options() == {}
+    monkeypatch.setattr(compiled, "_found", lambda: None)
+    state = DesignState.template("johnston2023_1dof")
+    state.edit("solver.functions", "compiled")
+    assert state.solver_options() == {}
+    outcome = state.design("springs.1.rate")
+    assert outcome.result is None and outcome.field == "solver.functions"
+    assert outcome.error.startswith("solver.functions = 'compiled' needs a C compiler")
+
+
+def test_a_warm_redesign_of_the_differential_balancer_is_no_worse_than_a_cold_one():
+    """Fedorov's balancer on the page's path: a spring's edit leaves the envelope's cable length
+    as it was, so the last answer and its multipliers start the design; it succeeds, in fewer
+    iterations than the default start and to no worse an objective."""
+    from cadcam.optimize import optimize, start_design
+    from cadcam.solve.builds import built_for
+
+    state = DesignState.template("fedorov2018_balancer")
+    first = state.design()
+    assert first.result.success
+    state.edit("springs.1.rate", repr(1.02 * state.field("springs.1.rate").value))
+    warm = state.design("springs.1.rate").result
+    completed, start = start_design(load_problem(state.path, overrides=state.override_pairs(),
+                                                 **state.solver_options()))
+    cold = optimize(completed, built_for(completed)[0], start=start)
+    assert warm.success and cold.success
+    assert warm.message.endswith("(warm start from the last design)")
+    assert warm.nit < cold.nit
+    assert warm.fun <= cold.fun * (1 + 1e-6)
