@@ -250,6 +250,8 @@ def _refined(result: Result, tr: Transcription) -> Result:
     finer = replace(problem, options=replace(problem.options, convexity_points=points))
     finer_tr = Transcription(finer)
     again = solve(finer_tr, finer, result.design)
+    # its multipliers are of the finer NLP's rows: no warm start of the spec's own NLP
+    again.multipliers = None
     again.start = result.solve.start
     again.trials = result.solve.trials + [_trial(again)]
     again.warnings = merged([result.solve.warnings, again.warnings])
