@@ -211,6 +211,12 @@ def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_
             "points_csv_tolerance_m": polygon_tolerance, "clearance_m": _clearance(chain), **spans}
 
 
+def _profiles_of(problem) -> list[list[int]]:
+    """Per mechanism, the indices of its profiles in the problem's profile order (camN − 1)."""
+    first = np.cumsum([0] + [mech.n_profiles for mech in problem.mechanisms])
+    return [list(range(a, b)) for a, b in zip(first[:-1], first[1:])]
+
+
 def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float | None]:
     """Per profile read back (index → its cut outline): the least distance [m] from its cable's
     free span, over the fine re-check's angles, to the whole cut outline (the span's centre
@@ -219,10 +225,7 @@ def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float 
     problem, fine = result.problem, result.recheck
     centre = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
     out: dict[int, float | None] = {i: None for i in chains}
-    first = 0
-    for u, mech in enumerate(problem.mechanisms):
-        profiles = list(range(first, first + mech.n_profiles))
-        first += mech.n_profiles
+    for u, (mech, profiles) in enumerate(zip(problem.mechanisms, _profiles_of(problem))):
         if any(chains[i].groove for i in profiles):
             continue
         spans = free_spans([centre[i] for i in profiles], mech, fine.units[u].theta)
@@ -238,14 +241,14 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     # the DXFs hold the cut outlines; the cable's centre line, on which the design is, lies its
     # radius outside them (a groove's file is that centre line)
     chains = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
-    owner = [u for u, mech in enumerate(problem.mechanisms) for _ in mech.profiles]
+    profiles_of = _profiles_of(problem)
     kinds = {mech.kind for mech in problem.mechanisms}
     checks = []
     torque = _torque_checks(result)
     missing = sorted(kinds - set(TORQUE_KINDS))
     if torque and not missing and problem.torque_model == ENERGY:  # a file torque only against a target
         sample = fine.tensor.sample(fine.tensor.whole())
-        outlines = {u: [chains[i] for i, o in enumerate(owner) if o == u] for u in set(owner)}
+        outlines = {u: [chains[i] for i in profiles] for u, profiles in enumerate(profiles_of)}
         tau = file_torque(problem, fine.design, outlines, sample["theta"])
         for check in torque:
             i = check.pop("joint")
@@ -259,8 +262,7 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
                    for c in torque]
     for check in _output_checks(result):
         u = check.pop("mechanism")
-        profiles = [i for i, o in enumerate(owner) if o == u]
-        x = differential_output([chains[i] for i in profiles], problem.mechanisms[u], fine.units[u].theta)
+        x = differential_output([chains[i] for i in profiles_of[u]], problem.mechanisms[u], fine.units[u].theta)
         xd = fine.units[u].z[problem.mechanisms[u].unknowns.index("x")]
         found = np.isfinite(x)
         checks.append(_judged(check, float(np.max(np.abs(x - xd)[found], initial=0.0)), int(np.sum(~found))))
