@@ -54,6 +54,16 @@ class Design:
         """Cam ``i``'s ρ coefficients in increasing powers of φ [m·rad⁻ᵏ]."""
         return self.bases[i].to_monomial(self.coefficients[i])
 
+    def in_bases(self, bases) -> "Design":
+        """This design with each profile's coefficients in ``bases`` (:meth:`Basis.converted`:
+        exact where a basis's degree is at least the profile's, else a least-squares fit), as
+        a start for a problem whose profiles have those bases."""
+        bases = list(bases)
+        if bases == self.bases:
+            return self
+        return Design(bases, [b.converted(c, s) for b, c, s in zip(bases, self.coefficients, self.bases)],
+                      self.preextension, self.poses)
+
     def to_dict(self) -> dict:
         """The ``design`` member of a result JSON."""
         cams = []

@@ -79,19 +79,28 @@ class Basis:
 
     def to_monomial(self, c) -> np.ndarray:
         """Coefficients in increasing powers of φ [m·rad^-k] of the same polynomial."""
-        out = self._numpy_poly(c).convert(kind=Polynomial).coef
-        return np.pad(out, (0, self.size - out.size))
+        return Basis("monomial", self.order, self.domain).converted(c, self)
 
     def from_monomial(self, m) -> np.ndarray:
         """Coefficients in this basis of ρ(φ) = Σ m_k φ^k (``m`` in increasing powers)."""
         m = np.asarray(m, dtype=float)
         if m.size != self.size:
             raise ValueError(f"expected {self.size} monomial coefficients, got {m.size}")
-        if self.name == "monomial":
-            return m.copy()
-        out = Polynomial(m).convert(kind=Chebyshev, domain=list(self.domain)).coef
-        return np.pad(out, (0, self.size - out.size))
+        return self.converted(m, Basis("monomial", self.order, self.domain))
 
+    def converted(self, c, source: "Basis", samples: int = 400) -> np.ndarray:
+        """Coefficients in this basis of the profile ``c`` in ``source``: exact (up to rounding)
+        where ``source``'s degree is at most this one's, else its least-squares fit on
+        ``samples`` equally spaced angles of this basis's domain (a lower degree cannot hold
+        the profile exactly)."""
+        if source == self:
+            return np.asarray(c, dtype=float).copy()
+        if source.order > self.order:
+            phi = np.linspace(*self.domain, max(samples, self.size))
+            return fit_profile(self, phi, np.asarray(profile_function(source).map(phi.size)(phi[None, :], c)[0]).ravel())
+        target = self._numpy_poly(np.zeros(1))  # its kind and domain (monomial: φ itself)
+        out = source._numpy_poly(c).convert(kind=type(target), domain=target.domain).coef
+        return np.pad(out, (0, self.size - out.size))
 
     def offset(self, delta: float) -> np.ndarray:
         """Coefficients in this basis of the constant ρ(φ) = ``delta`` [m]: added to a profile's,

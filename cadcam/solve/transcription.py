@@ -389,6 +389,7 @@ class Transcription:
         """
         v, n = self.v, self.n
         order = self.start_order()
+        design = design.in_bases(pr.basis for pr in problem.profiles)  # a start made in other bases
         w0 = np.zeros(v.size)
         for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
             s = samples[u]

@@ -18,6 +18,28 @@ def test_chebyshev_and_monomial_describe_the_same_polynomial(order):
     np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("target", [Basis("chebyshev", 5, (0.2, 4.0)), Basis("monomial", 4, (0.0, 1.0)),
+                                    Basis("chebyshev", 3, (0.0, 3.0))])
+def test_a_profile_converted_to_a_basis_of_its_degree_or_higher_is_the_same_curve(target):
+    """Basis.converted across kinds, domains and degrees, where the target holds the profile."""
+    source = Basis("chebyshev", 3, (0.0, 3.0))
+    c = np.array([0.03, 0.01, -0.002, 0.0005])
+    phi = np.linspace(0, 3, 9)
+    a = np.asarray(profile_function(source).map(9)(phi, c))
+    b = np.asarray(profile_function(target).map(9)(phi, target.converted(c, source)))
+    np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-13)
+
+
+def test_a_profile_converted_to_a_lower_degree_is_its_least_squares_fit():
+    """A cubic in a quadratic basis: the residual of the fit is orthogonal to the quadratics."""
+    source, target = Basis("monomial", 3, (0.0, 2.0)), Basis("chebyshev", 2, (0.0, 2.0))
+    c = np.array([0.02, 0.0, 0.0, 0.001])  # ρ = 0.02 + 0.001 φ³
+    phi = np.linspace(0.0, 2.0, 400)
+    residual = 0.02 + 0.001 * phi**3 - np.asarray(profile_function(target).map(400)(phi, target.converted(c, source))[0]).ravel()
+    assert np.max(np.abs(residual)) > 1e-4  # a cubic is not a quadratic ...
+    np.testing.assert_allclose([residual @ phi**k for k in range(3)], 0, atol=1e-12)  # ... but its best one
+
+
 def test_derivatives_and_convexity_margin_of_a_known_polynomial():
     # ρ = 0.02 + 0.01 φ − 0.003 φ²: ρ′ = 0.01 − 0.006 φ, ρ″ = −0.006
     f = profile_function(Basis("monomial", 2, (0, 2)))
