@@ -166,8 +166,8 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     start : Design, optional
         First initial guess (default :func:`start_design`, which may also complete the
         problem's mechanisms);
-        ``problem.options.multistart`` random starts follow, and the best converged one is
-        kept.
+        ``problem.options.multistart`` random starts follow, and the converged one of the
+        lowest objective is kept, or, where it fails its re-check, the next that passes.
     warm : Multipliers, optional
         The multipliers of the answer ``start`` is, to solve from it warm (the first start).
 
@@ -193,10 +193,26 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         sol.start = k
         solves.append(sol)
     converged = [s for s in solves if s.status == "converged"]
-    best = min(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
-    best.trials = [_trial(s) for s in solves]
-    best.warnings = merged([s.warnings for s in solves])  # the run's, every start's
-    result = _checked(problem, tr, best)
+    ranked = sorted(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
+    trials, warnings = [_trial(s) for s in solves], merged([s.warnings for s in solves])
+    for candidate in ranked:  # each keeps the run's trials and warnings, every start's
+        candidate.trials, candidate.warnings = trials, warnings
+    best = _verified(problem, tr, ranked[0])
+    if best.status == "success" or not converged:
+        return best
+    for other in ranked[1:]:
+        result = _verified(problem, tr, other)
+        if result.status == "success":
+            result.message += (f" (from start {other.start}: the lowest objective, start "
+                               f"{best.solve.start}'s, ended {best.status})")
+            return result
+    return best
+
+
+def _verified(problem: Problem, tr: Transcription, solved: Solve) -> Result:
+    """:func:`_checked` of ``solved``, solved again with more check points where its profile
+    broke its shape between them (:func:`_refined`)."""
+    result = _checked(problem, tr, solved)
     if result.status == "recheck_failed" and _broken_between_checks(result.recheck):
         result = _refined(result, tr)
     return result

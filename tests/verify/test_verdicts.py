@@ -3,6 +3,7 @@ before any work; files are read only when regular, small and UTF-8; every size h
 design says whether its target was met (acceptance limits, the RMSE relative to the target) and
 is never a success with NaN in it."""
 import copy
+import importlib
 import json
 import math
 import os
@@ -273,3 +274,26 @@ def test_a_design_that_misses_its_target_by_more_than_its_acceptance_is_never_su
     cam["acceptance"]["rmse"] = 0.99 * fine.metrics.rmse[0]
     status, message = verdict(parse_spec(data, "x.toml"), _converged(start), fine, "converged")
     assert status == "target_missed" and "RMSE = " in message and "relative_rmse" not in message
+
+
+def test_multistart_returns_the_best_start_that_passes_its_recheck(monkeypatch):
+    """Where the start of the lowest objective fails its fine re-check, the next converged
+    start that passes is returned, not the failure (the first re-check's verdict is replaced
+    here, as a design breaking a limit between grid angles would have it)."""
+    opt = importlib.import_module("cadcam.optimize")  # the module: cadcam.optimize is also the function
+    checked, failed = opt._checked, []
+
+    def failing_first(problem, tr, solved):
+        result = checked(problem, tr, solved)
+        if not failed:
+            failed.append(solved.start)
+            result.status, result.message = "recheck_failed", "converged, but it breaks a limit (test)"
+        return result
+
+    monkeypatch.setattr(opt, "_checked", failing_first)
+    result = optimize(load_spec(SPEC_1DOF).with_options(grid=12, multistart=2))
+    converged = sorted((t for t in result.solve.trials if t["status"] == "converged"), key=lambda t: t["objective"])
+    assert len(converged) >= 2 and failed == [converged[0]["start"]], result.solve.trials
+    assert result.success and result.solve.start == converged[1]["start"]
+    assert result.solve.objective == pytest.approx(converged[1]["objective"], rel=1e-12)
+    assert f"start {failed[0]}'s, ended recheck_failed" in result.message
