@@ -27,6 +27,10 @@ run:
 
 ``make`` runs with the test's own virtual environment (``VENV=``, its install stamp taken as
 up to date: the copy never reinstalls anything).
+
+A block whose commands are those of a block run before it (the README and the tutorial both
+show the first design's command) is not run again: its exit code, files and text are checked on
+that run's, in the same working folder.
 """
 from __future__ import annotations
 
@@ -198,6 +202,12 @@ def workdir(tmp_path_factory):
     return root
 
 
+@pytest.fixture(scope="module")
+def runs():
+    """The runs of the blocks so far, by the script run (the prelude and the commands)."""
+    return {}
+
+
 def test_the_first_design_shown_is_the_spec_file_it_names():
     """The README and the tutorial show docs/first_balancer.toml's spec; the file is what runs."""
     spec = (ROOT / "docs" / "first_balancer.toml").read_text(encoding="utf-8")
@@ -224,7 +234,7 @@ def test_the_readme_has_command_blocks_and_each_is_run_or_says_why_not():
 
 
 @pytest.mark.parametrize("block", BLOCKS, ids=[b.id for b in BLOCKS])  # pytest numbers repeats
-def test_readme_block(block, workdir):
+def test_readme_block(block, workdir, runs):
     if block.get("skip"):
         pytest.skip(f"{block.where}: {_reason(block.get('skip')[0])}")
     if block.get("tested-by"):
@@ -240,8 +250,11 @@ def test_readme_block(block, workdir):
     commands = [c for c in _commands(block.text)
                 if not any(c.lstrip().startswith(prefix) for prefix in skipped)]
     assert commands, f"{block.where}: nothing left to run"
-    run = subprocess.run(["bash", "-c", PRELUDE + "\n".join(commands) + "\n"], cwd=workdir, env=_env(),
-                         capture_output=True, text=True, timeout=BLOCK_TIMEOUT)
+    script = PRELUDE + "\n".join(commands) + "\n"
+    if block.get("prepare") or script not in runs:
+        runs[script] = subprocess.run(["bash", "-c", script], cwd=workdir, env=_env(),
+                                      capture_output=True, text=True, timeout=BLOCK_TIMEOUT)
+    run = runs[script]
     expected = int(block.get("exit")[0]) if block.get("exit") else 0
     assert run.returncode == expected, (f"{block.where}: exit {run.returncode}, "
                                         f"expected {expected}\n{run.stdout[-2000:]}\n{run.stderr[-3000:]}")

@@ -15,7 +15,6 @@ from pathlib import Path
 import pytest
 
 playwright_api = pytest.importorskip("playwright.sync_api", reason="Playwright is the dev extra's (make test installs it)")
-pytest.importorskip("panel", reason="Panel is the app extra's (make test installs it)")
 
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = Path("/usr/bin/chromium")
@@ -37,7 +36,10 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="module")
 def server():
-    """``cadcam app`` on a free port of 127.0.0.1, serving the 1-DOF wire cam."""
+    """``cadcam app`` on a free port of 127.0.0.1, serving the 1-DOF wire cam. (Panel is
+    looked for here, not at the module's import, where every worker would import it while
+    collecting.)"""
+    pytest.importorskip("panel", reason="Panel is the app extra's (make test installs it)")
     port = _free_port()
     log = tempfile.TemporaryFile()
     proc = subprocess.Popen([sys.executable, "-m", "cadcam", "app", "--example", "johnston2023_1dof", "--port",

@@ -240,24 +240,3 @@ def test_functions_named_by_the_spec_or_an_edit_are_kept(monkeypatch):
     outcome = state.design("springs.1.rate")
     assert outcome.result is None and outcome.field == "solver.functions"
     assert outcome.error.startswith("solver.functions = 'compiled' needs a C compiler")
-
-
-def test_a_warm_redesign_of_the_differential_balancer_is_no_worse_than_a_cold_one():
-    """Fedorov's balancer on the page's path: a spring's edit leaves the envelope's cable length
-    as it was, so the last answer and its multipliers start the design; it succeeds, in fewer
-    iterations than the default start and to no worse an objective."""
-    from cadcam.optimize import optimize, start_design
-    from cadcam.solve.builds import built_for
-
-    state = DesignState.template("fedorov2018_balancer")
-    first = state.design()
-    assert first.result.success
-    state.edit("springs.1.rate", repr(1.02 * state.field("springs.1.rate").value))
-    warm = state.design("springs.1.rate").result
-    completed, start = start_design(load_problem(state.path, overrides=state.override_pairs(),
-                                                 **state.solver_options()))
-    cold = optimize(completed, built_for(completed)[0], start=start)
-    assert warm.success and cold.success
-    assert warm.message.endswith("(warm start from the last design)")
-    assert warm.nit < cold.nit
-    assert warm.fun <= cold.fun * (1 + 1e-6)

@@ -3,11 +3,9 @@ import numpy as np
 import pytest
 
 from cadcam.make.biarc import arc_geometry, biarc_fit
+from cadcam.make.step import write_step
 from cadcam.make.workshop import closed_outline, holes
 from cadcam.physics.profile import Basis
-
-bd = pytest.importorskip("build123d")
-from cadcam.make.step import write_step  # noqa: E402
 
 BORE, ANCHOR, THICKNESS = 6e-3, 2.5e-3, 5e-3  # [m]
 
@@ -23,7 +21,14 @@ def chain_area(chain) -> float:
 
 
 @pytest.fixture(scope="module")
-def part(tmp_path_factory):
+def bd():
+    """build123d, or the module's tests skipped without it: imported by the tests, not at the
+    module's import, where every worker would take its 5 s while collecting."""
+    return pytest.importorskip("build123d")
+
+
+@pytest.fixture(scope="module")
+def part(tmp_path_factory, bd):
     b = Basis("monomial", 2, (0.0, 4.0))
     outline = closed_outline(b, b.from_monomial(np.array([0.03, 0.002, -2e-4])), 4.0)
     chain = biarc_fit(outline, 1e-7)
@@ -42,7 +47,7 @@ def test_step_solid_is_the_extruded_outline_less_its_holes(part):
     assert volume == pytest.approx(expected, rel=1e-9)
 
 
-def test_step_box_and_bore(part):
+def test_step_box_and_bore(part, bd):
     """The box is the outline's in x and y and the thickness in z (mm); the bore is a circle of
     its diameter about the axis, the anchor hole one of its own at its centre."""
     chain, circles, _, solid = part

@@ -98,8 +98,10 @@ def test_a_spring_joining_two_joints_weighs_its_springs_parts_exactly(table3):
     and preload parts (placement and profile tolerances set to 0 here), whose integral over both
     joints' angles is separable; it equals the reported band's integral over the tensor grid
     (at Johnston2023's Table 3 design, in the spec's basis: the NLP's start reads its
-    coefficients so)."""
+    coefficients so). The NLP's functions are mapped: its band is the same function of the
+    variables whichever way IPOPT would evaluate it, and an expanded NLP takes longer to build."""
     data = read_spec_data(SPEC_RR)
+    data["solver"]["functions"] = "mapped"
     data["tolerances"] = {"placement": 0.0, "profile": 0.0}
     for cam in data["cams"]:
         cam["band_weight"] = 1.0
@@ -132,9 +134,11 @@ def test_the_band_weight_is_read_checked_and_written():
 def test_the_nlps_band_is_the_reported_band_for_a_pair_of_anchored_pulleys():
     """Ludovico2021's antagonistic pair: two mechanisms on one joint, each with a placed length
     and a placed angle (the spring end's ℓ and χ₀, misplaced by the tolerance over ℓ), and an
-    anchored cable whose wrapped length grows with the profile's offset."""
+    anchored cable whose wrapped length grows with the profile's offset. The banded NLP's
+    functions are mapped (its band is the same function of the variables; expanded, the NLP
+    takes some 20 s to build)."""
     off = cadcam.design(ROOT / "models" / "ludovico2021_pendulum.toml")
-    problem = cadcam.load_problem(off.problem, overrides={"joints.*.band_weight": 1.0})
+    problem = cadcam.load_problem(off.problem, functions="mapped", overrides={"joints.*.band_weight": 1.0})
     nlp, tr = _nlp_band(problem, off.design)
     assert {tr.v.families[pos][0] for _, pos, _ in tr._band_splits} == {"bsp", "bqp", "bfp"}
     np.testing.assert_allclose(nlp[0], off.band.half_width[0], rtol=1e-8)

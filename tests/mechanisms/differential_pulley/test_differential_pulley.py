@@ -1,6 +1,6 @@
 """The differential pair of noncircular pulleys (Fedorov2018): closed forms for circles, an
 independent model of eccentric discs, Eq. 11 against the energy model's arm, the envelope
-synthesis, the 360° balancer and the spec's errors."""
+synthesis, the 360° balancer (and the design page's warm re-design of it) and the spec's errors."""
 from dataclasses import replace
 
 import casadi as ca
@@ -11,9 +11,10 @@ from scipy.optimize import brentq
 
 from cadcam.mechanisms.base import Profile, departure_solver, port_function, wound_lengths
 from cadcam.mechanisms.differential_pulley.model import DifferentialPulley
-from cadcam.optimize import optimize
+from cadcam.optimize import optimize, start_design
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.wrap import wound_length
+from cadcam.solve.builds import built_for
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
 from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_length, envelope, fit_pulley
 
@@ -176,7 +177,11 @@ def test_envelope_of_a_steady_transfer_is_a_circle(q):
 
 @pytest.fixture(scope="module")
 def balancer():
-    return optimize(load_spec(BALANCER))
+    """The spec's design from the default start, through the NLP kept for its structure
+    (:func:`cadcam.solve.builds.built_for`), as the design page's session designs it: the
+    page's warm re-design below reuses that build instead of building it again."""
+    completed, start = start_design(load_spec(BALANCER))
+    return optimize(completed, built_for(completed)[0], start=start)
 
 
 def test_balancer_meets_fedorovs_goals(balancer):
@@ -271,3 +276,28 @@ def test_balancer_files_give_its_torque_and_x(balancer, tmp_path):
     for check in report["checks"]:
         assert check["passed"] and check["unresolved_points"] == 0, check
     assert report["passed"]
+
+
+def test_a_warm_redesign_of_the_differential_balancer_is_no_worse_than_a_cold_one(balancer):
+    """Fedorov's balancer on the design page's path: a spring's edit leaves the envelope's cable
+    length as it was, so the last answer and its multipliers start the design; it succeeds, in
+    fewer iterations than the default start takes and to no worse an objective. The page
+    designs the spec with spring 1 2 % stiffer first, then the spec itself warm from that
+    answer; the cold design of the spec to compare with is this module's ``balancer`` (a
+    design from the default start, through the same kept NLP), not designed a third time."""
+    from cadcam.app.state import DesignState
+
+    state = DesignState.template("fedorov2018_balancer")
+    rate = state.field("springs.1.rate").value
+    assert rate == load_spec(BALANCER).springs[0].rate
+    state.edit("springs.1.rate", repr(1.02 * rate))
+    first = state.design()
+    assert first.result.success
+    state.edit("springs.1.rate", repr(rate))
+    assert state.overrides == {}  # the spec itself
+    warm = state.design("springs.1.rate").result
+    cold = balancer
+    assert warm.success and cold.success
+    assert warm.message.endswith("(warm start from the last design)")
+    assert warm.nit < cold.nit
+    assert warm.fun <= cold.fun * (1 + 1e-6)
