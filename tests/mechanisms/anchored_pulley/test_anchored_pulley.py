@@ -409,16 +409,21 @@ def test_independent_model_on_a_polygonal_circle():
 
 @pytest.fixture(scope="module")
 def designed_folder(tmp_path_factory):
-    """`cadcam design models/ludovico2021_pendulum.toml` in a subprocess (the spec's grid,
-    46: from the default start the coarser grids 21–36 do not converge), workshop polygons at
-    0.01 mm, under an ideal cable: the independent model wraps a thread on the polygon (a
-    cable's diameter, the cut outline inside its centre line, is checked from the DXF by
-    tests/make/test_file_accuracy.py)."""
+    """models/ludovico2021_pendulum.toml designed and written as `cadcam design PENDULUM
+    --tolerance 1e-05 --cable-diameter 0` designs and writes it (the spec's grid, 46: from the
+    default start the coarser grids 21–36 do not converge), workshop polygons at 0.01 mm, under
+    an ideal cable: the independent model wraps a thread on the polygon (a cable's diameter, the
+    cut outline inside its centre line, is checked from the DXF by
+    tests/make/test_file_accuracy.py). In this process, as the command does it (the flags
+    replace the spec's workshop sizes; its files are :meth:`Result.save`'s), without the
+    figures, which nothing here reads."""
     out = tmp_path_factory.mktemp("pendulum") / "out"
-    proc = subprocess.run([sys.executable, "-m", "cadcam", "design", str(PENDULUM), "-o", str(out),
-                           "--tolerance", repr(CHORD), "--cable-diameter", "0"], capture_output=True, text=True, cwd=ROOT,
-                          timeout=300)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    problem = cadcam.load_problem(PENDULUM)
+    problem = dataclasses.replace(problem, workshop=dataclasses.replace(problem.workshop, tolerance=CHORD,
+                                                                        cable_diameter=0.0))
+    result = cadcam.optimize(problem)
+    assert result.success, result.message
+    result.save(out, figures=False)
     return out
 
 
