@@ -164,7 +164,8 @@ def test_cadcam_check_exits_1_beyond_its_tolerance(capsys):
 
 
 def test_ipopt_options_reach_ipopt(tmp_path, capfd):
-    assert main(["design", str(SPEC_1DOF), "--grid", "12", "-o", str(tmp_path / "o"),
+    """(The design without figures: IPOPT's log is printed before any is drawn.)"""
+    assert main(["design", str(SPEC_1DOF), "--grid", "12", "-o", str(tmp_path / "o"), "--no-figures",
                  "--ipopt", "print_level=5"]) == 0
     out = capfd.readouterr().out
     assert "iter    objective    inf_pr" in out  # IPOPT's own iteration log

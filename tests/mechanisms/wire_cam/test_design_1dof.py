@@ -118,13 +118,15 @@ def test_design_leaves_a_dxf_of_a_closed_cam_with_its_bore(run):
 
 
 def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
+    """Without figures (the STL and the workshop's verdict are made without them, and
+    test_design_succeeds_and_writes_its_files checks the figures of the same command)."""
     out = tmp_path / "s"
-    assert main(["design", str(SPEC_1DOF), "-o", str(out), "--stl", "0.005"]) == 0
+    assert main(["design", str(SPEC_1DOF), "-o", str(out), "--stl", "0.005", "--no-figures"]) == 0
     reported = float(capsys.readouterr().out.split("STL ")[1].split(" mm³")[0])
     assert check_output_file(out / "cam1.stl") == pytest.approx(reported, rel=1e-3)  # the file's own volume
     # a groove wider than the part is thick: the design stands, its solid cannot be made
     assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "b"), "--stl", "0.005",
-                 "--groove-depth", "0.001", "--groove-width", "0.006"]) == 1
+                 "--groove-depth", "0.001", "--groove-width", "0.006", "--no-figures"]) == 1
     err = capsys.readouterr().err
     assert "workshop files cannot be made: cam1:" in err and "groove_width" in err
     assert err.count("\n") == 1 and (tmp_path / "b" / "result.json").exists()
