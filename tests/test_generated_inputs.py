@@ -523,11 +523,12 @@ def json_verdict(raw: bytes) -> bool:
 @pytest.fixture(scope="module")
 def designed(tmp_path_factory):
     """``cadcam design`` of the fast 1-DOF spec: its folder (result.json is a valid design and a
-    valid spec). Checked like every design: exit 0 only with a finite success."""
+    valid spec; no figures, which nothing here reads). Checked like every design: exit 0 only
+    with a finite success."""
     root = tmp_path_factory.mktemp("designed")
     (root / "spec.toml").write_text(FAST_1DOF)
     with contextlib.redirect_stdout(open(os.devnull, "w")):
-        code = main(["design", str(root / "spec.toml"), "-o", str(root / "out")])
+        code = main(["design", str(root / "spec.toml"), "-o", str(root / "out"), "--no-figures"])
     run = Run([], code, "", "")
     assert_design_outcome(run, root / "out")
     return root / "out"
