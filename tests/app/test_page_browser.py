@@ -45,7 +45,9 @@ def server():
     proc = subprocess.Popen([sys.executable, "-m", "cadcam", "app", "--example", "johnston2023_1dof", "--port",
                              str(port), "--no-browser"], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
     url = f"http://127.0.0.1:{port}/"
-    deadline = time.monotonic() + 60
+    # importing Panel and building the first page takes seconds alone; the CI's two workers
+    # under a full suite took more than a minute once
+    deadline = time.monotonic() + 120
     while True:
         try:
             urllib.request.urlopen(url, timeout=2).read()
