@@ -362,8 +362,7 @@ def _nlp_partials(problem: Problem, start: Design, rng: np.random.Generator) -> 
     central differences of the objective, the constraints and the gradient of the Lagrangian."""
     tr = Transcription(problem)
     solver = tr.solver
-    pv = tr.parameters(problem)
-    w = tr.initial_guess(problem, start, start_samples(problem, start, tr.n, tr.start_order()), pv)
+    w, pv = tr.start_point(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
     f, g = solver.get_function("nlp_f"), solver.get_function("nlp_g")
     grad, jac = solver.get_function("nlp_grad_f"), solver.get_function("nlp_jac_g")
     lam = rng.standard_normal(g.size1_out(0))

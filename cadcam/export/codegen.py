@@ -259,10 +259,11 @@ def _problem_data(problem: Problem, design: Design, tr) -> dict:
     starting point of ``design``, from its transcription ``tr``."""
     lbg, ubg = tr.whole_bounds(problem)
     lbx, ubx = tr.variable_bounds(problem)
+    x0, pv = tr.start_point(problem, design, start_samples(problem, design, tr.n, tr.start_order()))
     return {
         "variables": {k: {"offset": a, "size": n} for k, (a, n) in tr.v.blocks.items()},
         "parameters_layout": {k: {"offset": a, "size": n} for k, (a, n) in tr.p.blocks.items()},
-        "p": tr.parameters(problem).tolist(), "x0": tr.initial_guess(problem, design, start_samples(problem, design, tr.n, tr.start_order())).tolist(),
+        "p": pv.tolist(), "x0": x0.tolist(),
         "lbx": lbx.tolist(), "ubx": ubx.tolist(), "lbg": lbg.tolist(), "ubg": ubg.tolist(),
         "note": "lengths in the NLP vector are in mm (manifest.json's x_layout gives each "
                 "block's unit); infinite bounds are written as ±Infinity"}

@@ -123,6 +123,9 @@ P_BLOCKS = {
     "xs": Block(lambda p: "1/mm" if _minimax(p) else "1/(mm²·rad)",
                 "scale of mechanism {0}'s output error in the objective", "weights"),
     "rc": Block("m", "smallest radius of curvature of profile {0}, with the limit margin", "limits"),
+    "wc": Block("rad", "end of profile {0}'s check range (a high-degree profile's convexity, ρ and curvature "
+                "rows hold at fixed angles up to it): its start's most-wound departure plus one grid step's "
+                "wrap", "limits"),
     "k": Block("N/m", "spring rates", "springs"),
     "F0": Block("N", "spring preloads", "springs"),
     "wband": Block("N·m", "band weight of joint {0}", "weights"),

@@ -57,6 +57,12 @@ FIRST_SEGMENT_MAX_ORDER = 256
 #: little, and IPOPT's path on the lifted rows differs: on the shipped specs (order ≤ 15) it
 #: took other iterates, one of them (ludovico2021_generic) to no optimum.
 LIFTED_PROFILE_SIZE = 20
+#: A profile with more coefficients than this is checked at fixed angles over a range set from
+#: its start (:func:`_fixed_check_angles`), not at angles that scale with its unknown wrap.
+#: From a start far from the optimum (a circle) that range restricts the design (the 1-DOF
+#: cam's optimum is then worse); a high-degree profile, whose start is a synthesis of its shape
+#: (Fedorov's envelope), gains robustness from it.
+FIXED_RANGE_SIZE = 20
 #: The objective is scaled so that a zero torque scores this much. The barrier terms of
 #: IPOPT's ~10³ inequality rows must not swamp it: at a scale of 1, started from Johnston2023's
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
@@ -424,6 +430,20 @@ class Transcription:
             v.put(w0, neg, np.maximum(-part, 0))
         return w0
 
+    def start_point(self, problem: Problem, design: Design, samples) -> tuple[np.ndarray, np.ndarray]:
+        """The NLP's start from ``design`` (:meth:`initial_guess`) and the parameters it is
+        solved with: :meth:`parameters` of ``problem`` and each high-degree profile's check
+        range (``wc``, :func:`_fixed_check_angles`), up to the start's most-wound departure
+        plus one grid step's wrap, so that the wrap may grow a step before the rows bind."""
+        pv = self.parameters(problem)
+        for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
+            for k in range(sl.start, sl.stop):
+                if f"wc{k}" in self.p.blocks:
+                    alpha = samples[u].z[k - sl.start]
+                    end = float(mech.wrap_end(alpha[0], alpha[-1], ca.DM(mech.parameter_values())))
+                    self.p.put(pv, f"wc{k}", end + abs(alpha[-1] - alpha[0]) / (self.n - 1))
+        return self.initial_guess(problem, design, samples, pv), pv
+
     def _breaks_deferred(self, problem: Problem, w, pv) -> bool:
         """Whether the NLP point ``w`` breaks a deferred row by more than DEFERRED_TOL. The
         deferred rows are left out of the first solve: a local optimum that meets them is one
@@ -471,8 +491,7 @@ class Transcription:
         ``problem``'s numbers; with ``warm``, the multipliers of the answer ``start`` is (a
         neighbouring problem's), from them and :data:`WARM_IPOPT`: with the deferred rows
         at once if that answer's solve imposed them."""
-        pv = self.parameters(problem)
-        w0 = self.initial_guess(problem, start, samples, pv)
+        w0, pv = self.start_point(problem, start, samples)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
@@ -509,6 +528,29 @@ class Transcription:
                for u, mech in enumerate(problem.mechanisms)],
             history=joined(histories), warnings=warnings,
             multipliers=Multipliers(np.asarray(sol["lam_x"]).ravel(), lam_g, lam_g.size > lbg.size))
+
+
+def _apart(options: Options, f: ca.Function, n: int | None = None):
+    """``f`` (mapped over ``n`` columns, if given) as the NLP calls it: a callable returning
+    its outputs in order. Where the NLP's functions are not expanded, each output comes from a
+    call of its own, a function rebuilt from ``f``'s graph.
+
+    CasADi's reverse mode through one MX call of a function with several outputs seeds each
+    unused output with a dense zero, so the Hessian of anything using that call counts every
+    output's second derivatives: a dense block over all of the call's inputs (on a cable
+    robot's pair, every pose's unknowns coupled to all of both profiles' coefficients). A call
+    per output keeps the sparsity exact, and an output nothing uses is never evaluated.
+    Expanded into SX the sparsity is exact anyway, and one call shares its outputs' common
+    work."""
+    if options.functions == "expanded":
+        whole = f if n is None else f.map(n)
+        return lambda *values: whole(*values)
+    args = f.sx_in() if f.is_a("SXFunction") else f.mx_in()
+    outs = f.call(args)
+    parts = [ca.Function(f"{f.name()}_{f.name_out(o)}", args, [outs[o]], f.name_in(), [f.name_out(o)])
+             for o in range(f.n_out())]
+    parts = [part if n is None else part.map(n) for part in parts]
+    return lambda *values: [part(*values) for part in parts]
 
 
 def _start_order(problem: Problem) -> int:
@@ -701,11 +743,12 @@ def _departure_rows(rows: _Rows, problem: Problem, mech: Mechanism, s: _Mechanis
         The port displacements and moment arms [m] on the grid (ports × n).
     """
     n, structure = problem.options.grid, mech.structure()
-    ports = port_function(structure, problem.torque_model,
-                          FRICTION_ORDER * problem.options.quadrature_order, "closed-form").map(n)
+    ports = _apart(problem.options, port_function(structure, problem.torque_model,
+                                 FRICTION_ORDER * problem.options.quadrature_order, "closed-form"), n)
     d, arm, res, _ = ports(s.theta.T, s.z, s.ref, wrapped, ca.repmat(wound_ref, 1, n) + wrapped,
                            s.c, s.q)
-    res_ref = pose_residual_function(structure)(mech.reference_angle, s.ref, wound_ref, s.c, s.q)[0]
+    residual = _apart(problem.options, pose_residual_function(structure))
+    res_ref = residual(mech.reference_angle, s.ref, wound_ref, s.c, s.q)[0]
     for r, unit in enumerate(mech.residual_units):  # the mechanism's R = 0 everywhere
         rows.constrain(ca.vertcat(res[r, :].T, res_ref[r]) / (LENGTH_SCALE if unit == "m" else 1.0),
                        _equal)
@@ -718,15 +761,17 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
     Eq. 40); a profile with a curvature limit adds it as a parameter ``rc``."""
     n, M, L = problem.options.grid, problem.options.convexity_points, LENGTH_SCALE
     # convexity and ρ bounds over each wrapped range [0, α(most wound)] (Johnston2023
-    # Eq. 40), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
+    # Eq. 40; a high-degree profile's over [0, φ_c] ⊇ it), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
     for k, (b, ck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c))):
-        phi = mech.wrap_end(s.z[k, 0], s.z[k, n - 1], s.q) * ca.DM(np.linspace(0, 1, M)).T
+        end = mech.wrap_end(s.z[k, 0], s.z[k, n - 1], s.q)
         pk = first_profile + k
+        phi = (_fixed_check_angles(rows, p, end, M, pk) if b.size > FIXED_RANGE_SIZE
+               else end * ca.DM(np.linspace(0, 1, M)).T)
         if b.size > LIFTED_PROFILE_SIZE:
-            rho, drho, ddrho = _lifted_profile(rows, b, phi, ck, pk)
+            rho, drho, ddrho = _lifted_profile(rows, problem.options, b, phi, ck, pk)
             conv = convexity_margin(rho, drho, ddrho)  # Johnston2023 Eq. 40
         else:
-            rho, drho, _, conv = (v.T for v in profile_function(b).map(M)(phi, ck))
+            rho, drho, _, conv = (v.T for v in _apart(problem.options, profile_function(b), M)(phi, ck))
         rows.constrain(conv / L**2, lambda pr, pk=pk: (
             pr.options.convexity_epsilon * (pr.profiles[pk].rho_min / L) ** 2, np.inf))
         rows.constrain(rho / L, lambda pr, pk=pk: (
@@ -757,12 +802,27 @@ def _outline_rows(rows: _Rows, phi, rho, drho, conv):
     rows.constrain(curvature(rho, drho, conv) * L, lambda pr: (-np.inf, pr.workshop.greatest_curvature * L), True)
 
 
-def _lifted_profile(rows: _Rows, basis, phi, c, pk: int):
+def _fixed_check_angles(rows: _Rows, p: _Vars, end, M: int, pk: int):
+    """``M`` check angles of profile ``pk`` spread over [0, φ_c] [rad] (a row), φ_c a parameter
+    (``wc``, set from the start by :meth:`Transcription.start_point`), with a row that keeps the
+    wrap's most-wound end ``end`` inside.
+
+    Angles that scale with the unknown ``end`` (as a low-degree profile's do) move these rows'
+    feasible set with every iterate, and on the cable robot's degree-30 pairs IPOPT's iteration
+    count then swung several-fold with settings that should not matter. Fixed up to the basis domain's end instead, the rows bind
+    the profile beyond its wrap, which pulled the end effector off its path wherever a
+    profile's departure neared that end."""
+    hi = p.add("wc", 1, pk)
+    rows.constrain(hi - end, _nonnegative)
+    return hi * ca.DM(np.linspace(0.0, 1.0, M)).T
+
+
+def _lifted_profile(rows: _Rows, options: Options, basis, phi, c, pk: int):
     """ρ, ρ′ and ρ″ of profile ``pk`` at the angles ``phi`` (a row) as lifted variables [m,
     m/rad, m/rad²] (columns), tied to the coefficients ``c`` (Johnston2023 Eq. 38): each tie is
     linear in ``c`` at a given angle, so the rows written on them (Eq. 40) hold no product of
     two coefficients: their second derivatives grow with the degree, not with its square."""
-    rho, drho, ddrho, _ = profile_function(basis).map(phi.shape[1])(phi, c)
+    rho, drho, ddrho, _ = _apart(options, profile_function(basis), phi.shape[1])(phi, c)
     return tuple(rows.lift(family, value.T, LENGTH_SCALE, pk)
                  for family, value in (("rho", rho), ("drho", drho), ("ddrho", ddrho)))
 
@@ -972,7 +1032,8 @@ def _band_part_changes(rows: _Rows, p: _Vars, problem: Problem, net, i: int, x0,
         mech, pose, s = problem.mechanisms[u], poses[u], poses[u].s
         if mech.closure_rows:
             continue
-        ports = port_change_function(mech.structure(), problem.torque_model, order, "closed-form").map(n)
+        ports = _apart(problem.options,
+                       port_change_function(mech.structure(), problem.torque_model, order, "closed-form"), n)
         for family, index, label, dc, dq, tol in _band_columns(p, problem, u):
             dz, dz_ref, dW, dW_ref = _pose_changes(rows, problem, u, pose, label, dc, dq)
             dd, darm = ports(s.theta.T, s.z, s.ref, pose.wrapped, ca.repmat(pose.wound_ref, 1, n) + pose.wrapped,
@@ -1025,12 +1086,12 @@ def _pose_changes(rows: _Rows, problem: Problem, u: int, pose: _Pose, label: str
                 dW[k, :] += dl.T
     scale = ca.DM([L if unit == "m" else 1.0 for unit in mech.unknown_units])  # per mm: mm/mm or rad/mm
     residual = ca.DM([L if unit == "m" else 1.0 for unit in mech.residual_units])
-    change = pose_change_function(structure)
+    change = _apart(problem.options, pose_change_function(structure))
     ref_angle = mech.reference_angle
     at_ref = (ref_angle, s.ref, pose.wound_ref, s.c, s.q)
     dz_ref = rows.tie("bzr", lambda v: change(*at_ref, v, dW_ref, dc, dq)[0] / residual,
                       change(*at_ref, ca.MX.zeros(nz), dW_ref, dc, dq)[1], scale, u, label)
-    grid = change.map(n)
+    grid = _apart(problem.options, pose_change_function(structure), n)
     at_grid = (s.theta.T, s.z, ca.repmat(pose.wound_ref, 1, n) + pose.wrapped, s.c, s.q)
     dz = rows.tie("bz", lambda v: ca.vec(grid(*at_grid, ca.reshape(v, nz, n), dW, dc, dq)[0] / ca.repmat(residual, 1, n)),
                   ca.vec(grid(*at_grid, ca.MX.zeros(nz, n), dW, dc, dq)[1]), ca.repmat(scale, n, 1), u, label)
