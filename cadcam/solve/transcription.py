@@ -27,6 +27,7 @@ import signal
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -543,14 +544,20 @@ def _apart(options: Options, f: ca.Function, n: int | None = None):
     Expanded into SX the sparsity is exact anyway, and one call shares its outputs' common
     work."""
     if options.functions == "expanded":
-        whole = f if n is None else f.map(n)
-        return lambda *values: whole(*values)
+        return f if n is None else f.map(n)
+    parts = _output_functions(f, n)
+    return lambda *values: [part(*values) for part in parts]
+
+
+@lru_cache(maxsize=256)
+def _output_functions(f: ca.Function, n: int | None) -> tuple[ca.Function, ...]:
+    """One function per output of ``f``, rebuilt from its graph (mapped over ``n`` columns if
+    given): kept, since the band's rows ask for the same ones once per tolerance."""
     args = f.sx_in() if f.is_a("SXFunction") else f.mx_in()
     outs = f.call(args)
     parts = [ca.Function(f"{f.name()}_{f.name_out(o)}", args, [outs[o]], f.name_in(), [f.name_out(o)])
              for o in range(f.n_out())]
-    parts = [part if n is None else part.map(n) for part in parts]
-    return lambda *values: [part(*values) for part in parts]
+    return tuple(part if n is None else part.map(n) for part in parts)
 
 
 def _start_order(problem: Problem) -> int:
