@@ -1,28 +1,34 @@
 """Does the design converge from anywhere? Every shipped spec designed by the NLP, at several
 grids and profile orders, from the default start and from random starts (issue 30, item 4).
 
-``python benchmarks/bench_convergence.py [--random 2] [--grids 21 46 91] [--budget 60]``.
+``python benchmarks/bench_convergence.py [--random 2] [--grids 21 46 91] [--budget 20]``.
 Measured, not asserted. Each cell is :func:`cadcam.optimize.optimize` with ``multistart`` random starts after
 the default one; the table gives, per cell, how each start ended (IPOPT's status) and what the
 design returned ended as after the fine re-check (``success`` or a status that says why), its
-objective against the default start's, and the time. A cell passes when the design returned
-is verified (``success``) or its status names the failure, and when the multistart answer is
-no worse than the default start's.
+objective against the default start's, its IPOPT iterations and its CPU time. A cell passes when
+the design returned is verified (``success``) or its status names the failure, and when the
+multistart answer is no worse than the default start's.
 
 Orders: each spec's own and twice it. Grids: the spec's grid is replaced by each of
 ``--grids``; specs with several joints solve on the tensor grid of all their joints, so they
 run at the grids up to :data:`MAX_COUPLED_GRID` only (the larger cells are listed as not run).
 Specs designed by a method of their own (``method = "envelope"``) have no NLP and are listed
-as not run. Each cell runs in a process of its own with ``--budget`` seconds of wall time and
-:data:`MEMORY_BYTES` of memory; a cell beyond either is listed as such (Fedorov2018's balancer
-at twice its degree, 30, builds dense convexity rows: issue 30 measured 114 s to build).
+as not run.
+
+Budgets are CPU time, not wall time, so that the matrix judges the solver rather than how busy
+the machine was: each start's IPOPT solve stops at ``--budget`` CPU seconds (IPOPT's
+``max_cpu_time``, status ``max_time``), and each cell runs in a process of its own, on one
+thread, limited to that budget per start plus :data:`BUILD_CPU_S` for its build and re-checks
+and to :data:`MEMORY_BYTES` of memory; a cell beyond either is listed as such.
 """
 from __future__ import annotations
 
 import argparse
 import copy
 import json
+import os
 import resource
+import signal
 import subprocess
 import sys
 import time
@@ -37,6 +43,13 @@ MODELS = Path(__file__).resolve().parents[1] / "models"
 MAX_COUPLED_GRID = 46
 #: Memory a cell may use [bytes].
 MEMORY_BYTES = 4 * 2**30
+#: CPU time a cell may spend beyond its starts' IPOPT budgets: the build, the fine re-checks [s].
+BUILD_CPU_S = 60
+#: A cell's wall time as a multiple of its CPU limit before it is stopped: only a guard against
+#: a cell that waits on something, as the CPU limit stops every cell that computes.
+WALL_GUARD = 4
+#: One thread for BLAS and OpenMP, so that a cell's CPU time is the work it did.
+ONE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
 
 
 def _with(data: dict, grid: int, factor: int) -> dict:
@@ -61,31 +74,46 @@ def _over_cap(data: dict, factor: int) -> str | None:
     return None
 
 
-def cell(data: dict, random: int) -> dict:
-    """One design of spec ``data`` from the default start and ``random`` random starts."""
+def cell(data: dict, random: int, budget: float) -> dict:
+    """One design of spec ``data`` from the default start and ``random`` random starts, each
+    start's IPOPT solve within ``budget`` CPU seconds."""
     data = copy.deepcopy(data)
     data["solver"]["multistart"] = random
-    t0 = time.perf_counter()
+    data["solver"].setdefault("ipopt", {})["max_cpu_time"] = budget
+    t0 = time.process_time()
     result = optimize(load_problem(data))
-    seconds = time.perf_counter() - t0
+    cpu = time.process_time() - t0
     trials = result.solve.trials or []
     default = trials[0]["objective"] if trials and trials[0]["status"] == "converged" else None
-    return {"status": result.status, "objective": result.fun, "default": default, "seconds": seconds,
-            "starts": [t["status"] for t in trials]}
+    return {"status": result.status, "objective": result.fun, "default": default, "cpu_s": cpu,
+            "starts": [t["status"] for t in trials], "iterations": sum(t["iterations"] for t in trials)}
 
 
-def _limit_memory() -> None:
-    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_BYTES, MEMORY_BYTES))
+def _cell_cpu_s(random: int, budget: float) -> int:
+    """The CPU seconds a cell of ``random`` random starts at ``budget`` per start may use."""
+    return int((random + 1) * budget + BUILD_CPU_S)
+
+
+def _limits(cpu_s: int):
+    """The cell process's limits: :data:`MEMORY_BYTES` of memory and ``cpu_s`` of CPU time."""
+    def apply() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY_BYTES, MEMORY_BYTES))
+        resource.setrlimit(resource.RLIMIT_CPU, (cpu_s, cpu_s + 5))
+    return apply
 
 
 def cell_in_a_process(data: dict, random: int, budget: float) -> dict | str:
-    """:func:`cell` in a process of its own within ``budget`` seconds and :data:`MEMORY_BYTES`;
-    the reason it did not finish otherwise."""
+    """:func:`cell` in a process of its own, on one thread, within :func:`_cell_cpu_s` of CPU
+    time and :data:`MEMORY_BYTES`; the reason it did not finish otherwise."""
+    cpu_s = _cell_cpu_s(random, budget)
     try:
-        run = subprocess.run([sys.executable, __file__, "--cell", str(random)], input=json.dumps(data),
-                             capture_output=True, text=True, timeout=budget, preexec_fn=_limit_memory)
+        run = subprocess.run([sys.executable, __file__, "--cell", str(random), "--budget", str(budget)],
+                             input=json.dumps(data), capture_output=True, text=True, timeout=WALL_GUARD * cpu_s,
+                             preexec_fn=_limits(cpu_s), env={**os.environ, **ONE_THREAD})
     except subprocess.TimeoutExpired:
-        return f"not finished within {budget:g} s"
+        return f"stopped after {WALL_GUARD * cpu_s} s of wall time"
+    if run.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
+        return f"over {cpu_s} s of CPU time"
     if run.returncode != 0:
         last = (run.stderr.strip().splitlines() or ["no message"])[-1]
         return f"failed: {last[:120]}" if "MemoryError" not in run.stderr and "bad_alloc" not in run.stderr \
@@ -97,18 +125,19 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--random", type=int, default=2, help="random starts after the default one")
     parser.add_argument("--grids", type=int, nargs="+", default=[21, 46, 91])
-    parser.add_argument("--budget", type=float, default=60.0, help="wall time of one cell [s]")
+    parser.add_argument("--budget", type=float, default=20.0, help="CPU time of one start's IPOPT solve [s]")
     parser.add_argument("--cell", type=int, help=argparse.SUPPRESS)  # one cell: spec data on stdin
     args = parser.parse_args(argv)
     if args.cell is not None:
-        print(json.dumps(cell(json.loads(sys.stdin.read()), args.cell)))
+        print(json.dumps(cell(json.loads(sys.stdin.read()), args.cell, args.budget)))
         return
     t0 = time.perf_counter()
     print(f"\nConvergence matrix: each cell from the default start and {args.random} random starts "
-          "(functions expanded)\n")
+          f"(functions as each spec states them), each start's IPOPT solve within {args.budget:g} s of CPU time; a cell "
+          f"within {_cell_cpu_s(args.random, args.budget)} s of CPU time on one thread\n")
     print("| spec | grid | order × | starts (default first) | returned | objective | default start's | "
-          "no worse | time [s] |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "no worse | iterations | CPU time [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     counts = {"cells": 0, "verified": 0, "compared": 0, "no worse": 0, "not run": 0}
     for spec in sorted(MODELS.glob("*.toml")):
         data = read_spec_data(spec)
@@ -120,12 +149,12 @@ def main(argv=None) -> None:
                        else _over_cap(data, factor))
                 if why:
                     counts["not run"] += 1
-                    print(f"| {spec.stem} | {grid} | {factor} | not run: {why} | | | | | |")
+                    print(f"| {spec.stem} | {grid} | {factor} | not run: {why} | | | | | | |")
                     continue
                 c = cell_in_a_process(_with(data, grid, factor), args.random, args.budget)
                 if isinstance(c, str):
                     counts["not run"] += 1
-                    print(f"| {spec.stem} | {grid} | {factor} | {c} | | | | | |", flush=True)
+                    print(f"| {spec.stem} | {grid} | {factor} | {c} | | | | | | |", flush=True)
                     continue
                 counts["cells"] += 1
                 counts["verified"] += c["status"] == "success"
@@ -137,7 +166,8 @@ def main(argv=None) -> None:
                     counts["no worse"] += better
                     default, no_worse = f"{c['default']:.6g}", "yes" if better else "**no**"
                 print(f"| {spec.stem} | {grid} | {factor} | {', '.join(c['starts'])} | {c['status']} | "
-                      f"{c['objective']:.6g} | {default} | {no_worse} | {c['seconds']:.1f} |", flush=True)
+                      f"{c['objective']:.6g} | {default} | {no_worse} | {c['iterations']} | {c['cpu_s']:.1f} |",
+                      flush=True)
     print(f"\n{counts['cells']} cells run ({counts['not run']} not run or not finished): {counts['verified']} verified "
           f"(success), the others ended with the status that says why; the multistart answer no worse "
           f"than the default start's in {counts['no worse']} of the {counts['compared']} where the default "

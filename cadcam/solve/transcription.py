@@ -86,6 +86,7 @@ IPOPT_STATUS = {
     "Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "acceptable",
     "Infeasible_Problem_Detected": "infeasible", "Maximum_Iterations_Exceeded": "max_iterations",
     "Restoration_Failed": "restoration_failed", "Maximum_CpuTime_Exceeded": "max_time",
+    "Maximum_WallTime_Exceeded": "max_time",
     "Diverging_Iterates": "diverging", "Search_Direction_Becomes_Too_Small": "stalled",
     "Error_In_Step_Computation": "step_failed", "Invalid_Number_Detected": "invalid_number",
 }
