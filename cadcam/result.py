@@ -192,7 +192,7 @@ class Result:
         dict of str to matplotlib.figure.Figure, or one Figure if ``which`` is given.
         """
         from .outputs.plots import figures
-        figs = figures(self.evaluation, self.history or None, self.band)
+        figs = figures(self.evaluation, self.history or None, self.band, self.recheck)
         if which is None:
             return figs
         if which not in figs:

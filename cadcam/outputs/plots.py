@@ -524,24 +524,32 @@ def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
 
 
 # -------------------------------------------------------------------------------------- output
-def output_figure(ev: Evaluation) -> Figure:
-    """Each mechanism's output x(θ) against its law x_d(θ) [mm] and the error [µm]."""
-    rows = [(mech, unit) for mech, unit in zip(ev.problem.mechanisms, ev.units)
-            if mech.output_target is not None]
+def output_figure(ev: Evaluation, recheck: Evaluation | None = None) -> Figure:
+    """Each mechanism's output x(θ) against its law x_d(θ) [mm] and the error [µm]: on the
+    ``recheck`` evaluation's finer grid where given, the design grid's angles marked on it (the
+    NLP meets the law at those angles; between them only the re-check shows the error)."""
+    rows = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
     fig = Figure(figsize=(6.5 * max(len(rows), 1), 6), layout="constrained")
     axes = fig.subplots(2, max(len(rows), 1), sharex="col", squeeze=False)
-    for k, (mech, unit) in enumerate(rows):
-        th = np.degrees(unit.theta)
-        x = unit.z[mech.unknowns.index(mech.output)]
-        xd, err = output_law(mech, unit.theta), output_error(mech, unit)
+    for k, (u, mech) in enumerate(rows):
         a1, a2 = axes[0][k], axes[1][k]
+        coarse = ev.units[u]
+        fine = coarse if recheck is None else recheck.units[u]
+        th = np.degrees(fine.theta)
+        x = fine.z[mech.unknowns.index(mech.output)]
+        xd, err = output_law(mech, fine.theta), output_error(mech, fine)
         a1.plot(th, MM * xd, "k--", label=f"target {mech.output}_d")
         a1.plot(th, MM * x, color="tab:blue", label=f"{mech.output} (rootfinder)")
         a1.set_ylabel(f"{mech.output} [mm]")
         a1.legend(fontsize=8, loc="best")
-        a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| "
-                     f"{MM * np.abs(err).max():.3g} mm", fontsize=9)
-        a2.plot(th, 1e6 * err, color="tab:red")
+        a2.plot(th, 1e3 * MM * err, color="tab:red", label=None if recheck is None else "re-check grid")
+        where = "design grid" if recheck is None else "re-check grid"
+        if recheck is not None:
+            a2.plot(np.degrees(coarse.theta), 1e3 * MM * output_error(mech, coarse), "o", ms=3, color="0.2",
+                    label="design grid (the NLP's angles)")
+            a2.legend(fontsize=8, loc="best")
+        a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| {MM * np.abs(err).max():.3g} mm "
+                     f"({where})", fontsize=9)
         a2.axhline(0, color="0.5", lw=0.6)
         a2.set_ylabel(f"{mech.output} − {mech.output}_d [µm]")
         a2.set_xlabel("θ [deg]")
@@ -745,17 +753,18 @@ def convergence_figure(history: dict) -> Figure:
 
 
 # ------------------------------------------------------------------------------- all of a run
-def figures(ev: Evaluation, history: dict | None = None, band: Band | None = None) -> dict[str, Figure]:
+def figures(ev: Evaluation, history: dict | None = None, band: Band | None = None,
+            recheck: Evaluation | None = None) -> dict[str, Figure]:
     """The figures of a design run by name: ``profile``; ``torque`` (with the tolerance
     ``band`` where given) and ``springs`` (only with springs: without them there is no torque);
-    ``output`` (only for mechanisms with an output law); ``convergence`` (only when IPOPT's
-    ``history`` is given)."""
+    ``output`` (only for mechanisms with an output law; its error on the ``recheck`` grid where
+    given); ``convergence`` (only when IPOPT's ``history`` is given)."""
     out = {"profile": profile_figure(ev)}
     if ev.problem.springs:
         out["torque"] = torque_figure(ev, band)
         out["springs"] = springs_figure(ev)
     if any(mech.output_target is not None for mech in ev.problem.mechanisms):
-        out["output"] = output_figure(ev)
+        out["output"] = output_figure(ev, recheck)
     if history and history.get("iteration"):
         out["convergence"] = convergence_figure(history)
     return out

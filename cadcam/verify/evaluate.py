@@ -654,7 +654,9 @@ def evaluate(problem: Problem, design: Design, grid: int | None = None,
     [m] per spring; ``convexity_min`` [m²], ``rho_min``/``rho_max`` [m], ``alpha_max`` [rad]
     per profile over its wrapped range [0, max α]; ``tangency_residual_max``;
     ``sensitivity_integral`` ∫|∂τ_i/∂k_j| [m²·rad^m] per joint and spring (trapezoidal);
-    ``objective`` (Johnston2023 Eq. 46/47); ``margins`` (positive = satisfied) and
+    ``objective`` (Johnston2023 Eq. 46/47: the least-squares tracking and rate-sensitivity
+    terms, whichever ``solver.objective`` and ``band_weight`` the solve minimised; the solve's
+    own objective is :attr:`cadcam.result.Result.fun`); ``margins`` (positive = satisfied) and
     ``violations``. ``profile = False`` skips the profile scans (their metrics are then NaN);
     ``seeds`` (per mechanism, see :func:`mechanism_samples`) start the rootfinder from known
     unknowns, by default the design's :attr:`~cadcam.designs.Design.poses` where it has them.

@@ -137,6 +137,23 @@ def test_output_figure_only_with_an_output_law():
     assert len(figs["profile"].axes) == 3
 
 
+def test_output_figure_shows_the_error_between_the_design_grids_angles():
+    """With a finer re-check, the error line is the re-check's and the NLP's angles are marked on
+    it: the error between those angles is what the figure is for (an NLP meeting its law at
+    every grid angle would otherwise show none)."""
+    from cadcam.verify.evaluate import output_error
+    problem = load_spec(ROOT / "models" / "fedorov2018_balancer.toml")
+    start_problem, start = start_design(problem)
+    coarse, fine = evaluate(start_problem, start, grid=12), evaluate(start_problem, start, grid=60)
+    fig = figures(coarse, recheck=fine)["output"]
+    line, marks = fig.axes[1].get_lines()[:2]
+    mech = start_problem.mechanisms[0]
+    np.testing.assert_allclose(line.get_ydata(), 1e6 * output_error(mech, fine.units[0]))
+    np.testing.assert_allclose(marks.get_xdata(), np.degrees(coarse.units[0].theta))
+    assert "(re-check grid)" in _texts(fig)
+    assert "(design grid)" in _texts(figures(coarse)["output"])
+
+
 def test_convergence_figure_draws_every_iterate():
     fig = convergence_figure(HISTORY)
     obj, infeas, step = fig.axes[:3]
