@@ -18,8 +18,10 @@ as not run.
 Budgets are CPU time, not wall time, so that the matrix judges the solver rather than how busy
 the machine was: each start's IPOPT solve stops at ``--budget`` CPU seconds (IPOPT's
 ``max_cpu_time``, status ``max_time``), and each cell runs in a process of its own, on one
-thread, limited to that budget per start plus :data:`BUILD_CPU_S` for its build and re-checks
-and to :data:`MEMORY_BYTES` of memory; a cell beyond either is listed as such.
+thread, limited to twice that budget per start (a kept design that fails its fine re-check
+between the check points is solved again, :func:`cadcam.optimize.optimize`) plus
+:data:`BUILD_CPU_S` for its builds and re-checks, and to :data:`MEMORY_BYTES` of memory; a
+cell beyond either is listed as such.
 """
 from __future__ import annotations
 
@@ -43,7 +45,7 @@ MODELS = Path(__file__).resolve().parents[1] / "models"
 MAX_COUPLED_GRID = 46
 #: Memory a cell may use [bytes].
 MEMORY_BYTES = 4 * 2**30
-#: CPU time a cell may spend beyond its starts' IPOPT budgets: the build, the fine re-checks [s].
+#: CPU time a cell may spend beyond its IPOPT budgets: the builds, the fine re-checks [s].
 BUILD_CPU_S = 60
 #: A cell's wall time as a multiple of its CPU limit before it is stopped: only a guard against
 #: a cell that waits on something, as the CPU limit stops every cell that computes.
@@ -90,8 +92,9 @@ def cell(data: dict, random: int, budget: float) -> dict:
 
 
 def _cell_cpu_s(random: int, budget: float) -> int:
-    """The CPU seconds a cell of ``random`` random starts at ``budget`` per start may use."""
-    return int((random + 1) * budget + BUILD_CPU_S)
+    """The CPU seconds a cell of ``random`` random starts at ``budget`` per start may use: each
+    start's solve and as much again for the kept design's solves with more check points."""
+    return int(2 * (random + 1) * budget + BUILD_CPU_S)
 
 
 def _limits(cpu_s: int):
