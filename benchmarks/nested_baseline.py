@@ -4,7 +4,8 @@ Johnston2023 solved Eq. 47 with MATLAB's fmincon driving finite differences over
 Levenberg–Marquardt solve of the tangency (Eq. 8, ``lsqnonlin``) at every angle, with its force
 model of the torque (Eq. 19–21). The faithful Python analogue: scipy's SLSQP with
 finite-difference gradients over the design variables (monomial β of each cam and the
-pre-extensions), and at every evaluation ``least_squares`` (method ``lm``) on Eq. 8's residual
+pre-extensions, scaled by their start's magnitudes: :meth:`NestedBaseline.solve`), and at
+every evaluation ``least_squares`` (method ``lm``) on Eq. 8's residual
 at each of the n angles of each cam. Everything after the tangency (wrapped length, port
 displacements, the force model's arms, springs) calls cadcam's own model functions, so cadcam
 solving the same problem under the same torque model (``force``, or ``force-as-printed``)
@@ -33,6 +34,9 @@ from cadcam.physics.wrap import length_function
 
 #: Model evaluations kept (first in, first out): more than one finite-difference stencil.
 CACHE_SIZE = 64
+#: The least scale of a design variable [m, m/rad^k]: SLSQP works on each variable divided by
+#: its start's magnitude, or by this where the start's is smaller (a circle's zero β_k).
+VARIABLE_SCALE_FLOOR = 1e-3
 
 
 class TimeCap(Exception):
@@ -163,29 +167,37 @@ class NestedBaseline:
                     ((1 - opt.limit_margin) * pr.rho_max - rho) / 1e-3]
         return np.concatenate(out)
 
-    def solve(self, start: Design, time_cap: float = 180.0, max_iter: int = 200):
+    def solve(self, start: Design, time_cap: float = 300.0, max_iter: int = 200):
         """Run SLSQP from ``start`` for at most ``time_cap`` seconds.
+
+        SLSQP works on the variables divided by their start's magnitudes (at least
+        :data:`VARIABLE_SCALE_FLOOR`) and on the objective divided by its start value, as a
+        careful user of fmincon scales a problem: unscaled, the gradient of Eq. 47 in the raw
+        monomial coefficients is of order 1e4, SLSQP's first steps (identity Hessian) leave the
+        domain where the tangency has a solution, and it stops at its start.
 
         Returns (design, objective [Eq. 47], iterations, wall time [s], finished: bool,
         SLSQP's exit message, or the time cap's).
         """
         z0 = np.concatenate([b.to_monomial(c) for b, c in zip(start.bases, start.coefficients)]
                             + [start.preextension])
+        scale = np.maximum(np.abs(z0), VARIABLE_SCALE_FLOOR)
+        f0 = self.objective(z0)
         best = {"z": z0, "nit": 0}
 
-        def callback(z):
-            best["z"], best["nit"] = z.copy(), best["nit"] + 1
+        def callback(u):
+            best["z"], best["nit"] = u * scale, best["nit"] + 1
 
         bounds = [(None, None)] * sum(self.sizes) + [(0, None)] * len(self.problem.springs)
         t0 = time.perf_counter()
         self.deadline = t0 + time_cap
         finished = True
         try:
-            res = minimize(self.objective, z0, method="SLSQP", bounds=bounds, callback=callback,
-                           constraints=[{"type": "ineq", "fun": self.constraints}],
+            res = minimize(lambda u: self.objective(u * scale) / f0, z0 / scale, method="SLSQP", bounds=bounds,
+                           callback=callback, constraints=[{"type": "ineq", "fun": lambda u: self.constraints(u * scale)}],
                            options={"maxiter": max_iter, "ftol": 1e-10})
             message = f"SLSQP exit {res.status}: {res.message}"
-            best["z"] = res.x
+            best["z"] = res.x * scale
         except TimeCap:
             finished, message = False, f"stopped by the time cap of {time_cap:g} s"
         elapsed = time.perf_counter() - t0
