@@ -210,6 +210,7 @@ IPOPT_OPTIONS = {
     "mu_strategy": _choice("monotone", "adaptive"),
     "mu_oracle": _choice("quality-function", "probing", "loqo"),
     "mu_init": _between(0, 1e3),
+    "mu_max": _between(0, 1e10),
     "bound_push": _between(0, 1),
     "bound_frac": _between(0, 0.5),
     "bound_mult_init_val": _between(0, 1e3),

@@ -69,6 +69,12 @@ FIXED_RANGE_SIZE = 20
 #: feasible Table 4 design (Eq. 47 value 6.01), IPOPT ends at 17.8; at 1000 it reaches 5.55
 #: (and the 1-DOF and Sec. 10.4 problems converge in fewer iterations).
 OBJECTIVE_SCALE = 1000.0
+#: The largest barrier parameter IPOPT's adaptive μ may choose, in the NLP's scaled units (mm,
+#: mm², the objective at :data:`OBJECTIVE_SCALE`). IPOPT's own cap is a thousand times the
+#: start's average complementarity: from a circular start, whose slacks in mm² are large, it
+#: chose μ ≈ 3e4 on the first iteration, the iterates left every row's neighbourhood, and
+#: Ludovico2021's pendulum ended at max_iterations on most grids between 21 and 51 angles.
+MU_MAX = 1.0
 #: IPOPT options of a solve that starts from an optimum and its multipliers: the solve that
 #: imposes the deferred rows (from the optimum without them) and a warm re-solve after a small
 #: edit (from the last answer, :class:`Multipliers`). Such a start is already near the central
@@ -1154,7 +1160,8 @@ def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[c
     # shortens the step) is kept in the result by Transcription.solve, not printed
     ipopt = {"print_time": False, "show_eval_warnings": True, "ipopt.print_level": 0, "ipopt.sb": "yes",
              "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-             "ipopt.mu_strategy": "adaptive", **{f"ipopt.{k}": v for k, v in opt.ipopt}, **(extra or {})}
+             "ipopt.mu_strategy": "adaptive", "ipopt.mu_max": MU_MAX, **{f"ipopt.{k}": v for k, v in opt.ipopt},
+             **(extra or {})}
     if opt.functions == "compiled":
         lib, compiled_now = compiled.library(nlp)
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), compiled_now
