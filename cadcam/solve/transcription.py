@@ -72,9 +72,12 @@ OBJECTIVE_SCALE = 1000.0
 #: The largest barrier parameter IPOPT's adaptive μ may choose, in the NLP's scaled units (mm,
 #: mm², the objective at :data:`OBJECTIVE_SCALE`). IPOPT's own cap is a thousand times the
 #: start's average complementarity: from a circular start, whose slacks in mm² are large, it
-#: chose μ ≈ 3e4 on the first iteration, the iterates left every row's neighbourhood, and
-#: Ludovico2021's pendulum ended at max_iterations on most grids between 21 and 51 angles.
-MU_MAX = 1.0
+#: chose a μ orders of magnitude above the objective's scale on the first iteration, the
+#: iterates left every row's neighbourhood, and Ludovico2021's pendulum ended at
+#: max_iterations on most grids between 21 and 51 angles (``make convergence`` measures it).
+#: A cap of 1 does as well there, but leads Endo2010's inverted pendulum to a worse optimum next
+#: to a fold of its departure.
+MU_MAX = 10.0
 #: IPOPT options of a solve that starts from an optimum and its multipliers: the solve that
 #: imposes the deferred rows (from the optimum without them) and a warm re-solve after a small
 #: edit (from the last answer, :class:`Multipliers`). Such a start is already near the central

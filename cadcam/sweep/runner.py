@@ -234,7 +234,7 @@ def claim(db: sqlite3.Connection, case_id: str) -> bool:
 def read_rows(path) -> tuple[dict, list[dict]]:
     """The study definition and every recorded case (parsed JSON), ordered by case index."""
     if not Path(path).is_file():
-        raise SweepError(f"{path}: no such study database (a file that `cadcam sweep` wrote)")
+        raise SweepError(f"{str(path)!r}: no such study database (a file that `cadcam sweep` wrote)")
     try:
         db = _read_only(path)
         try:
