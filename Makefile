@@ -43,7 +43,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/run.py
 
 # every shipped spec by the NLP at grids 21/46/91 and its own and twice its order, from the default
-# and random starts, within CPU-time budgets (benchmarks/bench_convergence.py; about 30 minutes) → benchmarks/convergence.md
+# and random starts, within CPU-time budgets (benchmarks/bench_convergence.py; about an hour) → benchmarks/convergence.md
 convergence: $(STAMP)
 	$(PY) benchmarks/run.py --scripts bench_convergence.py --results benchmarks/convergence.md
 
