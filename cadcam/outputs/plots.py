@@ -29,6 +29,8 @@ from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
 
 MM = 1e3
+#: Micrometres per metre (the output error's axis).
+UM = 1e6
 #: Resolution of the saved PNGs [dots per inch].
 DPI = 110
 #: A circle centre, spring end or cable end further from the joint than this many times the
@@ -542,14 +544,13 @@ def output_figure(ev: Evaluation, recheck: Evaluation | None = None) -> Figure:
         a1.plot(th, MM * x, color="tab:blue", label=f"{mech.output} (rootfinder)")
         a1.set_ylabel(f"{mech.output} [mm]")
         a1.legend(fontsize=8, loc="best")
-        a2.plot(th, 1e3 * MM * err, color="tab:red", label=None if recheck is None else "re-check grid")
-        where = "design grid" if recheck is None else "re-check grid"
+        a2.plot(th, UM * err, color="tab:red", label=None if recheck is None else "re-check grid")
         if recheck is not None:
-            a2.plot(np.degrees(coarse.theta), 1e3 * MM * output_error(mech, coarse), "o", ms=3, color="0.2",
+            a2.plot(np.degrees(coarse.theta), UM * output_error(mech, coarse), "o", ms=3, color="0.2",
                     label="design grid (the NLP's angles)")
             a2.legend(fontsize=8, loc="best")
         a1.set_title(f"{mech.name}: max |{mech.output} − {mech.output}_d| {MM * np.abs(err).max():.3g} mm "
-                     f"({where})", fontsize=9)
+                     f"({'design' if recheck is None else 're-check'} grid)", fontsize=9)
         a2.axhline(0, color="0.5", lw=0.6)
         a2.set_ylabel(f"{mech.output} − {mech.output}_d [µm]")
         a2.set_xlabel("θ [deg]")
