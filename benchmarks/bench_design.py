@@ -8,15 +8,17 @@ flat in the grid, the 1-DOF solve ≤ 30 ms, ≥ 300× the nested baseline at eq
 ≤ 1 MB of C compiling in ≤ 20 s.
 
 Tables: (1) the 1-DOF and Sec. 10.4 problems as their specs state them, i.e. under the
-``energy`` torque model (τ = ∂V/∂θ, cadcam's default), functions expanded (the default);
+``energy`` torque model (τ = ∂V/∂θ, cadcam's default), functions expanded;
 (2) the same with IPOPT's functions expanded, mapped and compiled (``solver.functions``;
-compiled ones are first compiled into an empty cache folder, timed, then built from it);
+compiled ones are first compiled into an empty cache folder, timed, then built from it), and
+on the default path (``auto``): a structure's first design from an empty cache (expanded while
+its library compiles in the background), then the designs after it (from the cache);
 (3) the build time of Sec. 10.4 against the grid, expanded, mapped and compiled from the cache; (4) the nested baseline
 (benchmarks/nested_baseline.py), which reimplements Johnston2023's force model (Eq. 19–21),
 so it is compared with cadcam solving the same Sec. 10.4 problem under ``force``: same model,
 same limits and margins, same grid, same start, the same objective (Eq. 47) evaluated by the
 same re-check; (5) ``cadcam design`` of the 1-DOF spec, wall time, with every file, without
-the figures, and so compiled from the cache; (6) the size of the exported Sec. 10.4 problem,
+the figures, and so with functions expanded; (6) the size of the exported Sec. 10.4 problem,
 its compile time as ``--format shared`` compiles it and its functions' speed.
 """
 from __future__ import annotations
@@ -36,9 +38,8 @@ import numpy as np
 
 from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
-from cadcam.solve.compiled import LIBRARY_NAME
+from cadcam.solve.compiled import BACKGROUND_ENV, LIBRARY_NAME, cached_libraries
 from cadcam.solve.transcription import Transcription
-from cadcam.problem import FUNCTIONS
 from cadcam.export.codegen import CFLAGS, export, shared_library_command
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -55,6 +56,10 @@ BASELINE_MODEL = "force"
 EQUAL_OBJECTIVE = 0.01
 
 
+#: The ways of evaluating IPOPT's functions of the functions table, beside the default (auto).
+FUNCTIONS = ("expanded", "mapped", "compiled")
+#: How long the default path's background compile may take before the benchmark gives up [s].
+BACKGROUND_WAIT_S = 300.0
 #: Runs whose fine re-check is timed (the re-check does not depend on the build).
 RECHECK_RUNS = 3
 #: Grid sizes of the build-time scan (angles per joint, Sec. 10.4).
@@ -82,6 +87,7 @@ def bench(problem, runs: int) -> dict:
     return {"build": statistics.median(builds), "solve": statistics.median(solves),
             "iterations": statistics.median(iters), "recheck": statistics.median(rechecks),
             "status": sol.status, "n_var": tr.v.size, "n_con": tr.bounds(problem)[0].size,
+            "functions": tr.functions_used,
             "objective": evaluate(problem, sol.design).metrics.objective,
             "feasible": not fine.violations, "violations": fine.violations}
 
@@ -121,6 +127,35 @@ def functions_table(runs: int, root: str, expanded: dict[str, dict]) -> tuple[di
                   f"{r['recheck']:.3f} | {r['build'] + r['solve'] + r['recheck']:.3f} | {r['objective']:.6g} | "
                   f"{'–' if compile_s is None else f'{compile_s:.1f}'} |", flush=True)
     return caches, results
+
+
+def default_path_table(runs: int, root: str) -> tuple[dict, dict]:
+    """Sec. 10.4 on the default path (``functions = "auto"``) from an empty cache folder made in
+    ``root``: the first design (expanded, its library compiled in the background by a process
+    of its own), then, once that library is in the cache, the median of ``runs`` designs after
+    it. Returns the two :func:`bench` results."""
+    name, path, variant = CASES[1]
+    problem = load_spec(path, variant)
+    assert problem.options.functions == "auto"
+    os.environ["CADCAM_CACHE_DIR"] = tempfile.mkdtemp(dir=root)
+    os.environ[BACKGROUND_ENV] = "1"
+    try:
+        first = bench(problem, 1)
+        t0 = time.perf_counter()
+        while not cached_libraries() and time.perf_counter() - t0 < BACKGROUND_WAIT_S:
+            time.sleep(0.5)
+        waited = time.perf_counter() - t0
+    finally:
+        os.environ[BACKGROUND_ENV] = "0"
+    after = bench(problem, runs)
+    print(f"\n{name} on the default path (functions auto) from an empty cache: the first design, then the designs "
+          f"after it (median of {runs}); the background compile ended {waited:.1f} s after the first design\n")
+    print("| design | functions | build [s] | solve [s] | iterations | fine re-check [s] | end to end [s] | objective |")
+    print("|---|---|---|---|---|---|---|---|")
+    for label, r in (("first", first), ("after it", after)):
+        print(f"| {label} | {r['functions']} | {r['build']:.3f} | {r['solve']:.3f} | {r['iterations']:.0f} | "
+              f"{r['recheck']:.3f} | {r['build'] + r['solve'] + r['recheck']:.3f} | {r['objective']:.6g} |", flush=True)
+    return first, after
 
 
 def build_scan(runs: int, expanded: dict[str, dict], root: str) -> dict[str, list[float]]:
@@ -170,19 +205,19 @@ def main() -> None:
     ap.add_argument("--baseline-cap", type=float, default=300.0,
                     help="wall-time budget of the nested baseline [s]")
     args = ap.parse_args()
-    print(f"cadcam design NLPs as their specs state them (torque model in the second column; "
-          f"functions expanded), median of {args.runs} runs (wall time, this machine)\n")
+    print(f"cadcam design NLPs as their specs state them (torque model in the second column), "
+          f"functions expanded, median of {args.runs} runs (wall time, this machine)\n")
     print("| case | torque model | variables | constraints | build [s] | solve [s] | iterations | fine re-check [s] | status |")
     print("|---|---|---|---|---|---|---|---|---|")
     expanded = {}
     for name, path, variant in CASES:
-        problem = load_spec(path, variant)
-        assert problem.options.functions == "expanded"
+        problem = load_spec(path, variant).with_options(functions="expanded")
         r = expanded[name] = bench(problem, args.runs)
         print(f"| {name} | {problem.torque_model} | {r['n_var']} | {r['n_con']} | {r['build']:.3f} | "
               f"{r['solve']:.3f} | {r['iterations']:.0f} | {r['recheck']:.3f} | {r['status']} |", flush=True)
     with tempfile.TemporaryDirectory(prefix="cadcam-bench-cache-") as root:
         caches, results = functions_table(args.runs, root, expanded)
+        first, default = default_path_table(args.runs, root)
         scanned = build_scan(args.runs, expanded, root)
         ratios = baseline_table(args, root)
         walls = design_command_table(args.runs, root, caches[CASES[0][0]])
@@ -191,8 +226,8 @@ def main() -> None:
     one, two = (name for name, _, _ in CASES)
     e2e = results[two, "compiled"]
     e2e_s = e2e["build"] + e2e["solve"] + e2e["recheck"]
-    default = expanded[two]
     default_s = default["build"] + default["solve"] + default["recheck"]
+    first_s = first["build"] + first["solve"] + first["recheck"]
     best = ratios.get("compiled, from the cache")
     print_goals([
         ("≥ 300× the nested baseline at equal objective (Sec. 10.4, `force`; cadcam compiled, from the cache)",
@@ -200,8 +235,10 @@ def main() -> None:
          best is not None and best >= 300),
         ("Sec. 10.4 end to end ≤ 0.5 s (build from a warm cache + solve + fine re-check)",
          f"{e2e_s:.3f} s ({e2e['build']:.3f} + {e2e['solve']:.3f} + {e2e['recheck']:.3f})", e2e_s <= 0.5),
-        ("Sec. 10.4 end to end ≤ 0.5 s on the default path (functions expanded: build + solve + fine re-check)",
-         f"{default_s:.3f} s ({default['build']:.3f} + {default['solve']:.3f} + {default['recheck']:.3f})",
+        ("Sec. 10.4 end to end ≤ 0.5 s on the default path (functions auto, after the structure's first "
+         "design: build + solve + fine re-check)",
+         f"{default_s:.3f} s ({default['build']:.3f} + {default['solve']:.3f} + {default['recheck']:.3f}; "
+         f"functions {default['functions']}); the first design {first_s:.3f} s (functions {first['functions']})",
          default_s <= 0.5),
         *[(f"build flat in the grid (Sec. 10.4, functions {label}, {SCAN_GRIDS[0]} → {SCAN_GRIDS[-1]} angles per "
            f"joint: at most {FLAT_BUILD}× the time for 3.8× the angles)",
@@ -211,7 +248,8 @@ def main() -> None:
         ("1-DOF solve ≤ 30 ms (compiled, from the cache)",
          f"{1e3 * results[one, 'compiled']['solve']:.0f} ms, {results[one, 'compiled']['iterations']:.0f} iterations",
          results[one, "compiled"]["solve"] <= 0.030),
-        ("`cadcam design` of the 1-DOF spec ≤ 1.5 s wall, as `make demo` runs it (every file)",
+        ("`cadcam design` of the 1-DOF spec ≤ 1.5 s wall, as `make demo` runs it (every file; functions auto, "
+         "from the cache)",
          "; ".join(f"{label} {wall:.2f} s" for label, wall in walls.items()), walls[DESIGN_RUNS[0][0]] <= 1.5),
         ("warm re-solve of the 1-DOF spec after a small edit ≤ 0.3 s (`cadcam.Session`, functions expanded; "
          "median of the edits)", f"{warm:.3f} s", warm <= 0.3),
@@ -242,7 +280,7 @@ def warm_resolve_table() -> float:
     data = read_spec_data(spec)
     session = Session()
     t0 = time.perf_counter()
-    first = session.design(spec)
+    first = session.design(spec, functions="expanded")
     print(f"\nWarm re-solve after a small edit (`cadcam.Session`, 1-DOF spec, functions expanded); the first "
           f"design, with its build: {time.perf_counter() - t0:.3f} s, {first.nit} iterations\n")
     print("| edit | warm: time [s] | iterations | objective | from the default start: time [s] | iterations "
@@ -252,9 +290,9 @@ def warm_resolve_table() -> float:
     for key, factor in EDITS:
         value = _spec_value(data, key) * factor
         t0 = time.perf_counter()
-        warm = session.design(spec, overrides={key: value})
+        warm = session.design(spec, overrides={key: value}, functions="expanded")
         warm_times.append(time.perf_counter() - t0)
-        problem = load_problem(spec, overrides={key: value})
+        problem = load_problem(spec, overrides={key: value}, functions="expanded")
         t0 = time.perf_counter()
         cold = optimize(problem, transcription=built_for(problem)[0])
         cold_s = time.perf_counter() - t0
@@ -274,13 +312,15 @@ def _spec_value(data: dict, key: str) -> float:
 #: ``cadcam design`` runs of :func:`design_command_table`: label, extra arguments.
 DESIGN_RUNS = (("every file", []),
                ("`--no-figures`", ["--no-figures"]),
-               ("`--no-figures`, compiled from the cache", ["--no-figures", "--set", "solver.functions=compiled"]))
+               ("`--no-figures`, functions expanded (a structure's first design)",
+                ["--no-figures", "--set", "solver.functions=expanded"]))
 
 
 def design_command_table(runs: int, root: str, cache: str) -> dict[str, float]:
-    """Wall time of ``cadcam design`` on the 1-DOF spec, a new process each run, with every
-    output file, without the figures, and without them with compiled functions from the cache
-    folder ``cache`` (the functions table's), beside the work its result.json reports and the
+    """Wall time of ``cadcam design`` on the 1-DOF spec, a new process each run, on the default
+    path after its first design (functions auto: the library from the cache folder ``cache``,
+    the functions table's) with every output file and without the figures, and without them
+    with functions expanded, beside the work its result.json reports and the
     time a new process takes to start Python and import cadcam; the three run side by side.
     Returns the median wall times [s] by run label."""
     spec = CASES[0][1]
@@ -299,7 +339,7 @@ def design_command_table(runs: int, root: str, cache: str) -> dict[str, float]:
             solver = json.loads((out / "result.json").read_text())["solver"]
             parts[label].append([solver[k] for k in ("build_time_s", "solve_time_s", "recheck_time_s")])
     if sorted(Path(cache).glob(LIBRARY_NAME.format("*"))) != libraries:
-        raise RuntimeError(f"the compiled runs compiled their library instead of loading it from {cache}")
+        raise RuntimeError(f"the default runs compiled their library instead of loading it from {cache}")
     start = statistics.median(imports)
     print(f"\n`cadcam design {spec.relative_to(ROOT)} -o DIR` (a new process each run), median of {runs} runs; "
           f"starting Python and importing cadcam takes {start:.2f} s (timed alone); build, solve and re-check "

@@ -3,7 +3,7 @@ grid, the profile's degree and the number of joints, in one table with growth ex
 
 ``python benchmarks/bench_growth.py [--runs 2]``. Measured, not asserted (issue 30, item 5).
 Each row is :func:`cadcam.optimize.optimize` from the default start, functions expanded (the
-default path), medians of ``runs``:
+first build of a structure on the default path), medians of ``runs``:
 
 * grid: the 1-DOF spec at 12, 23, 46 and 91 angles (its re-check grid grows with it);
 * degree: the 1-DOF spec with its cam's polynomial order 4, 5, 6, 8 and 10 (46 angles);
@@ -41,7 +41,8 @@ PARTS = ("build", "solve", "recheck")
 def _joints_problems():
     """(joints, problem) for 1 to 4 joints at :data:`JOINT_GRID` angles per joint."""
     def sized(problem):
-        return replace(problem, options=replace(problem.options, grid=JOINT_GRID, recheck_factor=JOINT_RECHECK))
+        return replace(problem, options=replace(problem.options, grid=JOINT_GRID, recheck_factor=JOINT_RECHECK,
+                                                functions="expanded"))
     return [(1, sized(load_problem(SPEC_1DOF))),
             (2, sized(load_problem(MODELS / "johnston2023_rr_arm.toml"))),
             (3, sized(load_problem(MODELS / "johnston2023_three_cam_arm.toml"))),
@@ -69,12 +70,12 @@ def exponent(sizes, times) -> float:
 
 def scans(runs: int):
     """(scan, label, size, measurement) rows of the three scans."""
-    base = load_problem(SPEC_1DOF)
+    base = load_problem(SPEC_1DOF, functions="expanded")
     for n in GRIDS:
         yield "grid", f"1-DOF, {n} angles", n, measure(replace(base, options=replace(base.options, grid=n)), runs)
     for order in ORDERS:
         yield "degree", f"1-DOF, order {order}", order + 1, measure(
-            load_problem(SPEC_1DOF, overrides={"cams.1.order": order}), runs)
+            load_problem(SPEC_1DOF, overrides={"cams.1.order": order}, functions="expanded"), runs)
     for joints, problem in _joints_problems():
         yield "joints", f"{joints} joint{'s' * (joints > 1)}, {JOINT_GRID} angles each", JOINT_GRID**joints, \
             measure(problem, runs)

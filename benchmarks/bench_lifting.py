@@ -34,7 +34,7 @@ CABLE_ROBOT = ("cable robot, two pairs, order 30", "fedorov2018_cable_robot.toml
 def measure(spec: str, overrides: dict, lifted: bool, run_solver: bool) -> dict:
     """Build (and with ``run_solver`` solve) the NLP of ``spec`` with every profile's rows lifted
     or none."""
-    problem = load_problem(MODELS / spec, overrides=overrides)
+    problem = load_problem(MODELS / spec, overrides=overrides, functions="expanded")
     problem, start = start_design(replace(problem, options=replace(problem.options, method="nlp")))
     saved = transcription.LIFTED_PROFILE_SIZE
     transcription.LIFTED_PROFILE_SIZE = 0 if lifted else 10**9

@@ -16,6 +16,7 @@ import platform
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -55,8 +56,20 @@ def _lines(path: str) -> list[str]:
 
 
 def run_script(name: str) -> tuple[str, int]:
-    """Run one benchmark script, echoing its output; return the output and exit code."""
-    proc = subprocess.Popen([sys.executable, str(HERE / name)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    """Run one benchmark script, echoing its output; return the output and exit code. It runs
+    with an empty cache of compiled libraries of its own and no background compiles (which
+    would load the machine while it measures): ``functions = "auto"`` expands what the script
+    has not compiled itself, whatever this machine has cached."""
+    from cadcam.solve.compiled import BACKGROUND_ENV
+    with tempfile.TemporaryDirectory(prefix="cadcam-bench-cache-") as cache:
+        env = {**os.environ, "CADCAM_CACHE_DIR": cache, BACKGROUND_ENV: "0"}
+        proc = subprocess.Popen([sys.executable, str(HERE / name)], stdout=subprocess.PIPE, text=True, cwd=ROOT,
+                                env=env)
+        return _echoed(proc)
+
+
+def _echoed(proc: subprocess.Popen) -> tuple[str, int]:
+    """``proc``'s output, echoed line by line as it comes, and its exit code."""
     out = []
     assert proc.stdout is not None
     for line in proc.stdout:

@@ -361,7 +361,8 @@ def cmd_cache(args) -> int:
         return 0
     libs = cached_libraries()
     print(f"{cache_dir()}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
-          "(solver.functions = 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves the folder)")
+          "(solver.functions = 'auto' or 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves "
+          "the folder)")
     return 0
 
 

@@ -233,7 +233,7 @@ def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
     return Result(status=status, message=message, problem=problem,
                   design=replace(best.design, poses=poses_of(problem, on_grid.units)),
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,
-                  recheck_time_s=recheck_s)
+                  recheck_time_s=recheck_s, functions=tr.functions_used)
 
 
 #: Margins of a profile's shape that the NLP holds at its convexity check points only

@@ -21,7 +21,7 @@ from .targets import Target
 #: Tracking objectives of the NLP (:attr:`Options.objective`).
 OBJECTIVES = ("least_squares", "minimax")
 #: How IPOPT's functions are evaluated (:attr:`Options.functions`).
-FUNCTIONS = ("expanded", "mapped", "compiled")
+FUNCTIONS = ("auto", "expanded", "mapped", "compiled")
 #: Loosest IPOPT tolerance ``[solver] tol`` may set.
 TOL_CAP = 1e-4
 
@@ -167,14 +167,17 @@ SOLVER = {
                       "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
                       "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, "
                       "re-checked like an optimum (no NLP is built)."),
-    "functions": Setting("expanded", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}",
+    "functions": Setting("auto", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}",
                          "How IPOPT's functions of the NLP are evaluated. ``expanded``: expanded "
                          "into scalar (SX) graphs when the solver is built, whose time grows with "
                          "the grid; ``mapped``: the graph of mapped per-angle functions as built, "
                          "flat in the grid, evaluated more slowly; ``compiled``: that graph as C, "
                          "compiled once per problem structure and cached on disk "
                          "(:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, "
-                         "then the fastest to build and to solve. The three give the same optimum "
+                         "then the fastest to build and to solve; ``auto``: compiled where the "
+                         "structure's library is in the cache, else expanded while a C compiler "
+                         "(where one exists) compiles the library in the background for the next "
+                         "build of the same structure. They give the same optimum "
                          "up to rounding (the iteration count may differ by a few) where the optimum "
                          "is isolated; where it is not (an output law met exactly, as by Fedorov2018's "
                          "balancer) rounding can lead IPOPT to another of its optima, in other "

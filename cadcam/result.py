@@ -75,6 +75,9 @@ class Result:
         Wall time to build the NLP [s].
     recheck_time_s : float
         Wall time of the fine re-check [s].
+    functions : str
+        How the NLP's build evaluated IPOPT's functions
+        (:attr:`cadcam.solve.transcription.Transcription.functions_used`; ``none`` without an NLP).
     """
 
     status: str
@@ -86,6 +89,7 @@ class Result:
     solve: Solve | None = None
     build_time_s: float = float("nan")
     recheck_time_s: float = float("nan")
+    functions: str = "none"
 
     @property
     def success(self) -> bool:
@@ -158,7 +162,7 @@ class Result:
                 for v, r, joint in zip(metrics.rmse, metrics.relative_rmse, self.problem.joints)]
         lines = [f"{self.status}: {self.message}",
                  f"  {self.problem.name}: RMSE per joint [N·mm]: {', '.join(rmse) or 'none (no torque goal)'}; "
-                 f"iterations {self.nit}, build {self.build_time_s:.3f} s, "
+                 f"iterations {self.nit}, build {self.build_time_s:.3f} s (functions {self.functions}), "
                  f"solve {self.solve.solve_time_s if self.solve is not None else float('nan'):.3f} s, "
                  f"fine re-check {self.recheck_time_s:.3f} s"]
         outs = [f"{1e3 * v:.3g}" for v in fine.output_max_abs_error if v is not None]
@@ -280,7 +284,7 @@ class Result:
                 "return_status": sol.return_status,
                 "iterations": sol.iterations, "solve_time_s": sol.solve_time_s,
                 "build_time_s": self.build_time_s, "recheck_time_s": self.recheck_time_s,
-                "objective": sol.objective,
+                "functions": self.functions, "objective": sol.objective,
                 "start": sol.start, "trials": sol.trials, "history": sol.history, "warnings": sol.warnings,
                 "tangency_nlp_vs_rootfinder_max": float(max(
                     np.abs(sol.z[u] - unit.z).max() for u, unit in enumerate(ev.units))),

@@ -1,5 +1,6 @@
 """Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,24 @@ SPEC_1DOF = ROOT / "models" / "johnston2023_1dof.toml"
 SPEC_RR = ROOT / "models" / "johnston2023_rr_arm.toml"
 TABLE3 = ROOT / "models" / "johnston2023_table3_design.json"
 TABLE4 = ROOT / "models" / "johnston2023_table4_design.json"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def private_compile_cache(tmp_path_factory):
+    """Every test in an empty cache of compiled libraries of its session, with no background
+    compiles: ``functions = "auto"`` then expands every NLP, as on a machine without a
+    compiler, whatever libraries this machine has cached (tests of compiled functions set a
+    cache of their own)."""
+    from cadcam.solve import compiled
+    saved = {name: os.environ.get(name) for name in ("CADCAM_CACHE_DIR", compiled.BACKGROUND_ENV)}
+    os.environ["CADCAM_CACHE_DIR"] = str(tmp_path_factory.mktemp("compiled"))
+    os.environ[compiled.BACKGROUND_ENV] = "0"
+    yield
+    for name, value in saved.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
 
 
 @pytest.fixture(scope="session")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import LINK_ANGLE, design_methods, mechanism_class, mechanism_kinds, torque_models
-from ..problem import ACCEPTANCE, BAND_WEIGHT, TOLERANCES
+from ..problem import ACCEPTANCE, BAND_WEIGHT, FUNCTIONS, TOLERANCES
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -59,6 +59,7 @@ def result_schema(schema: dict) -> dict:
     defs = out["$defs"]
     defs["torque_model"]["enum"] = list(torque_models())
     defs["options"]["properties"]["method"]["enum"] = ["nlp", *design_methods()]
+    defs["options"]["properties"]["functions"]["enum"] = list(FUNCTIONS)
     defs["solver_run"]["properties"]["name"]["enum"] = ["ipopt", *design_methods()]
     kinds = list(dict.fromkeys(target_kinds() + target_kinds(output=True)))
     defs["target"]["properties"]["kind"]["enum"] = kinds

@@ -14,6 +14,11 @@ milliseconds.
 
 Concurrent writers are safe: each compiles in a private temporary folder inside the cache and
 moves its library into place with an atomic rename, so a reader sees a whole library or none.
+
+``functions = "auto"`` (the default) loads a structure's library where the cache holds it and
+otherwise solves with expanded functions while :func:`compile_in_background` compiles the
+library in a detached process of low priority (``python -m cadcam.solve.compiled``), so that
+the next build of that structure, in any process, loads it.
 """
 from __future__ import annotations
 
@@ -24,7 +29,9 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
+import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -56,6 +63,20 @@ FUNCTION_OPTIONS = {"cse": True}
 
 #: File name of a compiled library in the cache, by its key (:func:`library_key`).
 LIBRARY_NAME = "nlp_{}.so"
+#: File name of a background compile's NLP (:func:`compile_in_background`), by its library's
+#: key: there while the compile is under way.
+PENDING_NAME = ".pending_{}.casadi"
+#: File name of a failed background compile's first lines of error, by its library's key: the
+#: structure is not compiled in the background again (``cadcam cache --clear`` removes it).
+FAILED_NAME = "nlp_{}.failed"
+#: A background compile pending for longer than this is taken for dead and started again [s].
+PENDING_STALE_S = 900.0
+#: Environment variable that, set to ``0``, keeps ``functions = "auto"`` from compiling
+#: libraries in the background (it then loads the ones in the cache and expands the rest): for
+#: processes whose structures are short-lived, such as a test suite's.
+BACKGROUND_ENV = "CADCAM_BACKGROUND_COMPILE"
+#: Niceness added to a background compile: the design that started it goes on at full speed.
+BACKGROUND_NICENESS = 10
 
 
 class CompileError(RuntimeError):
@@ -85,7 +106,7 @@ def compiler() -> str:
     found = _found()
     if found is None:
         raise CompileError("solver.functions = 'compiled' needs a C compiler (cc or gcc) on PATH; "
-                           "install one or use functions = 'expanded'")
+                           "install one or use functions = 'auto' (expanded without one)")
     return found
 
 
@@ -112,7 +133,7 @@ def library_key(nlp: dict, cc: str) -> str:
     """Hex digest naming the library of ``nlp`` compiled by ``cc``: its serialized graph, the
     cadcam and CasADi versions, the compiler, :data:`CFLAGS`, :data:`DIRECTIONS` and
     :data:`FUNCTION_OPTIONS`."""
-    graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
+    graph = _nlp_function(nlp).serialize()
     digest = hashlib.sha256()
     for part in (__version__, ca.__version__, cc, " ".join(CFLAGS), str(DIRECTIONS),
                  json.dumps(FUNCTION_OPTIONS, sort_keys=True), graph):
@@ -121,9 +142,18 @@ def library_key(nlp: dict, cc: str) -> str:
     return digest.hexdigest()[:32]
 
 
-def library(nlp: dict) -> tuple[Path, bool]:
+def cached_library(nlp: dict) -> Path | None:
+    """The compiled library of ``nlp`` in the cache, or None (also without a C compiler)."""
+    cc = _found()
+    if cc is None:
+        return None
+    path = cache_dir() / LIBRARY_NAME.format(library_key(nlp, cc))
+    return path if path.exists() else None
+
+
+def library(nlp: dict, key: str | None = None) -> tuple[Path, bool]:
     """The compiled library of ``nlp``'s :data:`ORACLE` functions, and whether it was compiled
-    now (False: found in the cache).
+    now (False: found in the cache). ``key`` is its :func:`library_key` if the caller has it.
 
     Raises
     ------
@@ -131,7 +161,7 @@ def library(nlp: dict) -> tuple[Path, bool]:
         Without a C compiler, or if compiling fails (the compiler's first lines of error).
     """
     folder, cc = cache_dir(), compiler()
-    path = folder / LIBRARY_NAME.format(library_key(nlp, cc))
+    path = folder / LIBRARY_NAME.format(key or library_key(nlp, cc))
     if path.exists():
         return path, False
     folder.mkdir(parents=True, exist_ok=True)
@@ -151,6 +181,56 @@ def library(nlp: dict) -> tuple[Path, bool]:
         _run([cc, "-shared", *map(str, objects), "-o", str(built), "-lm"])
         os.replace(built, path)
     return path, True
+
+
+def compile_in_background(nlp: dict) -> bool:
+    """Start compiling ``nlp``'s library into the cache in a detached process of low priority
+    (:data:`BACKGROUND_NICENESS`), unless one is under way, it failed before, there is no C
+    compiler or :data:`BACKGROUND_ENV` is ``0``. Returns whether a compile is under way.
+
+    The NLP goes to the process as its serialized graph in the cache folder
+    (:data:`PENDING_NAME`), which the process removes when it is done.
+    """
+    cc = _found()
+    if cc is None or os.environ.get(BACKGROUND_ENV, "1") == "0":
+        return False
+    key = library_key(nlp, cc)
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    pending = folder / PENDING_NAME.format(key)
+    if (folder / FAILED_NAME.format(key)).exists():
+        return False
+    with contextlib.suppress(FileNotFoundError):
+        if time.time() - pending.stat().st_mtime > PENDING_STALE_S:
+            pending.unlink()
+    try:  # the pending file is the lock: one compile per structure
+        os.close(os.open(pending, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        return True
+    _nlp_function(nlp).save(str(pending))
+    subprocess.Popen([sys.executable, "-m", __name__, key, str(pending)], start_new_session=True,
+                     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return True
+
+
+def _nlp_function(nlp: dict) -> ca.Function:
+    """``nlp`` as one function (x, p) → (f, g)."""
+    return ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
+
+
+def compile_pending(key: str, pending: Path) -> None:
+    """Compile the serialized NLP ``pending`` into the cache as the library of ``key`` (the
+    detached process :func:`compile_in_background` starts), then remove ``pending``; a failure
+    is written beside the libraries (:data:`FAILED_NAME`)."""
+    try:
+        f = ca.Function.load(str(pending))
+        x, p = f.mx_in()
+        obj, g = f.call([x, p], True, False)
+        library({"x": x, "p": p, "f": obj, "g": g}, key)
+    except (CompileError, RuntimeError, OSError) as e:
+        (pending.parent / FAILED_NAME.format(key)).write_text(str(e)[:2000])
+    finally:
+        pending.unlink(missing_ok=True)
 
 
 def _compile(cc: str, source: Path) -> Path:
@@ -190,10 +270,18 @@ def cached_libraries() -> list[Path]:
 
 
 def clear_cache() -> tuple[int, int]:
-    """Remove the compiled libraries from :func:`cache_dir`; return how many and their bytes.
-    A process that has one loaded keeps using it; a later build compiles it again. Build
-    folders of compiles under way are left alone."""
+    """Remove the compiled libraries and the notes of failed background compiles from
+    :func:`cache_dir`; return how many libraries and their bytes. A process that has one
+    loaded keeps using it; a later build compiles it again. Compiles under way are left alone."""
     removed = [(path, path.stat().st_size) for path in cached_libraries()]
     for path, _ in removed:
         path.unlink(missing_ok=True)
+    folder = cache_dir()
+    for note in folder.glob(FAILED_NAME.format("*")) if folder.is_dir() else ():
+        note.unlink(missing_ok=True)
     return len(removed), sum(size for _, size in removed)
+
+
+if __name__ == "__main__":  # the detached process of compile_in_background
+    os.nice(BACKGROUND_NICENESS)
+    compile_pending(sys.argv[1], Path(sys.argv[2]))

@@ -196,9 +196,9 @@ class Transcription:
     build_time_s : float
         Wall time of building the symbolic NLP and the IPOPT solver (with ``compiled``
         functions: loading, or generating and compiling, their library) [s].
-    compiled_now : bool
-        Whether this build compiled the NLP's library (False: found in the cache, or functions
-        not ``compiled``).
+    functions_used : str
+        How this build evaluates IPOPT's functions: ``expanded``, ``mapped`` or one of
+        :data:`COMPILED_NOW`, :data:`COMPILED_CACHED`, :data:`EXPANDED_COMPILING`.
     """
 
     def __init__(self, problem: Problem):
@@ -259,10 +259,16 @@ class Transcription:
         self._deferred = ca.Function("deferred", [x, P], [ca.vertcat(*rows.deferred_g, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
                     "g": ca.vertcat(*rows.g)}
-        self.solver, self.compiled_now = _ipopt_solver(self.nlp, opt)
+        self.solver, self.functions_used = _ipopt_solver(self.nlp, opt)
         self._imposing = None  # the solver with the deferred rows, built when first needed
         self._warm = None  # the solver warm from an answer and its multipliers, built when first needed
         self.build_time_s = time.perf_counter() - t0
+
+    @property
+    def compiled_now(self) -> bool:
+        """Whether this build compiled the NLP's library (False: found in the cache, or its
+        functions not compiled)."""
+        return self.functions_used == COMPILED_NOW
 
     # -- numbers of a case -------------------------------------------------------------------
     def parameters(self, problem: Problem) -> np.ndarray:
@@ -1155,10 +1161,11 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     return out
 
 
-def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[ca.Function, bool]:
+def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[ca.Function, str]:
     """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
-    CasADi options), and whether this call compiled their library (False: found in the cache,
-    or functions not ``compiled``)."""
+    CasADi options), and how they were: ``auto`` loads the library the cache holds, else
+    expands them while the library compiles in the background where it can
+    (:func:`cadcam.solve.compiled.compile_in_background`)."""
     # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
     # shortens the step) is kept in the result by Transcription.solve, not printed
     ipopt = {"print_time": False, "show_eval_warnings": True, "ipopt.print_level": 0, "ipopt.sb": "yes",
@@ -1167,8 +1174,22 @@ def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[c
              **(extra or {})}
     if opt.functions == "compiled":
         lib, compiled_now = compiled.library(nlp)
-        return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), compiled_now
-    return ca.nlpsol("cadcam", "ipopt", nlp, {**ipopt, "expand": opt.functions == "expanded"}), False
+        return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
+    used = opt.functions
+    if used == "auto":
+        lib = compiled.cached_library(nlp)
+        if lib is not None:
+            return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_CACHED
+        used = EXPANDED_COMPILING if compiled.compile_in_background(nlp) else "expanded"
+    return ca.nlpsol("cadcam", "ipopt", nlp, {**ipopt, "expand": used != "mapped"}), used
+
+
+#: How a build's functions were evaluated (:attr:`Transcription.functions_used`), beyond
+#: ``expanded`` and ``mapped``; ``auto`` (:data:`cadcam.problem.FUNCTIONS`) is one of the
+#: last two or ``expanded``.
+COMPILED_NOW = "compiled (now)"
+COMPILED_CACHED = "compiled (from the cache)"
+EXPANDED_COMPILING = "expanded (compiling in the background for the next build)"
 
 
 @contextlib.contextmanager

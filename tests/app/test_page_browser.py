@@ -3,6 +3,7 @@
 (``cadcam-app-screens``), never into the repository."""
 import io
 import socket
+import os
 import subprocess
 import sys
 import tempfile
@@ -35,15 +36,17 @@ def _free_port() -> int:
 
 
 @pytest.fixture(scope="module")
-def server():
-    """``cadcam app`` on a free port of 127.0.0.1, serving the 1-DOF wire cam. (Panel is
-    looked for here, not at the module's import, where every worker would import it while
-    collecting.)"""
+def server(tmp_path_factory):
+    """``cadcam app`` on a free port of 127.0.0.1, serving the 1-DOF wire cam, its compiled
+    libraries in a cache of its own (not the session's, where the other tests would find them).
+    (Panel is looked for here, not at the module's import, where every worker would import it
+    while collecting.)"""
     pytest.importorskip("panel", reason="Panel is the app extra's (make test installs it)")
     port = _free_port()
     log = tempfile.TemporaryFile()
     proc = subprocess.Popen([sys.executable, "-m", "cadcam", "app", "--example", "johnston2023_1dof", "--port",
-                             str(port), "--no-browser"], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+                             str(port), "--no-browser"], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
+                            env={**os.environ, "CADCAM_CACHE_DIR": str(tmp_path_factory.mktemp("page_cache"))})
     url = f"http://127.0.0.1:{port}/"
     # importing Panel and building the first page takes seconds alone; the CI's two workers
     # under a full suite took more than a minute once

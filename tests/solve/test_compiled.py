@@ -173,7 +173,7 @@ def test_without_a_compiler_the_cli_says_what_to_do(tmp_path, empty_cache, monke
                  "--set", "solver.functions=compiled"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1
-    assert "needs a C compiler" in err and "functions = 'expanded'" in err
+    assert "needs a C compiler" in err and "functions = 'auto'" in err
     assert not (tmp_path / "out").exists()
 
 
