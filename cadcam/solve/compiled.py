@@ -7,8 +7,10 @@ written to a C file of its own and the files compile side by side on the machine
 link into one library: the constraint Jacobian and the Lagrangian Hessian, the two largest,
 compile at the same time instead of one after the other (Sec. 10.4's first build: 9.3 s
 against 16.5 s as one file, on 2 cores). The library is cached under :func:`cache_dir`, keyed
-by the NLP's own serialized graph (which holds its structure and nothing of a case's numbers:
-those are parameters and bounds) and by the cadcam and CasADi versions, the compiler and its
+by the serialized graph of the NLP as the transcription writes it for expanded functions (which
+holds its structure and nothing of a case's numbers: those are parameters and bounds; the
+functions themselves are generated from the same NLP with each mapped function's outputs
+called apart, so a cached library is found without building that second graph) and by the cadcam and CasADi versions, the compiler and its
 flags; a later build of the same structure, in this process or another, loads it in
 milliseconds.
 
@@ -151,9 +153,12 @@ def cached_library(nlp: dict) -> Path | None:
     return path if path.exists() else None
 
 
-def library(nlp: dict, key: str | None = None) -> tuple[Path, bool]:
+def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path, bool]:
     """The compiled library of ``nlp``'s :data:`ORACLE` functions, and whether it was compiled
-    now (False: found in the cache). ``key`` is its :func:`library_key` if the caller has it.
+    now (False: found in the cache). ``source()``, if given, is the same NLP (its variables,
+    parameters and rows in the same order) written as the functions are to be generated from;
+    it is called only to compile. ``key`` is the library's :func:`library_key`, if the caller
+    has it.
 
     Raises
     ------
@@ -167,7 +172,7 @@ def library(nlp: dict, key: str | None = None) -> tuple[Path, bool]:
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=folder, prefix=".build-") as tmp:
         sources = []
-        for name, f in oracle_functions(nlp).items():
+        for name, f in oracle_functions(source() if source is not None else nlp).items():
             # without CasADi's comment per operation, which doubles the C
             gen = ca.CodeGenerator(f"{name}.c", {"verbose": False})
             gen.add(f)
@@ -183,10 +188,11 @@ def library(nlp: dict, key: str | None = None) -> tuple[Path, bool]:
     return path, True
 
 
-def compile_in_background(nlp: dict) -> bool:
-    """Start compiling ``nlp``'s library into the cache in a detached process of low priority
-    (:data:`BACKGROUND_NICENESS`), unless one is under way, it failed before, there is no C
-    compiler or :data:`BACKGROUND_ENV` is ``0``. Returns whether a compile is under way.
+def compile_in_background(nlp: dict, source=None) -> bool:
+    """Start compiling ``nlp``'s library (:func:`library`, from ``source()`` if given) into the
+    cache in a detached process of low priority (:data:`BACKGROUND_NICENESS`), unless one is
+    under way, it failed before, there is no C compiler or :data:`BACKGROUND_ENV` is ``0``.
+    Returns whether a compile is under way.
 
     The NLP goes to the process as its serialized graph in the cache folder
     (:data:`PENDING_NAME`), which the process removes when it is done.
@@ -207,7 +213,7 @@ def compile_in_background(nlp: dict) -> bool:
         os.close(os.open(pending, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
     except FileExistsError:
         return True
-    _nlp_function(nlp).save(str(pending))
+    _nlp_function(source() if source is not None else nlp).save(str(pending))
     subprocess.Popen([sys.executable, "-m", __name__, key, str(pending)], start_new_session=True,
                      stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return True
@@ -226,7 +232,7 @@ def compile_pending(key: str, pending: Path) -> None:
         f = ca.Function.load(str(pending))
         x, p = f.mx_in()
         obj, g = f.call([x, p], True, False)
-        library({"x": x, "p": p, "f": obj, "g": g}, key)
+        library({"x": x, "p": p, "f": obj, "g": g}, key=key)
     except (CompileError, RuntimeError, OSError) as e:
         (pending.parent / FAILED_NAME.format(key)).write_text(str(e)[:2000])
     finally:

@@ -204,6 +204,16 @@ class Transcription:
     def __init__(self, problem: Problem):
         """Build the NLP of ``problem``'s structure, step by step, and its IPOPT solver."""
         t0 = time.perf_counter()
+        self._build_graph(problem)
+        self._split: Transcription | None = None  # the graph compiled functions come from
+        self.solver, self.functions_used = _ipopt_solver(self.nlp, problem.options, self._split_nlp)
+        self._imposing = None  # the solver with the deferred rows, built when first needed
+        self._warm = None  # the solver warm from an answer and its multipliers, built when first needed
+        self.build_time_s = time.perf_counter() - t0
+
+    def _build_graph(self, problem: Problem) -> None:
+        """The NLP of ``problem``'s structure as MX expressions (:attr:`nlp`) and the functions
+        of its parts, step by step."""
         self.problem = problem
         opt = problem.options
         m, S, n = len(problem.joints), len(problem.springs), opt.grid
@@ -259,10 +269,19 @@ class Transcription:
         self._deferred = ca.Function("deferred", [x, P], [ca.vertcat(*rows.deferred_g, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
                     "g": ca.vertcat(*rows.g)}
-        self.solver, self.functions_used = _ipopt_solver(self.nlp, opt)
-        self._imposing = None  # the solver with the deferred rows, built when first needed
-        self._warm = None  # the solver warm from an answer and its multipliers, built when first needed
-        self.build_time_s = time.perf_counter() - t0
+
+    def _split_graph(self) -> "Transcription":
+        """The same NLP with each mapped function's outputs called apart (:func:`_apart`): the
+        graph compiled functions are generated from, with exact sparsity; built on first use
+        (only to compile a library: one in the cache is named by :attr:`nlp`'s graph)."""
+        if self._split is None:
+            self._split = object.__new__(Transcription)
+            self._split._build_graph(self.problem.with_options(functions="mapped"))
+        return self._split
+
+    def _split_nlp(self) -> dict:
+        """:attr:`nlp` as :meth:`_split_graph` writes it."""
+        return self._split_graph().nlp
 
     @property
     def compiled_now(self) -> bool:
@@ -486,14 +505,15 @@ class Transcription:
     def _imposing_solver(self) -> ca.Function:
         """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use."""
         if self._imposing is None:
-            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options, WARM_IPOPT)
+            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options,
+                                              lambda: self._split_graph().whole_nlp, WARM_IPOPT)
         return self._imposing
 
     def _warm_solver(self) -> ca.Function:
         """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use (with
         compiled functions it loads the library :attr:`solver` loaded)."""
         if self._warm is None:
-            self._warm, _ = _ipopt_solver(self.nlp, self.problem.options, WARM_IPOPT)
+            self._warm, _ = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp, WARM_IPOPT)
         return self._warm
 
     def design_of(self, w) -> Design:
@@ -549,8 +569,9 @@ class Transcription:
 
 def _apart(options: Options, f: ca.Function, n: int | None = None):
     """``f`` (mapped over ``n`` columns, if given) as the NLP calls it: a callable returning
-    its outputs in order. Where the NLP's functions are not expanded, each output comes from a
-    call of its own, a function rebuilt from ``f``'s graph.
+    its outputs in order. Where the NLP's functions are evaluated as the MX graph (``mapped``,
+    and the graph compiled functions are generated from: :meth:`Transcription._split_graph`),
+    each output comes from a call of its own, a function rebuilt from ``f``'s graph.
 
     CasADi's reverse mode through one MX call of a function with several outputs seeds each
     unused output with a dense zero, so the Hessian of anything using that call counts every
@@ -558,8 +579,8 @@ def _apart(options: Options, f: ca.Function, n: int | None = None):
     robot's pair, every pose's unknowns coupled to all of both profiles' coefficients). A call
     per output keeps the sparsity exact, and an output nothing uses is never evaluated.
     Expanded into SX the sparsity is exact anyway, and one call shares its outputs' common
-    work."""
-    if options.functions == "expanded":
+    work; this one-call graph also names a compiled library (:mod:`cadcam.solve.compiled`)."""
+    if options.functions != "mapped":
         return f if n is None else f.map(n)
     parts = _output_functions(f, n)
     return lambda *values: [part(*values) for part in parts]
@@ -1161,10 +1182,12 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     return out
 
 
-def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[ca.Function, str]:
+def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None) -> tuple[ca.Function, str]:
     """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
-    CasADi options), and how they were: ``auto`` loads the library the cache holds, else
-    expands them while the library compiles in the background where it can
+    CasADi options), and how they were. ``split()``, if given, is the NLP written as compiled
+    functions are generated from (:meth:`Transcription._split_graph`), built only to compile
+    them (else ``nlp``); their library is named by ``nlp``'s graph. ``auto`` loads the library the cache
+    holds, else expands ``nlp`` while the library compiles in the background where it can
     (:func:`cadcam.solve.compiled.compile_in_background`)."""
     # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
     # shortens the step) is kept in the result by Transcription.solve, not printed
@@ -1173,14 +1196,14 @@ def _ipopt_solver(nlp: dict, opt: Options, extra: dict | None = None) -> tuple[c
              "ipopt.mu_strategy": "adaptive", "ipopt.mu_max": MU_MAX, **{f"ipopt.{k}": v for k, v in opt.ipopt},
              **(extra or {})}
     if opt.functions == "compiled":
-        lib, compiled_now = compiled.library(nlp)
+        lib, compiled_now = compiled.library(nlp, split)
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
     used = opt.functions
     if used == "auto":
         lib = compiled.cached_library(nlp)
         if lib is not None:
             return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_CACHED
-        used = EXPANDED_COMPILING if compiled.compile_in_background(nlp) else "expanded"
+        used = EXPANDED_COMPILING if compiled.compile_in_background(nlp, split) else "expanded"
     return ca.nlpsol("cadcam", "ipopt", nlp, {**ipopt, "expand": used != "mapped"}), used
 
 

@@ -214,7 +214,7 @@ def test_without_a_compiler_the_page_designs_with_expanded_functions(small_wire_
 
 
 def test_a_compile_that_fails_gives_way_to_expanded_functions_with_a_note(small_wire_cam, monkeypatch):
-    def no_library(nlp):
+    def no_library(nlp, source=None):
         raise compiled.CompileError("compiling the NLP failed: cc1: out of memory")
 
     monkeypatch.setattr(compiled, "library", no_library)

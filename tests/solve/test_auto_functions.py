@@ -70,7 +70,7 @@ def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it
 
 @needs_cc
 def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, background):
-    tr = Transcription(small.with_options(functions="mapped"))  # the graph auto builds
+    tr = Transcription(small.with_options(functions="expanded"))  # the graph auto builds
     key = compiled.library_key(tr.nlp, compiled.compiler())
     background.mkdir(parents=True)
     pending = background / compiled.PENDING_NAME.format(key)
@@ -86,7 +86,7 @@ def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, back
 
 @needs_cc
 def test_a_failed_background_compile_is_noted_and_not_tried_again(small, background):
-    tr = Transcription(small.with_options(functions="mapped"))  # the graph auto builds
+    tr = Transcription(small.with_options(functions="expanded"))  # the graph auto builds
     key = compiled.library_key(tr.nlp, compiled.compiler())
     background.mkdir(parents=True)
     broken = background / compiled.PENDING_NAME.format(key)

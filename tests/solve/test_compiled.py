@@ -122,7 +122,7 @@ def test_concurrent_writers_leave_one_whole_library(small, empty_cache):
     """Two threads compile the same structure at once (the compiler runs outside the GIL):
     both get a library that works, one file is left and no temporary folder."""
     problem = small.with_options(functions="compiled")
-    nlp = Transcription(small.with_options(functions="mapped")).nlp
+    nlp = Transcription(small.with_options(functions="expanded")).nlp  # the graph that names the library
     paths, errors = [], []
 
     def build():
