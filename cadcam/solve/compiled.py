@@ -79,6 +79,13 @@ PENDING_STALE_S = 900.0
 BACKGROUND_ENV = "CADCAM_BACKGROUND_COMPILE"
 #: Niceness added to a background compile: the design that started it goes on at full speed.
 BACKGROUND_NICENESS = 10
+#: Address space each process of a background compile may take [bytes] (the Python process and
+#: each compiler it runs): a structure whose C needs more is noted as failed (:data:`FAILED_NAME`)
+#: and keeps expanded functions, instead of a compile no one asked for filling a small
+#: machine's memory.
+BACKGROUND_MEMORY_BYTES = 2 * 2**30
+#: CPU time each process of a background compile may take [s], for the same reason.
+BACKGROUND_CPU_S = 300
 
 
 class CompileError(RuntimeError):
@@ -233,7 +240,7 @@ def compile_pending(key: str, pending: Path) -> None:
         x, p = f.mx_in()
         obj, g = f.call([x, p], True, False)
         library({"x": x, "p": p, "f": obj, "g": g}, key=key)
-    except (CompileError, RuntimeError, OSError) as e:
+    except (CompileError, RuntimeError, OSError, MemoryError) as e:
         (pending.parent / FAILED_NAME.format(key)).write_text(str(e)[:2000])
     finally:
         pending.unlink(missing_ok=True)
@@ -288,6 +295,23 @@ def clear_cache() -> tuple[int, int]:
     return len(removed), sum(size for _, size in removed)
 
 
-if __name__ == "__main__":  # the detached process of compile_in_background
+def _limit_background() -> None:
+    """Lower this process's priority and cap its memory and CPU time (and so its compilers'):
+    :data:`BACKGROUND_NICENESS`, :data:`BACKGROUND_MEMORY_BYTES`, :data:`BACKGROUND_CPU_S`."""
+    import resource
+
     os.nice(BACKGROUND_NICENESS)
+    resource.setrlimit(resource.RLIMIT_AS, (BACKGROUND_MEMORY_BYTES, BACKGROUND_MEMORY_BYTES))
+    # past the soft limit this process gets SIGXCPU, raised here so that the failure is noted
+    # (a compiler past it is killed, and its compile fails); the hard limit a minute later
+    resource.setrlimit(resource.RLIMIT_CPU, (BACKGROUND_CPU_S, BACKGROUND_CPU_S + 60))
+    signal.signal(signal.SIGXCPU, _out_of_cpu_time)
+
+
+def _out_of_cpu_time(signum, frame):
+    raise RuntimeError(f"the background compile took more than {BACKGROUND_CPU_S} s of CPU time")
+
+
+if __name__ == "__main__":  # the detached process of compile_in_background
+    _limit_background()
     compile_pending(sys.argv[1], Path(sys.argv[2]))

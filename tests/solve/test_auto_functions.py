@@ -50,6 +50,15 @@ def _wait_for_library(folder):
     return compiled.cached_libraries()
 
 
+def _pending_file(problem, folder):
+    """(a build of the graph auto names ``problem``'s library by, that key, the path of its pending
+    background compile in the cache ``folder``, created)."""
+    tr = Transcription(problem.with_options(functions="expanded"))  # the graph auto names libraries by
+    key = compiled.library_key(tr.nlp, compiled.compiler())
+    folder.mkdir(parents=True)
+    return tr, key, folder / compiled.PENDING_NAME.format(key)
+
+
 @needs_cc
 def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it(small, background):
     first = Transcription(small)
@@ -70,10 +79,7 @@ def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it
 
 @needs_cc
 def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, background):
-    tr = Transcription(small.with_options(functions="expanded"))  # the graph auto builds
-    key = compiled.library_key(tr.nlp, compiled.compiler())
-    background.mkdir(parents=True)
-    pending = background / compiled.PENDING_NAME.format(key)
+    tr, key, pending = _pending_file(small, background)
     pending.write_bytes(b"")  # another process's compile, under way
     assert compiled.compile_in_background(tr.nlp)
     assert pending.read_bytes() == b""  # not taken over
@@ -86,10 +92,7 @@ def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, back
 
 @needs_cc
 def test_a_failed_background_compile_is_noted_and_not_tried_again(small, background):
-    tr = Transcription(small.with_options(functions="expanded"))  # the graph auto builds
-    key = compiled.library_key(tr.nlp, compiled.compiler())
-    background.mkdir(parents=True)
-    broken = background / compiled.PENDING_NAME.format(key)
+    tr, key, broken = _pending_file(small, background)
     broken.write_text("not a serialized CasADi function")
     compiled.compile_pending(key, broken)
     note = background / compiled.FAILED_NAME.format(key)
