@@ -1,6 +1,5 @@
 """Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -23,15 +22,10 @@ def private_compile_cache(tmp_path_factory):
     compiler, whatever libraries this machine has cached (tests of compiled functions set a
     cache of their own)."""
     from cadcam.solve import compiled
-    saved = {name: os.environ.get(name) for name in ("CADCAM_CACHE_DIR", compiled.BACKGROUND_ENV)}
-    os.environ["CADCAM_CACHE_DIR"] = str(tmp_path_factory.mktemp("compiled"))
-    os.environ[compiled.BACKGROUND_ENV] = "0"
-    yield
-    for name, value in saved.items():
-        if value is None:
-            os.environ.pop(name, None)
-        else:
-            os.environ[name] = value
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("CADCAM_CACHE_DIR", str(tmp_path_factory.mktemp("compiled")))
+        env.setenv(compiled.BACKGROUND_ENV, "0")
+        yield
 
 
 @pytest.fixture(scope="session")

@@ -151,12 +151,17 @@ def library_key(nlp: dict, cc: str) -> str:
     return digest.hexdigest()[:32]
 
 
-def cached_library(nlp: dict) -> Path | None:
-    """The compiled library of ``nlp`` in the cache, or None (also without a C compiler)."""
+def key_of(nlp: dict) -> str | None:
+    """The :func:`library_key` of ``nlp`` with this machine's compiler; None without one."""
     cc = _found()
-    if cc is None:
+    return None if cc is None else library_key(nlp, cc)
+
+
+def cached_library(key: str | None) -> Path | None:
+    """The compiled library of :func:`key_of` ``key`` in the cache, or None (also for no key)."""
+    if key is None:
         return None
-    path = cache_dir() / LIBRARY_NAME.format(library_key(nlp, cc))
+    path = cache_dir() / LIBRARY_NAME.format(key)
     return path if path.exists() else None
 
 
@@ -195,19 +200,20 @@ def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path, bool]
     return path, True
 
 
-def compile_in_background(nlp: dict, source=None) -> bool:
-    """Start compiling ``nlp``'s library (:func:`library`, from ``source()`` if given) into the
-    cache in a detached process of low priority (:data:`BACKGROUND_NICENESS`), unless one is
-    under way, it failed before, there is no C compiler or :data:`BACKGROUND_ENV` is ``0``.
-    Returns whether a compile is under way.
+def compile_in_background(nlp: dict, source=None, key: str | None = None) -> bool:
+    """Start compiling ``nlp``'s library (:func:`library`, from ``source()`` if given; ``key``
+    its :func:`key_of`, if the caller has it) into the cache in a detached process of low
+    priority (:data:`BACKGROUND_NICENESS`), unless one is under way, it failed before, there is
+    no C compiler or :data:`BACKGROUND_ENV` is ``0``. Returns whether a compile is under way.
 
     The NLP goes to the process as its serialized graph in the cache folder
     (:data:`PENDING_NAME`), which the process removes when it is done.
     """
-    cc = _found()
-    if cc is None or os.environ.get(BACKGROUND_ENV, "1") == "0":
+    if os.environ.get(BACKGROUND_ENV, "1") == "0":
         return False
-    key = library_key(nlp, cc)
+    key = key or key_of(nlp)
+    if key is None:
+        return False
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
     pending = folder / PENDING_NAME.format(key)

@@ -1200,10 +1200,11 @@ def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
     used = opt.functions
     if used == "auto":
-        lib = compiled.cached_library(nlp)
+        key = compiled.key_of(nlp)
+        lib = compiled.cached_library(key)
         if lib is not None:
             return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_CACHED
-        used = EXPANDED_COMPILING if compiled.compile_in_background(nlp, split) else "expanded"
+        used = EXPANDED_COMPILING if compiled.compile_in_background(nlp, split, key) else "expanded"
     return ca.nlpsol("cadcam", "ipopt", nlp, {**ipopt, "expand": used != "mapped"}), used
 
 
