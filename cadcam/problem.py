@@ -181,7 +181,8 @@ SOLVER = {
                          "up to rounding (the iteration count may differ by a few) where the optimum "
                          "is isolated; where it is not (an output law met exactly, as by Fedorov2018's "
                          "balancer) rounding can lead IPOPT to another of its optima, in other "
-                         "iterations."),
+                         "iterations. The summary and ``result.json``'s ``solver.functions`` say "
+                         "which were used."),
 }
 
 

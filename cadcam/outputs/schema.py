@@ -1,6 +1,6 @@
 """The JSON Schema of ``result.json`` (``cadcam/result.schema.json``): its generic parts are
 written in the file, and the parts that the registries declare are generated from them — the
-torque models, the design methods, the target kinds, the acceptance limits, the tolerances, a joint's band weight, and each mechanism's own keys (the
+torque models, the design methods, the ``[solver]`` options' meanings, the target kinds, the acceptance limits, the tolerances, a joint's band weight, and each mechanism's own keys (the
 ``spec.schema.json`` beside its model) and each target kind's keys (:attr:`TargetKind.schema`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 import sys
 from importlib import resources
 from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import LINK_ANGLE, design_methods, mechanism_class, mechanism_kinds, torque_models
-from ..problem import ACCEPTANCE, BAND_WEIGHT, FUNCTIONS, TOLERANCES
+from ..problem import ACCEPTANCE, BAND_WEIGHT, FUNCTIONS, SOLVER, TOLERANCES
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -36,6 +37,12 @@ def _declared(blocks: list[dict], declared: dict[str, dict]) -> list[dict]:
     kinds = [b["if"]["properties"]["kind"]["const"] for b in blocks]
     out = [_kind_block(k, declared[k]) if k in declared else b for k, b in zip(kinds, blocks)]
     return out + [_kind_block(k, then) for k, then in declared.items() if k not in kinds]
+
+
+def plain(text: str) -> str:
+    """A declaration's reStructuredText as plain text for a schema's description: a role
+    (``:func:`~name```) keeps its target's name, literal text (````x````) its quotes."""
+    return re.sub(r":\w+:`~?([^`]+)`", r"\1", text).replace("``", '"')
 
 
 def mechanism_schemas() -> dict[str, dict]:
@@ -60,6 +67,8 @@ def result_schema(schema: dict) -> dict:
     defs["torque_model"]["enum"] = list(torque_models())
     defs["options"]["properties"]["method"]["enum"] = ["nlp", *design_methods()]
     defs["options"]["properties"]["functions"]["enum"] = list(FUNCTIONS)
+    for name, setting in SOLVER.items():
+        defs["options"]["properties"][name]["description"] = plain(setting.description)
     defs["solver_run"]["properties"]["name"]["enum"] = ["ipopt", *design_methods()]
     kinds = list(dict.fromkeys(target_kinds() + target_kinds(output=True)))
     defs["target"]["properties"]["kind"]["enum"] = kinds
