@@ -3,11 +3,11 @@ after a small edit, against the same edit solved from the default start (the obj
 design must not lose) and warm without the last answer's multipliers.
 
 ``make bench`` (``python benchmarks/bench_page.py``). The page's path is
-:class:`cadcam.app.state.DesignState` over a :class:`cadcam.Session`: functions compiled where a
-C compiler exists and the spec names none (:func:`cadcam.app.state.page_functions`), loaded from
-the user's cache (:func:`cadcam.solve.compiled.cache_dir`): a template's libraries (its NLP's and
-its NLP's with the outline rows) not yet there are compiled first, untimed, and the table says
-how many. The edit is spring 1's rate
+:class:`cadcam.app.state.DesignState` over a :class:`cadcam.Session`, functions as the spec says
+(by default ``auto``), timed as they run once a template's libraries are in the cache, where
+the background compile of the page's first design of that template leaves them: a template's
+libraries (its NLP's and its NLP's with the outline rows) not yet there are compiled first,
+untimed, and the table says how many. The edit is spring 1's rate
 × :data:`EDIT`; the warm design starts from the last answer and its IPOPT multipliers
 (:data:`cadcam.solve.transcription.WARM_IPOPT`). For comparison, through the same kept NLP and
 after the page's design: the last design without its multipliers, under the spec's own IPOPT
@@ -50,13 +50,14 @@ def _cell(result, seconds: float) -> str:
 
 
 def _compile(state: DesignState) -> int:
-    """Compile into the cache, where the page compiles them, the libraries of ``state``'s NLP
-    and of its NLP with the outline rows (the second solve's) that are not there yet; return
-    how many (the NLP built here is not kept: the page's first design builds its own)."""
-    problem = load_problem(state.path, **state.solver_options())
-    if problem.options.functions != "compiled":
+    """Compile into the cache, as the page's background compiles do, the libraries of
+    ``state``'s NLP and of its NLP with the outline rows (the second solve's) that are not
+    there yet, where its functions are ``auto`` and there is a compiler; return how many (the
+    NLP built here is not kept: the page's first design builds its own)."""
+    problem = load_problem(state.path)
+    if problem.options.functions != "auto" or not compiled.available():
         return 0
-    tr = Transcription(start_design(problem)[0])
+    tr = Transcription(start_design(problem)[0].with_options(functions="compiled"))
     return tr.compiled_now + compiled.library(tr.whole_nlp)[1]
 
 
@@ -76,13 +77,13 @@ def template_rows(name: str) -> tuple[float, float, list[str]]:
     warm = state.design(KEY)
     if warm.result is None:
         raise RuntimeError(f"{name}: {warm.error}")
-    problem = load_problem(state.path, overrides=state.override_pairs(), **state.solver_options())
+    problem = load_problem(state.path, overrides=state.override_pairs())
     completed, start = default = start_design(problem)
     transcription, _ = built_for(completed)
     plain, plain_s = _timed(warm_optimize, problem, transcription, last.design, last.evaluation.metrics.objective,
                             "the last design", None, default)
     cold, cold_s = _timed(optimize, completed, transcription, start)
-    functions = warm.result.problem.options.functions
+    functions = warm.result.functions
     built = f"{functions}{f' ({compiled_now} compiled first)' if compiled_now else ''}"
     how = "warm" if "(warm start" in warm.result.message else "from the default start"
     equal = warm.result.fun <= cold.fun * (1 + 1e-6) or not cold.success
@@ -94,7 +95,7 @@ def template_rows(name: str) -> tuple[float, float, list[str]]:
 
 def main() -> int:
     print(f"\nThe design page's path for each template (`DesignState`: a `cadcam.Session`, functions as the page "
-          f"chooses them): the first design (build + solve + fine re-check), then {KEY} × {EDIT} designed warm "
+          f"runs them once the template's libraries are in the cache): the first design (build + solve + fine re-check), then {KEY} × {EDIT} designed warm "
           "from the last answer and its multipliers; beside it the same edit warm from the last design without its "
           "multipliers and from the default start, through the same kept NLP; time [s] | iterations | objective. "
           "One run each, wall time.\n")

@@ -4,7 +4,8 @@ On the left the template or file opened and the form generated from the spec's d
 (:mod:`cadcam.app.form`); an edited field is applied when it is left or Enter is pressed, and the
 spec is designed again at once, in a worker thread, through the tab's :class:`cadcam.Session`
 (the NLP built once per structure, warm from the last answer and its multipliers; its functions
-compiled where a C compiler exists and the spec names none: :func:`cadcam.app.state.page_functions`).
+as the spec says, by default expanded for a structure's first design while they compile in the
+background, then compiled: :meth:`cadcam.solve.transcription.Transcription.adopt_compiled`).
 On the right the verdict line and
 what binds, the torque against its target with the error, the mechanism at one joint angle (a
 player runs it over the range), the springs' extensions against their travel, and the files to
@@ -246,9 +247,8 @@ class DesignPage:
         assert result is not None
         style = "verdict-success" if result.success else "verdict-failure"
         self.verdict.object = (f"<span class='{style}'>{_escape(result.status)}: {_escape(result.message)}</span>"
-                               f" <small>(designed in {outcome.seconds:.2f} s, {result.problem.options.functions} "
-                               "functions)</small>")
-        lines = result.summary().splitlines()[1:] + ([outcome.note] if outcome.note else [])
+                               f" <small>(designed in {outcome.seconds:.2f} s, functions {result.functions})</small>")
+        lines = result.summary().splitlines()[1:]
         self.details.object = "<pre style='white-space: pre-wrap; font-size: 12px'>" + _escape("\n".join(lines)) + "</pre>"
         if not result.problem.springs:
             self.torque.object = self.springs.object = None

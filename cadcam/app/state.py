@@ -21,7 +21,6 @@ from .. import examples
 from ..api import Session
 from ..designs import DesignError
 from ..result import Result
-from ..solve import compiled
 from ..solve.compiled import CompileError
 from ..spec import SpecError, apply_override, read_keys, read_spec_data
 from ..sweep.study import read_catalogue
@@ -45,15 +44,6 @@ PICKED = ("name", "rate", "travel", "preload")
 #: Errors of a design that are the input's: shown as one line, like the command line's (a
 #: spec's or an edit's ``solver.functions = "compiled"`` without a compiler among them).
 INPUT_ERRORS = (SpecError, ExpressionError, DesignError, CompileError)
-#: The spec key of how IPOPT's functions are evaluated.
-FUNCTIONS = "solver.functions"
-
-
-def page_functions() -> str:
-    """How the page has IPOPT's functions evaluated where the spec does not say: ``compiled``
-    where a C compiler exists (each structure's library compiled once, then loaded from the
-    disk cache in milliseconds: :mod:`cadcam.solve.compiled`), else ``expanded``."""
-    return "compiled" if compiled.available() else "expanded"
 
 
 @dataclass
@@ -64,7 +54,6 @@ class Outcome:
     error: str | None = None
     field: str | None = None
     seconds: float = float("nan")
-    note: str | None = None  # why the page's compiled functions gave way to expanded ones
 
 
 @dataclass
@@ -75,14 +64,10 @@ class DesignState:
     ----------
     path : Path
         A spec (TOML) or a cadcam ``result.json``; its tables resolve against its folder.
-    functions : str
-        How IPOPT's functions are evaluated where neither the spec nor an edit says
-        (:func:`page_functions`); ``expanded`` once compiling failed.
     """
 
     path: Path
     session: Session = field(default_factory=Session)
-    functions: str = field(default_factory=page_functions)
     overrides: dict = field(default_factory=dict)
     picks: dict[int, dict] = field(default_factory=dict)
     fields: list[Field] = field(init=False)
@@ -97,8 +82,6 @@ class DesignState:
         self.fields = [replace(f, value=getattr(problem.workshop, f.key.split(".")[1]))
                        if f.key.startswith("workshop.") and f.value is None else f for f in fields_of(reads)]
         self.absent = {r.key for r in reads if isinstance(r.value, dict) and not r.given}
-        self._spec_functions = any(r.key == FUNCTIONS and r.given for r in reads)
-        self._show_functions()
         label = "cams" if any(f.key.startswith("cams.") for f in self.fields) else "joints"
         self.names = {f"springs.{j + 1}": s.name for j, s in enumerate(problem.springs)}
         self.names |= {f"mechanisms.{u + 1}": m.name for u, m in enumerate(problem.mechanisms)}
@@ -161,43 +144,18 @@ class DesignState:
             pairs.append((table, {name: value}) if table in self.absent else (key, value))
         return pairs
 
-    def _show_functions(self) -> None:
-        """The functions field shows :attr:`functions` where the spec names none."""
-        if not self._spec_functions:
-            self.fields = [replace(f, value=self.functions) if f.key == FUNCTIONS else f for f in self.fields]
-
-    def solver_options(self) -> dict:
-        """The ``[solver]`` keys the page sets beside the edits: :attr:`functions` where neither
-        the spec nor an edit names the functions."""
-        return {} if self._spec_functions or FUNCTIONS in self.overrides else {"functions": self.functions}
-
-    def _designed(self) -> tuple[Result, str | None]:
-        """The design of the spec with the edits, through the session, and a note where the
-        page's compiled functions failed to compile and expanded ones designed it (as they
-        will from now on)."""
-        options = self.solver_options()
-        try:
-            return self.session.design(self.path, overrides=self.override_pairs(), **options), None
-        except CompileError as exc:
-            if not options:  # the spec's or the edit's choice: its error
-                raise
-            self.functions = "expanded"
-            self._show_functions()
-            return (self.session.design(self.path, overrides=self.override_pairs(), **self.solver_options()),
-                    f"designed with expanded functions: {exc}")
-
     def design(self, edited: str | None = None) -> Outcome:
         """Design the spec with the edits through the session; a spec error names its field
         (the one it names, else ``edited``)."""
         start = time.perf_counter()
         try:
-            result, note = self._designed()
+            result = self.session.design(self.path, overrides=self.override_pairs())
         except INPUT_ERRORS as exc:
             message = str(exc)
             self.last = Outcome(error=message, field=field_of_error(message, [f.key for f in self.fields], edited),
                                 seconds=time.perf_counter() - start)
         else:
-            self.last = Outcome(result=result, seconds=time.perf_counter() - start, note=note)
+            self.last = Outcome(result=result, seconds=time.perf_counter() - start)
             self.result = result
         return self.last
 

@@ -31,11 +31,13 @@ def structure_key(problem: Problem) -> str:
 
 def built_for(problem: Problem) -> tuple[Transcription, bool]:
     """The NLP of ``problem``'s structure, built now or kept from before; and whether it was
-    built by this call."""
+    built by this call. A kept build whose library has compiled in the background since
+    solves through it from now on (:meth:`Transcription.adopt_compiled`)."""
     key = structure_key(problem)
     tr = _BUILDS.get(key)
     if tr is not None:
         _BUILDS.move_to_end(key)
+        tr.adopt_compiled()
         return tr, False
     tr = _BUILDS[key] = Transcription(problem)
     while len(_BUILDS) > KEPT_BUILDS:

@@ -206,10 +206,28 @@ class Transcription:
         t0 = time.perf_counter()
         self._build_graph(problem)
         self._split: Transcription | None = None  # the graph compiled functions come from
-        self.solver, self.functions_used = _ipopt_solver(self.nlp, problem.options, self._split_nlp)
-        self._imposing = None  # the solver with the deferred rows, built when first needed
-        self._warm = None  # the solver warm from an answer and its multipliers, built when first needed
+        # the library auto looks for, named once (serializing the graph takes a while)
+        self._key = compiled.key_of(self.nlp) if problem.options.functions == "auto" else None
+        self._build_solvers()
         self.build_time_s = time.perf_counter() - t0
+
+    def _build_solvers(self) -> None:
+        """IPOPT on :attr:`nlp` (:attr:`solver`, :attr:`functions_used`); the solvers with the
+        deferred rows and the warm one are built when first needed."""
+        self.solver, self.functions_used = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp,
+                                                         key=self._key)
+        self._imposing = None  # the solver with the deferred rows
+        self._warm = None  # the solver warm from an answer and its multipliers
+
+    def adopt_compiled(self) -> bool:
+        """Solve through this structure's compiled library from now on where this build
+        expanded its functions while the library compiled in the background
+        (:data:`EXPANDED_COMPILING`) and the library is now in the cache: the solvers are built
+        again from it, in milliseconds. Whether they were."""
+        if self.functions_used != EXPANDED_COMPILING or compiled.cached_library(self._key) is None:
+            return False
+        self._build_solvers()
+        return self.functions_used == COMPILED_CACHED
 
     def _build_graph(self, problem: Problem) -> None:
         """The NLP of ``problem``'s structure as MX expressions (:attr:`nlp`) and the functions
@@ -513,7 +531,8 @@ class Transcription:
         """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use (with
         compiled functions it loads the library :attr:`solver` loaded)."""
         if self._warm is None:
-            self._warm, _ = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp, WARM_IPOPT)
+            self._warm, _ = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp, WARM_IPOPT,
+                                          key=self._key)
         return self._warm
 
     def design_of(self, w) -> Design:
@@ -1182,12 +1201,14 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     return out
 
 
-def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None) -> tuple[ca.Function, str]:
+def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None,
+                  key: str | None = None) -> tuple[ca.Function, str]:
     """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
     CasADi options), and how they were. ``split()``, if given, is the NLP written as compiled
     functions are generated from (:meth:`Transcription._split_graph`), built only to compile
-    them (else ``nlp``); their library is named by ``nlp``'s graph. ``auto`` loads the library the cache
-    holds, else expands ``nlp`` while the library compiles in the background where it can
+    them (else ``nlp``); their library is named by ``nlp``'s graph (its key ``key``, if the caller
+    has it). ``auto`` loads the library the cache holds, else expands ``nlp`` while the library
+    compiles in the background where it can
     (:func:`cadcam.solve.compiled.compile_in_background`)."""
     # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
     # shortens the step) is kept in the result by Transcription.solve, not printed
@@ -1200,7 +1221,7 @@ def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
     used = opt.functions
     if used == "auto":
-        key = compiled.key_of(nlp)
+        key = key or compiled.key_of(nlp)
         lib = compiled.cached_library(key)
         if lib is not None:
             return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_CACHED

@@ -10,6 +10,7 @@ import pytest
 from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
 from cadcam.solve import compiled
+from cadcam.solve.builds import built_for, forget_builds
 from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING, Transcription
 
 from ..conftest import SPEC_1DOF
@@ -61,8 +62,10 @@ def _pending_file(problem, folder):
 
 @needs_cc
 def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it(small, background):
-    first = Transcription(small)
-    assert first.functions_used == EXPANDED_COMPILING
+    forget_builds()
+    first, built = built_for(small)
+    assert built and first.functions_used == EXPANDED_COMPILING
+    assert not first.adopt_compiled()  # nothing to adopt yet
     pending = list(background.glob(compiled.PENDING_NAME.format("*")))
     assert len(pending) == 1  # the lock of the one compile of this structure
     expanded = _optimum(first, small)
@@ -75,6 +78,10 @@ def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it
     assert again.functions_used == COMPILED_CACHED and not again.compiled_now
     assert _optimum(again, small) == pytest.approx(expanded, rel=1e-6)
     assert compiled.cached_libraries() == [library]  # loaded, not compiled again
+    kept, built = built_for(small)  # the build kept from before solves through the library now
+    assert kept is first and not built and first.functions_used == COMPILED_CACHED
+    assert _optimum(first, small) == pytest.approx(expanded, rel=1e-6)
+    forget_builds()
 
 
 @needs_cc
