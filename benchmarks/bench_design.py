@@ -32,6 +32,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from unittest.mock import patch
 
 import casadi as ca
 import numpy as np
@@ -138,21 +139,14 @@ def default_path_table(runs: int, root: str) -> tuple[dict, dict]:
     problem = load_spec(path, variant)
     assert problem.options.functions == "auto"
     os.environ["CADCAM_CACHE_DIR"] = tempfile.mkdtemp(dir=root)
-    saved = os.environ.get(BACKGROUND_ENV)
-    os.environ[BACKGROUND_ENV] = "1"
-    try:
+    with patch.dict(os.environ, {BACKGROUND_ENV: "1"}):
         first = bench(problem, 1)
-    finally:  # the designs after it must not start compiles of their own
-        os.environ[BACKGROUND_ENV] = "0"
     t0 = time.perf_counter()
     while not cached_libraries() and time.perf_counter() - t0 < BACKGROUND_WAIT_S:
         time.sleep(0.5)
     waited = time.perf_counter() - t0
-    after = bench(problem, runs)
-    if saved is None:
-        os.environ.pop(BACKGROUND_ENV)
-    else:
-        os.environ[BACKGROUND_ENV] = saved
+    with patch.dict(os.environ, {BACKGROUND_ENV: "0"}):  # the designs after it start no compiles
+        after = bench(problem, runs)
     print(f"\n{name} on the default path (functions auto) from an empty cache: the first design, then the designs "
           f"after it (median of {runs}); the background compile ended {waited:.1f} s after the first design\n")
     print("| design | functions | build [s] | solve [s] | iterations | fine re-check [s] | end to end [s] | objective |")

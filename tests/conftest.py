@@ -1,5 +1,6 @@
 """Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
 import json
+import time
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,22 @@ def rr_problem():
 @pytest.fixture(scope="session")
 def table3(rr_problem):
     return Design.from_dict(json.loads(TABLE3.read_text()), rr_problem)
+
+
+#: How long a background compile of a small NLP may take [s] (seconds at -O1 alone; a loaded CI
+#: machine runs the test suite beside it).
+COMPILE_WAIT_S = 180.0
+
+
+def wait_for_library():
+    """The compiled libraries in the cache once there is one (a background compile ended), or
+    none after :data:`COMPILE_WAIT_S`."""
+    from cadcam.solve import compiled
+
+    deadline = time.monotonic() + COMPILE_WAIT_S
+    while not compiled.cached_libraries() and time.monotonic() < deadline:
+        time.sleep(0.2)
+    return compiled.cached_libraries()
 
 
 def circle_design(problem, radius, x0):

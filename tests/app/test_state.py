@@ -1,7 +1,5 @@
 """The design page's state without a browser: the form from the reader's declarations, edits as
 overrides, errors named by field, the spec written back with the edits."""
-import time
-
 import numpy as np
 import pytest
 
@@ -11,6 +9,8 @@ from cadcam.app.state import TEMPLATES, DesignState
 from cadcam.solve import compiled
 from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING
 from cadcam.spec import KeyRead, read_keys, read_spec_data
+
+from ..conftest import wait_for_library
 
 
 @pytest.fixture(scope="module")
@@ -172,9 +172,6 @@ def test_the_link_angle_is_a_geometry_field_of_every_mechanism():
 
 
 needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler on this machine")
-#: How long the background compile of the small wire cam may take [s] (a few alone; a loaded CI
-#: machine runs the test suite beside it).
-COMPILE_WAIT_S = 180.0
 
 
 @pytest.fixture
@@ -202,10 +199,7 @@ def test_the_page_designs_first_with_expanded_functions_then_through_their_libra
     assert state.value("solver.functions") == "auto"
     first = state.design()
     assert first.result.success and first.result.functions == EXPANDED_COMPILING
-    deadline = time.monotonic() + COMPILE_WAIT_S
-    while not compiled.cached_libraries() and time.monotonic() < deadline:
-        time.sleep(0.2)
-    libraries = compiled.cached_libraries()
+    libraries = wait_for_library()
     assert libraries
     state.edit("springs.1.rate", "1122")
     again = state.design("springs.1.rate")

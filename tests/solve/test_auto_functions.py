@@ -13,12 +13,8 @@ from cadcam.solve import compiled
 from cadcam.solve.builds import built_for, forget_builds
 from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING, Transcription
 
-from ..conftest import SPEC_1DOF
+from ..conftest import SPEC_1DOF, wait_for_library
 from .test_compiled import needs_cc
-
-#: How long the background compile of the small problem may take (seconds at -O1 alone; a
-#: loaded CI machine runs the test suite beside it).
-COMPILE_WAIT_S = 180.0
 
 
 @pytest.fixture
@@ -44,13 +40,6 @@ def _optimum(tr, problem):
     return evaluate(problem, sol.design).metrics.objective
 
 
-def _wait_for_library(folder):
-    deadline = time.monotonic() + COMPILE_WAIT_S
-    while not compiled.cached_libraries() and time.monotonic() < deadline:
-        time.sleep(0.2)
-    return compiled.cached_libraries()
-
-
 def _pending_file(problem, folder):
     """(a build of the graph auto names ``problem``'s library by, that key, the path of its pending
     background compile in the cache ``folder``, created)."""
@@ -69,7 +58,7 @@ def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it
     pending = list(background.glob(compiled.PENDING_NAME.format("*")))
     assert len(pending) == 1  # the lock of the one compile of this structure
     expanded = _optimum(first, small)
-    (library,) = _wait_for_library(background)
+    (library,) = wait_for_library()
     deadline = time.monotonic() + 10  # the process removes its NLP file after the rename
     while pending[0].exists() and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -94,7 +83,7 @@ def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, back
     os.utime(pending, (old, old))  # its process died long ago
     assert compiled.compile_in_background(tr.nlp)
     assert pending.stat().st_mtime > old  # started again
-    assert _wait_for_library(background)
+    assert wait_for_library()
 
 
 @needs_cc
