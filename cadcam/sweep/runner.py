@@ -57,6 +57,8 @@ CREATE TABLE IF NOT EXISTS claims (
 #: A claim of a runner on another host whose process cannot be checked is taken over when that
 #: runner has recorded no case for this long [s].
 CLAIM_LEASE_S = 3600.0
+#: How long a runner waits for another that holds the study database's lock [s].
+LOCK_WAIT_S = 60.0
 #: How long a sweep waits for a Dask scheduler to answer [s].
 DASK_CONNECT_TIMEOUT_S = 10.0
 #: The address schemes of a Dask scheduler cadcam accepts.
@@ -137,22 +139,47 @@ def open_db(path, study: Study) -> sqlite3.Connection:
         raise SweepError(f"{path}: not a study database that cadcam wrote (left as it is); give a new path")
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     try:
-        db = sqlite3.connect(str(path), timeout=60)  # runners sharing the database wait their turn
-        db.execute("PRAGMA journal_mode=WAL")
+        db = sqlite3.connect(str(path), timeout=LOCK_WAIT_S)
+        definition = json.dumps(study.to_dict(), sort_keys=True)
+        _create_tables(db, definition)
+        _use_wal(db)
         db.execute("PRAGMA synchronous=FULL")
-        db.executescript(SCHEMA)
     except sqlite3.Error as exc:
         raise SweepError(f"{path}: not a study database ({exc}); give a new path or a database "
                          "this study wrote") from None
-    definition = json.dumps(study.to_dict(), sort_keys=True)
-    row = db.execute("SELECT definition FROM study WHERE id = 1").fetchone()
-    if row is None:
-        with db:
-            db.execute("INSERT INTO study VALUES (1, ?, ?, ?)", (definition, __version__, time.time()))
-    elif row[0] != definition:
+    if db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0] != definition:
         db.close()
         raise SweepError(f"{path}: holds the results of a different study; use another -o file")
     return db
+
+
+def _create_tables(db: sqlite3.Connection, definition: str) -> None:
+    """Create the tables and the ``study`` row in one transaction, unless another runner that
+    started on the same new file at the same moment has: its tables and row stand (they are
+    compared with this study's by the caller), and no runner sees tables without their row."""
+    db.execute("BEGIN IMMEDIATE")  # the write lock first: a second runner waits here
+    try:
+        for statement in filter(str.strip, SCHEMA.split(";")):
+            db.execute(statement)
+        db.execute("INSERT OR IGNORE INTO study VALUES (1, ?, ?, ?)", (definition, __version__, time.time()))
+    except BaseException:
+        db.rollback()
+        raise
+    db.commit()
+
+
+def _use_wal(db: sqlite3.Connection) -> None:
+    """Put the database in WAL mode, waiting up to :data:`LOCK_WAIT_S` for a runner that is
+    closing it at this moment (SQLite answers "locked" to this change without waiting)."""
+    deadline = time.monotonic() + LOCK_WAIT_S
+    while True:
+        try:
+            db.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.01)
 
 
 def _close(db: sqlite3.Connection) -> None:

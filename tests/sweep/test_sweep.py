@@ -4,6 +4,7 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -226,6 +227,30 @@ def test_two_runners_on_one_database_finish_the_study_once_between_them(tmp_path
     assert sum(ran) == 8  # no case solved twice, none left out
     _, rows = read_rows(db_path)
     assert len({r["case_id"] for r in rows}) == len(rows) == 8 and {r["status"] for r in rows} == {"success"}
+
+
+def test_runners_that_open_one_new_database_at_the_same_moment_both_join_the_study(tmp_path):
+    """Two runners started together on a new file: one's ``study`` row failed the other's insert
+    (IntegrityError, exit 1), or one's switch to WAL was refused as locked."""
+    study = _study(tmp_path)
+    for attempt in range(50):
+        path, start, errors = tmp_path / f"new{attempt}.db", threading.Barrier(2), []
+
+        def join():
+            start.wait()
+            try:
+                runner_module._close(runner_module.open_db(path, study))
+            except Exception as exc:  # noqa: BLE001 - every runner's error is the failure
+                errors.append(exc)
+
+        threads = [threading.Thread(target=join) for _ in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        assert errors == []
+        with sqlite3.connect(path) as con:
+            assert con.execute("SELECT COUNT(*) FROM study").fetchone()[0] == 1
 
 
 def test_a_database_that_is_not_a_study_is_refused_and_left_as_it_is(tmp_path):
