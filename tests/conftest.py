@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from cadcam import Design, load_spec
+from cadcam.solve import compiled
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC_1DOF = ROOT / "models" / "johnston2023_1dof.toml"
@@ -22,7 +23,6 @@ def private_compile_cache(tmp_path_factory):
     compiles: ``functions = "auto"`` then expands every NLP, as on a machine without a
     compiler, whatever libraries this machine has cached (tests of compiled functions set a
     cache of their own)."""
-    from cadcam.solve import compiled
     with pytest.MonkeyPatch.context() as env:
         env.setenv("CADCAM_CACHE_DIR", str(tmp_path_factory.mktemp("compiled")))
         env.setenv(compiled.BACKGROUND_ENV, "0")
@@ -44,6 +44,9 @@ def table3(rr_problem):
     return Design.from_dict(json.loads(TABLE3.read_text()), rr_problem)
 
 
+#: Marks a test that compiles C (skipped where cadcam finds no C compiler).
+needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler on this machine")
+
 #: How long a background compile of a small NLP may take [s] (seconds at -O1 alone; a loaded CI
 #: machine runs the test suite beside it).
 COMPILE_WAIT_S = 180.0
@@ -52,8 +55,6 @@ COMPILE_WAIT_S = 180.0
 def wait_for_library():
     """The compiled libraries in the cache once there is one (a background compile ended), or
     none after :data:`COMPILE_WAIT_S`."""
-    from cadcam.solve import compiled
-
     deadline = time.monotonic() + COMPILE_WAIT_S
     while not compiled.cached_libraries() and time.monotonic() < deadline:
         time.sleep(0.2)

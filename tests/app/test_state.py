@@ -10,7 +10,7 @@ from cadcam.solve import compiled
 from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING
 from cadcam.spec import KeyRead, read_keys, read_spec_data
 
-from ..conftest import wait_for_library
+from ..conftest import needs_cc, wait_for_library
 
 
 @pytest.fixture(scope="module")
@@ -169,9 +169,6 @@ def test_the_link_angle_is_a_geometry_field_of_every_mechanism():
     assert link.help == f"{LINK_ANGLE.description} [rad]"
     assert state.edit("mechanisms.1.link_angle", "1.2") is None
     assert load_problem(state.path, overrides=state.override_pairs()).mechanisms[0].link_angle == 1.2
-
-
-needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler on this machine")
 
 
 @pytest.fixture

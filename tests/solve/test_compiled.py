@@ -2,7 +2,6 @@
 same optimum; the compiled library is cached on disk by structure, not by a case's numbers,
 and written atomically."""
 import os
-import shutil
 import subprocess
 import sys
 import threading
@@ -17,11 +16,7 @@ from cadcam.solve import compiled
 from cadcam.solve.transcription import Transcription
 from cadcam.optimize import default_start, solve
 
-from ..conftest import SPEC_1DOF
-
-needs_cc = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                              reason="no C compiler on this machine")
-
+from ..conftest import SPEC_1DOF, needs_cc
 
 @pytest.fixture
 def small():
