@@ -1,5 +1,6 @@
 """Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
 import json
+import threading
 import time
 from pathlib import Path
 
@@ -59,6 +60,26 @@ def wait_for_library():
     while not compiled.cached_libraries() and time.monotonic() < deadline:
         time.sleep(0.2)
     return compiled.cached_libraries()
+
+
+def at_once(task, count: int = 2) -> list[BaseException]:
+    """Run ``task()`` on ``count`` threads released together (a barrier); the exceptions they
+    raised."""
+    start, errors = threading.Barrier(count), []
+
+    def run():
+        start.wait()
+        try:
+            task()
+        except Exception as exc:  # noqa: BLE001 - returned to the test
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run) for _ in range(count)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return errors
 
 
 def circle_design(problem, radius, x0):

@@ -4,7 +4,6 @@ and written atomically."""
 import os
 import subprocess
 import sys
-import threading
 
 import casadi as ca
 import numpy as np
@@ -16,7 +15,7 @@ from cadcam.solve import compiled
 from cadcam.solve.transcription import Transcription
 from cadcam.optimize import default_start, solve
 
-from ..conftest import SPEC_1DOF, needs_cc
+from ..conftest import SPEC_1DOF, at_once, needs_cc
 
 @pytest.fixture
 def small():
@@ -118,19 +117,8 @@ def test_concurrent_writers_leave_one_whole_library(small, empty_cache):
     both get a library that works, one file is left and no temporary folder."""
     problem = small.with_options(functions="compiled")
     nlp = Transcription(small.with_options(functions="expanded")).nlp  # the graph that names the library
-    paths, errors = [], []
-
-    def build():
-        try:
-            paths.append(compiled.library(nlp)[0])
-        except Exception as exc:  # noqa: BLE001 - reported below
-            errors.append(exc)
-
-    threads = [threading.Thread(target=build) for _ in range(2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    paths = []
+    errors = at_once(lambda: paths.append(compiled.library(nlp)[0]))
     assert not errors and len(set(paths)) == 1
     assert [p.name for p in empty_cache.iterdir()] == [paths[0].name]
     objective, tr = _objective(problem)

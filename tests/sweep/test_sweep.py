@@ -4,7 +4,6 @@ import signal
 import sqlite3
 import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
@@ -17,7 +16,7 @@ from cadcam.files import short_repr
 from cadcam.sweep.study import Study, StudyError, load_study
 from cadcam.sweep.runner import SweepError, check_dask_address, read_rows, run_sweep, runner
 
-from ..conftest import SPEC_1DOF, check_output_file
+from ..conftest import SPEC_1DOF, at_once, check_output_file
 
 STUDY = f'''
 name = "small"
@@ -234,21 +233,8 @@ def test_runners_that_open_one_new_database_at_the_same_moment_both_join_the_stu
     (IntegrityError, exit 1), or one's switch to WAL was refused as locked."""
     study = _study(tmp_path)
     for attempt in range(50):
-        path, start, errors = tmp_path / f"new{attempt}.db", threading.Barrier(2), []
-
-        def join():
-            start.wait()
-            try:
-                runner_module._close(runner_module.open_db(path, study))
-            except Exception as exc:  # noqa: BLE001 - every runner's error is the failure
-                errors.append(exc)
-
-        threads = [threading.Thread(target=join) for _ in range(2)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-        assert errors == []
+        path = tmp_path / f"new{attempt}.db"
+        assert at_once(lambda: runner_module._close(runner_module.open_db(path, study))) == []
         with sqlite3.connect(path) as con:
             assert con.execute("SELECT COUNT(*) FROM study").fetchone()[0] == 1
 
