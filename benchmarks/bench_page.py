@@ -12,8 +12,10 @@ untimed, and the table says how many. The edit is spring 1's rate
 (:data:`cadcam.solve.transcription.WARM_IPOPT`). For comparison, through the same kept NLP and
 after the page's design: the last design without its multipliers, under the spec's own IPOPT
 options (how a Session started before it kept them), and the default start. Goals (issues 30 and
-32): a 1-DOF design back within 2 s, a warm re-solve after a small edit within 0.3 s; every
-template is a 1-DOF design, and each is judged.
+32): a 1-DOF design back within 2 s, a warm re-solve after a small edit within 0.3 s, the new
+torque curve within 3 s of the edit (the warm re-design and the torque figure as the page's
+worker draws it; the browser's round trip is not timed); every template is a 1-DOF design, and
+each is judged.
 """
 from __future__ import annotations
 
@@ -22,8 +24,11 @@ import time
 from pathlib import Path
 
 from cadcam.api import load_problem
+from cadcam.app.frames import Frames
+from cadcam.app.page import png
 from cadcam.app.state import TEMPLATES, DesignState
 from cadcam.optimize import optimize, start_design, warm_optimize
+from cadcam.outputs.plots import torque_figure
 from cadcam.solve import compiled
 from cadcam.solve.builds import built_for
 from cadcam.solve.transcription import Transcription
@@ -35,8 +40,9 @@ from goals import print_goals  # noqa: E402
 EDIT = 1.02
 #: The key edited.
 KEY = "springs.1.rate"
-#: Goals [s]: the first design of a template, a warm re-design after the edit.
-FIRST_S, WARM_S = 2.0, 0.3
+#: Goals [s]: the first design of a template, a warm re-design after the edit, the edit's new
+#: torque curve on the page.
+FIRST_S, WARM_S, CURVE_S = 2.0, 0.3, 3.0
 
 
 def _timed(fn, *args):
@@ -61,10 +67,10 @@ def _compile(state: DesignState) -> int:
     return tr.compiled_now + compiled.library(tr.whole_nlp)[1]
 
 
-def template_rows(name: str) -> tuple[float, float, list[str]]:
+def template_rows(name: str) -> tuple[float, float, float, list[str]]:
     """The first design and the warm re-design of template ``name`` on the page's path, with
-    the two comparisons; returns the first design's and the warm re-design's wall times [s]
-    and the table's cells."""
+    the two comparisons; returns the first design's and the warm re-design's wall times [s],
+    the edit's time to its new torque curve [s] and the table's cells."""
     state = DesignState.template(name)
     compiled_now = _compile(state)
     first = state.design()
@@ -77,6 +83,7 @@ def template_rows(name: str) -> tuple[float, float, list[str]]:
     warm = state.design(KEY)
     if warm.result is None:
         raise RuntimeError(f"{name}: {warm.error}")
+    curve_s = warm.seconds + _torque_curve_s(warm.result)
     problem = load_problem(state.path, overrides=state.override_pairs())
     completed, start = default = start_design(problem)
     transcription, _ = built_for(completed)
@@ -88,9 +95,19 @@ def template_rows(name: str) -> tuple[float, float, list[str]]:
     how = "warm" if "(warm start" in warm.result.message else "from the default start"
     equal = warm.result.fun <= cold.fun * (1 + 1e-6) or not cold.success
     cells = [name, built, f"{first.seconds:.2f} ({last.build_time_s:.2f} + {last.solve.solve_time_s:.2f} + "
-             f"{last.recheck_time_s:.2f})", f"{_cell(warm.result, warm.seconds)}, {how}", _cell(plain, plain_s),
-             _cell(cold, cold_s), "yes" if equal else "**no**"]
-    return first.seconds, warm.seconds, cells
+             f"{last.recheck_time_s:.2f})", f"{_cell(warm.result, warm.seconds)}, {how}", f"{curve_s:.2f}",
+             _cell(plain, plain_s), _cell(cold, cold_s), "yes" if equal else "**no**"]
+    return first.seconds, warm.seconds, curve_s, cells
+
+
+def _torque_curve_s(result) -> float:
+    """What the page does after a design before the new torque curve shows [s]: the animation's
+    frames, then the torque figure drawn to a PNG (:meth:`cadcam.app.page.DesignPage.design`)."""
+    t0 = time.perf_counter()
+    Frames(result.evaluation)
+    if result.problem.springs:  # without springs the page has no torque curve
+        png(torque_figure(result.evaluation, result.band))
+    return time.perf_counter() - t0
 
 
 def main() -> int:
@@ -100,12 +117,12 @@ def main() -> int:
           "multipliers and from the default start, through the same kept NLP; time [s] | iterations | objective. "
           "One run each, wall time.\n")
     print("| template | functions | first design [s] (build + solve + re-check) | page, warm: time | iterations | "
-          "objective | last design without multipliers: time | iterations | objective | default start: time | "
-          "iterations | objective | warm no worse than the default start |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    firsts, warms = {}, {}
+          "objective | new torque curve [s] | last design without multipliers: time | iterations | objective | "
+          "default start: time | iterations | objective | warm no worse than the default start |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    firsts, warms, curves = {}, {}, {}
     for _, name in TEMPLATES:
-        firsts[name], warms[name], cells = template_rows(name)
+        firsts[name], warms[name], curves[name], cells = template_rows(name)
         print("| " + " | ".join(cells) + " |", flush=True)
     listed = "; ".join
     print_goals([
@@ -113,6 +130,9 @@ def main() -> int:
          "cache)", listed(f"{n} {s:.2f} s" for n, s in firsts.items()), max(firsts.values()) <= FIRST_S),
         (f"warm re-solve after a small edit ≤ {WARM_S:g} s (the page's re-design of each template, {KEY} × {EDIT})",
          listed(f"{n} {s:.2f} s" for n, s in warms.items()), max(warms.values()) <= WARM_S),
+        (f"the new torque curve ≤ {CURVE_S:g} s after the edit (the warm re-design, the animation's frames and the "
+         "torque figure, as the page's worker makes them; not the browser's round trip)",
+         listed(f"{n} {s:.2f} s" for n, s in curves.items()), max(curves.values()) <= CURVE_S),
     ])
     return 0
 
