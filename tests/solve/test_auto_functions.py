@@ -13,8 +13,7 @@ from cadcam.solve import compiled
 from cadcam.solve.builds import built_for, forget_builds
 from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING, Transcription
 
-from ..conftest import SPEC_1DOF, wait_for_library
-from .test_compiled import needs_cc
+from ..conftest import SPEC_1DOF, needs_cc, wait_for_library
 
 
 @pytest.fixture

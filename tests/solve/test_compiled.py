@@ -17,6 +17,7 @@ from cadcam.optimize import default_start, solve
 
 from ..conftest import SPEC_1DOF, at_once, needs_cc
 
+
 @pytest.fixture
 def small():
     """The 1-DOF problem on a coarse grid: the same structure of functions, a small NLP."""
