@@ -36,6 +36,7 @@ from ..designs import Design
 from . import compiled
 from .blocks import BAND_SCALE, FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from .messages import kept_warnings
+from .sharing import sharing_solver
 from ..mechanisms.base import (Mechanism, margin_function, port_change_function, port_function,
                                pose_change_function, pose_residual_function, split_coefficients,
                                wound_change_function, wound_lengths)
@@ -521,18 +522,21 @@ class Transcription:
         return np.r_[lo, dlo], np.r_[hi, dhi]
 
     def _imposing_solver(self) -> ca.Function:
-        """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use."""
+        """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use from
+        :attr:`solver`'s derivatives and the deferred rows' own."""
         if self._imposing is None:
-            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options,
-                                              lambda: self._split_graph().whole_nlp, WARM_IPOPT)
+            opt = self.problem.options
+            self._imposing = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, WARM_IPOPT),
+                                            self._deferred, expand=opt.functions != "mapped")
         return self._imposing
 
     def _warm_solver(self) -> ca.Function:
-        """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use (with
-        compiled functions it loads the library :attr:`solver` loaded)."""
+        """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use from
+        :attr:`solver`'s derivatives."""
         if self._warm is None:
-            self._warm, _ = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp, WARM_IPOPT,
-                                          key=self._key)
+            opt = self.problem.options
+            self._warm = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, WARM_IPOPT),
+                                        expand=opt.functions != "mapped")
         return self._warm
 
     def design_of(self, w) -> Design:
@@ -1201,21 +1205,14 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     return out
 
 
-def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None,
-                  key: str | None = None) -> tuple[ca.Function, str]:
-    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
-    CasADi options), and how they were. ``split()``, if given, is the NLP written as compiled
+def _ipopt_solver(nlp: dict, opt: Options, split=None, key: str | None = None) -> tuple[ca.Function, str]:
+    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says, and how they were. ``split()``, if given, is the NLP written as compiled
     functions are generated from (:meth:`Transcription._split_graph`), built only to compile
     them (else ``nlp``); their library is named by ``nlp``'s graph (its key ``key``, if the caller
     has it). ``auto`` loads the library the cache holds, else expands ``nlp`` while the library
     compiles in the background where it can
     (:func:`cadcam.solve.compiled.compile_in_background`)."""
-    # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
-    # shortens the step) is kept in the result by Transcription.solve, not printed
-    ipopt = {"print_time": False, "show_eval_warnings": True, "ipopt.print_level": 0, "ipopt.sb": "yes",
-             "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-             "ipopt.mu_strategy": "adaptive", "ipopt.mu_max": MU_MAX, **{f"ipopt.{k}": v for k, v in opt.ipopt},
-             **(extra or {})}
+    ipopt = _ipopt_options(opt)
     if opt.functions == "compiled":
         lib, compiled_now = compiled.library(nlp, split)
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
@@ -1227,6 +1224,16 @@ def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None
             return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_CACHED
         used = EXPANDED_COMPILING if compiled.compile_in_background(nlp, split, key) else "expanded"
     return ca.nlpsol("cadcam", "ipopt", nlp, {**ipopt, "expand": used != "mapped"}), used
+
+
+def _ipopt_options(opt: Options, extra: dict | None = None) -> dict:
+    """CasADi's ``nlpsol`` options of an IPOPT solve with ``opt``'s settings and ``extra``."""
+    # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
+    # shortens the step) is kept in the result by Transcription.solve, not printed
+    return {"print_time": False, "show_eval_warnings": True, "ipopt.print_level": 0, "ipopt.sb": "yes",
+            "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
+            "ipopt.mu_strategy": "adaptive", "ipopt.mu_max": MU_MAX, **{f"ipopt.{k}": v for k, v in opt.ipopt},
+            **(extra or {})}
 
 
 #: How a build's functions were evaluated (:attr:`Transcription.functions_used`), beyond
