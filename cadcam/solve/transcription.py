@@ -531,12 +531,15 @@ class Transcription:
         return self._imposing
 
     def _warm_solver(self) -> ca.Function:
-        """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use from
-        :attr:`solver`'s derivatives."""
+        """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use: from
+        the library :attr:`solver` loaded (in milliseconds), else from its derivatives."""
         if self._warm is None:
             opt = self.problem.options
-            self._warm = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, WARM_IPOPT),
-                                        expand=opt.functions != "mapped")
+            if self.functions_used in (COMPILED_NOW, COMPILED_CACHED):
+                self._warm, _ = _ipopt_solver(self.nlp, opt, self._split_nlp, WARM_IPOPT, key=self._key)
+            else:
+                self._warm = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, WARM_IPOPT),
+                                            expand=opt.functions != "mapped")
         return self._warm
 
     def design_of(self, w) -> Design:
@@ -1205,14 +1208,16 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     return out
 
 
-def _ipopt_solver(nlp: dict, opt: Options, split=None, key: str | None = None) -> tuple[ca.Function, str]:
-    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says, and how they were. ``split()``, if given, is the NLP written as compiled
+def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None,
+                  key: str | None = None) -> tuple[ca.Function, str]:
+    """IPOPT on ``nlp``, its functions evaluated as ``opt.functions`` says (with the ``extra``
+    CasADi options), and how they were. ``split()``, if given, is the NLP written as compiled
     functions are generated from (:meth:`Transcription._split_graph`), built only to compile
     them (else ``nlp``); their library is named by ``nlp``'s graph (its key ``key``, if the caller
     has it). ``auto`` loads the library the cache holds, else expands ``nlp`` while the library
     compiles in the background where it can
     (:func:`cadcam.solve.compiled.compile_in_background`)."""
-    ipopt = _ipopt_options(opt)
+    ipopt = _ipopt_options(opt, extra)
     if opt.functions == "compiled":
         lib, compiled_now = compiled.library(nlp, split)
         return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
