@@ -5,8 +5,9 @@ design must not lose) and warm without the last answer's multipliers.
 ``make bench`` (``python benchmarks/bench_page.py``). The page's path is
 :class:`cadcam.app.state.DesignState` over a :class:`cadcam.Session`, functions as the spec says
 (by default ``auto``), timed as they run once a template's libraries are in the cache, where
-the background compile of the page's first design of that template leaves it: a template's
-library not yet there is compiled first, untimed, and the table says so. The edit is spring 1's rate
+the background compile of the page's first design of that template leaves them: a template's
+libraries (its NLP's and its NLP's with the outline rows) not yet there are compiled first,
+untimed, and the table says how many. The edit is spring 1's rate
 × :data:`EDIT`; the warm design starts from the last answer and its IPOPT multipliers
 (:data:`cadcam.solve.transcription.WARM_IPOPT`). For comparison, through the same kept NLP and
 after the page's design: the last design without its multipliers, under the spec's own IPOPT
@@ -55,15 +56,15 @@ def _cell(result, seconds: float) -> str:
 
 
 def _compile(state: DesignState) -> int:
-    """Compile into the cache, as the page's background compile does, the library of
-    ``state``'s NLP if it is not there yet, where its functions are ``auto`` and there is a
-    compiler; return how many libraries were compiled (the NLP built here is not kept: the page's first design builds
-    its own; the solve with the outline rows shares that library's derivatives)."""
+    """Compile into the cache, as the page's background compiles do, the libraries of
+    ``state``'s NLP and of its NLP with the outline rows (the second solve's) that are not
+    there yet, where its functions are ``auto`` and there is a compiler; return how many (the
+    NLP built here is not kept: the page's first design builds its own)."""
     problem = load_problem(state.path)
     if problem.options.functions != "auto" or not compiled.available():
         return 0
     tr = Transcription(start_design(problem)[0].with_options(functions="compiled"))
-    return int(tr.compiled_now)
+    return tr.compiled_now + compiled.library(tr.whole_nlp)[1]
 
 
 def template_rows(name: str) -> tuple[float, float, float, list[str]]:

@@ -112,8 +112,8 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 def problem_functions(problem: Problem):
     """The NLP functions of ``problem`` and the Transcription that built them: the functions
-    of its whole NLP, deferred outline rows included, as ``solver.functions = "compiled"``
-    generates an NLP's (:func:`cadcam.solve.compiled.oracle_functions`), from the graph of mapped
+    of its whole NLP, deferred outline rows included, that ``solver.functions = "compiled"``
+    compiles (:func:`cadcam.solve.compiled.oracle_functions`), from the graph of mapped
     per-angle functions, whose C holds each per-angle function once inside loops over the grid."""
     from ..solve.transcription import Transcription
 

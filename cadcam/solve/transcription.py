@@ -522,12 +522,13 @@ class Transcription:
         return np.r_[lo, dlo], np.r_[hi, dhi]
 
     def _imposing_solver(self) -> ca.Function:
-        """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use from
-        :attr:`solver`'s derivatives and the deferred rows' own."""
+        """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use.
+        (Built from :attr:`solver`'s derivatives and the deferred rows' own, its Hessian differs
+        from this one's by rounding, enough to change IPOPT's path: Endo2010's weak-spring
+        pendulum then ended at max_iterations where it succeeds.)"""
         if self._imposing is None:
-            opt = self.problem.options
-            self._imposing = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, WARM_IPOPT),
-                                            self._deferred, expand=opt.functions != "mapped")
+            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options,
+                                              lambda: self._split_graph().whole_nlp, WARM_IPOPT)
         return self._imposing
 
     def _warm_solver(self) -> ca.Function:
