@@ -22,8 +22,8 @@ def _outputs(solver: ca.Function, name: str, args: list) -> list[ca.DM]:
 
 
 def _same_functions(shared: ca.Function, generated: ca.Function, point: list):
-    """Every function IPOPT calls gives, to rounding, ``generated``'s values (a mapped or
-    compiled graph may keep a few structural zeros the expanded one drops)."""
+    """Every function IPOPT calls gives, to rounding, ``generated``'s values (a mapped
+    graph may keep a few structural zeros the expanded one drops)."""
     for name in DERIVED:
         for a, b in zip(_outputs(shared, name, point), _outputs(generated, name, point), strict=True):
             a, b = np.asarray(ca.densify(a)), np.asarray(ca.densify(b))
