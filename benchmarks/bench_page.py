@@ -25,10 +25,9 @@ from pathlib import Path
 
 from cadcam.api import load_problem
 from cadcam.app.frames import Frames
-from cadcam.app.page import png
+from cadcam.app.page import torque_png
 from cadcam.app.state import TEMPLATES, DesignState
 from cadcam.optimize import optimize, start_design, warm_optimize
-from cadcam.outputs.plots import torque_figure
 from cadcam.solve import compiled
 from cadcam.solve.builds import built_for
 from cadcam.solve.transcription import Transcription
@@ -106,7 +105,7 @@ def _torque_curve_s(result) -> float:
     t0 = time.perf_counter()
     Frames(result.evaluation)
     if result.problem.springs:  # without springs the page has no torque curve
-        png(torque_figure(result.evaluation, result.band))
+        torque_png(result)
     return time.perf_counter() - t0
 
 

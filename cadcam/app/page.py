@@ -58,6 +58,11 @@ def png(fig: Figure, dpi: int = PAGE_DPI) -> bytes:
     return buffer.getvalue()
 
 
+def torque_png(result) -> bytes:
+    """The torque figure of ``result`` (a design with springs) as the page shows it."""
+    return png(torque_figure(result.evaluation, result.band))
+
+
 class DesignPage:
     """One tab's page over one :class:`DesignState`."""
 
@@ -184,7 +189,7 @@ class DesignPage:
         frames = Frames(ev)
         self.frames = frames
         if result.problem.springs:
-            self.torque.object = await self._in_worker(lambda: png(torque_figure(ev, result.band)))
+            self.torque.object = await self._in_worker(torque_png, result)
         for pane, draw in ((self.springs, lambda: png(springs_figure(ev)) if result.problem.springs else None),
                            (self.mechanism, lambda: frames.png(self.player.value))):
             image = await self._in_worker(draw)

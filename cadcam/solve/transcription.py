@@ -523,9 +523,9 @@ class Transcription:
 
     def _imposing_solver(self) -> ca.Function:
         """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use.
-        (Built from :attr:`solver`'s derivatives and the deferred rows' own, its Hessian differs
-        from this one's by rounding, enough to change IPOPT's path: Endo2010's weak-spring
-        pendulum then ended at max_iterations where it succeeds.)"""
+        Its derivatives are generated for the whole NLP, not summed from :attr:`solver`'s and
+        the deferred rows' (:mod:`.sharing`): that sum differs by rounding, and IPOPT's path
+        through these problems is sensitive enough to it to change the optimum reached."""
         if self._imposing is None:
             self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options,
                                               lambda: self._split_graph().whole_nlp, WARM_IPOPT)
