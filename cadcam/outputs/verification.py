@@ -43,6 +43,10 @@ MIN_FIT = 1e-10
 REFITS = 3
 #: Points of the designed outline at which the file's distance from it is measured.
 DISTANCE_SAMPLES = 4096
+#: Segments either side of the one round a point's polar angle that its distance to a file's
+#: chain is measured to (:func:`_polar_neighbours`): a point within the fit's tolerance of a
+#: chain lies nearest to its own segment or, by a corner, the next one.
+NEIGHBOUR_SEGMENTS = 2
 
 #: The fields of the report, declared once: name → (unit, description).
 FIELDS = {
@@ -155,13 +159,40 @@ def _segments(chain: FileOutline):
 
 
 def _file_error(outline, chain: FileOutline) -> float:
-    """Largest distance [m] from the designed outline to the chain read back from the file."""
+    """Largest distance [m] from the designed outline to the chain read back from the file:
+    from each point to the segments round its polar angle (:func:`_polar_neighbours`) where
+    the chain winds once round the axis, else to every segment."""
     points = outline.xy(np.linspace(0.0, 2 * np.pi, DISTANCE_SAMPLES, endpoint=False))
     a, b, bulges = _segments(chain)
+    near = _polar_neighbours(points, chain)
+    if near is not None:
+        return float(arc_distance(points[:, None], a[0][near], b[0][near], bulges[0][near]).min(axis=1).max())
     best = np.full(len(points), np.inf)
     for rows in np.array_split(np.arange(len(points)), max(1, len(points) * len(a[0]) // 2_000_000)):
         best[rows] = arc_distance(points[rows, None], a, b, bulges).min(axis=1)
     return float(best.max())
+
+
+def _polar_neighbours(points, chain: FileOutline) -> np.ndarray | None:
+    """Indices (N, 2·:data:`NEIGHBOUR_SEGMENTS` + 1) of the closed chain's segments round the
+    polar angle of each of ``points`` [m]: the segment whose vertices' polar angles bracket
+    the point's and :data:`NEIGHBOUR_SEGMENTS` either side. None unless the vertices' polar
+    angles about the axis run one way once round (a chain that winds once round the axis, as
+    every outline of a part on its bore does): only then does a point lie near the segments of
+    its own polar angle. The distance to a subset of the segments is never less than to the
+    nearest, so the error measured with them is never smaller than the file's."""
+    if not chain.closed:
+        return None
+    polar = np.unwrap(np.arctan2(chain.vertices[:, 1], chain.vertices[:, 0]))
+    steps = np.diff(np.append(polar, polar[0] + np.sign(polar[-1] - polar[0]) * 2 * np.pi))
+    if not (np.all(steps > 0) or np.all(steps < 0)) or not np.isclose(abs(steps.sum()), 2 * np.pi):
+        return None
+    sense = np.sign(steps[0])
+    start = sense * polar  # increasing, from start[0] round to start[0] + 2π
+    angle = start[0] + np.mod(sense * np.arctan2(points[:, 1], points[:, 0]) - start[0], 2 * np.pi)
+    k = np.searchsorted(start, angle, side="right") - 1  # the segment from vertex k to k + 1
+    offsets = np.arange(-NEIGHBOUR_SEGMENTS, NEIGHBOUR_SEGMENTS + 1)
+    return np.mod(k[:, None] + offsets, len(start))
 
 
 def _groove_error(basis, coefficients, phi_max: float, chain: FileOutline) -> float:

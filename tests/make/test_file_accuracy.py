@@ -13,7 +13,7 @@ from cadcam.make.biarc import arc_distance, biarc_fit
 from cadcam.make.workshop import (GROOVE_ROWS, MIN_WALL, closed_outline, cut_outline, helical_groove, hull_outline,
                                   write_dxf, write_groove_csv)
 from cadcam.outputs.run_files import write_workshop_files
-from cadcam.outputs.verification import FIELDS, recompute
+from cadcam.outputs.verification import DISTANCE_SAMPLES, FIELDS, _file_error, _polar_neighbours, recompute
 from cadcam.physics.profile import Basis
 from cadcam.verify.file_model import (SAGITTA, STEP, anchored_path, file_torque, outline_points, read_dxf,
                                       read_groove, span_clearance)
@@ -85,6 +85,27 @@ def test_dxf_holds_arcs_true_circles_and_millimetres(tmp_path):
 
 
 # ------------------------------------------------------------------------------ file model
+
+def test_the_files_error_measured_round_each_points_polar_angle_is_the_error_to_every_arc(tmp_path):
+    """The verification's distance from the outline to its file, measured to the arcs round
+    each point's polar angle only, is exactly the distance to the nearest of all the arcs, at
+    its points, wound either way; a chain that does not wind round the axis (the same chain 1 m off it) or an
+    open one is measured against every arc, and gives the same error for the same offset."""
+    outline = spiral()
+    write_dxf(tmp_path / "cam1.dxf", outline, BORE, ANCHOR, 1e-7)
+    chain = read_dxf(tmp_path / "cam1.dxf")
+    points = outline.xy(np.linspace(0.0, 2 * np.pi, DISTANCE_SAMPLES, endpoint=False))
+    assert _polar_neighbours(points, chain) is not None
+    assert _file_error(outline, chain) == exact_distance(outline, chain, DISTANCE_SAMPLES) > 0
+    mirrored = types.SimpleNamespace(xy=lambda phi: outline.xy(phi) * [1.0, -1.0])  # wound clockwise
+    back = dataclasses.replace(chain, vertices=chain.vertices * [1.0, -1.0], bulges=-chain.bulges)
+    assert _polar_neighbours(points * [1.0, -1.0], back) is not None
+    assert _file_error(mirrored, back) == exact_distance(mirrored, back, DISTANCE_SAMPLES)
+    off = dataclasses.replace(chain, vertices=chain.vertices + [1.0, 0.0])
+    assert _polar_neighbours(points, off) is None
+    assert _file_error(outline, off) == pytest.approx(exact_distance(outline, off, DISTANCE_SAMPLES), rel=1e-12)
+    assert _polar_neighbours(points, dataclasses.replace(chain, closed=False)) is None
+
 
 @pytest.fixture(scope="module")
 def pendulum():
