@@ -45,7 +45,8 @@ def machine_stamp() -> str:
             f"- machine: {socket.gethostname()}, {cpu}, {os.cpu_count()} cores, {mem}, "
             f"{platform.system()} {platform.release()}\n"
             f"- software: Python {platform.python_version()}, CasADi {casadi.__version__}, NumPy {numpy.__version__}\n"
-            f"- load average at start: {' '.join(f'{v:.2f}' for v in os.getloadavg())} (1, 5, 15 min)\n")
+            f"- load average at start: {' '.join(f'{v:.2f}' for v in os.getloadavg())} (1, 5, 15 min)\n"
+            "- Python's bytecode of cadcam cached, as an installed cadcam has it (see `run_script`)\n")
 
 
 def _lines(path: str) -> list[str]:
@@ -59,10 +60,14 @@ def run_script(name: str) -> tuple[str, int]:
     """Run one benchmark script, echoing its output; return the output and exit code. It runs
     with an empty cache of compiled libraries of its own and no background compiles (which
     would load the machine while it measures): ``functions = "auto"`` expands what the script
-    has not compiled itself, whatever this machine has cached."""
+    has not compiled itself, whatever this machine has cached. Python caches the bytecode of
+    cadcam's sources as an installed cadcam has it, also where this machine's environment
+    turns that off (``PYTHONDONTWRITEBYTECODE``): otherwise each new process the scripts time
+    (``cadcam design``, a sweep's workers) would compile cadcam again, which a user's does not."""
     from cadcam.solve.compiled import BACKGROUND_ENV
     with tempfile.TemporaryDirectory(prefix="cadcam-bench-cache-") as cache:
-        env = {**os.environ, "CADCAM_CACHE_DIR": cache, BACKGROUND_ENV: "0"}
+        env = {key: value for key, value in os.environ.items() if key != "PYTHONDONTWRITEBYTECODE"}
+        env.update({"CADCAM_CACHE_DIR": cache, BACKGROUND_ENV: "0"})
         proc = subprocess.Popen([sys.executable, str(HERE / name)], stdout=subprocess.PIPE, text=True, cwd=ROOT,
                                 env=env)
         return _echoed(proc)
