@@ -716,6 +716,14 @@ def margin_function(structure) -> ca.Function:
                        ["theta", "z", "c", "q", "arm"], ["m"])
 
 
+#: Newton iterations of :meth:`DepartureSolver.solve`'s first pass, over every angle from its
+#: start: from a start in its root's basin Newton converges in a few. An angle that has not
+#: converged by then is solved from a converged neighbour's z (and, where none converges, from
+#: its start with every iteration) instead of iterating on from a start that is not leading it
+#: there: on a profile far from circular those iterations were most of a fine re-check's time.
+FIRST_PASS_ITER = 12
+
+
 class DepartureSolver:
     """Newton rootfinder for a mechanism's unknowns z of a fixed design at many angles."""
 
@@ -725,9 +733,11 @@ class DepartureSolver:
         self.residual = residual_function(structure)
         self._guess = guess_function(structure)
         g = ca.Function("g", [z, ca.vertcat(theta, c, q)], [self.residual(theta, z, c, q)[0]])
-        self._rf = ca.rootfinder("departure", "newton", g,
-                                 {"abstol": abstol, "max_iter": max_iter, "error_on_fail": False,
-                                  "show_eval_warnings": False})  # failures show in the residual
+        options = {"abstol": abstol, "error_on_fail": False,
+                   "show_eval_warnings": False}  # failures show in the residual
+        self._rf = ca.rootfinder("departure", "newton", g, {**options, "max_iter": max_iter})
+        self._first = ca.rootfinder("departure_first", "newton", g,
+                                    {**options, "max_iter": min(FIRST_PASS_ITER, max_iter)})
 
     def symbolic(self, theta, c, q, start=None):
         """z at θ as an expression (MX) of θ, c and q: the rootfinder from ``start`` (default
@@ -743,8 +753,10 @@ class DepartureSolver:
     def solve(self, theta, c, q, start=None, tol: float = 1e-9):
         """z (rows: unknowns) and the max |residual| at each θ; ``start`` overrides the guess.
 
-        Angles where Newton did not reach ``tol`` from its start are solved again from a
-        converged neighbour's z (continuation along the grid), sweep after sweep. Then a run of
+        Angles where Newton did not reach ``tol`` from its start in :data:`FIRST_PASS_ITER`
+        iterations are solved again from a converged neighbour's z (continuation along the
+        grid), sweep after sweep, and those still left from their start with every iteration.
+        Then a run of
         angles whose z jumps away from the rest (another root of the same equations: the guess
         of a strongly non-circular profile can fall into its basin) is solved again by
         continuation from the longest run without a jump, one angle at a time; see
@@ -753,7 +765,7 @@ class DepartureSolver:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         c, q = (np.asarray(v, dtype=float).ravel() for v in (c, q))
         z0 = self.guess(theta, c, q) if start is None else np.asarray(start, dtype=float)
-        z, res = self._solve(theta, z0, c, q)
+        z, res = self._solve(theta, z0, c, q, self._first)
         order = np.argsort(theta, kind="stable")  # neighbours in angle
         while True:
             good = res[order] <= tol
@@ -769,6 +781,11 @@ class DepartureSolver:
             z[:, idx[better]], res[idx[better]] = zt[:, better], rt[better]
             if not np.any(rt <= tol):  # no progress: what is left does not converge
                 break
+        left = np.flatnonzero(~(res <= tol))
+        if left.size:  # no neighbour led them there: every iteration from their start
+            zt, rt = self._solve(theta[left], z0[:, left], c, q)
+            better = (rt < res[left]) | (np.isfinite(rt) & ~np.isfinite(res[left]))
+            z[:, left[better]], res[left[better]] = zt[:, better], rt[better]
         return self._continued(theta, z, res, order, c, q, tol)
 
     def _continued(self, theta, z, res, order, c, q, tol):
@@ -789,10 +806,12 @@ class DepartureSolver:
                     z[:, i], res[i] = zt[:, 0], rt[0]
         return z, res
 
-    def _solve(self, theta, z0, c, q):
+    def _solve(self, theta, z0, c, q, rootfinder=None):
+        """z and the max |residual| at each θ, Newton (``rootfinder``, by default with every
+        iteration) from ``z0``."""
         n = theta.size
         p = np.vstack([theta, np.tile(c[:, None], (1, n)), np.tile(q[:, None], (1, n))])
-        z = np.asarray(self._rf.map(n)(z0, p)).reshape(-1, n)
+        z = np.asarray((rootfinder or self._rf).map(n)(z0, p)).reshape(-1, n)
         R = np.asarray(self.residual.map(n)(theta, z, c, q)[0]).reshape(-1, n)
         return z, np.abs(R).max(axis=0)
 

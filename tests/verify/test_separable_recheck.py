@@ -207,3 +207,24 @@ def test_a_run_of_angles_on_another_root_is_brought_back_by_continuation():
     steps = np.abs(np.diff(z, axis=1)).max(axis=0)
     assert res.max() < 1e-9 and not _jumps(z).size and steps.max() < 2 * np.median(steps)
     assert np.array_equal(z[:, :20], raw[:, :20])  # the run that was right is left as it was
+
+
+def test_angles_newton_leaves_after_its_first_pass_are_solved_and_the_rest_keep_their_roots():
+    """Fedorov2018's balancer at its start (Fedorov's envelope pulleys): from the guess, Newton
+    leaves some angles unconverged after its first pass; the solve brings every angle to its
+    root, and where Newton from the guess converges with every iteration the solve's z is that
+    one, unchanged."""
+    from cadcam.mechanisms.base import departure_solver
+    from cadcam.optimize import start_design
+    problem, start = start_design(load_spec(ROOT / "models" / "fedorov2018_balancer.toml"))
+    mech = problem.mechanisms[0]
+    c = np.concatenate(start.coefficients[problem.profile_slices()[0]])
+    q = np.asarray(mech.parameter_values(), dtype=float)
+    solver = departure_solver(mech.structure())
+    theta = problem.joints[mech.joint].grid(61)
+    guess = solver.guess(theta, c, q)
+    first = solver._solve(theta, guess, c, q, solver._first)[1]
+    every_z, every = solver._solve(theta, guess, c, q)
+    z, res = solver.solve(theta, c, q)
+    assert (first > 1e-9).any() and res.max() < 1e-9
+    assert np.array_equal(z[:, every <= 1e-9], every_z[:, every <= 1e-9])
