@@ -756,11 +756,10 @@ class DepartureSolver:
         Angles where Newton did not reach ``tol`` from its start in :data:`FIRST_PASS_ITER`
         iterations are solved again from a converged neighbour's z (continuation along the
         grid), sweep after sweep, and those still left from their start with every iteration.
-        Then a run of
-        angles whose z jumps away from the rest (another root of the same equations: the guess
-        of a strongly non-circular profile can fall into its basin) is solved again by
-        continuation from the longest run without a jump, one angle at a time; see
-        :func:`_jumps`.
+        Then a run of angles whose z jumps away from the rest (another root of the same
+        equations: the guess of a strongly non-circular profile can fall into its basin) is
+        solved again by continuation from the longest run without a jump, one angle at a time;
+        see :func:`_jumps`.
         """
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         c, q = (np.asarray(v, dtype=float).ravel() for v in (c, q))

@@ -185,7 +185,7 @@ def _polar_neighbours(points, chain: FileOutline) -> np.ndarray | None:
         return None
     polar = np.unwrap(np.arctan2(chain.vertices[:, 1], chain.vertices[:, 0]))
     steps = np.diff(np.append(polar, polar[0] + np.sign(polar[-1] - polar[0]) * 2 * np.pi))
-    if not (np.all(steps > 0) or np.all(steps < 0)) or not np.isclose(abs(steps.sum()), 2 * np.pi):
+    if not (np.all(steps > 0) or np.all(steps < 0)):  # the steps add up to one turn
         return None
     sense = np.sign(steps[0])
     start = sense * polar  # increasing, from start[0] round to start[0] + 2π
