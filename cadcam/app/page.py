@@ -73,6 +73,7 @@ class DesignPage:
         self.headings: dict[int, pn.pane.HTML] = {}  # each spring's, by its number
         self.frames: Frames | None = None
         self._shown = 0  # designs asked for: only the last one's figures are shown
+        self._pose = 0  # the player's last value: only its frame is drawn
         self._error_key: str | None = None  # the field whose error is shown
         names = [title for title, _ in TEMPLATES]
         self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
@@ -229,9 +230,17 @@ class DesignPage:
         await self.design()
 
     async def _on_pose(self, event) -> None:
-        frames = self.frames
+        frames, self._pose = self.frames, event.new
         if frames is not None:
-            self.mechanism.object = await self._in_worker(frames.png, event.new)
+            image = await self._in_worker(self._frame_if_current, frames, event.new)
+            if image is not None:
+                self.mechanism.object = image
+
+    def _frame_if_current(self, frames: Frames, pose: int) -> bytes | None:
+        """Frame ``pose`` of ``frames``, or None once the player has moved on or another design
+        is shown: the player steps faster than a first frame is drawn, and the frames it passed
+        would otherwise queue in the worker ahead of the next design."""
+        return frames.png(pose) if pose == self._pose and frames is self.frames else None
 
     # ------------------------------------------------------------------------------- views
     def _show_error(self, key: str | None, message: str | None) -> None:
@@ -325,8 +334,11 @@ def serve(path: str | None = None, port: int = 5006, address: str = "127.0.0.1",
     default): every script from this server, no asset from the network."""
     pn.extension(raw_css=[CSS], inline=True)
     origins = [f"{host}:{port}" for host in ("localhost", "127.0.0.1", address)]
-    pn.serve({"/": lambda: page(path)}, port=port, address=address, show=show, websocket_origin=origins,
-             title="cadcam design page", resources="server", threaded=False, print_url=True)
+    try:
+        pn.serve({"/": lambda: page(path)}, port=port, address=address, show=show, websocket_origin=origins,
+                 title="cadcam design page", resources="server", threaded=False, print_url=True)
+    finally:  # a stopped server exits once the worker's task under way ends, not everything queued
+        WORKER.shutdown(wait=False, cancel_futures=True)
 
 
 __all__ = ["DesignPage", "page", "serve", "slug"]

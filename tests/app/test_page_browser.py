@@ -50,12 +50,13 @@ def server(tmp_path_factory):
                              str(port), "--no-browser"], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
                             env={**os.environ, "CADCAM_CACHE_DIR": str(tmp_path_factory.mktemp("page_cache"))})
     url = f"http://127.0.0.1:{port}/"
-    # importing Panel and building the first page takes seconds alone; the CI's two workers
-    # under a full suite took more than a minute once
+    # importing Panel and building the first page takes seconds alone, many under the CI's two
+    # workers: the page is asked for once the port listens, and waited for (a request given up
+    # on would leave the server building pages nobody reads)
     deadline = time.monotonic() + 120
     while True:
         try:
-            urllib.request.urlopen(url, timeout=2).read()
+            urllib.request.urlopen(url, timeout=max(deadline - time.monotonic(), 1)).read()
             break
         except OSError:
             if proc.poll() is not None or time.monotonic() > deadline:
