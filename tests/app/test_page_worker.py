@@ -1,6 +1,7 @@
 """The design page's worker without a browser: what the player asks of it while a frame is slow."""
 import asyncio
 import threading
+import time
 from types import SimpleNamespace
 
 import pytest
@@ -17,7 +18,7 @@ class SlowFrames:
 
     def png(self, i: int) -> bytes:
         self.first_started.set()
-        threading.Event().wait(0.2)
+        time.sleep(0.2)
         self.drawn.append(i)
         return f"frame {i}".encode()
 
