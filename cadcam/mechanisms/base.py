@@ -776,15 +776,12 @@ class DepartureSolver:
             idx = order[todo]
             src = order[np.where(left, np.arange(good.size) - 1, np.arange(good.size) + 1)[todo]]
             zt, rt = self._solve(theta[idx], z[:, src], c, q)
-            better = (rt < res[idx]) | (np.isfinite(rt) & ~np.isfinite(res[idx]))
-            z[:, idx[better]], res[idx[better]] = zt[:, better], rt[better]
+            _keep_better(z, res, idx, zt, rt)
             if not np.any(rt <= tol):  # no progress: what is left does not converge
                 break
-        left = np.flatnonzero(~(res <= tol))
-        if left.size:  # no neighbour led them there: every iteration from their start
-            zt, rt = self._solve(theta[left], z0[:, left], c, q)
-            better = (rt < res[left]) | (np.isfinite(rt) & ~np.isfinite(res[left]))
-            z[:, left[better]], res[left[better]] = zt[:, better], rt[better]
+        unsolved = np.flatnonzero(~(res <= tol))
+        if unsolved.size:  # no neighbour led them there: every iteration from their start
+            _keep_better(z, res, unsolved, *self._solve(theta[unsolved], z0[:, unsolved], c, q))
         return self._continued(theta, z, res, order, c, q, tol)
 
     def _continued(self, theta, z, res, order, c, q, tol):
@@ -813,6 +810,13 @@ class DepartureSolver:
         z = np.asarray((rootfinder or self._rf).map(n)(z0, p)).reshape(-1, n)
         R = np.asarray(self.residual.map(n)(theta, z, c, q)[0]).reshape(-1, n)
         return z, np.abs(R).max(axis=0)
+
+
+def _keep_better(z, res, idx, zt, rt) -> None:
+    """Replace, in place, z and the residual at the angles ``idx`` by the new solve's ``zt``
+    and ``rt`` where that residual is smaller (or finite where the old one is not)."""
+    better = (rt < res[idx]) | (np.isfinite(rt) & ~np.isfinite(res[idx]))
+    z[:, idx[better]], res[idx[better]] = zt[:, better], rt[better]
 
 
 #: A step of z between neighbouring angles is a jump to another root if it exceeds this many
