@@ -318,7 +318,7 @@ def check_derivatives(spec, design=None, *, points: int = 3, tol: float = 1e-6, 
         rows += _nlp_partials(problem, start, rng)
         notes.append("NLP: at the start design's NLP vector (the functions IPOPT calls)")
     elif nlp:
-        notes.append("NLP: not checked (solver.method = 'envelope' builds no NLP)")
+        notes.append(f"NLP: not checked (solver.method = {problem.options.method!r} builds no NLP)")
     return DerivativeCheck(derivatives.worst(rows), tol, notes)
 
 

@@ -139,10 +139,11 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
     """The start design re-checked as the answer (a mechanism's own design method,
     :class:`~cadcam.mechanisms.base.DesignMethod`): its evaluation on
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
-    objective is the largest output error on the design grid [m]."""
+    objective is the largest output error on the design grid [m], or where no mechanism has
+    an output law, the largest torque error there [N·m]."""
     on_grid = evaluate(problem, design)
     fine, recheck_s = _recheck(problem, design)
-    errors = [e for e in on_grid.metrics.output_max_abs_error if e is not None]
+    errors = [e for e in on_grid.metrics.output_max_abs_error if e is not None] or on_grid.metrics.max_abs_error
     method = design_methods()[problem.options.method]
     solve = Solve(design=design, status="converged", return_status=method.title,
                   iterations=0, solve_time_s=seconds, objective=max(errors),

@@ -127,6 +127,10 @@ class Setting:
     description: str
 
 
+#: Highest degree of a moment arm r_m(θ) in the ``moment_arm`` design method: the minimax NLP
+#: in its coefficients is dense, and Ludovico2021 reaches its accuracy at 5 to 7.
+MAX_MOMENT_ARM_DEGREE = 20
+
 #: The ``[solver]`` options, in the order a spec's table is read.
 SOLVER = {
     "grid": Setting(46, lambda v: _integer(v, 3), "an integer ≥ 3",
@@ -167,6 +171,12 @@ SOLVER = {
                       "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
                       "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, "
                       "re-checked like an optimum (no NLP is built)."),
+    "moment_arm_degree": Setting(5, lambda v: _integer(v, 1) and v <= MAX_MOMENT_ARM_DEGREE,
+                                 f"an integer 1…{MAX_MOMENT_ARM_DEGREE}",
+                                 "Degree of each anchored pulley's moment arm r_m(θ), a Chebyshev series "
+                                 "in its joint's angle, in the ``moment_arm`` design method "
+                                 "(Ludovico2021 Sec. III; its Table III uses 5). The pulleys it gives are "
+                                 "fitted as profiles of their mechanisms' own ``order``."),
     "functions": Setting("auto", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}",
                          "How IPOPT's functions of the NLP are evaluated. ``expanded``: expanded "
                          "into scalar (SX) graphs when the solver is built, whose time grows with "
@@ -261,6 +271,7 @@ class Options:
     objective: str = SOLVER["objective"].default
     ipopt: tuple = SOLVER["ipopt"].default
     method: str = SOLVER["method"].default
+    moment_arm_degree: int = SOLVER["moment_arm_degree"].default
     functions: str = SOLVER["functions"].default
 
     @property

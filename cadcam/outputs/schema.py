@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..mechanisms.base import LINK_ANGLE, design_methods, mechanism_class, mechanism_kinds, torque_models
-from ..problem import ACCEPTANCE, BAND_WEIGHT, FUNCTIONS, SOLVER, TOLERANCES
+from ..problem import ACCEPTANCE, BAND_WEIGHT, FUNCTIONS, MAX_MOMENT_ARM_DEGREE, SOLVER, TOLERANCES
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -67,6 +67,7 @@ def result_schema(schema: dict) -> dict:
     defs["torque_model"]["enum"] = list(torque_models())
     defs["options"]["properties"]["method"]["enum"] = ["nlp", *design_methods()]
     defs["options"]["properties"]["functions"]["enum"] = list(FUNCTIONS)
+    defs["options"]["properties"]["moment_arm_degree"]["maximum"] = MAX_MOMENT_ARM_DEGREE
     for name, setting in SOLVER.items():
         defs["options"]["properties"][name]["description"] = plain(setting.description)
     defs["solver_run"]["properties"]["name"]["enum"] = ["ipopt", *design_methods()]

@@ -39,7 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ..base import Limit, Mechanism, Quantity, register
+from ..base import DesignMethod, Limit, Mechanism, Quantity, register
 
 #: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
 GUESS_SWEEPS = 6
@@ -102,6 +102,9 @@ class AnchoredPulley(Mechanism):
     residual_rows = (Quantity("tangency", "rad", "the angle from the profile's tangent to the cable"),)
     unknown_bounds = ((0.0, np.inf),)  # the cable never leaves before its anchor
     force_models = ("force",)
+    methods = (DesignMethod("moment_arm", "Ludovico2021 moment-arm synthesis (minimax in r_m(θ), profiles fitted)",
+                            "anchored pulleys, each with a spring of its own, for joint targets of their own angle",
+                            'kind = "anchored_pulley" and a spring of its own on its cable port'),)
     limits = (Limit("moment_arm", "moment arm", "min_moment_arm"),
               Limit("free_span", "free cable span", "min_free_span"))
 
@@ -193,6 +196,16 @@ class AnchoredPulley(Mechanism):
         σ = +1, the first when σ = −1."""
         sigma = cls.named_parameters(q).sigma
         return 0.5 * (1 + sigma) * last + 0.5 * (1 - sigma) * first
+
+    @classmethod
+    def prepare_start(cls, problem, design):
+        """With ``solver.method = "moment_arm"``, the pulleys of the moment-arm synthesis
+        (:func:`.moment_arm.moment_arm_synthesis`), anchors and bases included; else the
+        circles."""
+        if problem.options.method != "moment_arm":
+            return problem, design
+        from .moment_arm import moment_arm_synthesis  # it builds on this model: imported here, not above
+        return moment_arm_synthesis(problem, design)
 
     @classmethod
     def profile_domain(cls, theta_range) -> tuple[float, float]:

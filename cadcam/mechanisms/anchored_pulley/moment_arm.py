@@ -16,25 +16,42 @@ variable, with IPOPT.
 The answer is a moment-arm law and its pulley as an envelope (points), not a profile
 polynomial ρ(φ): the pulleys it finds can have a departure point that sweeps a wide polar
 angle over a small joint angle, or stalls at a tight corner, which a polynomial in φ follows
-poorly.
+poorly. :func:`moment_arm_synthesis` (the design method ``moment_arm``) makes them profiles:
+each envelope, continued a little past the joint's range, fitted as a polynomial in φ of its
+mechanism's order on the polar range it wraps, with its anchor placed just before the
+least-wound departure point; the synthesis keeps room in the radius of curvature
+(:data:`CURVATURE_RESERVE`) for the fit to follow the envelope's tightest turns.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
 from numpy.polynomial import Chebyshev
 
-from ...physics.profile import Basis, profile_function
+from ...errors import SpecError
+from ...physics.profile import Basis, fit_profile, profile_function
 from .kim_deshpande import Envelope, SpringState, cable_line, envelope
-from .model import AnchoredPulley
+from .model import ANCHOR_WRAP, WINDING, AnchoredPulley
 from .starts import own_spring, own_target
 
 #: Least rate σν′ = 1 + σφ′ [-] at which the cable line turns the winding way: Ludovico2021
 #: Eq. 6 asks > 0; where it nears 0 the departure point runs off to infinity (dh/dν = r′/ν′),
 #: which ρ_max forbids long before, so the bound only keeps IPOPT's iterates off that pole.
 MIN_TURN = 0.05
+#: How many times its limit the moment-arm synthesis keeps each pulley's radius of curvature:
+#: where the envelope turns at the limit itself, a polynomial in φ cannot follow the corner
+#: without breaking the limit between its samples (measured on Ludovico2021's generic torque:
+#: with no reserve, and with 1.25, profiles of order 30 and 40 fail the re-check there).
+CURVATURE_RESERVE = 1.5
+#: Joint angle [rad] by which each moment-arm law is continued past its joint's range, so that
+#: the profile runs on smoothly past the extreme departure points (to its anchor on one side).
+CONTINUATION = np.radians(10.0)
+#: Polar angle [rad] the fitted profile reaches past the most-wound departure point.
+TAIL = 0.05
+#: Envelope samples per pulley from which its profile is fitted.
+FIT_SAMPLES = 4001
 
 
 @dataclass(frozen=True)
@@ -221,3 +238,91 @@ def sample_moment_arms(problem, joint: int, basis: Basis, coefficients, theta,
     return MomentArmDesign(theta=theta, basis=basis, mechanisms=tuple(units),
                            coefficients=tuple(coefficients.T.copy()), states=tuple(states),
                            envelopes=tuple(envelopes), torque=torque, target=target, status=status)
+
+
+def moment_arm_synthesis(problem, start):
+    """The design method ``moment_arm``: every joint's anchored pulleys designed in their
+    moment arms (:func:`design_moment_arms`, of degree ``solver.moment_arm_degree`` on the
+    design grid, with :data:`CURVATURE_RESERVE`) and made profiles (:func:`fitted_pulley`).
+
+    Parameters
+    ----------
+    problem : cadcam.problem.Problem
+        Only anchored pulleys, each with a spring of its own on its ``cable`` port; each
+        joint's target a function of its own angle.
+    start : cadcam.designs.Design
+        The circles of :func:`cadcam.designs.default_start` (its pre-extensions are kept).
+
+    Returns
+    -------
+    (Problem, Design)
+        The problem with each pulley's anchor angle and profile basis those of its fit, and the
+        fitted profiles.
+
+    Raises
+    ------
+    SpecError
+        Where a pulley has no spring of its own.
+    """
+    reserved = replace(problem, mechanisms=tuple(
+        replace(m, profiles=tuple(replace(p, min_curvature_radius=CURVATURE_RESERVE * p.min_curvature_radius)
+                                  for p in m.profiles)) for m in problem.mechanisms))
+    mechanisms, bases, coefficients = list(problem.mechanisms), list(start.bases), list(start.coefficients)
+    poses = [None] * len(mechanisms)
+    for joint in sorted({m.joint for m in problem.mechanisms}):
+        try:
+            laws = design_moment_arms(reserved, joint, problem.options.moment_arm_degree, problem.options.grid)
+        except ValueError as exc:
+            raise SpecError(f"solver.method = 'moment_arm': {exc}") from None
+        for u in laws.mechanisms:
+            mechanisms[u], bases[u], coefficients[u], poses[u] = fitted_pulley(problem, laws, u)
+    return (replace(problem, mechanisms=tuple(mechanisms)),
+            replace(start, bases=bases, coefficients=coefficients, poses=poses))
+
+
+def fitted_pulley(problem, laws: MomentArmDesign, u: int):
+    """Pulley ``u`` of the moment-arm design ``laws`` as a profile: its envelope on its joint's
+    range continued by :data:`CONTINUATION` on both sides (as far as it stays regular, inside
+    [ρ_min, ρ_max]), from :data:`ANCHOR_WRAP` before the least-wound departure point to
+    :data:`TAIL` past the most-wound one, resampled uniformly in φ and fitted by least squares
+    in its profile's basis kind and order on that polar range, measured from its start, where
+    the anchor goes.
+
+    Returns
+    -------
+    (AnchoredPulley, Basis, ndarray, (ndarray, ndarray))
+        The mechanism with that anchor angle and basis, the basis, the coefficients [m], and
+        the departure angles α [rad] of the envelope at the joint angles θ [rad] it was fitted
+        from, as :attr:`cadcam.designs.Design.poses` holds them: the evaluation's rootfinder
+        starts there (from its closed-form guess it can leave a short polar range, outside
+        which a polynomial of high order is meaningless).
+    """
+    mech = problem.mechanisms[u]
+    prof = mech.profiles[0]
+    lo, hi = problem.joints[mech.joint].theta_range
+    theta = np.linspace(lo - CONTINUATION, hi + CONTINUATION, FIT_SAMPLES)
+    sampled = sample_moment_arms(problem, mech.joint, laws.basis, laws.coefficients, theta)
+    env = sampled.envelopes[sampled.mechanisms.index(u)]
+    inside = (theta >= lo) & (theta <= hi)
+    usable = inside | ((env.radius_of_curvature >= prof.min_curvature_radius) & (mech.sigma * env.dnu > 0)
+                       & (env.rho >= prof.rho_min) & (env.rho <= prof.rho_max))
+    first, last = np.flatnonzero(inside)[[0, -1]]
+    while first > 0 and usable[first - 1]:
+        first -= 1
+    while last < theta.size - 1 and usable[last + 1]:
+        last += 1
+    phi, rho = env.phi_polar[first:last + 1], env.rho[first:last + 1]
+    wound = env.phi_polar[inside]
+    window = (phi >= wound.min() - ANCHOR_WRAP) & (phi <= wound.max() + TAIL)
+    order = np.argsort(phi[window])
+    phi, rho = phi[window][order], rho[window][order]
+    anchor = phi[0]
+    even = np.linspace(0.0, phi[-1] - anchor, FIT_SAMPLES)
+    basis = Basis(prof.basis.name, prof.basis.order, (0.0, float(even[-1])))
+    c = fit_profile(basis, even, np.interp(even, phi - anchor, rho))
+    # φ measured from the new anchor is the canonical angle less ``anchor``: χ₀ = w(ψ₀ − anchor
+    # angle) falls by ``anchor``
+    placed = replace(mech, anchor_angle=mech.anchor_angle + WINDING[mech.winding] * anchor,
+                     profiles=(replace(prof, basis=basis),))
+    pose = (theta[first:last + 1], (env.phi_polar[first:last + 1] - anchor)[None, :])
+    return placed, basis, c, pose

@@ -3,14 +3,18 @@
 Ludovico2021 specs: the torque it claims against the pulley its envelope builds, by geometry
 alone, and its limits on a grid finer than its own."""
 import dataclasses
+import json
+from importlib.resources import files
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from jsonschema import Draft202012Validator
 
 import cadcam
 from cadcam.api import load_problem
+from cadcam.errors import SpecError
 from cadcam.mechanisms.anchored_pulley.moment_arm import design_moment_arms, sample_moment_arms
 from cadcam.mechanisms.anchored_pulley.starts import uniform_polar
 from cadcam.physics.profile import fit_profile
@@ -106,3 +110,36 @@ def test_pendulum_pulleys_as_profiles_have_the_designed_moment_arm_by_the_mechan
     for u, state in zip(designed.mechanisms, designed.states):
         arm = problem.mechanisms[u].sigma * evaluation.units[u].arm[0]
         np.testing.assert_allclose(arm, state.r_m, rtol=0, atol=2e-5)
+
+
+def test_design_command_by_the_moment_arm_method_meets_the_generic_goal_in_its_files(tmp_path, capsys):
+    """``cadcam design models/ludovico2021_generic.toml --variant moment_arm`` (docs/guide.md):
+    Ludovico2021's generic torque by the moment arms of degree 5, each pulley fitted as a profile
+    of order 35 and re-checked like an optimum, with the spec's spring and limits. The largest
+    torque error on the fine re-check grid, read from the user's torque_recheck.csv, is within
+    issue 30's goal (the profile NLP of the spec without the variant stops near 2.4e-2 N·m); the
+    design re-evaluated from its result.json gives that torque again; and the workshop files pass
+    their own verification."""
+    from cadcam.cli import main
+    out = tmp_path / "out"
+    assert main(["design", str(MODELS / "ludovico2021_generic.toml"), "--variant", "moment_arm",
+                 "-o", str(out)]) == 0
+    assert capsys.readouterr().out.startswith("success: moment_arm design")
+    rows = np.loadtxt(out / "torque_recheck.csv", delimiter=",", skiprows=1)
+    error = np.max(np.abs(rows[:, 1] - rows[:, 2]))
+    print("largest torque error on the fine re-check grid", error, "N·m")
+    assert error <= GENERIC_GOAL
+    result = json.loads((out / "result.json").read_text())
+    assert result["solver"]["name"] == "moment_arm" and result["solver"]["iterations"] == 0
+    Draft202012Validator(json.loads((files("cadcam") / "result.schema.json").read_text())).validate(result)
+    again = cadcam.evaluate(MODELS / "ludovico2021_generic.toml", out / "result.json", variant="moment_arm",
+                            grid=rows.shape[0])
+    np.testing.assert_allclose(np.ravel(again.tau), rows[:, 1], rtol=0, atol=1e-9)
+    assert "PASSED" in (out / "verification.md").read_text()
+
+
+def test_moment_arm_method_refuses_a_pulley_without_a_spring_of_its_own():
+    problem = load_problem(MODELS / "ludovico2021_generic.toml", variant="moment_arm",
+                           overrides={"springs.1.ports": ["cable:1", "cable:2"]})
+    with pytest.raises(SpecError, match="moment_arm.*pulley 1.*spring of its own"):
+        cadcam.optimize(problem)
