@@ -261,8 +261,8 @@ RULES_1DOF = Rules(frozenset(SPEC_REQUIRED | {"cams.*.target.expression", "sprin
 RULES_RR = Rules(frozenset(SPEC_REQUIRED | {"cams.*.target.joint", "arm", "arm.masses", "arm.lengths",
                                             "arm.com", "arm.masses.*", "arm.lengths.*", "arm.com.*"}),
                  judged=lambda p: not p.startswith("variants"), optional=SPEC_OPTIONAL)
-RESULT_REQUIRED = {"problem." + p for p in (
-    "name", "source", "joints", "joints.*", "joints.*.theta_range_deg", "joints.*.theta_range_deg.*",
+RESULT_REQUIRED = {"problem." + p for p in (  # not its name and source: they have defaults
+    "joints", "joints.*", "joints.*.theta_range_deg", "joints.*.theta_range_deg.*",
     "joints.*.sensitivity_weights.*", "joints.*.target", "joints.*.target.kind", "joints.*.target.expression",
     "mechanisms", "mechanisms.*", "mechanisms.*.kind", "mechanisms.*.joint", "mechanisms.*.rho_min",
     "mechanisms.*.rho_max", "mechanisms.*.mu", "mechanisms.*.idler", "mechanisms.*.idler.radius",
