@@ -168,11 +168,20 @@ def profile_function(basis: Basis) -> ca.Function:
     )
 
 
+@lru_cache(maxsize=64)
+def basis_row_function(basis: Basis) -> ca.Function:
+    """CasADi Function ``row(phi) -> b``: the basis's polynomials at φ [rad] as a row, so that
+    ρ(φ) = b · c (Johnston2023 Eq. 38 is linear in the coefficients c)."""
+    phi = ca.SX.sym("phi")
+    c = ca.SX.sym("c", basis.size)
+    return ca.Function("basis_row", [phi], [ca.jacobian(basis.rho(phi, c), c)], ["phi"], ["b"])
+
+
 def fit_profile(basis: Basis, phi, rho) -> np.ndarray:
     """Least-squares coefficients of ``basis`` for polar samples ρ(φ) of a profile.
 
-    The design matrix is built column by column from the basis's own evaluation
-    (:func:`profile_function`), so any basis works.
+    The design matrix is the basis's own rows (:func:`basis_row_function`) at ``phi``, so any
+    basis works.
 
     Parameters
     ----------
@@ -200,7 +209,6 @@ def fit_profile(basis: Basis, phi, rho) -> np.ndarray:
         raise ValueError("phi and rho must have the same shape")
     if phi.size < basis.size:
         raise ValueError(f"need at least {basis.size} samples to fit {basis.size} coefficients")
-    evaluate = profile_function(basis).map(phi.size)
-    matrix = np.column_stack([np.asarray(evaluate(phi[None, :], unit)[0]).ravel()
-                              for unit in np.eye(basis.size)])
+    rows = np.asarray(basis_row_function(basis).map(phi.size)(phi[None, :]))  # 1 × (size·samples)
+    matrix = rows.reshape(basis.size, phi.size, order="F").T
     return np.linalg.lstsq(matrix, rho, rcond=None)[0]
