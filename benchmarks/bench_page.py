@@ -59,18 +59,20 @@ def _compile(state: DesignState) -> int:
     ``state``'s NLP and of its NLP with the outline rows (the second solve's) that are not
     there yet, where its functions are ``auto`` and there is a compiler; return how many (the
     NLP built here is not kept: the page's first design builds its own)."""
-    problem = load_problem(state.path)
-    if problem.options.functions != "auto" or not compiled.available():
+    problem = load_problem(state.path, variant=state.variant)
+    if problem.options.method != "nlp" or problem.options.functions != "auto" or not compiled.available():
         return 0
     tr = Transcription(start_design(problem)[0].with_options(functions="compiled"))
     return tr.compiled_now + compiled.library(tr.whole_nlp)[1]
 
 
-def template_rows(name: str) -> tuple[float, float, float, list[str]]:
-    """The first design and the warm re-design of template ``name`` on the page's path, with
-    the two comparisons; returns the first design's and the warm re-design's wall times [s],
-    the edit's time to its new torque curve [s] and the table's cells."""
-    state = DesignState.template(name)
+def template_rows(template) -> tuple[float, float, float, list[str]]:
+    """The first design and the warm re-design of ``template`` (:data:`TEMPLATES`) on the
+    page's path, with the two comparisons (none for a spec designed by a method of its own: it
+    has no NLP); returns the first design's and the warm re-design's wall times [s], the edit's
+    time to its new torque curve [s] and the table's cells."""
+    state = DesignState.template(template.spec, variant=template.variant)
+    name = template.spec + (f" --variant {template.variant}" if template.variant else "")
     compiled_now = _compile(state)
     first = state.design()
     if first.result is None:
@@ -83,7 +85,13 @@ def template_rows(name: str) -> tuple[float, float, float, list[str]]:
     if warm.result is None:
         raise RuntimeError(f"{name}: {warm.error}")
     curve_s = warm.seconds + _torque_curve_s(warm.result)
-    problem = load_problem(state.path, overrides=state.override_pairs())
+    shown = [name, warm.result.functions, f"{first.seconds:.2f} ({last.build_time_s:.2f} + "
+            f"{last.solve.solve_time_s:.2f} + {last.recheck_time_s:.2f})"]
+    problem = load_problem(state.path, variant=state.variant, overrides=state.override_pairs())
+    if problem.options.method != "nlp":
+        cells = shown + [f"{_cell(warm.result, warm.seconds)}, by its method ({problem.options.method})",
+                        f"{curve_s:.2f}", "no NLP | | ", "no NLP | | ", "–"]
+        return first.seconds, warm.seconds, curve_s, cells
     completed, start = default = start_design(problem)
     transcription, _ = built_for(completed)
     plain, plain_s = _timed(warm_optimize, problem, transcription, last.design, last.evaluation.metrics.objective,
@@ -93,8 +101,7 @@ def template_rows(name: str) -> tuple[float, float, float, list[str]]:
     built = f"{functions}{f' ({compiled_now} compiled first)' if compiled_now else ''}"
     how = "warm" if "(warm start" in warm.result.message else "from the default start"
     equal = warm.result.fun <= cold.fun * (1 + 1e-6) or not cold.success
-    cells = [name, built, f"{first.seconds:.2f} ({last.build_time_s:.2f} + {last.solve.solve_time_s:.2f} + "
-             f"{last.recheck_time_s:.2f})", f"{_cell(warm.result, warm.seconds)}, {how}", f"{curve_s:.2f}",
+    cells = [shown[0], built, shown[2], f"{_cell(warm.result, warm.seconds)}, {how}", f"{curve_s:.2f}",
              _cell(plain, plain_s), _cell(cold, cold_s), "yes" if equal else "**no**"]
     return first.seconds, warm.seconds, curve_s, cells
 
@@ -120,8 +127,10 @@ def main() -> int:
           "default start: time | iterations | objective | warm no worse than the default start |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     firsts, warms, curves = {}, {}, {}
-    for _, name in TEMPLATES:
-        firsts[name], warms[name], curves[name], cells = template_rows(name)
+    for template in TEMPLATES:
+        first_s, warm_s, curve_s, cells = template_rows(template)
+        name = cells[0]
+        firsts[name], warms[name], curves[name] = first_s, warm_s, curve_s
         print("| " + " | ".join(cells) + " |", flush=True)
     listed = "; ".join
     print_goals([

@@ -75,14 +75,14 @@ class DesignPage:
         self._shown = 0  # designs asked for: only the last one's figures are shown
         self._pose = 0  # the player's last value: only its frame is drawn
         self._error_key: str | None = None  # the field whose error is shown
-        names = [title for title, _ in TEMPLATES]
+        names = [t.title for t in TEMPLATES]
         self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
                                           css_classes=["template"], sizing_mode="stretch_width")
         self.template.param.watch(self._on_template, "value")
         self.upload = pn.widgets.FileInput(accept=".toml,.json", css_classes=["open-file"], sizing_mode="stretch_width")
         self.upload.param.watch(self._on_upload, ["value", "filename"])
         self.open_error = pn.pane.HTML("", css_classes=["field-error", "open-error"])
-        self.opened = pn.pane.HTML(f"<small>open {_escape(self.state.path.name)}</small>", css_classes=["opened"])
+        self.opened = pn.pane.HTML(_opened(self.state), css_classes=["opened"])
         self.form = pn.Column(sizing_mode="stretch_width")
         self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
         self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
@@ -109,7 +109,8 @@ class DesignPage:
         return pn.Row(left, right, sizing_mode="stretch_width")
 
     def _template_title(self) -> str | None:
-        return next((title for title, name in TEMPLATES if self.state.path.stem == name), None)
+        here = (self.state.path.stem, self.state.variant)
+        return next((t.title for t in TEMPLATES if (t.spec, t.variant) == here), None)
 
     def _build_form(self) -> None:
         """One card per group of fields, the fields of each numbered table under its name."""
@@ -204,9 +205,9 @@ class DesignPage:
         return await asyncio.get_running_loop().run_in_executor(WORKER, fn, *args)
 
     async def _on_template(self, event) -> None:
-        name = dict(TEMPLATES).get(event.new)
-        if name is not None and name != self.state.path.stem:
-            await self._open(lambda: DesignState.template(name))
+        chosen = next((t for t in TEMPLATES if t.title == event.new), None)
+        if chosen is not None and event.new != self._template_title():
+            await self._open(lambda: DesignState.template(chosen.spec, variant=chosen.variant))
 
     async def _on_upload(self, *events) -> None:
         if not self.upload.value or not self.upload.filename:
@@ -223,7 +224,7 @@ class DesignPage:
             self.open_error.object = str(exc)
             return
         self.open_error.object = ""
-        self.opened.object = f"<small>open {_escape(state.path.name)}</small>"
+        self.opened.object = _opened(state)
         state.session = self.state.session  # the builds and last answers stay with the tab
         self.state = state
         self._build_form()
@@ -317,13 +318,19 @@ def _heading(title: str) -> str:
     return f"<b>{_escape(title)}</b>"
 
 
+def _opened(state: DesignState) -> str:
+    """The line naming the file open (and its variant)."""
+    variant = f" (variant {state.variant})" if state.variant else ""
+    return f"<small>open {_escape(state.path.name + variant)}</small>"
+
+
 def _escape(text: str) -> str:
     return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 
 def page(path: str | None = None) -> pn.Row:
     """A new tab's page over ``path`` (default: the first template), designed once loaded."""
-    state = DesignState(Path(path)) if path else DesignState.template(TEMPLATES[0][1])
+    state = DesignState(Path(path)) if path else DesignState.template(TEMPLATES[0].spec)
     view = DesignPage(state)
     pn.state.onload(view.design)
     return view.view()

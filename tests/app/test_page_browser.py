@@ -180,13 +180,31 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     # a catalogue spring: its heading names it, its rate fills the field
     heading = page.locator(".heading-springs-1 b")
     own = heading.inner_text()
+    shown = _torque_image(page)
     page.locator(".catalogue-springs-1 select").select_option(label=PICKED)
     deadline = time.monotonic() + 10
     while (heading.inner_text(), rate.input_value()) != (PICKED, "1150.0") and time.monotonic() < deadline:
         page.wait_for_timeout(100)
     assert (heading.inner_text(), rate.input_value()) == (PICKED, "1150.0") and own != PICKED
     page.wait_for_selector(".verdict-success", timeout=20_000)
+    while _torque_image(page) == shown:  # the picked spring's curve, before another design
+        assert time.monotonic() < deadline + 20, "the picked spring's design drew no torque curve"
+        page.wait_for_timeout(100)
     page.screenshot(path=str(SCREENS / "6_picked.png"), full_page=True)
+
+    # a template of a spec's variant opens with the variant named and is designed by its method
+    from cadcam.app.state import TEMPLATES
+    template = next(t for t in TEMPLATES if t.variant)
+    shown = _torque_image(page)
+    page.locator(".template select").select_option(label=template.title)
+    page.get_by_text(f"open {template.spec}.toml (variant {template.variant})").wait_for(timeout=20_000)
+    deadline = time.monotonic() + CURVE_WAIT_S
+    while _torque_image(page) == shown and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    assert _torque_image(page) != shown, "the template's design drew no torque curve"
+    page.wait_for_selector(".verdict-success", timeout=20_000)
+    assert page.locator(".field-solver-method input").input_value() == template.variant
+    page.screenshot(path=str(SCREENS / "7_template.png"), full_page=True)
 
     outside = [u for u in requests if not u.startswith(("http://127.0.0.1:", "ws://127.0.0.1:", "data:",
                                                          "blob:http://127.0.0.1:"))]

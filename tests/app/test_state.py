@@ -1,5 +1,7 @@
 """The design page's state without a browser: the form from the reader's declarations, edits as
 overrides, errors named by field, the spec written back with the edits."""
+import tomllib
+
 import numpy as np
 import pytest
 
@@ -36,9 +38,9 @@ def test_read_keys_records_every_key_with_its_value_or_default():
     assert by_key["joints.1.target.g"].value == 9.81 and not by_key["joints.1.target.g"].given
 
 
-@pytest.mark.parametrize("title, name", TEMPLATES)
-def test_every_template_opens_with_a_form(title, name):
-    state = DesignState.template(name)
+@pytest.mark.parametrize("template", TEMPLATES, ids=lambda t: t.title)
+def test_every_template_opens_with_a_form(template):
+    state = DesignState.template(template.spec, variant=template.variant)
     assert {"Target and range", "Springs", "Geometry"} <= {f.group for f in state.fields}
 
 
@@ -123,6 +125,28 @@ def test_a_result_json_opens_with_its_resolved_problem(tmp_path):
     written = tmp_path / "spec.toml"
     written.write_text(opened.spec_toml())
     assert load_problem(written).to_dict() == outcome.result.problem.to_dict()
+
+
+def test_the_generic_torque_template_is_its_variant_in_the_form_the_designs_and_the_spec_written(tmp_path):
+    """The template of a spec's variant (the generic torque's moment-arm method): the form shows
+    the variant's numbers, the designs are made by its method, an edit designs again, and the
+    spec written back with the edit designs the same problem."""
+    from cadcam.optimize import completed
+
+    template = next(t for t in TEMPLATES if t.variant)
+    state = DesignState.template(template.spec, variant=template.variant)
+    variant = tomllib.loads(state.path.read_text(encoding="utf-8"))["variants"][template.variant]
+    assert state.field("solver.method").value == variant["solver.method"]
+    assert state.field("mechanisms.1.order").value == variant["mechanisms.1.order"]
+    first = state.design().result
+    assert first.success and first.problem.options.method == variant["solver.method"]
+    rate = state.field("springs.1.rate").value
+    assert state.edit("springs.1.rate", repr(1.02 * rate)) is None
+    again = state.design("springs.1.rate").result
+    assert again.success and again.problem.springs[0].rate == pytest.approx(1.02 * rate)
+    written = tmp_path / "spec.toml"
+    written.write_text(state.spec_toml())
+    assert completed(load_problem(written)).to_dict() == again.problem.to_dict()
 
 
 def test_cadcam_app_refuses_a_spec_it_cannot_read_in_one_line(tmp_path, capsys):
