@@ -175,9 +175,14 @@ def main() -> None:
               "| case | published max error: closed form / convex [N·m] | QCQP net, paper's measure / true [N·m] | cadcam status | cadcam max error [N·m] (fine re-check) | RMSE [N·m] | min radius of curvature [mm] | min moment arm [mm] | elongation [mm] | iterations, solve [s] |",
               "|---|---|---|---|---|---|---|---|---|---|"]
     optimum_checks = []
-    for key, published, net_paper, net_true in summary:
-        problem = load_spec(ROOT / "models" / f"ludovico2021_{key}.toml")
+    # the generic torque again by the spec's moment-arm variant (Ludovico2021's own r_m(θ),
+    # fitted as profiles): the parameterisation that meets its goal
+    runs = [(key, None, *rest) for key, *rest in summary]
+    runs += [(key, "moment_arm", *rest) for key, *rest in summary if key == "generic"]
+    for key, variant, published, net_paper, net_true in runs:
+        problem = load_spec(ROOT / "models" / f"ludovico2021_{key}.toml", variant=variant)
         result = optimize(problem)
+        key = key if variant is None else f"{key}_{variant}"
         m = result.recheck.metrics
         arm_min = [1e3 * (mech.min_moment_arm + a) for mech, a in zip(problem.mechanisms, [
             v["moment_arm"] for v in m["margins"]["mechanism"]])]
