@@ -42,8 +42,8 @@ from .starts import own_spring, own_target
 MIN_TURN = 0.05
 #: How many times its limit the moment-arm synthesis keeps each pulley's radius of curvature:
 #: where the envelope turns at the limit itself, a polynomial in φ cannot follow the corner
-#: without breaking the limit between its samples (measured on Ludovico2021's generic torque:
-#: with no reserve, and with 1.25, profiles of order 30 and 40 fail the re-check there).
+#: without breaking the limit between its samples (with a smaller reserve the fitted pulleys of
+#: Ludovico2021's generic torque fail their re-check).
 CURVATURE_RESERVE = 1.5
 #: Joint angle [rad] by which each moment-arm law is continued past its joint's range, so that
 #: the profile runs on smoothly past the extreme departure points (to its anchor on one side).
@@ -263,6 +263,12 @@ def moment_arm_synthesis(problem, start):
     ------
     SpecError
         Where a pulley has no spring of its own.
+
+    Notes
+    -----
+    The fitted profiles are judged as any design is, by their fine re-check; IPOPT's status on
+    the moment-arm NLP is not the verdict (a stop short of its optimum gives profiles that miss
+    the target or break a limit, which the re-check reports).
     """
     reserved = replace(problem, mechanisms=tuple(
         replace(m, profiles=tuple(replace(p, min_curvature_radius=CURVATURE_RESERVE * p.min_curvature_radius)
@@ -281,10 +287,9 @@ def moment_arm_synthesis(problem, start):
 
 
 def fitted_pulley(problem, laws: MomentArmDesign, u: int):
-    """Pulley ``u`` of the moment-arm design ``laws`` as a profile: its envelope on its joint's
-    range continued by :data:`CONTINUATION` on both sides (as far as it stays regular, inside
-    [ρ_min, ρ_max]), from :data:`ANCHOR_WRAP` before the least-wound departure point to
-    :data:`TAIL` past the most-wound one, resampled uniformly in φ and fitted by least squares
+    """Pulley ``u`` of the moment-arm design ``laws`` as a profile: its envelope
+    (:func:`continued_envelope`) from :data:`ANCHOR_WRAP` before the least-wound departure point
+    to :data:`TAIL` past the most-wound one, resampled uniformly in φ and fitted by least squares
     in its profile's basis kind and order on that polar range, measured from its start, where
     the anchor goes.
 
@@ -296,6 +301,34 @@ def fitted_pulley(problem, laws: MomentArmDesign, u: int):
         from, as :attr:`cadcam.designs.Design.poses` holds them: the evaluation's rootfinder
         starts there (from its closed-form guess it can leave a short polar range, outside
         which a polynomial of high order is meaningless).
+    """
+    mech = problem.mechanisms[u]
+    prof = mech.profiles[0]
+    theta, env, wound = continued_envelope(problem, laws, u)
+    window = (env.phi_polar >= env.phi_polar[wound].min() - ANCHOR_WRAP) & \
+        (env.phi_polar <= env.phi_polar[wound].max() + TAIL)
+    order = np.argsort(env.phi_polar[window])
+    phi, rho = env.phi_polar[window][order], env.rho[window][order]
+    anchor = phi[0]
+    even = np.linspace(0.0, phi[-1] - anchor, FIT_SAMPLES)
+    basis = Basis(prof.basis.name, prof.basis.order, (0.0, float(even[-1])))
+    c = fit_profile(basis, even, np.interp(even, phi - anchor, rho))
+    # φ measured from the new anchor is the canonical angle less ``anchor``: χ₀ = w(ψ₀ − anchor
+    # angle) falls by ``anchor``
+    placed = replace(mech, anchor_angle=mech.anchor_angle + WINDING[mech.winding] * anchor,
+                     profiles=(replace(prof, basis=basis),))
+    return placed, basis, c, (theta, (env.phi_polar - anchor)[None, :])
+
+
+def continued_envelope(problem, laws: MomentArmDesign, u: int):
+    """Pulley ``u``'s envelope (canonical frame) on its joint's range, continued by
+    :data:`CONTINUATION` on both sides as far as it stays regular, convex and inside
+    [ρ_min, ρ_max], on :data:`FIT_SAMPLES` joint angles.
+
+    Returns
+    -------
+    (ndarray, Envelope, ndarray)
+        The joint angles [rad], the envelope on them, and the mask of those in the joint's range.
     """
     mech = problem.mechanisms[u]
     prof = mech.profiles[0]
@@ -311,18 +344,10 @@ def fitted_pulley(problem, laws: MomentArmDesign, u: int):
         first -= 1
     while last < theta.size - 1 and usable[last + 1]:
         last += 1
-    phi, rho = env.phi_polar[first:last + 1], env.rho[first:last + 1]
-    wound = env.phi_polar[inside]
-    window = (phi >= wound.min() - ANCHOR_WRAP) & (phi <= wound.max() + TAIL)
-    order = np.argsort(phi[window])
-    phi, rho = phi[window][order], rho[window][order]
-    anchor = phi[0]
-    even = np.linspace(0.0, phi[-1] - anchor, FIT_SAMPLES)
-    basis = Basis(prof.basis.name, prof.basis.order, (0.0, float(even[-1])))
-    c = fit_profile(basis, even, np.interp(even, phi - anchor, rho))
-    # φ measured from the new anchor is the canonical angle less ``anchor``: χ₀ = w(ψ₀ − anchor
-    # angle) falls by ``anchor``
-    placed = replace(mech, anchor_angle=mech.anchor_angle + WINDING[mech.winding] * anchor,
-                     profiles=(replace(prof, basis=basis),))
-    pose = (theta[first:last + 1], (env.phi_polar[first:last + 1] - anchor)[None, :])
-    return placed, basis, c, pose
+    run = slice(first, last + 1)
+    return theta[run], _envelope_slice(env, run), inside[run]
+
+
+def _envelope_slice(env: Envelope, run: slice) -> Envelope:
+    """``env`` on the joint angles ``run`` only."""
+    return Envelope(**{name: getattr(env, name)[run] for name in Envelope.__dataclass_fields__})
