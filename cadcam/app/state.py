@@ -15,8 +15,8 @@ import tempfile
 import time
 import zipfile
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
 from pathlib import Path
+from typing import NamedTuple
 
 from .. import examples
 from ..api import Session
@@ -27,6 +27,7 @@ from ..spec import SpecError, apply_override, read_keys, read_spec_data
 from ..sweep.study import read_catalogue
 from ..targets import ExpressionError
 from .form import Field, field_of_error, fields_of
+
 
 class Template(NamedTuple):
     """A spec the page starts from: its title, the example spec's name and a variant of it."""
