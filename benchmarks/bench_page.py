@@ -33,7 +33,7 @@ from cadcam.solve.builds import built_for
 from cadcam.solve.transcription import Transcription
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from goals import print_goals  # noqa: E402
+from goals import print_goals, spec_label  # noqa: E402
 
 #: The edit: spring 1's rate times this.
 EDIT = 1.02
@@ -72,7 +72,7 @@ def template_rows(template) -> tuple[float, float, float, list[str]]:
     has no NLP); returns the first design's and the warm re-design's wall times [s], the edit's
     time to its new torque curve [s] and the table's cells."""
     state = DesignState.template(template.spec, variant=template.variant)
-    name = template.spec + (f" --variant {template.variant}" if template.variant else "")
+    name = spec_label(template.spec, template.variant)
     compiled_now = _compile(state)
     first = state.design()
     if first.result is None:
@@ -85,12 +85,13 @@ def template_rows(template) -> tuple[float, float, float, list[str]]:
     if warm.result is None:
         raise RuntimeError(f"{name}: {warm.error}")
     curve_s = warm.seconds + _torque_curve_s(warm.result)
-    shown = [name, warm.result.functions, f"{first.seconds:.2f} ({last.build_time_s:.2f} + "
-            f"{last.solve.solve_time_s:.2f} + {last.recheck_time_s:.2f})"]
+    first_cell = (f"{first.seconds:.2f} ({last.build_time_s:.2f} + {last.solve.solve_time_s:.2f} + "
+                  f"{last.recheck_time_s:.2f})")
     problem = load_problem(state.path, variant=state.variant, overrides=state.override_pairs())
     if problem.options.method != "nlp":
-        cells = shown + [f"{_cell(warm.result, warm.seconds)}, by its method ({problem.options.method})",
-                        f"{curve_s:.2f}", "no NLP | | ", "no NLP | | ", "–"]
+        cells = [name, warm.result.functions, first_cell,
+                 f"{_cell(warm.result, warm.seconds)}, by its method ({problem.options.method})",
+                 f"{curve_s:.2f}", "no NLP | | ", "no NLP | | ", "–"]
         return first.seconds, warm.seconds, curve_s, cells
     completed, start = default = start_design(problem)
     transcription, _ = built_for(completed)
@@ -101,7 +102,7 @@ def template_rows(template) -> tuple[float, float, float, list[str]]:
     built = f"{functions}{f' ({compiled_now} compiled first)' if compiled_now else ''}"
     how = "warm" if "(warm start" in warm.result.message else "from the default start"
     equal = warm.result.fun <= cold.fun * (1 + 1e-6) or not cold.success
-    cells = [shown[0], built, shown[2], f"{_cell(warm.result, warm.seconds)}, {how}", f"{curve_s:.2f}",
+    cells = [name, built, first_cell, f"{_cell(warm.result, warm.seconds)}, {how}", f"{curve_s:.2f}",
              _cell(plain, plain_s), _cell(cold, cold_s), "yes" if equal else "**no**"]
     return first.seconds, warm.seconds, curve_s, cells
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from cadcam.api import load_problem
 from cadcam.optimize import optimize
 
-from goals import print_goals
+from goals import print_goals, spec_label
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 #: (spec, variant, goal [N·m]): issue 30's goals for the largest torque error on the fine re-check.
@@ -40,7 +40,7 @@ def main() -> None:
         result = optimize(problem)
         seconds = time.perf_counter() - t0
         error = max(result.recheck.metrics.max_abs_error)
-        shown = name + (f" --variant {variant}" if variant else "")
+        shown = spec_label(name, variant)
         print(f"| {shown} | {problem.options.method} | {result.status} | {result.solve.iterations} "
               f"| {error:.3g} | {seconds:.2f} |", flush=True)
         goals.append((f"{shown}: largest torque error on the fine re-check ≤ {goal:g} N·m, the spec's spring "

@@ -11,3 +11,8 @@ def print_goals(rows: list[tuple[str, str, bool]]) -> None:
     print("|---|---|---|")
     for goal, measured, met in rows:
         print(f"| {goal} | {measured} | {'met' if met else '**missed**'} |", flush=True)
+
+
+def spec_label(spec: str, variant: str | None) -> str:
+    """A spec's name as a table shows it, with the variant as ``cadcam design`` takes it."""
+    return spec + (f" --variant {variant}" if variant else "")

@@ -64,6 +64,8 @@ def export_quadrature_order(bases) -> int:
     arc-length integrand √(ρ² + ρ′²) of a profile of high degree needs (an order-35 pulley of
     the moment-arm method agrees with its re-check's torque to rounding on 48 points, not on 24)."""
     return max(EXPORT_QUADRATURE_ORDER, -(-4 * max(b.size for b in bases) // 3))
+
+
 #: (unit, description) of the inputs and outputs of the exported model
 _MODEL_LABELS = {
     "theta": ("rad", "joint angles, one per joint"),

@@ -280,14 +280,18 @@ def moment_arm_synthesis(problem, start):
             laws = design_moment_arms(reserved, joint, problem.options.moment_arm_degree, problem.options.grid)
         except ValueError as exc:
             raise SpecError(f"solver.method = 'moment_arm': {exc}") from None
+        lo, hi = problem.joints[joint].theta_range
+        continued = sample_moment_arms(problem, joint, laws.basis, laws.coefficients,
+                                       np.linspace(lo - CONTINUATION, hi + CONTINUATION, FIT_SAMPLES))
         for u in laws.mechanisms:
-            mechanisms[u], bases[u], coefficients[u], poses[u] = fitted_pulley(problem, laws, u)
+            mechanisms[u], bases[u], coefficients[u], poses[u] = fitted_pulley(problem, continued, u)
     return (replace(problem, mechanisms=tuple(mechanisms)),
             replace(start, bases=bases, coefficients=coefficients, poses=poses))
 
 
-def fitted_pulley(problem, laws: MomentArmDesign, u: int):
-    """Pulley ``u`` of the moment-arm design ``laws`` as a profile: its envelope
+def fitted_pulley(problem, continued: MomentArmDesign, u: int):
+    """Pulley ``u`` of the moment-arm design ``continued`` (sampled past its joint's range by
+    :data:`CONTINUATION` on :data:`FIT_SAMPLES` angles) as a profile: its envelope
     (:func:`continued_envelope`) from :data:`ANCHOR_WRAP` before the least-wound departure point
     to :data:`TAIL` past the most-wound one, resampled uniformly in φ and fitted by least squares
     in its profile's basis kind and order on that polar range, measured from its start, where
@@ -304,7 +308,7 @@ def fitted_pulley(problem, laws: MomentArmDesign, u: int):
     """
     mech = problem.mechanisms[u]
     prof = mech.profiles[0]
-    theta, env, wound = continued_envelope(problem, laws, u)
+    theta, env, wound = continued_envelope(problem, continued, u)
     window = (env.phi_polar >= env.phi_polar[wound].min() - ANCHOR_WRAP) & \
         (env.phi_polar <= env.phi_polar[wound].max() + TAIL)
     order = np.argsort(env.phi_polar[window])
@@ -320,10 +324,9 @@ def fitted_pulley(problem, laws: MomentArmDesign, u: int):
     return placed, basis, c, (theta, (env.phi_polar - anchor)[None, :])
 
 
-def continued_envelope(problem, laws: MomentArmDesign, u: int):
-    """Pulley ``u``'s envelope (canonical frame) on its joint's range, continued by
-    :data:`CONTINUATION` on both sides as far as it stays regular, convex and inside
-    [ρ_min, ρ_max], on :data:`FIT_SAMPLES` joint angles.
+def continued_envelope(problem, continued: MomentArmDesign, u: int):
+    """Pulley ``u``'s envelope (canonical frame) in ``continued`` on its joint's range and past
+    it as far as it stays regular, convex and inside [ρ_min, ρ_max].
 
     Returns
     -------
@@ -333,9 +336,8 @@ def continued_envelope(problem, laws: MomentArmDesign, u: int):
     mech = problem.mechanisms[u]
     prof = mech.profiles[0]
     lo, hi = problem.joints[mech.joint].theta_range
-    theta = np.linspace(lo - CONTINUATION, hi + CONTINUATION, FIT_SAMPLES)
-    sampled = sample_moment_arms(problem, mech.joint, laws.basis, laws.coefficients, theta)
-    env = sampled.envelopes[sampled.mechanisms.index(u)]
+    theta = continued.theta
+    env = continued.envelopes[continued.mechanisms.index(u)]
     inside = (theta >= lo) & (theta <= hi)
     usable = inside | ((env.radius_of_curvature >= prof.min_curvature_radius) & (mech.sigma * env.dnu > 0)
                        & (env.rho >= prof.rho_min) & (env.rho <= prof.rho_max))
