@@ -7,7 +7,7 @@ the default one; the table gives, per cell, how each start ended (IPOPT's status
 design returned ended as after the fine re-check (``success`` or a status that says why), its
 objective against the default start's, its IPOPT iterations and its CPU time. A cell passes when
 the design returned is verified (``success``) or its status names the failure, and when the
-multistart answer is no worse than the default start's.
+multistart answer is no worse than the default start's (within :func:`no_worse`'s tolerance).
 
 Orders: each spec's own and twice it. Grids: the spec's grid is replaced by each of
 ``--grids``; specs with several joints solve on the tensor grid of all their joints, so they
@@ -56,6 +56,18 @@ BUILD_CPU_S = 60
 WALL_GUARD = 4
 #: One thread for BLAS and OpenMP, so that a cell's CPU time is the work it did.
 ONE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+#: Relative and absolute tolerances of "no worse". Without the absolute floor an objective that
+#: is zero within IPOPT's tolerance, where two starts' answers differ in their last digits only
+#: (a few 1e-17 at about -1e-11), would count as a worse answer.
+NO_WORSE_RELATIVE = 1e-9
+NO_WORSE_FLOOR = 1e-15
+
+
+def no_worse(objective: float, default: float) -> bool:
+    """Whether the multistart answer's ``objective`` is no worse than the default start's
+    ``default``, within ``NO_WORSE_RELATIVE`` of it or ``NO_WORSE_FLOOR`` (in the objective's
+    own units), whichever is larger."""
+    return objective <= default + max(NO_WORSE_RELATIVE * abs(default), NO_WORSE_FLOOR)
 
 
 def _with(data: dict, grid: int, factor: int) -> dict:
@@ -170,7 +182,7 @@ def main(argv=None) -> None:
                 if c["default"] is None:  # nothing to be worse than
                     default, no_worse = "did not converge", "–"
                 else:
-                    better = c["objective"] <= c["default"] + 1e-9 * abs(c["default"])
+                    better = no_worse(c["objective"], c["default"])
                     counts["compared"] += 1
                     counts["no worse"] += better
                     default, no_worse = f"{c['default']:.6g}", "yes" if better else "**no**"
