@@ -466,6 +466,13 @@ class Target:
         th = ca.SX.sym("theta", n_joints)
         return ca.Function("target", [th], [self.expression([th[i] for i in range(n_joints)], joint)])
 
+    def coupled_joints(self, n_joints: int, joint: int) -> list[int]:
+        """The other joints (0-based) whose angles τ_d of ``joint`` depends on, read from its
+        expression graph: empty where the target is a function of its own angle only."""
+        th = ca.SX.sym("theta", n_joints)
+        law = self.expression([th[i] for i in range(n_joints)], joint)
+        return [i for i in range(n_joints) if i != joint and ca.depends_on(law, th[i])]
+
     def to_dict(self) -> dict:
         """Resolved form (tables inlined as samples) in the spec's format."""
         return {"kind": self.kind, **self.data}

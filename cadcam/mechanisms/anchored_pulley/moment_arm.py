@@ -262,7 +262,8 @@ def moment_arm_synthesis(problem, start):
     Raises
     ------
     SpecError
-        Where a pulley has no spring of its own.
+        Where a pulley has no spring of its own, or a joint's target depends on another
+        joint's angle (before any design is made).
 
     Notes
     -----
@@ -273,9 +274,12 @@ def moment_arm_synthesis(problem, start):
     reserved = replace(problem, mechanisms=tuple(
         replace(m, profiles=tuple(replace(p, min_curvature_radius=CURVATURE_RESERVE * p.min_curvature_radius)
                                   for p in m.profiles)) for m in problem.mechanisms))
+    joints = sorted({m.joint for m in problem.mechanisms})
+    for joint in joints:
+        _refuse_coupled_target(problem, joint)
     mechanisms, bases, coefficients = list(problem.mechanisms), list(start.bases), list(start.coefficients)
     poses = [None] * len(mechanisms)
-    for joint in sorted({m.joint for m in problem.mechanisms}):
+    for joint in joints:
         try:
             laws = design_moment_arms(reserved, joint, problem.options.moment_arm_degree, problem.options.grid)
         except ValueError as exc:
@@ -287,6 +291,17 @@ def moment_arm_synthesis(problem, start):
             mechanisms[u], bases[u], coefficients[u], poses[u] = fitted_pulley(problem, continued, u)
     return (replace(problem, mechanisms=tuple(mechanisms)),
             replace(start, bases=bases, coefficients=coefficients, poses=poses))
+
+
+def _refuse_coupled_target(problem, joint: int) -> None:
+    """SpecError where ``joint``'s target depends on another joint's angle: the moment arms of
+    one joint's pulleys can only follow a torque of that joint's own angle."""
+    joints = problem.joints
+    others = joints[joint].target.coupled_joints(len(joints), joint)
+    if others:
+        raise SpecError(f"solver.method = 'moment_arm': the target of joint {joints[joint].name!r} depends on "
+                        f"the angle of joint {', '.join(repr(joints[i].name) for i in others)}; the method "
+                        f"designs each joint's pulleys for a torque of that joint's own angle: use method 'nlp'")
 
 
 def fitted_pulley(problem, continued: MomentArmDesign, u: int):

@@ -18,6 +18,7 @@ from cadcam.errors import SpecError
 from cadcam.mechanisms.anchored_pulley.moment_arm import design_moment_arms, sample_moment_arms
 from cadcam.mechanisms.anchored_pulley.starts import uniform_polar
 from cadcam.physics.profile import fit_profile
+from cadcam.targets import Target
 from cadcam.verify.evaluate import evaluate
 
 from .test_kim_deshpande import geometric_extension
@@ -143,3 +144,13 @@ def test_moment_arm_method_refuses_a_pulley_without_a_spring_of_its_own():
                            overrides={"springs.1.ports": ["cable:1", "cable:2"]})
     with pytest.raises(SpecError, match="moment_arm.*pulley 1.*spring of its own"):
         cadcam.optimize(problem)
+
+
+def test_moment_arm_method_refuses_a_target_coupled_to_another_joint():
+    problem = load_problem(MODELS / "endo2010_five_bar.toml", overrides={"solver.method": "moment_arm"})
+    coupled = Target("expression", {"expression": "0.5*sin(theta) + 0.2*sin(theta2)"})
+    joints = (dataclasses.replace(problem.joints[0], target=coupled),) + problem.joints[1:]
+    assert coupled.coupled_joints(2, 0) == [1]
+    assert [j.target.coupled_joints(2, i) for i, j in enumerate(problem.joints)] == [[], []]
+    with pytest.raises(SpecError, match="moment_arm.*joint 'J1 .*depends on the angle of joint 'J2"):
+        cadcam.optimize(dataclasses.replace(problem, joints=joints))
