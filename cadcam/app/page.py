@@ -145,6 +145,16 @@ class DesignPage:
             items += [box, error]
         self.form.objects = [pn.Card(*items, title=group, collapsed=group in ("Solver", "Workshop files"),
                                      sizing_mode="stretch_width") for group, items in cards.items()]
+        self._show_method_keys()
+
+    def _show_method_keys(self) -> None:
+        """Disable the fields that the design method now chosen sets itself, saying so in their
+        labels (:meth:`DesignState.set_by_method`)."""
+        for f in self.state.fields:
+            method = self.state.set_by_method(f.key)
+            box = self.inputs[f.key]
+            box.disabled = method is not None
+            box.name = f.label if method is None else f"{f.label}: set by method {method}"
 
     def _catalogue_pick(self, number: int) -> pn.widgets.Select:
         """A choice of spring ``number`` from the catalogue."""
@@ -172,6 +182,8 @@ class DesignPage:
         if error:
             self._show_error(key, error)
             return
+        if key == "solver.method":
+            self._show_method_keys()
         await self.design(edited=key)
 
     async def design(self, edited: str | None = None) -> None:

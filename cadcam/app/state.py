@@ -87,6 +87,10 @@ class DesignState:
     fields: list[Field] = field(init=False)
     names: dict[str, str] = field(init=False)
     absent: set[str] = field(init=False)
+    #: Each mechanism's table (``mechanisms.1``) and the design methods of its kind
+    methods: dict[str, dict] = field(init=False)
+    #: The spec's design method (``solver.method``, its variant applied), before any edit
+    spec_method: str = field(init=False)
     last: Outcome = field(default_factory=Outcome)
     result: Result | None = None  # the last design made (the last outcome may be an error)
 
@@ -100,6 +104,8 @@ class DesignState:
         self.names = {f"springs.{j + 1}": s.name for j, s in enumerate(problem.springs)}
         self.names |= {f"mechanisms.{u + 1}": m.name for u, m in enumerate(problem.mechanisms)}
         self.names |= {f"{label}.{i + 1}": j.name for i, j in enumerate(problem.joints)}
+        self.methods = {f"mechanisms.{u + 1}": {d.name: d for d in m.methods} for u, m in enumerate(problem.mechanisms)}
+        self.spec_method = problem.options.method
 
     @classmethod
     def template(cls, name: str, **kwargs) -> "DesignState":
@@ -126,6 +132,14 @@ class DesignState:
         match = re.fullmatch(r"springs\.(\d+)\.([a-z_]+)", key)
         pick = self.picks.get(int(match.group(1)), {}) if match else {}
         return pick[match.group(2)] if match and match.group(2) in pick else self.field(key).value
+
+    def set_by_method(self, key: str) -> str | None:
+        """The design method chosen now (``solver.method``, edited or the spec's) where it
+        chooses field ``key`` itself, so that its value is not used
+        (:attr:`cadcam.mechanisms.base.DesignMethod.sets`); else None."""
+        table, _, name = key.rpartition(".")
+        method = self.methods.get(table, {}).get(self.overrides.get("solver.method", self.spec_method))
+        return method.name if method is not None and name in method.sets else None
 
     def edit(self, key: str, text: str) -> str | None:
         """Set field ``key`` to ``text`` (empty: its value in the spec); the one-line error of

@@ -70,12 +70,16 @@ class DesignMethod:
         What it designs, for messages (``"differential pairs for their output laws only"``).
     requirement : str
         What every mechanism of the problem needs for it, for messages.
+    sets : tuple of str
+        Keys of the mechanism's table that the method chooses itself, so that the spec's values
+        are not used (the design page shows them disabled under it).
     """
 
     name: str
     title: str
     scope: str
     requirement: str
+    sets: tuple[str, ...] = ()
 
 
 def design_methods() -> dict[str, DesignMethod]:

@@ -204,6 +204,9 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     assert _torque_image(page) != shown, "the template's design drew no torque curve"
     page.wait_for_selector(".verdict-success", timeout=20_000)
     assert page.locator(".field-solver-method input").input_value() == template.variant
+    anchor = page.locator(".field-mechanisms-1-anchor-angle")
+    assert anchor.locator("input").is_disabled() and "set by method moment_arm" in anchor.locator("label").inner_text()
+    assert page.locator(".field-mechanisms-1-order input").is_enabled()
     page.screenshot(path=str(SCREENS / "7_template.png"), full_page=True)
 
     outside = [u for u in requests if not u.startswith(("http://127.0.0.1:", "ws://127.0.0.1:", "data:",

@@ -149,6 +149,26 @@ def test_the_generic_torque_template_is_its_variant_in_the_form_the_designs_and_
     assert completed(load_problem(written)).to_dict() == again.problem.to_dict()
 
 
+def test_the_keys_the_moment_arm_method_sets_itself_are_marked_and_not_used():
+    """Under the moment-arm method the form marks each anchored pulley's anchor angle and start
+    radius as set by the method; a design with other values of them gives the same pulleys; with
+    the method edited back to the NLP they are the user's again."""
+    template = next(t for t in TEMPLATES if t.variant)
+    state = DesignState.template(template.spec, variant=template.variant)
+    marked = {f.key for f in state.fields if state.set_by_method(f.key)}
+    assert marked == {f"mechanisms.{u}.{key}" for u in (1, 2) for key in ("anchor_angle", "initial_radius")}
+    first = state.design().result
+    assert state.edit("mechanisms.1.anchor_angle", "1.0") is None
+    assert state.edit("mechanisms.1.initial_radius", "0.03") is None
+    again = state.design().result
+    assert again.problem.mechanisms[0].anchor_angle == pytest.approx(first.problem.mechanisms[0].anchor_angle,
+                                                                     abs=1e-9)
+    for before, after in zip(first.design.coefficients, again.design.coefficients):
+        np.testing.assert_allclose(after, before, rtol=0, atol=1e-9)
+    assert state.edit("solver.method", "nlp") is None
+    assert not any(state.set_by_method(f.key) for f in state.fields)
+
+
 def test_cadcam_app_refuses_a_spec_it_cannot_read_in_one_line(tmp_path, capsys):
     from cadcam.cli import main
 

@@ -104,7 +104,8 @@ class AnchoredPulley(Mechanism):
     force_models = ("force",)
     methods = (DesignMethod("moment_arm", "Ludovico2021 moment-arm synthesis (minimax in r_m(θ), profiles fitted)",
                             "anchored pulleys, each with a spring of its own, for joint targets of their own angle",
-                            'kind = "anchored_pulley" and a spring of its own on its cable port'),)
+                            'kind = "anchored_pulley" and a spring of its own on its cable port',
+                            sets=("anchor_angle", "initial_radius")),)
     limits = (Limit("moment_arm", "moment arm", "min_moment_arm"),
               Limit("free_span", "free cable span", "min_free_span"))
 
