@@ -9,11 +9,14 @@ objective against the default start's, its IPOPT iterations and its CPU time. A 
 the design returned is verified (``success``) or its status names the failure, and when the
 multistart answer is no worse than the default start's (within :func:`no_worse`'s tolerance).
 
-Orders: each spec's own and twice it. Grids: the spec's grid is replaced by each of
+Orders: each spec's own and twice it, at most its basis's cap (the row says where it held an
+order back). Grids: the spec's grid is replaced by each of
 ``--grids``; specs with several joints solve on the tensor grid of all their joints, so they
 run at the grids up to :data:`MAX_COUPLED_GRID` only (the larger cells are listed as not run).
-Specs designed by a method of their own (``method = "envelope"``) have no NLP and are listed
-as not run.
+A spec's variants that design by a mechanism's own method (``solver.method``, such as the
+cable robot's ``envelope`` and the generic torque's ``moment_arm``) are cells too, at the same
+grids and orders: a method has no start to vary, so such a cell is one design, judged like the
+others by its fine re-check. ``--specs`` runs only the rows of the specs (or variants) it names.
 
 Budgets are CPU time, not wall time, so that the matrix judges the solver rather than how busy
 the machine was: each start's IPOPT solve stops at ``--budget`` CPU seconds (times
@@ -34,6 +37,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 from cadcam.api import load_problem
@@ -71,40 +75,54 @@ def no_worse(objective: float, default: float) -> bool:
 
 
 def _with(data: dict, grid: int, factor: int) -> dict:
-    """Spec ``data`` at ``grid`` angles with every profile's order times ``factor``."""
+    """Spec ``data`` at ``grid`` angles with every profile's order times ``factor``, up to its
+    basis's cap (:data:`cadcam.spec.MAX_ORDER`)."""
     out = copy.deepcopy(data)
     out.setdefault("solver", {})["grid"] = grid
     for key in ("cams", "mechanisms"):
         for item in out.get(key, []):
             if "order" in item:
-                item["order"] = item["order"] * factor
+                item["order"] = min(item["order"] * factor, MAX_ORDER[item.get("basis", "chebyshev")])
     return out
 
 
-def _over_cap(data: dict, factor: int) -> str | None:
-    """Why spec ``data`` at ``factor`` times its orders cannot be a spec: a profile's order over
-    its basis's cap (:data:`cadcam.spec.MAX_ORDER`), else None."""
-    for key in ("cams", "mechanisms"):
-        for item in data.get(key, []):
-            basis = item.get("basis", "chebyshev")
-            if "order" in item and item["order"] * factor > MAX_ORDER[basis]:
-                return f"order {item['order'] * factor} > the {basis} cap {MAX_ORDER[basis]}"
-    return None
+def _orders(data: dict, factor: int) -> str:
+    """The matrix's "order ×" cell: ``factor``, and the orders its basis's cap held back."""
+    capped = sorted({f"{item['order'] * factor} → {MAX_ORDER[basis]}, the {basis} cap"
+                     for key in ("cams", "mechanisms") for item in data.get(key, [])
+                     if "order" in item and item["order"] * factor > MAX_ORDER[basis := item.get("basis", "chebyshev")]})
+    return f"{factor} (order {'; '.join(capped)})" if capped else str(factor)
+
+
+def cases(spec: Path):
+    """(name, data) of ``spec`` as it stands and of each of its variants that designs by a
+    method of its own (no NLP)."""
+    yield spec.stem, read_spec_data(spec)
+    for name, variant in tomllib.loads(spec.read_text(encoding="utf-8")).get("variants", {}).items():
+        if variant.get("solver.method", "nlp") != "nlp":
+            yield f"{spec.stem} --variant {name}", read_spec_data(spec, name)
+
+
+def _method(data: dict) -> str:
+    return data.get("solver", {}).get("method", "nlp")
 
 
 def cell(data: dict, random: int, budget: float) -> dict:
     """One design of spec ``data`` from the default start and ``random`` random starts, each
-    start's IPOPT solve within ``budget`` CPU seconds."""
+    start's IPOPT solve within ``budget`` CPU seconds; by its own method, one design."""
     data = copy.deepcopy(data)
-    data["solver"]["multistart"] = random
-    data["solver"].setdefault("ipopt", {})["max_cpu_time"] = budget
+    nlp = _method(data) == "nlp"
+    if nlp:
+        data["solver"]["multistart"] = random
+        data["solver"].setdefault("ipopt", {})["max_cpu_time"] = budget
     t0 = time.process_time()
     result = optimize(load_problem(data))
     cpu = time.process_time() - t0
-    trials = result.solve.trials or []
+    trials = result.solve.trials if nlp else []
     default = trials[0]["objective"] if trials and trials[0]["status"] == "converged" else None
     return {"status": result.status, "objective": result.fun, "default": default, "cpu_s": cpu,
-            "starts": [t["status"] for t in trials], "iterations": sum(t["iterations"] for t in trials)}
+            "starts": [t["status"] for t in trials] or [f"method {_method(data)}"],
+            "iterations": sum(t["iterations"] for t in trials), "method": not nlp}
 
 
 def _cell_cpu_s(random: int, budget: float) -> int:
@@ -140,11 +158,45 @@ def cell_in_a_process(data: dict, random: int, budget: float) -> dict | str:
     return json.loads(run.stdout)
 
 
+def matrix_row(name: str, data: dict, grid: int, factor: int, args, counts: dict) -> str:
+    """The matrix's row of spec ``data`` (named ``name``) at ``grid`` and ``factor`` times its
+    orders, its cell run (unless over a cap) and counted in ``counts``."""
+    joints = len(data.get("joints", data.get("cams", [])))
+    why = f"{joints} joints: grid > {MAX_COUPLED_GRID}" if joints > 1 and grid > MAX_COUPLED_GRID else None
+    if factor > 1 and _with(data, grid, factor) == _with(data, grid, 1):
+        why = "its orders are at their basis's cap already"
+    orders = _orders(data, factor)
+    if why:
+        c = f"not run: {why}"
+    else:
+        budget = args.budget * BUDGET_FACTOR.get(name.split()[0], 1)
+        c = cell_in_a_process(_with(data, grid, factor), args.random, budget)
+    if isinstance(c, str):
+        counts["not run"] += 1
+        return f"| {name} | {grid} | {orders} | {c} | | | | | | |"
+    counts["cells"] += 1
+    counts["verified"] += c["status"] == "success"
+    if c["method"]:  # one design: no start to be worse than
+        default, verdict = "–", "–"
+    elif c["default"] is None:  # nothing to be worse than
+        default, verdict = "did not converge", "–"
+    else:
+        better = no_worse(c["objective"], c["default"])
+        counts["compared"] += 1
+        counts["no worse"] += better
+        default, verdict = f"{c['default']:.6g}", "yes" if better else "**no**"
+    return (f"| {name} | {grid} | {orders} | {', '.join(c['starts'])} | {c['status']} | {c['objective']:.6g} | "
+            f"{default} | {verdict} | {c['iterations']} | {c['cpu_s']:.1f} |")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--random", type=int, default=2, help="random starts after the default one")
     parser.add_argument("--grids", type=int, nargs="+", default=[21, 46, 91])
     parser.add_argument("--budget", type=float, default=20.0, help="CPU time of one start's IPOPT solve [s]")
+    parser.add_argument("--specs", nargs="+", metavar="NAME",
+                        help="only these rows' specs, named as the table names them ('ludovico2021_pendulum', "
+                             "'ludovico2021_generic --variant moment_arm')")
     parser.add_argument("--cell", type=int, help=argparse.SUPPRESS)  # one cell: spec data on stdin
     args = parser.parse_args(argv)
     if args.cell is not None:
@@ -160,35 +212,12 @@ def main(argv=None) -> None:
     print("|---|---|---|---|---|---|---|---|---|---|")
     counts = {"cells": 0, "verified": 0, "compared": 0, "no worse": 0, "not run": 0}
     for spec in sorted(MODELS.glob("*.toml")):
-        data = read_spec_data(spec)
-        joints = len(data.get("joints", data.get("cams", [])))
-        for grid in args.grids:
-            for factor in (1, 2):
-                why = ("its own method, no NLP" if data.get("solver", {}).get("method", "nlp") != "nlp" else
-                       f"{joints} joints: grid > {MAX_COUPLED_GRID}" if joints > 1 and grid > MAX_COUPLED_GRID
-                       else _over_cap(data, factor))
-                if why:
-                    counts["not run"] += 1
-                    print(f"| {spec.stem} | {grid} | {factor} | not run: {why} | | | | | | |")
-                    continue
-                budget = args.budget * BUDGET_FACTOR.get(spec.stem, 1)
-                c = cell_in_a_process(_with(data, grid, factor), args.random, budget)
-                if isinstance(c, str):
-                    counts["not run"] += 1
-                    print(f"| {spec.stem} | {grid} | {factor} | {c} | | | | | | |", flush=True)
-                    continue
-                counts["cells"] += 1
-                counts["verified"] += c["status"] == "success"
-                if c["default"] is None:  # nothing to be worse than
-                    default, no_worse = "did not converge", "–"
-                else:
-                    better = no_worse(c["objective"], c["default"])
-                    counts["compared"] += 1
-                    counts["no worse"] += better
-                    default, no_worse = f"{c['default']:.6g}", "yes" if better else "**no**"
-                print(f"| {spec.stem} | {grid} | {factor} | {', '.join(c['starts'])} | {c['status']} | "
-                      f"{c['objective']:.6g} | {default} | {no_worse} | {c['iterations']} | {c['cpu_s']:.1f} |",
-                      flush=True)
+        for name, data in cases(spec):
+            if args.specs and name not in args.specs:
+                continue
+            for grid in args.grids:
+                for factor in (1, 2):
+                    print(matrix_row(name, data, grid, factor, args, counts), flush=True)
     print(f"\n{counts['cells']} cells run ({counts['not run']} not run or not finished): {counts['verified']} verified "
           f"(success), the others ended with the status that says why; the multistart answer no worse "
           f"than the default start's in {counts['no worse']} of the {counts['compared']} where the default "
