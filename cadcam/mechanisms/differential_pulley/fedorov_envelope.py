@@ -142,25 +142,48 @@ def fit_pulley(basis, env: Envelope, samples: int = 600) -> np.ndarray:
                                        values[-1] + slopes[1] * (tail - phi[-1])]))
 
 
-def cable_length(mech, coefficients, theta: float, x: float, alpha0) -> float:
-    """The anchor-to-anchor cable length [m] of a pair with the idler at ``x`` at joint angle
-    ``theta``: both tangencies solved by Newton from ``alpha0`` with x held, then Fedorov2018
-    Eq. 6a–6c."""
+#: Largest tangency residual [rad or m] at which :func:`cable_lengths` takes Newton's answer
+#: (the departure solver's own, :meth:`cadcam.mechanisms.base.DepartureSolver.solve`).
+TANGENCY_TOL = 1e-9
+
+
+def cable_lengths(mech, coefficients, theta, x, alpha0) -> np.ndarray:
+    """The anchor-to-anchor cable length [m] of a pair with the idler at ``x`` at each joint
+    angle ``theta``: both tangencies solved by Newton from the departure angles ``alpha0``
+    (2 × n) with x held, then Fedorov2018 Eq. 6a–6c; NaN where Newton does not reach
+    :data:`TANGENCY_TOL` from its start."""
+    theta, x = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (theta, x))
+    alpha0 = np.asarray(alpha0, dtype=float).reshape(2, theta.size)
     structure, bases = mech.structure(), mech.bases
     nc = sum(b.size for b in bases)
     a = ca.SX.sym("a", 6)  # α₁, α₂, then ρ, ρ′ of each profile (the unknowns other than x)
     p = ca.SX.sym("p", 2 + nc + len(mech.parameter_names))
     c, q = p[2:2 + nc], p[2 + nc:]
     z = ca.vertcat(a[:2], p[1], a[2:])
-    R = residual_function(structure)(p[0], z, c, q)[0][:6]
-    rf = ca.rootfinder("tangency", "newton", ca.Function("g", [a, p], [R]), {"abstol": 1e-12})
+    g = ca.Function("g", [a, p], [residual_function(structure)(p[0], z, c, q)[0][:6]])
+    rf = ca.rootfinder("tangency", "newton", g, {"abstol": 1e-12, "error_on_fail": False,
+                                                 "show_eval_warnings": False})  # judged by the residual
     c_num = np.concatenate([np.asarray(v, dtype=float) for v in coefficients])
     q_num = np.asarray(mech.parameter_values(), dtype=float)
-    pieces = split_coefficients(bases, c_num)
-    start = list(alpha0) + [float(v) for a0, b, ck in zip(alpha0, bases, pieces)
-                            for v in profile_function(b)(a0, ck)[:2]]
-    sol = np.asarray(rf(start, np.concatenate([[theta, x], c_num, q_num]))).ravel()
-    zs, cs, qs = ca.SX.sym("z", len(mech.unknowns)), ca.SX.sym("c", nc), ca.SX.sym("q", q.shape[0])
-    path = ca.Function("path", [zs, cs, qs], [type(mech).cable_path(
-        bases, theta, zs, wound_lengths(bases, zs, cs), cs, qs)])
-    return float(path(np.r_[sol[:2], x, sol[2:]], c_num, q_num))
+    n = theta.size
+    shapes = [np.asarray(profile_function(b).map(n)(a0, ck)[:2]).reshape(2, n)
+              for a0, b, ck in zip(alpha0, bases, split_coefficients(bases, c_num))]
+    start = np.vstack([alpha0, *shapes])
+    params = np.vstack([theta, x, np.tile(c_num[:, None], (1, n)), np.tile(q_num[:, None], (1, n))])
+    sol = np.asarray(rf.map(n)(start, params)).reshape(6, n)
+    residual = np.abs(np.asarray(g.map(n)(sol, params)).reshape(6, n)).max(axis=0)
+    th, zs, cs, qs = ca.SX.sym("theta"), ca.SX.sym("z", len(mech.unknowns)), ca.SX.sym("c", nc), ca.SX.sym("q", q.shape[0])
+    path = ca.Function("path", [th, zs, cs, qs], [type(mech).cable_path(
+        bases, th, zs, wound_lengths(bases, zs, cs), cs, qs)])
+    lengths = np.asarray(path.map(n)(theta, np.vstack([sol[:2], x, sol[2:]]), c_num, q_num)).ravel()
+    return np.where(residual <= TANGENCY_TOL, lengths, np.nan)
+
+
+def cable_length(mech, coefficients, theta: float, x: float, alpha0) -> float:
+    """:func:`cable_lengths` at one joint angle; RuntimeError where Newton does not reach the
+    tangencies from ``alpha0``."""
+    length = float(cable_lengths(mech, coefficients, [theta], [x], np.reshape(alpha0, (2, 1)))[0])
+    if not np.isfinite(length):
+        raise RuntimeError(f"Newton from alpha0 = {list(np.ravel(alpha0))} finds no tangency of the pair's "
+                           f"cable at theta = {theta} rad")
+    return length

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from ...errors import SpecError
-from .fedorov_envelope import cable_length, differential_envelopes, fit_pulley
+from .fedorov_envelope import cable_lengths, differential_envelopes, fit_pulley
 
 
 def envelope_start(kind, problem, design, samples: int = 2001):
@@ -30,9 +30,8 @@ def envelope_start(kind, problem, design, samples: int = 2001):
         try:
             mech, envs = differential_envelopes(mech, theta, x, dx, mech.start_radius(mech.profiles[0]))
             fitted = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
-            k = int(np.argmin(np.abs(theta - mech.reference_angle)))
-            length = cable_length(mech, fitted, theta[k], x[k], [env.phi_polar[k] for env in envs])
-        except (ValueError, RuntimeError) as exc:  # RuntimeError: CasADi's Newton found no tangency
+            length = _reference_length(mech, fitted, theta, x, envs)
+        except (ValueError, RuntimeError) as exc:  # RuntimeError: no pose where the cable touches both
             reason = str(exc).splitlines()[0] if isinstance(exc, ValueError) else "no cable touches the fitted pulleys"
             raise SpecError(f"mechanism {mech.name!r}: Fedorov's envelope method finds no start for its "
                             f"output law ({reason}); change the output law, the rolling radius or the "
@@ -41,6 +40,19 @@ def envelope_start(kind, problem, design, samples: int = 2001):
         coefs[sl] = fitted
     return (replace(problem, mechanisms=tuple(mechanisms)),
             replace(design, coefficients=coefs, poses=None))  # new profiles: their poses are not known
+
+
+def _reference_length(mech, fitted, theta: np.ndarray, x: np.ndarray, envs) -> float:
+    """The cable length [m] of the fitted pulleys ``fitted`` at the pose nearest the pair's
+    reference angle where Newton, started from the envelopes' departure angles, reaches both
+    tangencies (:func:`.fedorov_envelope.cable_lengths`): a fitted pulley is a little off its
+    envelope, which can leave Newton no root near its start at one pose and not at the next.
+    RuntimeError where it reaches them at no pose."""
+    lengths = cable_lengths(mech, fitted, theta, x, np.vstack([env.phi_polar for env in envs]))
+    found = np.flatnonzero(np.isfinite(lengths))
+    if not found.size:
+        raise RuntimeError("no pose where the cable touches both fitted pulleys")
+    return float(lengths[found[np.argmin(np.abs(theta[found] - mech.reference_angle))]])
 
 
 def _check_law_in_slider_range(mech, x: np.ndarray) -> None:

@@ -157,3 +157,28 @@ def test_least_squares_on_joints_without_a_torque_goal_builds():
     assert not problem.springs and all(j.tracking_weight == 0 for j in problem.joints)
     completed, _ = start_design(problem)
     assert Transcription(completed).v.vector().shape[0] > 0
+
+
+def test_envelope_start_takes_the_cable_length_at_the_nearest_pose_newton_solves():
+    """At order 20 the fitted right-hand pulleys leave Newton no tangency near its start at the
+    reference pose: the cable length is taken at the nearest pose where it finds both, and the
+    design is judged by its re-check (a status that says why), not refused as a bad spec."""
+    from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_lengths, differential_envelopes, fit_pulley
+    from cadcam.mechanisms.differential_pulley.starts import _law
+    from cadcam.optimize import optimize
+
+    problem = load_spec(ROBOT, variant="envelope", overrides=[("mechanisms.1.order", 20), ("mechanisms.2.order", 20),
+                                                             ("solver.grid", 21)])
+    mech = problem.mechanisms[1]
+    theta = np.linspace(*problem.joints[mech.joint].theta_range, 2001)
+    x, dx = _law(mech, theta)
+    mech, envs = differential_envelopes(mech, theta, x, dx, mech.start_radius(mech.profiles[0]))
+    fitted = [fit_pulley(p.basis, env) for p, env in zip(mech.profiles, envs)]
+    lengths = cable_lengths(mech, fitted, theta, x, np.vstack([env.phi_polar for env in envs]))
+    k = int(np.argmin(np.abs(theta - mech.reference_angle)))
+    assert np.isnan(lengths[k]) and np.isfinite(lengths).mean() > 0.5
+    result = optimize(problem)
+    taken = result.problem.mechanisms[1].cable_length
+    near = np.flatnonzero(np.isfinite(lengths))
+    assert taken == lengths[near[np.argmin(np.abs(theta[near] - mech.reference_angle))]]
+    assert result.status in ("success", "recheck_failed") and result.message.startswith("envelope design")
