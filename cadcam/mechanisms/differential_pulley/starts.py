@@ -48,7 +48,12 @@ def _reference_length(mech, fitted, theta: np.ndarray, x: np.ndarray, envs) -> f
     tangencies (:func:`.fedorov_envelope.cable_lengths`): a fitted pulley is a little off its
     envelope, which can leave Newton no root near its start at one pose and not at the next.
     RuntimeError where it reaches them at no pose."""
-    lengths = cable_lengths(mech, fitted, theta, x, np.vstack([env.phi_polar for env in envs]))
+    alpha0 = np.vstack([env.phi_polar for env in envs])
+    k = int(np.argmin(np.abs(theta - mech.reference_angle)))
+    at_reference = cable_lengths(mech, fitted, theta[k], x[k], alpha0[:, k])[0]
+    if np.isfinite(at_reference):  # the usual case, one Newton solve
+        return float(at_reference)
+    lengths = cable_lengths(mech, fitted, theta, x, alpha0)
     found = np.flatnonzero(np.isfinite(lengths))
     if not found.size:
         raise RuntimeError("no pose where the cable touches both fitted pulleys")
