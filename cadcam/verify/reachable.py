@@ -80,7 +80,8 @@ class _CircularStart:
 
     @cached_property
     def fine(self):
-        return evaluate(self.problem, default_start(self.problem), grid=HELD_SAMPLES)
+        # the moment arms and the target only: no profile scans
+        return evaluate(self.problem, default_start(self.problem), grid=HELD_SAMPLES, profile=False)
 
 
 def advice(problem: Problem) -> list[str]:
