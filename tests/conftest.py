@@ -1,5 +1,6 @@
 """Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
 import json
+import signal
 import threading
 import time
 from pathlib import Path
@@ -16,6 +17,18 @@ SPEC_1DOF = ROOT / "models" / "johnston2023_1dof.toml"
 SPEC_RR = ROOT / "models" / "johnston2023_rr_arm.toml"
 TABLE3 = ROOT / "models" / "johnston2023_table3_design.json"
 TABLE4 = ROOT / "models" / "johnston2023_table4_design.json"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def interrupts_as_at_a_terminal():
+    """Ctrl-C handled as a terminal's session has it. A shell without job control starts a
+    background job (``make test &`` in a script) with SIGINT ignored, and an ignored signal
+    stays ignored in every process started from it: the tests that interrupt a solve or the
+    drawing processes would then see no KeyboardInterrupt at all. Python's own handler here is
+    the default action again in the processes the tests start."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
 
 
 @pytest.fixture(scope="session", autouse=True)
