@@ -177,13 +177,3 @@ def cable_lengths(mech, coefficients, theta, x, alpha0) -> np.ndarray:
         bases, th, zs, wound_lengths(bases, zs, cs), cs, qs)])
     lengths = np.asarray(path.map(n)(theta, np.vstack([sol[:2], x, sol[2:]]), c_num, q_num)).ravel()
     return np.where(residual <= TANGENCY_TOL, lengths, np.nan)
-
-
-def cable_length(mech, coefficients, theta: float, x: float, alpha0) -> float:
-    """:func:`cable_lengths` at one joint angle; RuntimeError where Newton does not reach the
-    tangencies from ``alpha0``."""
-    length = float(cable_lengths(mech, coefficients, [theta], [x], np.reshape(alpha0, (2, 1)))[0])
-    if not np.isfinite(length):
-        raise RuntimeError(f"Newton from alpha0 = {list(np.ravel(alpha0))} finds no tangency of the pair's "
-                           f"cable at theta = {theta} rad")
-    return length

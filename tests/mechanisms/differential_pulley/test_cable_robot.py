@@ -18,7 +18,7 @@ from cadcam.optimize import start_design
 from cadcam.mechanisms.differential_pulley.cable_robot import cable_length, end_effector, pick_and_place
 from cadcam.physics.profile import Basis
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
-from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_length as pair_cable_length
+from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_lengths as pair_cable_lengths
 from cadcam.mechanisms.differential_pulley.output_laws import cable_robot_slider, robot_cable, slider_cable
 
 ROBOT = "models/fedorov2018_cable_robot.toml"
@@ -81,7 +81,7 @@ def test_helical_circles_wound_oppositely_keep_the_idler_still_over_two_and_a_ha
     mech = replace(mech, anchor_angles=tuple(-w * c for w, c in zip(mech.windings, chi0)))
     solver = departure_solver(mech.structure())
     alpha0 = solver.guess(0.0, np.concatenate(coefs), mech.parameter_values())[:2, 0]
-    mech = replace(mech, cable_length=pair_cable_length(mech, coefs, 0.0, 0.2, alpha0))
+    mech = replace(mech, cable_length=pair_cable_lengths(mech, coefs, 0.0, 0.2, alpha0)[0])
     z, res = solver.solve(np.linspace(*rng_, 91), np.concatenate(coefs), mech.parameter_values())
     assert res.max() < 1e-10
     assert np.ptp(z[2]) < 1e-12 and z[2, 0] == pytest.approx(0.2, abs=1e-12)

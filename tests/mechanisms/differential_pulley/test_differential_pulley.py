@@ -16,7 +16,7 @@ from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.wrap import wound_length
 from cadcam.solve.builds import built_for
 from cadcam.spec import SpecError, load_spec, parse_spec, read_spec_data
-from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_length, envelope, fit_pulley
+from cadcam.mechanisms.differential_pulley.fedorov_envelope import cable_lengths, envelope, fit_pulley
 
 RANGE = (-np.radians(170), np.radians(170))
 BALANCER = "models/fedorov2018_balancer.toml"
@@ -46,7 +46,7 @@ def _solve(mech, coefs, theta, x_ref, alpha0=None):
     if alpha0 is None:
         alpha0 = departure_solver(mech.structure()).guess(mech.reference_angle, np.concatenate(coefs),
                                                           mech.parameter_values())[:2, 0]
-    length = cable_length(mech, coefs, mech.reference_angle, x_ref, alpha0)
+    length = cable_lengths(mech, coefs, mech.reference_angle, x_ref, alpha0)[0]
     mech = replace(mech, cable_length=length)
     z, res = departure_solver(mech.structure()).solve(theta, np.concatenate(coefs), mech.parameter_values())
     assert res.max() < 1e-10
