@@ -38,7 +38,7 @@ from ..files import atomic_path, staged_folder, write_json, write_text
 from ..verify.evaluate import start_samples
 from ..verify.model import NEWTON_STEPS, solved_poses, torque_function, torque_jacobian_function
 from ..solve.blocks import P_BLOCKS, X_BLOCKS, describe
-from ..solve.compiled import CompileError, compiler, oracle_functions, run_compiler
+from ..solve.compiled import CompileError, compiler, compiler_failure, oracle_functions, run_compiler
 from ..problem import Problem
 
 WHATS = ("model", "problem")
@@ -306,5 +306,5 @@ def _write_shared_library(stem: str, out: Path) -> str:
             raise ExportError("--format shared needs a C compiler (cc or gcc) on PATH") from None
         run = run_compiler(command)
         if run.returncode != 0:
-            raise ExportError(f"compiling {stem}.c failed: {run.stderr.strip()[:500]}")
+            raise ExportError(f"compiling {stem}.c failed: {compiler_failure(run)}")
     return lib.name

@@ -73,6 +73,8 @@ PENDING_NAME = ".pending_{}.casadi"
 FAILED_NAME = "nlp_{}.failed"
 #: A background compile pending for longer than this is taken for dead and started again [s].
 PENDING_STALE_S = 900.0
+#: Longest line of a compiler's error kept in an error message [characters].
+FAILURE_CHARS = 300
 #: Environment variable that, set to ``0``, keeps ``functions = "auto"`` from compiling
 #: libraries in the background (it then loads the ones in the cache and expands the rest): for
 #: processes whose structures are short-lived, such as a test suite's.
@@ -260,18 +262,37 @@ def _compile(cc: str, source: Path) -> Path:
 
 
 def _run(command: list[str]) -> None:
-    """Run a compiler command; CompileError with its first lines of error if it fails."""
+    """Run a compiler command; CompileError with its first line of error if it fails."""
     run = run_compiler(command)
     if run.returncode != 0:
-        raise CompileError(f"compiling the NLP failed: {run.stderr.strip()[:500]}")
+        raise CompileError(f"compiling the NLP failed: {compiler_failure(run)}")
+
+
+def compiler_failure(run: subprocess.CompletedProcess) -> str:
+    """What a failed compiler ``run`` says, as one line for an error message: the first line of
+    its output that names an error (else its first line, else how it ended), its control
+    characters escaped, cut to :data:`FAILURE_CHARS`."""
+    lines = [line.strip() for line in run.stderr.splitlines() if line.strip()]
+    line = next((line for line in lines if "error" in line.lower()), lines[0] if lines else None)
+    if line is None:
+        code = run.returncode
+        line = (f"{Path(run.args[0]).name} was killed by {signal.Signals(-code).name}" if code < 0
+                else f"{Path(run.args[0]).name} exited with code {code} and no message")
+    line = "".join(c if c.isprintable() else repr(c)[1:-1] for c in line)
+    return line if len(line) <= FAILURE_CHARS else line[:FAILURE_CHARS - 1] + "…"
 
 
 def run_compiler(command: list[str]) -> subprocess.CompletedProcess:
-    """Run ``command`` (a compiler driver) in a session of its own, its output captured. Should
-    anything stop the wait (Ctrl-C, SIGTERM), the whole session is killed and waited for: the
-    driver's own children (cc1, as, ld) are not left running as orphans."""
-    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    """Run ``command`` (a compiler driver) in a session of its own, its output captured (as
+    text, any bytes that are not UTF-8 replaced). Should anything stop the wait (Ctrl-C,
+    SIGTERM), the whole session is killed and waited for: the driver's own children (cc1, as,
+    ld) are not left running as orphans. CompileError if the driver cannot be run."""
+    try:
+        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                errors="replace", start_new_session=True)
+    except OSError as exc:
+        raise CompileError(f"the C compiler {command[0]!r} cannot be run ({exc.strerror or exc}); "
+                           "install a working one or use functions = 'expanded'") from None
     try:
         out, err = proc.communicate()
     except BaseException:
