@@ -350,20 +350,41 @@ def cmd_plot_study(args) -> int:
 
 
 def cmd_cache(args) -> int:
-    from .solve.compiled import cache_dir, cached_libraries, clear_cache
+    from .solve.compiled import cache_dir, cache_entries, clear_cache, folder_refusal
 
     def libraries(n: int) -> str:
         return f"{n} compiled NLP librar{'y' if n == 1 else 'ies'}"
 
-    if args.clear:
-        n, size = clear_cache()
-        print(f"removed {libraries(n)} ({size / 1e6:.1f} MB) from {cache_dir()}")
+    folder, refused = cache_dir(), folder_refusal()
+    if refused is not None:
+        if args.clear:
+            raise InputError(f"{str(folder)!r}: not a cache cadcam uses or clears: {refused}; set CADCAM_CACHE_DIR "
+                             "to a folder of your own (mode 700)")
+        print(f"{folder}: not used: {refused} (solver.functions = 'auto' and 'compiled' solve with expanded "
+              "functions; set CADCAM_CACHE_DIR to a folder of your own, mode 700)")
         return 0
-    libs = cached_libraries()
-    print(f"{cache_dir()}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
+    if args.clear:
+        n, size, left = clear_cache()
+        print(f"removed {libraries(n)} ({size / 1e6:.1f} MB) from {folder}"
+              + (f"; left in place, not cadcam's to remove: {_named(left)}" if left else ""))
+        return 0
+    entries = cache_entries()
+    libs = [path for path, why in entries if why is None]
+    others = [(path.name, why) for path, why in entries if why is not None]
+    print(f"{folder}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
           "(solver.functions = 'auto' or 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves "
-          "the folder)")
+          "the folder)" + (f"; never loaded: {_named(others)}" if others else ""))
     return 0
+
+
+#: How many files a listing names before it only counts the rest.
+NAMED_FILES = 3
+
+
+def _named(files: list[tuple[str, str]]) -> str:
+    """``files`` (name, why) as one clause: the first :data:`NAMED_FILES` with their reasons."""
+    shown = ", ".join(f"{name!r} ({why})" for name, why in files[:NAMED_FILES])
+    return shown + (f" and {len(files) - NAMED_FILES} more" if len(files) > NAMED_FILES else "")
 
 
 def cmd_app(args) -> int:
@@ -497,7 +518,8 @@ def _parser() -> _Parser:
     p.add_argument("--no-browser", dest="show", action="store_false", help="do not open a browser tab")
     p.set_defaults(run=cmd_app)
     p = sub.add_parser("cache", help="the compiled NLP libraries cached on disk: where, how many, how large")
-    p.add_argument("--clear", action="store_true", help="remove them (each is compiled again when next needed)")
+    p.add_argument("--clear", action="store_true",
+                   help="remove those its records say cadcam compiled (each is compiled again when next needed)")
     p.set_defaults(run=cmd_cache)
     return parser
 

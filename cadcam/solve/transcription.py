@@ -1217,13 +1217,16 @@ def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None
     them (else ``nlp``); their library is named by ``nlp``'s graph (its key ``key``, if the caller
     has it). ``auto`` loads the library the cache holds, else expands ``nlp`` while the library
     compiles in the background where it can
-    (:func:`cadcam.solve.compiled.compile_in_background`)."""
+    (:func:`cadcam.solve.compiled.compile_in_background`); ``compiled`` expands it where the
+    cache may not be used (:func:`cadcam.solve.compiled.library`)."""
     ipopt = _ipopt_options(opt, extra)
-    if opt.functions == "compiled":
-        lib, compiled_now = compiled.library(nlp, split)
-        return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
     used = opt.functions
-    if used == "auto":
+    if used == "compiled":
+        lib, compiled_now = compiled.library(nlp, split)
+        if lib is not None:
+            return ca.nlpsol("cadcam", "ipopt", str(lib), ipopt), COMPILED_NOW if compiled_now else COMPILED_CACHED
+        used = "expanded"  # the cache may not be used: compiled.library said why
+    elif used == "auto":
         key = key or compiled.key_of(nlp)
         lib = compiled.cached_library(key)
         if lib is not None:

@@ -2,6 +2,7 @@
 compiles in a background process, that library from the cache after it; expanded alone where
 there is no compiler, background compiles are off, or one failed before."""
 import os
+import socket
 import time
 
 import numpy as np
@@ -39,12 +40,12 @@ def _optimum(tr, problem):
     return evaluate(problem, sol.design).metrics.objective
 
 
-def _pending_file(problem, folder):
-    """(a build of the graph auto names ``problem``'s library by, that key, the path of its pending
-    background compile in the cache ``folder``, created)."""
+def _pending(problem, folder):
+    """(a build of the graph auto names ``problem``'s library by, that key, the path of the
+    folder of its background compile in the cache ``folder``, which is created)."""
     tr = Transcription(problem.with_options(functions="expanded"))  # the graph auto names libraries by
     key = compiled.library_key(tr.nlp, compiled.compiler())
-    folder.mkdir(parents=True)
+    folder.mkdir(mode=0o700, parents=True)
     return tr, key, folder / compiled.PENDING_NAME.format(key)
 
 
@@ -74,12 +75,14 @@ def test_auto_expands_while_the_library_compiles_in_the_background_then_loads_it
 
 @needs_cc
 def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, background):
-    tr, key, pending = _pending_file(small, background)
-    pending.write_bytes(b"")  # another process's compile, under way
+    tr, key, pending = _pending(small, background)
+    pending.mkdir()
+    owner = pending / compiled.OWNER_FILE
+    owner.write_text(f"{os.getpid()} {socket.gethostname()}\n")  # a compile under way, its process alive
     assert compiled.compile_in_background(tr.nlp)
-    assert pending.read_bytes() == b""  # not taken over
+    assert owner.read_text().split()[0] == str(os.getpid())  # not taken over
     old = time.time() - compiled.PENDING_STALE_S - 1
-    os.utime(pending, (old, old))  # its process died long ago
+    os.utime(pending, (old, old))  # its process id since reused by another
     assert compiled.compile_in_background(tr.nlp)
     assert pending.stat().st_mtime > old  # started again
     assert wait_for_library()
@@ -87,11 +90,12 @@ def test_a_compile_under_way_is_not_started_twice_and_a_stale_one_is(small, back
 
 @needs_cc
 def test_a_failed_background_compile_is_noted_and_not_tried_again(small, background):
-    tr, key, broken = _pending_file(small, background)
-    broken.write_text("not a serialized CasADi function")
-    compiled.compile_pending(key, broken)
+    tr, key, pending = _pending(small, background)
+    pending.mkdir()
+    (pending / compiled.NLP_FILE).write_text("not a serialized CasADi function")
+    compiled.compile_pending(key, pending)
     note = background / compiled.FAILED_NAME.format(key)
-    assert note.read_text() and not broken.exists()
+    assert note.read_text() and not pending.exists()
     assert not compiled.compile_in_background(tr.nlp)
     assert Transcription(small).functions_used == "expanded"
     assert not list(background.glob(compiled.PENDING_NAME.format("*")))
