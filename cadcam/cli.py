@@ -350,7 +350,7 @@ def cmd_plot_study(args) -> int:
 
 
 def cmd_cache(args) -> int:
-    from .solve.compiled import cache_dir, cache_entries, clear_cache, folder_refusal
+    from .solve.compiled import MAKE_PRIVATE, cache_dir, cache_entries, clear_cache, folder_refusal
 
     def libraries(n: int) -> str:
         return f"{n} compiled NLP librar{'y' if n == 1 else 'ies'}"
@@ -358,10 +358,9 @@ def cmd_cache(args) -> int:
     folder, refused = cache_dir(), folder_refusal()
     if refused is not None:
         if args.clear:
-            raise InputError(f"{str(folder)!r}: not a cache cadcam uses or clears: {refused}; set CADCAM_CACHE_DIR "
-                             "to a folder of your own (mode 700)")
+            raise InputError(f"{str(folder)!r}: not a cache cadcam uses or clears: {refused}; {MAKE_PRIVATE}")
         print(f"{folder}: not used: {refused} (solver.functions = 'auto' and 'compiled' solve with expanded "
-              "functions; set CADCAM_CACHE_DIR to a folder of your own, mode 700)")
+              f"functions; {MAKE_PRIVATE})")
         return 0
     if args.clear:
         n, size, left = clear_cache()

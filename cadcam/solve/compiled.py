@@ -112,6 +112,8 @@ FAILED_NAME = "nlp_{}.failed"
 PENDING_STALE_S = 900.0
 #: What a design does when the cache gives it no library (the end of the line saying why).
 EXPANDED = "solving with expanded functions"
+#: How to give cadcam a cache folder it uses, where the one it has may not be used.
+MAKE_PRIVATE = "chmod 700 it if it is yours, or set CADCAM_CACHE_DIR to a folder of your own"
 #: Longest line of a compiler's error kept in an error message [characters].
 FAILURE_CHARS = 300
 #: A SHA-256 as a record holds it.
@@ -286,8 +288,7 @@ def _private_folder(create: bool) -> Path | None:
     else None: where it may not, one line on stderr says why."""
     why = folder_refusal(create)
     if why is not None:
-        _warn(f"compile cache {str(cache_dir())!r} not used: {why}; {EXPANDED} (set CADCAM_CACHE_DIR to "
-              "a folder of your own, mode 700)")
+        _warn(f"compile cache {str(cache_dir())!r} not used: {why}; {EXPANDED} ({MAKE_PRIVATE})")
         return None
     folder = cache_dir()
     return folder if folder.is_dir() else None
