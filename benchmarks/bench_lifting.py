@@ -1,6 +1,6 @@
 """What lifting a profile's convexity rows costs and saves: the NLP's build time, its size and
 its Lagrangian Hessian's nonzeros with the convexity, ρ-bound and curvature rows written on
-lifted ρ, ρ′, ρ″ (:func:`cadcam.solve.transcription._lifted_profile`) and written directly on
+lifted ρ, ρ′, ρ″ (:func:`cadcam.solve.rows._lifted_profile`) and written directly on
 the coefficients, at a shipped spec's degree and at degree 30 (issue 30, item 1).
 
 ``python benchmarks/bench_lifting.py [--solve] [--cable-robot]``. Measured, not asserted; builds
@@ -19,7 +19,7 @@ from pathlib import Path
 
 from cadcam.api import load_problem
 from cadcam.optimize import solve, start_design
-from cadcam.solve import transcription
+from cadcam.solve import rows
 from cadcam.solve.transcription import Transcription
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
@@ -36,14 +36,14 @@ def measure(spec: str, overrides: dict, lifted: bool, run_solver: bool) -> dict:
     or none."""
     problem = load_problem(MODELS / spec, overrides=overrides, functions="expanded")
     problem, start = start_design(replace(problem, options=replace(problem.options, method="nlp")))
-    saved = transcription.LIFTED_PROFILE_SIZE
-    transcription.LIFTED_PROFILE_SIZE = 0 if lifted else 10**9
+    saved = rows.LIFTED_PROFILE_SIZE
+    rows.LIFTED_PROFILE_SIZE = 0 if lifted else 10**9
     cpu = time.process_time()
     try:
         tr = Transcription(problem)
     finally:
         cpu = time.process_time() - cpu
-        transcription.LIFTED_PROFILE_SIZE = saved
+        rows.LIFTED_PROFILE_SIZE = saved
     row = {"build": tr.build_time_s, "cpu": cpu, "load": os.getloadavg()[0], "nx": tr.v.size,
            "ng": tr.nlp["g"].shape[0],
            "hessian": tr.solver.get_function("nlp_hess_l").sparsity_out(0).nnz()}

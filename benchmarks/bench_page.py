@@ -9,7 +9,7 @@ the background compile of the page's first design of that template leaves them: 
 libraries (its NLP's and its NLP's with the outline rows) not yet there are compiled first,
 untimed, and the table says how many. The edit is spring 1's rate
 × :data:`EDIT`; the warm design starts from the last answer and its IPOPT multipliers
-(:data:`cadcam.solve.transcription.WARM_IPOPT`). For comparison, through the same kept NLP and
+(:data:`cadcam.solve.ipopt.WARM_IPOPT`). For comparison, through the same kept NLP and
 after the page's design: the last design without its multipliers, under the spec's own IPOPT
 options (how a Session started before it kept them), and the default start. Goals (issues 30 and
 32): a 1-DOF design back within 2 s, a warm re-solve after a small edit within 0.3 s, the new

@@ -18,7 +18,8 @@ from .problem import ACCEPTANCE, Problem, cap
 from .result import Result
 from .solve.builds import built_for
 from .solve.messages import count, merged
-from .solve.transcription import Multipliers, Solve, Transcription, joined
+from .solve.ipopt import Multipliers, Solve, joined
+from .solve.transcription import Transcription
 
 
 def start_design(problem: Problem) -> tuple[Problem, Design]:

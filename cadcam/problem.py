@@ -417,7 +417,7 @@ TOLERANCES = {
 }
 
 #: A joint's ``band_weight``: the weight of its tolerance band in the NLP's objective
-#: (:func:`cadcam.solve.transcription._band_rows`); 0, the default, leaves the band out.
+#: (:func:`cadcam.solve.objective._band_rows`); 0, the default, leaves the band out.
 BAND_WEIGHT = Quantity(
     "band_weight", "N·m",
     "the weight of the joint's tolerance band in the objective: band_weight × ∫w dθ, w the band's first-order "

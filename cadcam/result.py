@@ -23,7 +23,7 @@ from .outputs.run_files import RUN_FILES, WorkshopError, torque_table, write_out
 
 if TYPE_CHECKING:
     from .designs import Design
-    from .solve.transcription import Solve
+    from .solve.ipopt import Solve
     from .problem import Problem, Workshop
 
 
@@ -116,7 +116,7 @@ class Result:
 
     @property
     def history(self) -> dict:
-        """IPOPT's iterates of the kept start (see :func:`cadcam.solve.transcription.iteration_history`)."""
+        """IPOPT's iterates of the kept start (see :func:`cadcam.solve.ipopt.iteration_history`)."""
         return self.solve.history if self.solve is not None else {}
 
     @property

@@ -15,7 +15,7 @@ from jsonschema import Draft202012Validator
 import cadcam
 from cadcam.cli import main
 from cadcam.mechanisms.base import mechanism_class, mechanism_kinds, torque_models
-from cadcam.solve.transcription import IPOPT_STATUS
+from cadcam.solve.ipopt import IPOPT_STATUS
 from cadcam.optimize import VERDICTS
 
 from .conftest import SPEC_1DOF

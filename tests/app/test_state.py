@@ -9,7 +9,7 @@ from cadcam import load_problem
 from cadcam.app.form import field_of_error
 from cadcam.app.state import TEMPLATES, DesignState
 from cadcam.solve import compiled
-from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING
+from cadcam.solve.ipopt import COMPILED_CACHED, EXPANDED_COMPILING
 from cadcam.spec import KeyRead, read_keys, read_spec_data
 
 from ..conftest import needs_cc, wait_for_library

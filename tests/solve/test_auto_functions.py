@@ -12,7 +12,8 @@ from cadcam import evaluate, load_spec
 from cadcam.optimize import default_start, solve
 from cadcam.solve import compiled
 from cadcam.solve.builds import built_for, forget_builds
-from cadcam.solve.transcription import COMPILED_CACHED, EXPANDED_COMPILING, Transcription
+from cadcam.solve.ipopt import COMPILED_CACHED, EXPANDED_COMPILING
+from cadcam.solve.transcription import Transcription
 
 from ..conftest import SPEC_1DOF, needs_cc, wait_for_library
 

@@ -5,7 +5,7 @@ import pytest
 
 from cadcam import load_spec
 from cadcam.optimize import optimize, start_design
-from cadcam.solve import transcription
+from cadcam.solve import rows
 from cadcam.solve.builds import forget_builds
 from cadcam.solve.transcription import Transcription
 from cadcam.verify.evaluate import start_samples
@@ -20,7 +20,7 @@ def test_lifted_profile_rows_and_the_dense_rows_share_their_optima(monkeypatch):
     problem = load_spec(SPEC_1DOF)
     dense_tr = Transcription(problem)
     dense = optimize(problem, transcription=dense_tr)
-    monkeypatch.setattr(transcription, "LIFTED_PROFILE_SIZE", 0)  # lift every profile
+    monkeypatch.setattr(rows, "LIFTED_PROFILE_SIZE", 0)  # lift every profile
     lifted_tr = Transcription(problem)
     M = problem.options.convexity_points
     assert all(lifted_tr.v.blocks[name][1] == M for name in ("rho0", "drho0", "ddrho0"))
@@ -46,7 +46,7 @@ def test_a_fixed_check_range_runs_a_grid_step_past_the_starts_wrap(monkeypatch, 
     1-DOF cam): the range's end is the start's most-wound departure plus one grid step of its
     wrap, and the optimum's wrap stays inside it on the fine re-check (to 1 µrad: IPOPT's
     tolerance on the row)."""
-    monkeypatch.setattr(transcription, "FIXED_RANGE_SIZE", 0)
+    monkeypatch.setattr(rows, "FIXED_RANGE_SIZE", 0)
     problem, start = start_design(load_spec(SPEC_1DOF))
     tr = Transcription(problem)
     samples = start_samples(problem, start, tr.n, tr.start_order())

@@ -17,7 +17,7 @@ from cadcam.optimize import optimize, random_start
 from cadcam.problem import Options
 from cadcam.solve import compiled
 from cadcam.solve.messages import count, kept_warnings, merged, parse_warnings
-from cadcam.solve.transcription import _ipopt_solver
+from cadcam.solve.ipopt import _ipopt_solver
 
 from ..conftest import SPEC_1DOF
 

@@ -7,7 +7,8 @@ import pytest
 
 from cadcam import load_spec
 from cadcam.optimize import start_design
-from cadcam.solve.transcription import Transcription, WARM_IPOPT, _ipopt_options
+from cadcam.solve.ipopt import WARM_IPOPT, _ipopt_options
+from cadcam.solve.transcription import Transcription
 from cadcam.verify.evaluate import start_samples
 
 from ..conftest import SPEC_1DOF

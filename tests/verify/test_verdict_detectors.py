@@ -26,7 +26,7 @@ from cadcam import Design, load_spec
 from cadcam.verify.evaluate import LENGTH_TOL, evaluate
 from cadcam.cli import main
 from cadcam.files import atomic_path, write_csv, write_json, write_text
-from cadcam.solve.transcription import Solve
+from cadcam.solve.ipopt import Solve
 from cadcam.optimize import WARM_GUARD, verdict
 from cadcam.solve import builds
 from cadcam.physics.profile import Basis

@@ -243,7 +243,7 @@ def test_the_recordable_metric_names_are_exactly_an_evaluations_metrics(demo):
 
 
 def _converged(design):
-    from cadcam.solve.transcription import Solve
+    from cadcam.solve.ipopt import Solve
     return Solve(design=design, status="converged", return_status="Solve_Succeeded", iterations=1,
                  solve_time_s=0.0, objective=0.0, z=[])
 

@@ -9,7 +9,8 @@ import pytest
 from cadcam import Design, evaluate, load_spec, optimize
 from cadcam.physics.springs import Port, Spring
 from cadcam.targets import serial_arm_torques
-from cadcam.solve.transcription import FRICTION_ORDER, Transcription
+from cadcam.solve.rows import FRICTION_ORDER
+from cadcam.solve.transcription import Transcription
 from cadcam.mechanisms.base import port_function
 
 from ...conftest import SPEC_RR, TABLE3, TABLE4
