@@ -462,6 +462,37 @@ class Mechanism:
         """Lines this kind adds to a result's summary, from the fine re-check ``evaluation``."""
         return []
 
+    # -- files: the part as written, read back ------------------------------------------------
+    # ``outlines`` are the mechanism's profiles read back from the workshop files, each a
+    # :class:`cadcam.physics.outline.FileOutline` on the cable's centre line in the profile's own
+    # frame; the file model computes from them by plane geometry alone what the part does
+    # (:mod:`cadcam.verify.file_model`, :mod:`cadcam.outputs.verification`).
+    def port_length_from_file(self, outlines: list, port: str, theta) -> np.ndarray:
+        """Length [m] of port ``port`` at joint angles ``theta`` (n,) [rad] recomputed from
+        ``outlines``, the joint torque's file model (its change from the reference angle and
+        its derivative are taken by the caller). Default: no file model, and
+        ``verification.md`` says so."""
+        raise NotImplementedError(f"no file model of {self.kind}")
+
+    def output_from_file(self, outlines: list, theta) -> np.ndarray:
+        """The :attr:`output` displacement [m] at joint angles ``theta`` (n,) [rad] recomputed
+        from ``outlines`` (NaN where it has none), for a mechanism with an :attr:`output`.
+        Default: no file model."""
+        raise NotImplementedError(f"no file model of {self.kind}'s output")
+
+    def free_spans_from_file(self, outlines: list, theta) -> list | None:
+        """Each profile's free span at joint angles ``theta`` (n,) [rad] recomputed from
+        ``outlines``: (where the cable leaves the outline, where it ends), both (n, 2) [m] in
+        the outline's frame, per profile; their clearance from the cut part is checked.
+        Default: None, no cable leaves the part on a free span (a follower rides it)."""
+        return None
+
+    @classmethod
+    def has_file_model(cls) -> bool:
+        """Whether the mechanism recomputes its ports from its written files: it overrides
+        :meth:`port_length_from_file`."""
+        return cls.port_length_from_file is not Mechanism.port_length_from_file
+
     # -- generic -------------------------------------------------------------------------------
     @property
     def bases(self) -> tuple[Basis, ...]:

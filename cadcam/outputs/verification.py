@@ -22,9 +22,9 @@ from ..files import write_json, write_text
 from ..make.biarc import arc_distance, segment_distance
 from ..make.workshop import cut_points
 from ..mechanisms.base import ENERGY
+from ..physics.outline import NOTCH, FileOutline
 from ..physics.profile import profile_function
-from ..verify.file_model import (MILLIMETRES, NOTCH, TORQUE_KINDS, FileOutline, differential_output, file_torque,
-                                 free_spans, outline_points, span_clearance)
+from ..verify.file_model import MILLIMETRES, file_torque, outline_points, span_clearance
 
 #: Share of the design's own largest error the file may add (issue 31).
 DESIGN_SHARE = 0.1
@@ -116,12 +116,13 @@ def _torque_checks(result) -> list[dict]:
 
 
 def _output_checks(result) -> list[dict]:
-    """Per differential pair: its output x on the fine grid, its own error, span, requirement."""
+    """Per mechanism with an output law (a differential pair): its output x on the fine grid,
+    its own error, span, requirement."""
     fine, out = result.recheck, []
     for u, mech in enumerate(fine.problem.mechanisms):
-        if mech.kind != "differential_pulley" or mech.output_target is None:
+        if mech.output_target is None:
             continue
-        x = fine.units[u].z[mech.unknowns.index("x")]
+        x = fine.units[u].z[mech.unknowns.index(mech.output)]
         own = float(fine.metrics.output_max_abs_error[u])
         out.append({"quantity": "x", "where": mech.name, "mechanism": u, "design_max_abs_error": own,
                     "peak": float(np.ptp(x)), "required": _requirement(own, float(np.ptp(x)))})
@@ -259,7 +260,7 @@ def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float 
     for u, (mech, profiles) in enumerate(zip(problem.mechanisms, _profiles_of(problem))):
         if any(chains[i].groove for i in profiles):
             continue
-        spans = free_spans([centre[i] for i in profiles], mech, fine.units[u].theta)
+        spans = mech.free_spans_from_file([centre[i] for i in profiles], fine.units[u].theta)
         for i, (start, end) in zip(profiles, spans or []):
             out[i] = float(np.nanmin(span_clearance(outline_points(chains[i]), start, end)))
     return out
@@ -273,10 +274,9 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     # radius outside them (a groove's file is that centre line)
     chains = {i: c.centre_line(problem.workshop.cable_radius) for i, c in chains.items()}
     profiles_of = _profiles_of(problem)
-    kinds = {mech.kind for mech in problem.mechanisms}
     checks = []
     torque = _torque_checks(result)
-    missing = sorted(kinds - set(TORQUE_KINDS))
+    missing = sorted({mech.kind for mech in problem.mechanisms if not mech.has_file_model()})
     if torque and not missing and problem.torque_model == ENERGY:  # a file torque only against a target
         sample = fine.tensor.sample(fine.tensor.whole())
         outlines = {u: [chains[i] for i in profiles] for u, profiles in enumerate(profiles_of)}
@@ -293,8 +293,12 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
                    for c in torque]
     for check in _output_checks(result):
         u = check.pop("mechanism")
-        x = differential_output([chains[i] for i in profiles_of[u]], problem.mechanisms[u], fine.units[u].theta)
-        xd = fine.units[u].z[problem.mechanisms[u].unknowns.index("x")]
+        mech = problem.mechanisms[u]
+        if not mech.has_file_model():
+            checks.append({**check, "note": f"not recomputed from the files: no file model of {mech.kind}"})
+            continue
+        x = mech.output_from_file([chains[i] for i in profiles_of[u]], fine.units[u].theta)
+        xd = fine.units[u].z[mech.unknowns.index(mech.output)]
         found = np.isfinite(x)
         checks.append(_judged(check, float(np.max(np.abs(x - xd)[found], initial=0.0)), int(np.sum(~found))))
     return checks

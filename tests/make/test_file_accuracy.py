@@ -12,11 +12,11 @@ import cadcam
 from cadcam.make.biarc import arc_distance, biarc_fit
 from cadcam.make.workshop import (GROOVE_ROWS, MIN_WALL, closed_outline, cut_outline, helical_groove, hull_outline,
                                   write_dxf, write_groove_csv)
+from cadcam.mechanisms.anchored_pulley.file_model import anchored_path
 from cadcam.outputs.run_files import write_workshop_files
 from cadcam.outputs.verification import DISTANCE_SAMPLES, FIELDS, _file_error, _polar_neighbours, recompute
 from cadcam.physics.profile import Basis
-from cadcam.verify.file_model import (SAGITTA, STEP, anchored_path, file_torque, outline_points, read_dxf,
-                                      read_groove, span_clearance)
+from cadcam.verify.file_model import SAGITTA, STEP, file_torque, outline_points, read_dxf, read_groove, span_clearance
 
 from ..mechanisms.anchored_pulley.test_anchored_pulley import random_convex_design
 

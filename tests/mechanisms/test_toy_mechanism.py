@@ -212,6 +212,10 @@ def test_cli_design(design_spec, tmp_path):
     for name in ("torque.csv", "profile.png", "cam1.dxf", "cam1.svg", "cam1_points.csv",
                  "cam1_sheet.pdf"):
         check_output_file(out / name)
+    # it has no file model (Mechanism.port_length_from_file): the report says so, judging nothing
+    report = json.loads((out / "verification.json").read_text())
+    assert report["passed"] is None and report["checks"]
+    assert [c["note"] for c in report["checks"]] == ["not recomputed from the files: no file model of toy_pulley"]
     # the written result is a spec again, and its design evaluates to its metrics
     again = cadcam.load_spec(out / "result.json")
     assert again.mechanisms[0].parameter_values() == ANCHOR

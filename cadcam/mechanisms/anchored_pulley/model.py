@@ -40,6 +40,7 @@ import numpy as np
 
 from ...physics.profile import profile_function
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register
+from .file_model import anchored_path, anchored_span
 
 #: Fixed-point sweeps of the closed-form guess of α (exact for a circle after one).
 GUESS_SWEEPS = 6
@@ -328,3 +329,12 @@ class AnchoredPulley(Mechanism):
                 "anchor_angle": self.anchor_angle, "reference_angle": self.reference_angle,
                 "min_moment_arm": self.min_moment_arm, "min_free_span": self.min_free_span,
                 **({"initial_radius": self.initial_radius} if self.initial_radius else {})}
+
+    def port_length_from_file(self, outlines, port, theta):
+        """The cable from the anchor round the outline to the spring end
+        (:func:`.file_model.anchored_path`)."""
+        return anchored_path(outlines[0], self, theta)
+
+    def free_spans_from_file(self, outlines, theta):
+        """The cable's span from the outline to the spring end (:func:`.file_model.anchored_span`)."""
+        return [anchored_span(outlines[0], self, theta)[:2]]

@@ -45,6 +45,7 @@ import numpy as np
 
 from ...physics.profile import profile_function
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register, split_coefficients
+from .file_model import differential_output, differential_spans
 from .robot_path import robot_path
 from .starts import envelope_start
 
@@ -422,3 +423,19 @@ class DifferentialPulley(Mechanism):
         if self.output_target is not None:
             out["output_target"] = self.output_target.to_dict()
         return out
+
+    def port_length_from_file(self, outlines, port, theta):
+        """The slider's port is the output x (:meth:`output_from_file`)."""
+        return self.output_from_file(outlines, np.atleast_1d(np.asarray(theta, dtype=float)))
+
+    def output_from_file(self, outlines, theta):
+        """The idler distance that gives the cable its length
+        (:func:`.file_model.differential_output`)."""
+        return differential_output(outlines, self, theta)
+
+    def free_spans_from_file(self, outlines, theta):
+        """Both spans from the outlines to the idler at the output x found from the files
+        (:func:`.file_model.differential_spans`)."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        spans = differential_spans(outlines, self, theta, differential_output(outlines, self, theta))
+        return [(point, far) for point, far, _, _ in spans]

@@ -60,6 +60,7 @@ import numpy as np
 from ...citations import Paper, register_paper
 from ...physics.profile import profile_function
 from ..base import Limit, Mechanism, Picture, Quantity, register
+from .file_model import roller_follower_port
 from .geometry import (contact_point, follower_axes, line_coordinates, pitch_curvature_radius,
                        pitch_point, pressure_angle, velocity_ratio)
 
@@ -308,6 +309,11 @@ class RollerFollower(Mechanism):
                 "min_pitch_curvature_ratio": self.min_pitch_curvature_ratio,
                 "reference_angle": self.reference_angle,
                 **({"initial_radius": self.initial_radius} if self.initial_radius else {})}
+
+    def port_length_from_file(self, outlines, port, theta):
+        """The roller pressed onto the outline along its stem
+        (:func:`.file_model.roller_follower_port`); it carries no cable."""
+        return roller_follower_port(outlines[0], self, theta)
 
 
 def contact_spread(mech: RollerFollower) -> float:

@@ -18,6 +18,7 @@ import numpy as np
 
 from .capstan import wire_torque_function
 from .departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
+from .file_model import wire_cam_port
 from ...physics.profile import profile_function
 from ..base import Mechanism, Quantity, register
 
@@ -156,6 +157,11 @@ class WireCam(Mechanism):
 
     def spec_fields(self) -> dict:
         return {"mu": self.mu, "idler": {"radius": self.idler_radius, "offset": self.idler_offset}}
+
+    def port_length_from_file(self, outlines, port, theta):
+        """The idler riding the platform on the outline (:func:`.file_model.wire_cam_port`); the
+        wire runs onto the idler with no free span."""
+        return wire_cam_port(outlines[0], self, port, theta)
 
 
 @lru_cache(maxsize=64)

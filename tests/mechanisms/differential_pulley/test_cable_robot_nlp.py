@@ -106,14 +106,13 @@ def test_grooves_of_spirals_20_um_larger_fail_the_check(nlp_result, tmp_path):
     far."""
     from dataclasses import replace as replaced
     from cadcam.outputs.verification import recompute
-    from cadcam.verify.file_model import differential_output
     chains = _grooves(nlp_result, tmp_path, grow=2e-5)
     ev = nlp_result.evaluation
     grown = replaced(ev.design, coefficients=[c + b.from_monomial(np.eye(b.size)[0] * 2e-5)
                                               for b, c in zip(ev.design.bases, ev.design.coefficients)])
     larger = evaluate(nlp_result.problem, grown, grid=ev.grid)
     for u, mech in enumerate(nlp_result.problem.mechanisms):
-        x = differential_output([chains[2 * u], chains[2 * u + 1]], mech, ev.units[u].theta)
+        x = mech.output_from_file([chains[2 * u], chains[2 * u + 1]], ev.units[u].theta)
         by_model = larger.units[u].z[2] - ev.units[u].z[2]
         np.testing.assert_allclose(x - ev.units[u].z[2], by_model, rtol=0, atol=0.05 * np.abs(by_model).max())
     for check in recompute(nlp_result, chains):
