@@ -329,8 +329,9 @@ def _torque_model_partials(problem: Problem, start: Design, points: int, rng: np
     design's solved poses."""
     poses = solved_poses(problem, start)
     model = torque_function(problem, start.bases, poses=poses)
+    springs = problem.spring_parameters()
     point: dict[str, Any] = {"c": np.concatenate(start.coefficients), "x0": start.preextension,
-                             "k": [s.rate for s in problem.springs], "F0": [s.preload for s in problem.springs]}
+                             "k": springs.rate, "F0": springs.preload}
     lo = np.array([j.theta_range[0] for j in problem.joints])
     hi = np.array([j.theta_range[1] for j in problem.joints])
     newton = torque_function(problem, start.bases, tangency="newton", poses=poses)

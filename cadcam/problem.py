@@ -14,7 +14,7 @@ import numpy as np
 
 from .files import env_cap
 from .mechanisms.base import ENERGY, Mechanism, Profile, Quantity
-from .physics.springs import Network, Spring
+from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
 
 
@@ -519,6 +519,12 @@ class Problem:
         ports = self.ports
         return Network(list(self.springs), [self.mechanisms[u].joint for u, _ in ports],
                        {p: g for g, p in enumerate(ports)}, len(self.joints))
+
+    def spring_parameters(self) -> SpringParameters:
+        """The springs' rates k [N/m], preloads F0 [N] and travels [m], each a vector in spring
+        order: what every torque model, the NLP and the exports read."""
+        return SpringParameters(*(np.array([getattr(s, name) for s in self.springs], dtype=float)
+                                  for name in ("rate", "preload", "travel")))
 
     # -- copies ----------------------------------------------------------------------------------
     def with_options(self, **kw) -> "Problem":

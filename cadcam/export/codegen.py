@@ -184,6 +184,8 @@ def _mark_unused(source: str) -> str:
 
 
 def _design_header(problem: Problem, design: Design) -> str:
+    springs = problem.spring_parameters()
+
     def arr(name, values, unit):
         vals = ", ".join(repr(float(v)) for v in values)
         return f"/* {unit} */\nstatic const casadi_real {name}[{len(values)}] = {{{vals}}};\n"
@@ -195,9 +197,9 @@ def _design_header(problem: Problem, design: Design) -> str:
              f"#define CADCAM_N_SPRINGS {len(problem.springs)}",
              arr("cadcam_design_c", np.concatenate(design.coefficients),
                  "rho coefficients of every profile, stacked, in each profile's basis [m]"),
-             arr("cadcam_design_k", [s.rate for s in problem.springs], "spring rates [N/m]"),
+             arr("cadcam_design_k", springs.rate, "spring rates [N/m]"),
              arr("cadcam_design_x0", design.preextension, "pre-extensions [m]"),
-             arr("cadcam_design_F0", [s.preload for s in problem.springs], "preloads [N]"),
+             arr("cadcam_design_F0", springs.preload, "preloads [N]"),
              "#endif"]
     return "\n".join(lines) + "\n"
 

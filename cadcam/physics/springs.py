@@ -78,6 +78,26 @@ class Spring:
         return out
 
 
+@dataclass(frozen=True)
+class SpringParameters:
+    """The numbers of a problem's springs as vectors, one entry per spring in spring order
+    (:meth:`cadcam.problem.Problem.spring_parameters`).
+
+    Attributes
+    ----------
+    rate : ndarray
+        Stiffnesses k [N/m].
+    preload : ndarray
+        Initial tensions F0 [N].
+    travel : ndarray
+        Maximum allowed extensions x_max [m].
+    """
+
+    rate: np.ndarray
+    preload: np.ndarray
+    travel: np.ndarray
+
+
 class Network:
     """The signed spring–port incidence of a problem and which joint each port turns with.
 

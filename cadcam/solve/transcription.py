@@ -233,8 +233,8 @@ class Transcription:
         for pk, prof in enumerate(problem.profiles):
             if f"rc{pk}" in p.blocks:
                 p.put(vec, f"rc{pk}", prof.min_curvature_radius * (1 + problem.options.limit_margin))
-        p.put(vec, "k", [s.rate for s in problem.springs])
-        p.put(vec, "F0", [s.preload for s in problem.springs])
+        p.put(vec, "k", problem.spring_parameters().rate)
+        p.put(vec, "F0", problem.spring_parameters().preload)
         if self.banded:
             self._band_parameters(vec, problem)
         scale = minimax_scale if problem.options.objective == "minimax" else energy
@@ -247,10 +247,10 @@ class Transcription:
         p, tol = self.p, problem.tolerance
         for i in self.banded:
             p.put(vec, f"wband{i}", problem.joints[i].band_weight)
-        k = np.array([s.rate for s in problem.springs])
+        k = problem.spring_parameters().rate
         p.put(vec, "dk", tol["rate"] * k)
         # a preload's and a spring end's error both move the force by a constant
-        p.put(vec, "dF", tol["preload"] * np.abs([s.preload for s in problem.springs]) + tol["placement"] * k)
+        p.put(vec, "dF", tol["preload"] * np.abs(problem.spring_parameters().preload) + tol["placement"] * k)
         for u, mech in enumerate(problem.mechanisms):
             p.put(vec, f"dq{u}", mech.placement_steps(LENGTH_SCALE))
         p.put(vec, "tol", [tol["placement"] / LENGTH_SCALE, tol["profile"] / LENGTH_SCALE])

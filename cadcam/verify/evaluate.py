@@ -398,8 +398,8 @@ class TensorGrid:
         for mech, unit in zip(problem.mechanisms, units):  # global port order within a joint
             d[mech.joint] += list(unit.d)
             arm[mech.joint] += list(unit.arm)
-        k = np.array([s.rate for s in problem.springs])
-        F0 = np.array([s.preload for s in problem.springs])
+        springs = problem.spring_parameters()
+        k, F0 = springs.rate, springs.preload
         #: (j, c) → e_jc, joint c's share of spring j's extension [m] on joint c's grid.
         self.shares = net.shares(d)
         #: Per joint (U_i [N·m], {(j, c): V_ij [N/m·m]}) on its own grid.
@@ -856,7 +856,7 @@ def _margins(ev: Evaluation, ext: np.ndarray) -> dict:
     own (its limits' smallest margins over the grid), given the springs' extension ranges
     ``ext`` [m]."""
     p = ev.problem
-    travel = np.array([s.travel for s in p.springs])
+    travel = p.spring_parameters().travel
     return {
         "travel": (travel - ext[:, 1]).tolist(),
         "extension_lower": ext[:, 0].tolist(),

@@ -97,8 +97,8 @@ def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
         path = lambda t: mech.port_length_from_file(outlines[u], port, t)  # noqa: E731
         d[g] = (path(th) - path(mech.reference_angle))[at]
         dd[g] = ((path(th + STEP) - path(th - STEP)) / (2 * STEP))[at]
-    k = np.array([s.rate for s in problem.springs])
-    preload = np.array([s.preload for s in problem.springs])
+    springs = problem.spring_parameters()
+    k, preload = springs.rate, springs.preload
     force = k[:, None] * (np.asarray(design.preextension)[:, None] + network.P @ d) + preload[:, None]
     tau = np.zeros(thetas.shape)
     for i in range(thetas.shape[0]):

@@ -95,9 +95,9 @@ class _Layout:
                  sum(len(mech.parameters) for mech in problem.mechanisms)]
         self.start = dict(zip(("c", "k", "x0", "F0", "q"), np.cumsum([0, *sizes[:-1]])))
         self.size = int(sum(sizes))
-        self.nominal = np.concatenate([np.concatenate(design.coefficients),
-                                       [s.rate for s in problem.springs], design.preextension,
-                                       [s.preload for s in problem.springs],
+        springs = problem.spring_parameters()
+        self.nominal = np.concatenate([np.concatenate(design.coefficients), springs.rate, design.preextension,
+                                       springs.preload,
                                        [v for mech in problem.mechanisms for v in mech.parameter_values()]])
 
     def split(self, values: np.ndarray) -> list[np.ndarray]:
