@@ -29,7 +29,7 @@ from cadcam.mechanisms.wire_cam.model import WireCam
 from cadcam.mechanisms.wire_cam.departure import cam_tangent, tangency_residuals
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.physics.quadrature import trapezoid_weights
-from cadcam.physics.wrap import length_function
+from cadcam.physics.wrap import length_function, whole_wrap_order
 
 
 #: Model evaluations kept (first in, first out): more than one finite-difference stencil.
@@ -89,7 +89,8 @@ class NestedBaseline:
                                 for i, j in enumerate(problem.joints)])
         self.eq8 = [_eq8_function(b) for b in self.bases]
         # per-angle port displacements and the force model's arms, from cadcam's wire cam
-        self.ports = [port_function((type(mech), (b,)), problem.torque_model, 48, "closed-form").map(self.n)
+        self.ports = [port_function((type(mech), (b,)), problem.torque_model, whole_wrap_order(self.bases),
+                                    "closed-form").map(self.n)
                       for mech, b in zip(self.mechs, self.bases)]
         self.evaluations = 0
         self.lm_solves = 0

@@ -35,6 +35,7 @@ import numpy as np
 from ..version import __version__
 from ..designs import Design
 from ..files import atomic_path, staged_folder, write_json, write_text
+from ..physics.wrap import EXPORT_ORDER, whole_wrap_order
 from ..verify.evaluate import start_samples
 from ..verify.model import NEWTON_STEPS, solved_poses, torque_function, torque_jacobian_function
 from ..solve.blocks import P_BLOCKS, X_BLOCKS, describe
@@ -53,17 +54,6 @@ WARNINGS = [STANDARD, "-Wall", "-Wextra", "-Werror"]
 #: -O2 took, into a constraint Jacobian and a Lagrangian Hessian that evaluate about as fast
 #: (``make bench`` runs of 2026-11-23; see CHANGELOG).
 CFLAGS = [STANDARD, "-O1"]
-#: Least Gauss–Legendre points of the exported wrapped length (and as-printed friction) over the
-#: whole wrap: tests check the exported torque against the 48-point evaluator to 1e-12.
-EXPORT_QUADRATURE_ORDER = 24
-
-
-def export_quadrature_order(bases) -> int:
-    """Gauss–Legendre points of the exported wrap integrals for profiles in ``bases``: at least
-    :data:`EXPORT_QUADRATURE_ORDER`, and 4/3 of the highest profile's coefficients, as the
-    arc-length integrand √(ρ² + ρ′²) of a profile of high degree needs (an order-35 pulley of
-    the moment-arm method agrees with its re-check's torque to rounding on 48 points, not on 24)."""
-    return max(EXPORT_QUADRATURE_ORDER, -(-4 * max(b.size for b in bases) // 3))
 
 
 #: (unit, description) of the inputs and outputs of the exported model
@@ -109,7 +99,7 @@ def model_functions(problem: Problem, design: Design) -> list[ca.Function]:
     """The torque model of ``design`` and its Jacobians, code-generable (SX, no callbacks), their
     Newton started from the design's poses solved on the design grid
     (:func:`cadcam.verify.model.solved_poses`)."""
-    kw = dict(order=export_quadrature_order(design.bases), integrals="closed-form",
+    kw = dict(order=whole_wrap_order(design.bases, EXPORT_ORDER), integrals="closed-form",
               poses=solved_poses(problem, design))
     f = torque_function(problem, design.bases, tangency="newton", **kw)
     jac = torque_jacobian_function(problem, design.bases, **kw)

@@ -1,4 +1,6 @@
-"""Wrapped wire length by Gauss–Legendre quadrature (Johnston2023, Sec. 3.1)."""
+"""Wrapped wire length by Gauss–Legendre quadrature (Johnston2023, Sec. 3.1), and how many
+points each integral over a wrap takes, chosen here once (:func:`whole_wrap_order`,
+:func:`friction_order`, :func:`wound_length`)."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -56,6 +58,35 @@ def segment_lengths(basis: Basis, order: int, first_order: int, alpha_ref, alpha
     first = function(basis, first_order)(alpha_ref, alpha[0], *args)
     rest = function(basis, order).map(n - 1)(alpha[:n - 1].T, alpha[1:].T, *args).T
     return ca.vertcat(first, rest)
+
+
+#: Least Gauss–Legendre points of a wrapped length (and of a force model's friction) over the
+#: whole wrap where a design is checked: the re-check, its torque model and its tolerance band,
+#: the reference the tests hold the NLP's and the export's integrals to.
+CHECK_ORDER = 48
+#: Least points of the same integrals in the exported model, whose generated code grows with
+#: them: tests check the exported torque against the re-check to 1e-12.
+EXPORT_ORDER = 24
+#: Points of the NLP's force-model friction integral per point of its wrapped-length segments:
+#: the friction integral spans the whole wrap.
+FRICTION_ORDER = 8
+
+
+def whole_wrap_order(bases, least: int = CHECK_ORDER) -> int:
+    """Gauss–Legendre points of the wrapped length (and of a force model's friction) over a
+    whole wrap on profiles in ``bases``: at least ``least`` (:data:`CHECK_ORDER` where a design
+    is checked, :data:`EXPORT_ORDER` in the exported model), and 4/3 of the highest profile's
+    coefficients, as the arc-length integrand √(ρ² + ρ′²) of a profile of high degree needs (an
+    order-35 pulley of the moment-arm method agrees with its re-check's torque to rounding on 48
+    points, not on 24)."""
+    return max(least, -(-4 * max(b.size for b in bases) // 3))
+
+
+def friction_order(quadrature_order: int) -> int:
+    """Gauss–Legendre points of the NLP's force-model friction integral over the whole wrap:
+    :data:`FRICTION_ORDER` times the ``quadrature_order`` of each of its wrapped-length
+    segments (``[solver] quadrature_order``)."""
+    return FRICTION_ORDER * quadrature_order
 
 
 #: Gauss–Legendre points per radian of a basis's design interval for :func:`wound_length`.

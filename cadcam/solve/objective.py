@@ -8,12 +8,12 @@ import casadi as ca
 import numpy as np
 
 from .blocks import BAND_SCALE, FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
-from .rows import FRICTION_ORDER, _apart, _first_segment_order, _Pose, _start_order
+from .rows import _apart, _first_segment_order, _Pose, _start_order
 from .variables import _equal, _nonnegative, _Rows, _Vars
 from ..mechanisms.base import (port_change_function, pose_change_function, split_coefficients,
                                wound_change_function)
 from ..physics.springs import Network
-from ..physics.wrap import length_change_function, segment_lengths
+from ..physics.wrap import friction_order, length_change_function, segment_lengths
 from ..problem import Problem
 from ..errors import SpecError
 
@@ -204,7 +204,7 @@ def _band_part_changes(rows: _Rows, p: _Vars, problem: Problem, net, i: int, x0,
     on the lengths wound from its anchors) is left out: there the change of every pose hangs on
     each profile's whole coefficient vector through those lengths, and the exact Hessian of its
     rows grows too large to build."""
-    n, order = problem.options.grid, FRICTION_ORDER * problem.options.quadrature_order
+    n, order = problem.options.grid, friction_order(problem.options.quadrature_order)
     change = _torque_change_function(net, i).map(n)
     own = [u for u, mech in enumerate(problem.mechanisms) if mech.joint == i]
     first_port = [int(a) for a in np.cumsum([0] + [len(problem.mechanisms[u].ports) for u in own])]

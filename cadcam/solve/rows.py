@@ -19,10 +19,9 @@ from ..mechanisms.base import (Mechanism, margin_function, port_function, pose_r
                                split_coefficients, wound_lengths)
 from ..physics.profile import convexity_margin, curvature, inside_tangent, profile_function, support_distance
 from ..physics.springs import Network
-from ..physics.wrap import segment_lengths
+from ..physics.wrap import friction_order, segment_lengths
 from ..problem import Options, Problem
 
-FRICTION_ORDER = 8   # the as-printed friction integral spans the whole wrap: 8× the points
 #: Gauss–Legendre points of the segment from the reference pose to the grid's first angle, at
 #: most: the rule grows with that segment's length in grid steps, which a narrow range far from
 #: the reference pose would make unbounded (the re-check's own quadrature judges the accuracy).
@@ -173,7 +172,7 @@ def _departure_rows(rows: _Rows, problem: Problem, mech: Mechanism, s: _Mechanis
     """
     n, structure = problem.options.grid, mech.structure()
     ports = _apart(problem.options, port_function(structure, problem.torque_model,
-                                 FRICTION_ORDER * problem.options.quadrature_order, "closed-form"), n)
+                                 friction_order(problem.options.quadrature_order), "closed-form"), n)
     d, arm, res, _ = ports(s.theta.T, s.z, s.ref, wrapped, ca.repmat(wound_ref, 1, n) + wrapped,
                            s.c, s.q)
     residual = _apart(problem.options, pose_residual_function(structure))

@@ -33,6 +33,7 @@ from ..designs import Design
 from ..mechanisms.base import departure_solver, margin_function, pose_function, split_coefficients
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
+from ..physics.wrap import whole_wrap_order
 from ..problem import Problem, cap
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
@@ -41,8 +42,6 @@ LENGTH_TOL = 1e-6
 LIMIT_TOL = {"m": LENGTH_TOL, "rad": 1e-6}
 RESIDUAL_TOL = 1e-9
 BRANCH_TOL = 1e-6
-#: Gauss–Legendre order of the evaluation path (the NLP uses problem.options.quadrature_order).
-EVAL_QUADRATURE_ORDER = 48
 #: Points of one block of the tensor grid: a metric that needs every point of the grid streams
 #: it in blocks of at most this many (each array of a block is then at most 2 MB).
 BLOCK_POINTS = 1 << 18
@@ -590,10 +589,12 @@ def _refine_min(local, c, phi, values, out_index, sign=1.0):
 
 
 def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarray,
-                      order: int = EVAL_QUADRATURE_ORDER, integrals: str = "quadrature",
+                      order: int | None = None, integrals: str = "quadrature",
                       profile: bool = True, seed=None) -> tuple[UnitSamples, list[ProfileSamples]]:
     """Solve mechanism ``u``'s departure with the rootfinder at ``theta`` and evaluate its port
-    quantities (and, with ``profile``, scan ρ and the convexity margin of its profiles).
+    quantities (and, with ``profile``, scan ρ and the convexity margin of its profiles), the
+    wrap integrals on ``order`` points (default the re-check's,
+    :func:`cadcam.physics.wrap.whole_wrap_order` of the design's profiles).
 
     ``seed`` = (θ, z) samples (z: unknowns × n), e.g. an NLP's solution, interpolated as
     Newton's start.
@@ -609,6 +610,7 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     z, residual = departure_solver(structure).solve(th, c, q, start)
     n = theta.size
     pieces = split_coefficients(bases, c)
+    order = whole_wrap_order(design.bases) if order is None else order
     pose = pose_function(structure, problem.torque_model, order, integrals).map(n)
     d, arm, _, branch = (np.asarray(v) for v in pose(theta, z[:, 1:], z[:, 0], c, q))
     margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
@@ -643,7 +645,7 @@ def start_samples(problem: Problem, design: Design, grid: int, order: int) -> li
 
 
 def evaluate(problem: Problem, design: Design, grid: int | None = None,
-             order: int = EVAL_QUADRATURE_ORDER, integrals: str = "quadrature",
+             order: int | None = None, integrals: str = "quadrature",
              profile: bool = True, seeds=None) -> Evaluation:
     """Evaluate ``design`` on a uniform grid of ``grid`` angles per joint (default: the
     problem's), under the problem's torque model.

@@ -26,6 +26,7 @@ from ..designs import Design
 from ..mechanisms.base import (departure_solver, guess_function, newton_from_function, pose_function,
                                residual_function, split_coefficients)
 from ..physics.profile import Basis
+from ..physics.wrap import whole_wrap_order
 from ..problem import Problem
 from .evaluate import mechanism_samples, poses_of
 
@@ -77,9 +78,10 @@ def _mechanism_inputs(problem: Problem, bases: list[Basis], c, q=None, poses=Non
     return out
 
 
-def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str, solve=None, q=None,
+def _model(problem: Problem, bases: list[Basis], sym, order: int | None, integrals: str, solve=None, q=None,
            poses=None):
-    """Symbols (theta, c, k, x0, F0, z), residuals R(z), the unknowns at θ, and (tau, x).
+    """Symbols (theta, c, k, x0, F0, z), residuals R(z), the unknowns at θ, and (tau, x); the
+    wrap integrals on ``order`` points (default :func:`cadcam.physics.wrap.whole_wrap_order`).
 
     ``z`` stacks [z(θ), z(θ_ref)] per mechanism. With ``solve`` given (structure → solver
     ``(theta, z0, c, q) -> z``), z is replaced by its solution from the start of
@@ -87,6 +89,7 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str
     symbols (see :func:`_mechanism_inputs`), else their values.
     """
     m, S = len(problem.joints), len(problem.springs)
+    order = whole_wrap_order(bases) if order is None else order
     theta = sym("theta", m)
     c = sym("c", sum(b.size for b in bases))
     k, x0, F0 = sym("k", S), sym("x0", S), sym("F0", S)
@@ -110,14 +113,15 @@ def _model(problem: Problem, bases: list[Basis], sym, order: int, integrals: str
     return (theta, c, k, x0, F0, z), ca.vertcat(*R), ca.vertcat(*Z), tau, x
 
 
-def torque_function(problem: Problem, bases: list[Basis], order: int = 48,
+def torque_function(problem: Problem, bases: list[Basis], order: int | None = None,
                     tangency: str = "rootfinder", integrals: str = "quadrature", poses=None) -> ca.Function:
     """Build the torque model for designs in ``bases`` (one per profile).
 
     Uses the problem's mechanisms, torque model and spring network; ``order`` is the
     Gauss–Legendre order of the wrapped-length (and force-model friction) integrals over the
-    whole wrap; ``tangency`` is ``rootfinder`` (MX, implicit-function derivatives) or
-    ``newton`` (:data:`NEWTON_STEPS` unrolled steps, SX, code-generable; differentiate it with
+    whole wrap (default the re-check's, :func:`cadcam.physics.wrap.whole_wrap_order`);
+    ``tangency`` is ``rootfinder`` (MX, implicit-function derivatives) or ``newton``
+    (:data:`NEWTON_STEPS` unrolled steps, SX, code-generable; differentiate it with
     :func:`torque_jacobian_function`); ``integrals`` as in
     :func:`cadcam.mechanisms.base.port_function`; ``poses`` (:func:`solved_poses` of the
     design) start the departure, else the closed-form guess does.
@@ -140,7 +144,7 @@ def _implicit(R, z, p):
     return ca.solve(ca.jacobian(R, z), ca.jacobian(R, p))
 
 
-def parameter_model(problem: Problem, bases: list[Basis], order: int = 48,
+def parameter_model(problem: Problem, bases: list[Basis], order: int | None = None,
                     integrals: str = "quadrature") -> ca.Function:
     """The torque model at given departure unknowns, with the mechanisms' parameters as an
     input, and its derivatives by the implicit function theorem (SX).
@@ -160,7 +164,7 @@ def parameter_model(problem: Problem, bases: list[Basis], order: int = 48,
                        [*INPUTS, "q", "z"], ["tau", "R", "dR_dz", "dtau_dp"])
 
 
-def torque_jacobian_function(problem: Problem, bases: list[Basis], order: int = 48,
+def torque_jacobian_function(problem: Problem, bases: list[Basis], order: int | None = None,
                              integrals: str = "quadrature", poses=None) -> ca.Function:
     """Jacobians of the Newton torque model by the implicit function theorem (SX).
 

@@ -23,9 +23,6 @@ from ..designs import Design
 from ..problem import TOLERANCES, Problem
 from .model import parameter_model
 
-#: Gauss–Legendre order of the wrapped-length integrals of the band's torque model.
-ORDER = 48
-
 
 @dataclass
 class Band:
@@ -72,7 +69,7 @@ def tolerance_band(evaluation) -> Band:
     points, about the poses the evaluation solved (see the module)."""
     problem, design, theta = evaluation.problem, evaluation.design, evaluation.theta
     layout = _Layout(problem, design)
-    model = parameter_model(problem, design.bases, ORDER)
+    model = parameter_model(problem, design.bases)
     z = _unknowns(evaluation)
     directions = _directions(problem, design, layout)
     N = theta.shape[1]

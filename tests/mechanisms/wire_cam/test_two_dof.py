@@ -9,7 +9,7 @@ import pytest
 from cadcam import Design, evaluate, load_spec, optimize
 from cadcam.physics.springs import Port, Spring
 from cadcam.targets import serial_arm_torques
-from cadcam.solve.rows import FRICTION_ORDER
+from cadcam.physics.wrap import friction_order
 from cadcam.solve.transcription import Transcription
 from cadcam.mechanisms.base import port_function
 
@@ -160,7 +160,7 @@ def test_tangency_evaluations_grow_linearly_with_the_grid(rr_problem):
     """
     opt = rr_problem.options
     per_evaluation = _trig(port_function(rr_problem.mechanisms[0].structure(), rr_problem.torque_model,
-                                         FRICTION_ORDER * opt.quadrature_order, "closed-form"))
+                                         friction_order(opt.quadrature_order), "closed-form"))
     m = len(rr_problem.joints)
     trig = {}
     for n in (6, 12, 24):
