@@ -85,7 +85,7 @@ def _problem(args, design_grid: bool = True):
     given = {k: getattr(args, k) for k in ("grid", "multistart") if getattr(args, k, None) is not None}
     for name, value in given.items():
         if not SOLVER[name].ok(value):
-            raise InputError(f"--{name} = {value}: expected {SOLVER[name].form}")
+            raise InputError(f"--{name} = {value}: expected {SOLVER[name].form()}")
     changes = {k: v for k, v in given.items() if design_grid or k != "grid"}
     problem = problem.with_options(**changes) if changes else problem
     too_big = size_error(problem.options, len(problem.joints))

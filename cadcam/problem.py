@@ -7,13 +7,15 @@ problem it solved and can be re-evaluated without the original file.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
 
 from .files import env_cap
-from .mechanisms.base import ENERGY, Mechanism, Profile, Quantity
+from .keys import Key, KeyTable
+from .mechanisms.base import ENERGY, Mechanism, Profile
 from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
 
@@ -117,9 +119,8 @@ def _real(v) -> bool:
 
 @dataclass(frozen=True)
 class Setting:
-    """One ``[solver]`` option, declared once: its default, the values it may take (``ok``, and
-    ``form`` in words; None where the spec reader checks it itself) and its meaning. The spec
-    reader, the CLI's flags, the API and :class:`Options` read it."""
+    """One IPOPT option cadcam passes on (:data:`IPOPT_OPTIONS`), declared once: the values it
+    may take (``ok``, and ``form`` in words)."""
 
     default: Any
     ok: Callable[[Any], bool] | None
@@ -131,69 +132,52 @@ class Setting:
 #: in its coefficients is dense, and Ludovico2021 reaches its accuracy at 5 to 7.
 MAX_MOMENT_ARM_DEGREE = 20
 
-#: The ``[solver]`` options, in the order a spec's table is read.
-SOLVER = {
-    "grid": Setting(46, lambda v: _integer(v, 3), "an integer ≥ 3",
-                    "Angles per joint on the uniform design grid (including both ends)."),
-    "quadrature_order": Setting(2, lambda v: _integer(v, 1), "a positive integer",
-                                "Gauss–Legendre points per segment of the wrapped length between "
-                                "neighbouring grid contacts, and 8× that over the whole wrap for the "
-                                "as-printed friction integral."),
-    "convexity_points": Setting(120, lambda v: _integer(v, 2), "an integer ≥ 2",
-                                "Profile samples, spread over the whole wrapped range [0, α(θ_max)], at "
-                                "which convexity and ρ bounds are imposed."),
-    "convexity_epsilon": Setting(1e-3, lambda v: _real(v) and v >= 0, "a number ≥ 0",
-                                 "Required convexity margin as a fraction of ρ_min² (Eq. 40 asks for > 0)."),
-    "limit_margin": Setting(1e-4, lambda v: _real(v) and 0 <= v < 0.1, "a fraction in [0, 0.1)",
-                            "Fraction of every limit (spring travel, ρ_min, ρ_max) the NLP keeps in "
-                            "reserve, so that what happens between grid points stays inside the limit "
-                            "on the re-check."),
-    "multistart": Setting(0, lambda v: _integer(v, 0), "an integer ≥ 0",
-                          "Extra randomised starts besides the default one (0 = single start)."),
-    "seed": Setting(0, lambda v: _integer(v, 0) and v < 2**32,
-                    "an integer from 0 to 2**32 − 1 (the multistart generator's seed)",
-                    "Seed of the multistart generator."),
-    "max_iter": Setting(500, lambda v: _integer(v, 1), "a positive integer", "IPOPT iteration limit."),
-    "tol": Setting(1e-8, lambda v: _real(v) and 0 < v <= TOL_CAP, f"a positive number ≤ {TOL_CAP:g}",
-                   "IPOPT tolerance; a looser one would stop short of the optimum and call it converged."),
-    "recheck_factor": Setting(10, lambda v: _integer(v, 2), "an integer ≥ 2",
-                              "The re-check grid is this many times finer than the design grid."),
-    "objective": Setting("least_squares", lambda v: v in OBJECTIVES, f"one of {OBJECTIVES}",
-                         "``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. "
-                         "46/47); ``minimax``: the largest |τ − τ_d| over the grid, by an epigraph "
-                         "variable per joint (for problems whose joint torques and targets each "
-                         "depend on their own joint's angle)."),
-    "ipopt": Setting((), None, "a table of IPOPT options such as mu_init = 1e-6",
-                     "Further IPOPT options (name without the ``ipopt.`` prefix, value), each one of "
-                     ":data:`IPOPT_OPTIONS`, e.g. a warm start (``mu_init``, ``bound_push``, "
-                     "``warm_start_init_point``) from a start that is already close to the optimum."),
-    "method": Setting("nlp", None, "nlp or a mechanism's own design method",
-                      "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
-                      "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, "
-                      "re-checked like an optimum (no NLP is built)."),
-    "moment_arm_degree": Setting(5, lambda v: _integer(v, 1) and v <= MAX_MOMENT_ARM_DEGREE,
-                                 f"an integer 1…{MAX_MOMENT_ARM_DEGREE}",
-                                 "Degree of each anchored pulley's moment arm r_m(θ), a Chebyshev series "
-                                 "in its joint's angle, in the ``moment_arm`` design method "
-                                 "(Ludovico2021 Sec. III; its Table III uses 5). The pulleys it gives are "
-                                 "fitted as profiles of their mechanisms' own ``order``."),
-    "functions": Setting("auto", lambda v: v in FUNCTIONS, f"one of {FUNCTIONS}",
-                         "How IPOPT's functions of the NLP are evaluated. ``expanded``: expanded "
-                         "into scalar (SX) graphs when the solver is built, whose time grows with "
-                         "the grid; ``mapped``: the graph of mapped per-angle functions as built, "
-                         "flat in the grid, evaluated more slowly; ``compiled``: that graph as C, "
-                         "compiled once per problem structure and cached on disk "
-                         "(:mod:`cadcam.solve.compiled`; needs a C compiler): slow the first time, "
-                         "then the fastest to build and to solve; ``auto``: compiled where the "
-                         "structure's library is in the cache, else expanded while a C compiler "
-                         "(where one exists) compiles the library in the background for the next "
-                         "build of the same structure. They give the same optimum "
-                         "up to rounding (the iteration count may differ by a few) where the optimum "
-                         "is isolated; where it is not (an output law met exactly, as by Fedorov2018's "
-                         "balancer) rounding can lead IPOPT to another of its optima, in other "
-                         "iterations. The summary and ``result.json``'s ``solver.functions`` say "
-                         "which were used."),
-}
+#: The ``[solver]`` options, in the order a spec's table is read: each declared once (the spec
+#: reader, the CLI's flags, the API and :class:`Options` read it).
+SOLVER = {k.name: k for k in (
+    Key("grid", "", "angles per joint on the uniform design grid (including both ends)", "integer", 46, low=3),
+    Key("quadrature_order", "", "Gauss–Legendre points per segment of the wrapped length between neighbouring grid "
+        "contacts, and 8× that over the whole wrap for the as-printed friction integral", "integer", 2, low=1),
+    Key("convexity_points", "", "profile samples, spread over the whole wrapped range [0, α(θ_max)], at which "
+        "convexity and ρ bounds are imposed", "integer", 120, low=2),
+    Key("convexity_epsilon", "", "the required convexity margin as a fraction of ρ_min² (Eq. 40 asks for > 0)",
+        "number", 1e-3, low=0),
+    Key("limit_margin", "", "the fraction of every limit (spring travel, ρ_min, ρ_max) the NLP keeps in reserve, so "
+        "that what happens between grid points stays inside the limit on the re-check", "number", 1e-4, low=0,
+        high=0.1, open_high=True),
+    Key("multistart", "", "extra randomised starts besides the default one (0 = single start)", "integer", 0, low=0),
+    Key("seed", "", "the seed of the multistart generator", "integer", 0, low=0, high=2**32, open_high=True),
+    Key("max_iter", "", "IPOPT's iteration limit", "integer", 500, low=1),
+    Key("tol", "", "IPOPT's tolerance; a looser one would stop short of the optimum and call it converged",
+        "number", 1e-8, low=0, high=TOL_CAP, open_low=True),
+    Key("recheck_factor", "", "how many times finer than the design grid the re-check grid is", "integer", 10, low=2),
+    Key("objective", "", "``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47); "
+        "``minimax``: the largest |τ − τ_d| over the grid, by an epigraph variable per joint (for problems whose "
+        "joint torques and targets each depend on their own joint's angle)", "choice", "least_squares",
+        choices=OBJECTIVES),
+    Key("ipopt", "", "further IPOPT options (name without the ``ipopt.`` prefix = value), each one of "
+        ":data:`IPOPT_OPTIONS`, e.g. a warm start (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a "
+        "start that is already close to the optimum", "table", (), check=lambda v: all(
+            re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_real(x) or isinstance(x, str)) for k, x in v.items()),
+        words="of IPOPT option names = numbers or strings, such as mu_init = 1e-6"),
+    Key("method", "", "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
+        "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, re-checked like an optimum (no NLP "
+        "is built)", "string", "nlp", min_length=1),
+    Key("moment_arm_degree", "", "the degree of each anchored pulley's moment arm r_m(θ), a Chebyshev series in its "
+        "joint's angle, in the ``moment_arm`` design method (Ludovico2021 Sec. III; its Table III uses 5); the "
+        "pulleys it gives are fitted as profiles of their mechanisms' own ``order``", "integer", 5, low=1,
+        high=MAX_MOMENT_ARM_DEGREE),
+    Key("functions", "", "how IPOPT's functions of the NLP are evaluated. ``expanded``: expanded into scalar (SX) "
+        "graphs when the solver is built, whose time grows with the grid; ``mapped``: the graph of mapped per-angle "
+        "functions as built, flat in the grid, evaluated more slowly; ``compiled``: that graph as C, compiled once "
+        "per problem structure and cached on disk (:mod:`cadcam.solve.compiled`; needs a C compiler): slow the "
+        "first time, then the fastest to build and to solve; ``auto``: compiled where the structure's library is in "
+        "the cache, else expanded while a C compiler (where one exists) compiles the library in the background for "
+        "the next build of the same structure. They give the same optimum up to rounding (the iteration count may "
+        "differ by a few) where the optimum is isolated; where it is not (an output law met exactly, as by "
+        "Fedorov2018's balancer) rounding can lead IPOPT to another of its optima, in other iterations. The summary "
+        "and ``result.json``'s ``solver.functions`` say which were used", "choice", "auto", choices=FUNCTIONS),
+)}
 
 
 def _choice(*values):
@@ -286,12 +270,27 @@ MIN_CUT_RADIUS = 5e-4
 """Least radius of curvature [m] of a cut outline under a cable of some diameter: the designed
 centre line's, less the cable's radius (a cutter's radius, and no cusp in the offset)."""
 
-#: Workshop sizes [m] a spec's ``[workshop]`` table or a ``cadcam design`` flag may set:
-#: (smallest, largest); a chordal tolerance below 0.1 µm would make polygons of unbounded size.
-WORKSHOP_LIMITS = {"bore_diameter": (1e-4, 1.0), "anchor_diameter": (1e-4, 0.1), "cable_diameter": (0.0, 0.02),
-                   "tolerance": (1e-7, 1e-3),
-                   "stl": (1e-4, 1.0), "groove_depth": (0.0, 0.1), "groove_width": (0.0, 0.1),
-                   "groove_pitch": (1e-4, 0.1)}
+#: The ``[workshop]`` table: sizes of the workshop files [m] a spec or a ``cadcam design`` flag
+#: of the same name may set, each with its smallest and largest value; a chordal tolerance below
+#: 0.1 µm would make polygons of unbounded size.
+WORKSHOP_KEYS = KeyTable("[workshop]", "Sizes of the workshop files; each `cadcam design` flag of the same name "
+                         "(`--bore-diameter` …) overrides the spec's.", (
+    Key("bore_diameter", "m", "the shaft bore of every planar outline", low=1e-4, high=1.0, default=0.006),
+    Key("anchor_diameter", "m", "the cable-anchor hole near φ = 0", low=1e-4, high=0.1, default=0.0025),
+    Key("cable_diameter", "m", "the cable's diameter (0: an ideal thread); the designed profile is the cable's "
+        "centre line, the cut outline lies its radius inside", low=0.0, high=0.02, default=0.0),
+    Key("tolerance", "m", "the loosest fit of the DXF and SVG arcs and the CSV and STL polygons (the files are "
+        "fitted tighter where the design's accuracy asks)", low=1e-7, high=1e-3, default=1e-5),
+    Key("stl", "m", "the thickness of camN.stl", low=1e-4, high=1.0, default=None, default_text="none: no STL"),
+    Key("groove_depth", "m", "the depth of the cable groove cut around the STL (0: none)", low=0.0, high=0.1,
+        default=0.0),
+    Key("groove_width", "m", "the width of the cable groove cut around the STL (0: none)", low=0.0, high=0.1,
+        default=0.0),
+    Key("groove_pitch", "m", "the rise per turn of a helical groove's centre line", low=1e-4, high=0.1,
+        default=0.004),
+))
+#: (smallest, largest) of each workshop size [m] (:data:`WORKSHOP_KEYS`).
+WORKSHOP_LIMITS = {k.name: (k.low, k.high) for k in WORKSHOP_KEYS.keys}
 
 
 #: Thickness [m] of the solids (STL, STEP) the design page offers for a spec that sets no
@@ -301,36 +300,18 @@ SOLID_THICKNESS = 0.005
 
 @dataclass(frozen=True)
 class Workshop:
-    """Sizes of the workshop files [m]: a spec's ``[workshop]`` table, each overridden by the
-    ``cadcam design`` flag of the same name (``--bore-diameter`` …), each within
-    :data:`WORKSHOP_LIMITS`.
+    """Sizes of the workshop files [m]: a spec's ``[workshop]`` table, each key as
+    :data:`WORKSHOP_KEYS` declares it, each overridden by the ``cadcam design`` flag of the same
+    name (``--bore-diameter`` …)."""
 
-    bore_diameter : float
-        Shaft bore of every planar outline.
-    anchor_diameter : float
-        Cable-anchor hole near φ = 0.
-    cable_diameter : float
-        The cable's diameter (0: an ideal thread). The designed profile is the cable's centre
-        line, on which torques and lengths are computed; the cut outline lies its radius inside.
-    tolerance : float
-        Loosest fit of the DXF and SVG arcs and the CSV and STL polygons; the files are fitted
-        tighter where the design's accuracy asks (:mod:`cadcam.outputs.verification`).
-    stl : float or None
-        Thickness of ``camN.stl``; None writes no STL.
-    groove_depth, groove_width : float
-        Cable groove cut around the STL (0: none).
-    groove_pitch : float
-        Rise per turn of a helical groove's centre line.
-    """
-
-    bore_diameter: float = 0.006
-    anchor_diameter: float = 0.0025
-    cable_diameter: float = 0.0
-    tolerance: float = 1e-5
-    stl: float | None = None
-    groove_depth: float = 0.0
-    groove_width: float = 0.0
-    groove_pitch: float = 0.004
+    bore_diameter: float = WORKSHOP_KEYS["bore_diameter"].default
+    anchor_diameter: float = WORKSHOP_KEYS["anchor_diameter"].default
+    cable_diameter: float = WORKSHOP_KEYS["cable_diameter"].default
+    tolerance: float = WORKSHOP_KEYS["tolerance"].default
+    stl: float | None = WORKSHOP_KEYS["stl"].default
+    groove_depth: float = WORKSHOP_KEYS["groove_depth"].default
+    groove_width: float = WORKSHOP_KEYS["groove_width"].default
+    groove_pitch: float = WORKSHOP_KEYS["groove_pitch"].default
 
     def __post_init__(self):
         for name, (lo, hi) in WORKSHOP_LIMITS.items():
@@ -395,6 +376,17 @@ ACCEPTANCE = {
 }
 
 
+def acceptance_keys() -> KeyTable:
+    """The ``[joints.acceptance]`` keys, from :data:`ACCEPTANCE`: each a positive limit, its
+    default that of its metric."""
+    return KeyTable("[joints.acceptance]", "What a design must meet on the fine re-check to be a `success` (else "
+                    "its status is `target_missed` and `cadcam design` exits 1); a limit with a default applies to "
+                    "every joint with a torque target unless its spec sets another.",
+                    tuple(Key(name, a.unit, f"a limit on {a.description}", low=0, open_low=True, default=a.default,
+                              default_text="" if a.default is not None else "none")
+                          for name, a in ACCEPTANCE.items()))
+
+
 @dataclass(frozen=True)
 class Tolerance:
     """One ``[tolerances]`` key: how far a built part may be from its design, ± around the
@@ -416,15 +408,45 @@ TOLERANCES = {
     "profile": Tolerance("m", "each profile's radius ρ, as a uniform offset of the cut outline", 0.05e-3),
 }
 
+def tolerance_keys() -> KeyTable:
+    """The ``[tolerances]`` keys, from :data:`TOLERANCES`: each ± a number ≥ 0."""
+    return KeyTable("[tolerances]", "How far a built part may be from its design, ± around each nominal value: "
+                    "every design reports the torque band they give (`tolerance_band` in `result.json`, the "
+                    "summary, the shaded band of `torque.png`).",
+                    tuple(Key(name, t.unit, t.description, low=0, default=t.default) for name, t in TOLERANCES.items()))
+
+
 #: A joint's ``band_weight``: the weight of its tolerance band in the NLP's objective
 #: (:func:`cadcam.solve.objective._band_rows`); 0, the default, leaves the band out.
-BAND_WEIGHT = Quantity(
+BAND_WEIGHT = Key(
     "band_weight", "N·m",
     "the weight of the joint's tolerance band in the objective: band_weight × ∫w dθ, w the band's first-order "
-    "half-width under [tolerances] (beside tracking_weight × ∫(τ − τ_d)²; 0, the default, leaves it out). Every part "
+    "half-width under [tolerances] (beside tracking_weight × ∫(τ − τ_d)²; 0 leaves it out). Every part "
     "of w (rate, preload, spring ends' and idlers' placement, profile offset) on a joint whose springs act on it "
     "alone, but a differential pulley's profile offset; its springs' parts (rate, preload, spring-end placement) on "
-    "a joint that a spring joins to another")
+    "a joint that a spring joins to another", low=0, default=0.0)
+
+#: Largest span of a joint's angle range [deg]: cables may wrap helical grooves, but not without end.
+MAX_JOINT_SPAN_DEG = 3600.0
+
+#: A ``[[joints]]`` table's keys.
+JOINT_KEYS = KeyTable("[[joints]]", "A joint: the range to balance, its torque target and the weights of its "
+                      "objective terms.", (
+    Key("theta_range_deg", "deg", f"[min, max] joint angles from the reference pose, a non-empty range at most "
+        f"{MAX_JOINT_SPAN_DEG:g}° wide (ten turns of a helical groove), within ±{MAX_JOINT_SPAN_DEG:g}°",
+        "numbers", length=2, low=-MAX_JOINT_SPAN_DEG, high=MAX_JOINT_SPAN_DEG,
+        check=lambda v: 0 < v[1] - v[0] <= MAX_JOINT_SPAN_DEG, words=f"0 < max − min ≤ {MAX_JOINT_SPAN_DEG:g}"),
+    Key("sensitivity_weights", "", "one weight per spring of ∫|∂τ/∂k_j| in the objective (Johnston2023 Eq. 47)",
+        "numbers", low=0, default=None, default_text="0 for every spring"),
+    Key("name", "", "the joint's name", "string", default=None, default_text="'joint N'"),
+    Key("tracking_weight", "", "the weight w₁ of ∫(τ − τ_d)² in the objective (Johnston2023 Eq. 46)", low=0,
+        default=1.0),
+    Key("acceptance", "", "limits on the joint's metrics of the fine re-check (see [joints.acceptance])", "table",
+        default={}, check=bool, words="not empty"),
+    BAND_WEIGHT,
+    Key("target", "", "the torque the springs must give at the joint [N·m] (see Target kinds)", "table"),
+))
+
 
 
 @dataclass(frozen=True)

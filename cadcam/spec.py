@@ -24,38 +24,44 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .mechanisms.base import (ENERGY, LINK_ANGLE, Profile, design_methods, legacy_torque_models, mechanism_class,
-                              mechanism_kinds, torque_models)
-from .physics.profile import BASES, Basis
-from .physics.springs import Port, Spring
 from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .problem import (ACCEPTANCE, BAND_WEIGHT, IPOPT_OPTIONS, SOLVER, TOLERANCES, WORKSHOP_LIMITS, Joint, Options, Problem, Workshop, count_error,
-                      size_error)
-from .targets import ExpressionError, Target, read_table, reserved_name, target_kind, target_kinds
+from .keys import REQUIRED, Key, KeyTable
+from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Profile, design_methods,
+                              legacy_torque_models, mechanism_class, mechanism_kinds, torque_models)
+from .physics.profile import Basis
+from .physics.springs import SPRING_KEYS, Port, Spring
+from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, Joint, Options, Problem,
+                      Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
+from .targets import (ANGLE_UNITS, ARM_JOINT, ARM_KEYS, FIVE_BAR_KEYS, KIND, TABLE_KEYS, ExpressionError, Target,
+                      read_table, target_kind, target_kinds)
 
-_REQUIRED = object()
+#: ``default`` of :meth:`_Reader.read`: the key's declared default.
+_DECLARED = object()
 _PORT = re.compile(r"^(-?)([a-z][a-z0-9_]*):([1-9][0-9]*)$")
 
-
-def _number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _positive(v) -> bool:
-    return _number(v) and v > 0
-
-
-def _nonneg(v) -> bool:
-    return _number(v) and v >= 0
-
-
-def _posint(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool) and v >= 1
-
-
-def _list_of(ok, n=None):
-    return lambda v: isinstance(v, list) and (n is None or len(v) == n) and all(ok(x) for x in v)
+#: A spec's top-level keys.
+SPEC_KEYS = KeyTable("top level", "A spec file: its name and source, the joints, the mechanisms on them and the "
+                     "springs joining their ports, and the tables of options.", (
+    Key("name", "", "the design's name", "string", min_length=1, default=None,
+        default_text="the spec file's name"),
+    Key("source", "", "the source the spec cites", "string", default=""),
+    Key("notes", "", "notes on the spec", "string", default=""),
+    Key("torque_model", "", "how the springs' torque is computed: 'energy' (the derivative of their energy) or "
+        "a mechanism's force model", "string", default=ENERGY),
+    Key("friction_model", "", "the old name of torque_model (cadcam ≤ 0.1; 'exact' is now 'force')", "string",
+        default=None, default_text="none"),
+    Key("solver", "", "the solver's options (see [solver])", "table", default={}),
+    Key("arm", "", "a planar serial arm the arm targets share (see [arm])", "table", default=None,
+        default_text="none"),
+    Key("joints", "", "the joints (or [[cams]], the wire cams' shorthand: a joint and its wire cam in one table)",
+        "tables", min_length=1),
+    Key("mechanisms", "", "the mechanisms on the joints", "tables", min_length=1),
+    Key("springs", "", "the springs joining the mechanisms' ports", "tables", default=[]),
+    Key("variants", "", "named tables of dotted-key overrides, chosen by --variant NAME", "table", default={}),
+    Key("workshop", "", "sizes of the workshop files (see [workshop])", "table", default={}),
+    Key("tolerances", "", "the tolerances of the built part (see [tolerances])", "table", default={}),
+))
 
 
 @dataclass(frozen=True)
@@ -74,12 +80,15 @@ class KeyRead:
         The spec's value, or the default where the spec leaves the key out.
     given : bool
         Whether the spec gives the key.
+    declaration : Key
+        The key's declaration.
     """
 
     key: str
     form: str
     value: Any
     given: bool
+    declaration: Key
 
 
 #: While a list, every key a :class:`_Reader` reads is appended to it (:func:`read_keys`).
@@ -124,30 +133,36 @@ class _Reader:
     def key(self, name: str) -> str:
         return f"{self.where}.{name}" if self.where else name
 
-    def get(self, name, ok, form, default=_REQUIRED):
+    def read(self, key: Key, default: Any = _DECLARED):
+        """The value of ``key`` in the table, checked against its declaration; ``default``
+        (else the declared one) where the table leaves it out.
+
+        Raises
+        ------
+        SpecError
+            A required key missing, or a value the key does not allow: one line naming the key
+            and its form (:meth:`Key.form`).
+        """
+        name, form = key.name, key.form()
         self.seen.add(name)
+        if default is _DECLARED:
+            default = key.default
         reads = _READS.get()
         if reads is not None:
             reads.append(KeyRead(_dotted(self.key(name)), form, self.table.get(name, default),
-                                 name in self.table))
+                                 name in self.table, key))
         if name not in self.table:
-            if default is _REQUIRED:
+            if default is REQUIRED:
                 raise SpecError(f"{self.origin}: missing key '{self.key(name)}': expected {form}")
             return default
         value = self.table[name]
-        if not ok(value):
+        if not key.ok(value):
             self.fail(self.key(name), value, form)
         return value
 
-    def table_reader(self, name: str, form: str) -> "_Reader":
-        """A reader of the sub-table ``name`` (required)."""
-        return _Reader(self.origin, self.get(name, lambda v: isinstance(v, dict), form),
-                       self.key(name))
-
-    number = staticmethod(_number)
-    positive = staticmethod(_positive)
-    nonneg = staticmethod(_nonneg)
-    list_of = staticmethod(_list_of)
+    def table_reader(self, key: Key) -> "_Reader":
+        """A reader of the sub-table ``key`` (required)."""
+        return _Reader(self.origin, self.read(key), self.key(key.name))
 
     def done(self):
         extra = sorted(set(self.table) - self.seen)
@@ -157,47 +172,31 @@ class _Reader:
 
 
 def _arm(r: _Reader, n_joints: int) -> dict:
-    """An arm table: masses, lengths, com (one per joint) and g."""
-    n = r.get("masses", lambda v: isinstance(v, list) and 1 <= len(v) <= n_joints and all(
-        _positive(x) for x in v), f"a list of 1…{n_joints} positive link masses [kg]")
-    arm = {"masses": [float(v) for v in n],
-           "lengths": [float(v) for v in r.get("lengths", _list_of(_nonneg, len(n)),
-                                               f"a list of {len(n)} link lengths ≥ 0 [m]")],
-           "com": [float(v) for v in r.get("com", _list_of(_number, len(n)),
-                                           f"a list of {len(n)} centre-of-mass distances [m]")],
-           "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
-    return arm
+    """An arm table (:data:`cadcam.targets.ARM_KEYS`): masses, lengths, com (one per joint) and g."""
+    keys = ARM_KEYS
+    masses = r.read(keys["masses"].within(check=lambda v: len(v) <= n_joints, words=f"at most {n_joints}"))
+    n = len(masses)
+    return {"masses": [float(v) for v in masses],
+            "lengths": [float(v) for v in r.read(keys["lengths"].within(length=n))],
+            "com": [float(v) for v in r.read(keys["com"].within(length=n))],
+            "g": float(r.read(keys["g"]))}
 
 
 def _five_bar(r: _Reader, n_joints: int) -> dict:
-    """A ``five_bar`` target (Endo2010 Sec. III): joint, six masses, upper, crank, fore, com, g."""
+    """A ``five_bar`` target (Endo2010 Sec. III, :data:`cadcam.targets.FIVE_BAR_KEYS`)."""
     if n_joints != 2:
         r.fail(r.key("kind"), "five_bar", f"a five_bar target only in a problem of 2 joints "
                f"(theta1 = link 1, theta2 = crank); this one has {n_joints}")
-    return {"joint": r.get("joint", lambda v: _posint(v) and v <= 2,
-                           "1 (link 1, theta1) or 2 (crank, theta2)"),
-            "masses": [float(v) for v in r.get("masses", _list_of(_positive, 6),
-                                               "a list of 6 positive point masses m1…m6 [kg]")],
-            "upper": float(r.get("upper", _positive, "a positive upper-arm length l_u [m]")),
-            "crank": float(r.get("crank", _positive, "a positive crank length l_c [m]")),
-            "fore": float(r.get("fore", _nonneg, "a forearm length l_a ≥ 0, elbow to tip [m]")),
-            "com": [float(v) for v in r.get("com", _list_of(_nonneg, 4),
-                                            "a list [l1, l2, l3, l5] of 4 distances ≥ 0 [m]")],
-            "g": float(r.get("g", _positive, "a positive gravity [m/s²]", 9.81))}
-
-
-#: Largest span of a joint's angle range [deg]: cables may wrap helical grooves, but not without end.
-MAX_JOINT_SPAN_DEG = 3600.0
+    data = {k.name: r.read(k) for k in FIVE_BAR_KEYS.keys}
+    return {k: ([float(x) for x in v] if isinstance(v, list) else (v if k == "joint" else float(v)))
+            for k, v in data.items()}
 
 
 def _acceptance(r: _Reader) -> tuple:
     """A joint's optional [joints.acceptance]: limits on its metrics of the fine re-check
-    (:data:`cadcam.problem.ACCEPTANCE`)."""
-    table = r.get("acceptance", lambda v: isinstance(v, dict) and v, "a table of "
-                  + " and/or ".join(ACCEPTANCE), {})
-    a = _Reader(r.origin, table, r.key("acceptance"))
-    given = {k: a.get(k, _positive, f"a positive limit on {ACCEPTANCE[k].description} [{ACCEPTANCE[k].unit}]", None)
-             for k in ACCEPTANCE}
+    (:func:`cadcam.problem.acceptance_keys`); the ones it gives."""
+    a = _Reader(r.origin, r.read(JOINT_KEYS["acceptance"]), r.key("acceptance"))
+    given = {k.name: a.read(k, None) for k in acceptance_keys().keys}
     a.done()
     return tuple((k, float(v)) for k, v in given.items() if v is not None)
 
@@ -205,53 +204,51 @@ def _acceptance(r: _Reader) -> tuple:
 def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: bool = False,
             theta_range=None) -> Target:
     """A joint's torque law, or (``output``) a mechanism's output law x(θ) [m] over its
-    joint's ``theta_range`` [rad]."""
+    joint's ``theta_range`` [rad]: its ``kind``, then the kind's declared keys."""
     kinds = target_kinds(output)
-    unit, column = ("m", "x_m") if output else ("N·m", "torque_Nm")
-    kind = r.get("kind", lambda v: v in kinds, f"one of {kinds}")
-    read = target_kind(kind).read
-    if read is not None:  # a kind a mechanism brings reads its own keys
-        data = read(r, theta_range)
-    elif kind == "expression":
-        example = "'0.15 + 0.01*cos(theta)'" if output else "'0.08*theta**2'"
-        data = {"expression": r.get("expression", lambda v: isinstance(v, str) and v.strip(),
-                                    f"an expression of theta such as {example} [{unit}]"),
-                "parameters": r.get("parameters", lambda v: isinstance(v, dict) and all(
-                    isinstance(k, str) and k.isidentifier() and not reserved_name(k) and _number(x)
-                    for k, x in v.items()),
-                    "a table of name = number, the names other than functions, pi, e and "
-                    "theta, theta1, theta2…", {})}
-    elif kind == "pendulum":
-        data = {"mass": r.get("mass", _positive, "a positive mass [kg]"),
-                "length": r.get("length", _positive, "a positive length to the centre of mass [m]"),
-                "g": r.get("g", _positive, "a positive gravity [m/s²]", 9.81),
-                "phase": r.get("phase", _number, "a phase angle [rad]", 0.0)}
+    kind = r.read(KIND.within(type="choice", choices=kinds))
+    declared = target_kind(kind)
+    if declared.read is not None:  # a kind that reads its own keys
+        data = declared.read(r, theta_range)
     elif kind == "arm":
-        inline = {k: r.table[k] for k in ("masses", "lengths", "com", "g") if k in r.table}
-        if inline or arm is None:
-            arm = _arm(r, n_joints)
-        joint = r.get("joint", lambda v: _posint(v) and v <= len(arm["masses"]),
-                      f"a joint number between 1 and {len(arm['masses'])}")
-        data = {"joint": joint, **arm}
+        data = _arm_target(r, n_joints, arm)
     elif kind == "five_bar":
         data = _five_bar(r, n_joints)
-    elif kind == "none":
-        data = {}
+    elif kind == "table":
+        data = _table(r, base, output)
     else:
-        if "samples" in r.table:
-            samples = r.get("samples", lambda v: _list_of(_list_of(_number, 2))(v) and len(v) >= 4
-                            and all(b[0] > a[0] for a, b in zip(v, v[1:])),
-                            f"a list of at least 4 [theta_rad, {column}] pairs, angles increasing")
-        else:
-            name = r.get("file", lambda v: isinstance(v, str) and v,
-                         f"a CSV file (relative to the spec) with header theta_rad,{column}")
-            try:
-                samples = read_table(base / name, column)
-            except (OSError, ValueError) as exc:
-                r.fail(r.key("file"), name, f"a readable target table ({exc})")
-        data = {"samples": [list(map(float, s)) for s in samples]}
+        data = {k.name: r.read(k) for k in declared.keys.keys}
     r.done()
     return Target(kind, data)
+
+
+def _arm_target(r: _Reader, n_joints: int, arm: dict | None) -> dict:
+    """An ``arm`` target: its joint, and the arm's keys given inline or the spec's [arm]."""
+    inline = {k for k in ARM_KEYS.names if k in r.table}
+    if inline or arm is None:
+        arm = _arm(r, n_joints)
+    joint = r.read(ARM_JOINT.within(high=len(arm["masses"])))
+    return {"joint": joint, **arm}
+
+
+def _table(r: _Reader, base: Path, output: bool) -> dict:
+    """A ``table`` target's samples [θ rad, value], inline in ``angle_unit`` or read from a
+    CSV file whose header names the angles' unit."""
+    column = "x_m" if output else "torque_Nm"
+    keys = TABLE_KEYS
+    unit = r.read(keys["angle_unit"])
+    if "samples" in r.table:
+        samples = np.array(r.read(keys["samples"]), dtype=float)
+        samples[:, 0] *= ANGLE_UNITS[unit]
+        return {"samples": samples.tolist()}
+    if "angle_unit" in r.table:
+        r.fail(r.key("angle_unit"), unit, "nothing beside a file: its header names the angles' unit "
+               f"(theta_rad,{column} or theta_deg,{column})")
+    name = r.read(keys["file"].within(default=REQUIRED))
+    try:
+        return {"samples": read_table(base / name, column)}
+    except (OSError, ValueError) as exc:
+        r.fail(r.key("file"), name, f"a readable target table ({exc})")
 
 
 #: Samples per angle at which a target expression's poles, domains and jumps are checked, by
@@ -385,11 +382,9 @@ def _torque_model(top: "_Reader", data: dict) -> str:
         top.fail("friction_model", data["friction_model"],
                  "nothing: it is the old name of torque_model; give only torque_model")
     if "friction_model" in data:
-        legacy = top.get("friction_model", lambda v: v in legacy_torque_models(),
-                         f"one of {tuple(legacy_torque_models())} (old name of torque_model)")
+        legacy = top.read(SPEC_KEYS["friction_model"].within(type="choice", choices=tuple(legacy_torque_models())))
         return legacy_torque_models()[legacy]
-    return top.get("torque_model", lambda v: v in torque_models(), f"one of {torque_models()}",
-                   ENERGY)
+    return top.read(SPEC_KEYS["torque_model"].within(type="choice", choices=torque_models()))
 
 
 def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Problem:
@@ -410,13 +405,11 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         data = _from_shorthand(data, table)
     joint_label, mech_label = (table, table) if table else ("joints", "mechanisms")
     top = _Reader(origin, data, "")
-    default_name = Path(origin).stem if origin.endswith(".toml") else "design"
-    name = top.get("name", lambda v: isinstance(v, str) and v, "a non-empty string", default_name)
-    source = top.get("source", lambda v: isinstance(v, str), "a string citing the source", "")
-    notes = top.get("notes", lambda v: isinstance(v, str), "a string", "")
+    keys = SPEC_KEYS
+    name = top.read(keys["name"], Path(origin).stem if origin.endswith(".toml") else "design")
+    source, notes = top.read(keys["source"]), top.read(keys["notes"])
     torque_model = _torque_model(top, data)
-    options = _options(_Reader(origin, top.get("solver", lambda v: isinstance(v, dict), "a table", {}),
-                               "solver"))
+    options = _options(_Reader(origin, top.read(keys["solver"]), "solver"))
     n_joints = len(data["joints"]) if isinstance(data.get("joints"), list) else 0
     for what, key, count in (("joints", joint_label, n_joints),
                              ("springs", "springs", len(data["springs"]) if isinstance(data.get("springs"), list) else 0)):
@@ -427,16 +420,10 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     if too_big:
         raise SpecError(f"{origin}: solver.{too_big[0]}: {too_big[1]}")
     arm = _top_arm(top, data, n_joints)
-    raw_joints = top.get("joints", lambda v: isinstance(v, list) and v,
-                         "a non-empty array of [[joints]] tables (or of [[cams]], the wire cams' shorthand)")
-    raw_mechs = top.get("mechanisms", lambda v: isinstance(v, list) and v,
-                        "a non-empty array of [[mechanisms]] tables")
-    raw_springs = top.get("springs", lambda v: isinstance(v, list), "an array of [[springs]] tables", [])
-    top.get("variants", lambda v: isinstance(v, dict), "a table of named override tables", {})
-    workshop = _workshop(_Reader(origin, top.get("workshop", lambda v: isinstance(v, dict),
-                                                 "a [workshop] table of lengths [m]", {}), "workshop"))
-    tolerances = _tolerances(_Reader(origin, top.get("tolerances", lambda v: isinstance(v, dict),
-                                                     "a [tolerances] table", {}), "tolerances"))
+    raw_joints, raw_mechs, raw_springs = (top.read(keys[k]) for k in ("joints", "mechanisms", "springs"))
+    top.read(keys["variants"])
+    workshop = _workshop(_Reader(origin, top.read(keys["workshop"]), "workshop"))
+    tolerances = _tolerances(_Reader(origin, top.read(keys["tolerances"]), "tolerances"))
     top.done()
 
     read = [_joint(_Reader(origin, raw, f"{joint_label}[{i + 1}]"), i, len(raw_springs), n_joints, arm,
@@ -471,16 +458,13 @@ def _options(sol: _Reader) -> Options:
     """The ``[solver]`` table as :class:`Options`, each key read as :data:`SOLVER` declares it
     (its default where it is missing)."""
     values: dict[str, Any] = {}
-    for name, setting in SOLVER.items():
+    for name, key in SOLVER.items():
         if name == "ipopt":
-            values[name] = _ipopt_options(sol, sol.get("ipopt", lambda v: isinstance(v, dict) and all(
-                re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_number(x) or isinstance(x, str))
-                for k, x in v.items()), "a table of IPOPT options such as mu_init = 1e-6 (names as "
-                "in the IPOPT documentation, numbers or strings)", {}))
+            values[name] = _ipopt_options(sol, sol.read(key, {}))
         elif name == "method":
-            values[name] = sol.get("method", lambda v: v in _methods(), f"one of {_methods()}", setting.default)
+            values[name] = sol.read(key.within(type="choice", choices=_methods()))
         else:
-            values[name] = sol.get(name, setting.ok, setting.form, setting.default)
+            values[name] = sol.read(key)
     sol.done()
     return Options(**values)
 
@@ -490,22 +474,15 @@ def _top_arm(top: _Reader, data: dict, n_joints: int) -> dict | None:
     or None."""
     if "arm" not in data:
         return None
-    ra = _Reader(top.origin, top.get("arm", lambda v: isinstance(v, dict), "an [arm] table"), "arm")
+    ra = _Reader(top.origin, top.read(SPEC_KEYS["arm"]), "arm")
     arm = _arm(ra, max(n_joints, 1))
     ra.done()
     return arm
 
 
 def _theta_range(r: _Reader) -> tuple[float, float]:
-    """A joint's ``theta_range_deg`` as (min, max) [rad]: a non-empty range at most
-    :data:`MAX_JOINT_SPAN_DEG` wide, within ±:data:`MAX_JOINT_SPAN_DEG` of the reference pose."""
-    rng = r.get("theta_range_deg", _list_of(_number, 2), "[min, max] joint angles [deg]")
-    if not 0 < rng[1] - rng[0] <= MAX_JOINT_SPAN_DEG:
-        r.fail(r.key("theta_range_deg"), rng, f"[min, max], a non-empty range with max − min ≤ "
-               f"{MAX_JOINT_SPAN_DEG:g}° (ten turns of a helical groove)")
-    if not max(abs(rng[0]), abs(rng[1])) <= MAX_JOINT_SPAN_DEG:
-        r.fail(r.key("theta_range_deg"), rng, f"[min, max] joint angles within ±{MAX_JOINT_SPAN_DEG:g}° "
-               "(ten turns either way from the reference pose)")
+    """A joint's ``theta_range_deg`` as (min, max) [rad] (:data:`cadcam.problem.JOINT_KEYS`)."""
+    rng = r.read(JOINT_KEYS["theta_range_deg"])
     return math.radians(rng[0]), math.radians(rng[1])
 
 
@@ -514,18 +491,16 @@ def _joint(r: _Reader, i: int, n_springs: int, n_joints: int, arm: dict | None, 
     """One [[joints]] table: the keyword arguments of its :class:`Joint` but the target, and its
     target (a joint without a torque goal weighs no tracking error)."""
     theta_range = _theta_range(r)
-    sens = r.get("sensitivity_weights", _list_of(_nonneg, n_springs),
-                 f"a list of {n_springs} weights ≥ 0, one per spring", [0.0] * n_springs)
+    keys = JOINT_KEYS
+    sens = r.read(keys["sensitivity_weights"].within(length=n_springs), [0.0] * n_springs)
     joint = dict(
-        name=r.get("name", lambda v: isinstance(v, str), "a string", f"joint {i + 1}"),
+        name=r.read(keys["name"], f"joint {i + 1}"),
         theta_range=theta_range,
-        tracking_weight=float(r.get("tracking_weight", _nonneg, "a weight ≥ 0", 1.0)),
+        tracking_weight=float(r.read(keys["tracking_weight"])),
         sensitivity_weights=tuple(float(w) for w in sens),
         acceptance=_acceptance(r),
-        band_weight=float(r.get(BAND_WEIGHT.name, _nonneg, f"a weight ≥ 0 [{BAND_WEIGHT.unit}]", 0.0)))
-    target = _target(_Reader(r.origin, r.get("target", lambda v: isinstance(v, dict),
-                                             f"a [{label}.target] table"), r.key("target")),
-                     base, n_joints, arm)
+        band_weight=float(r.read(BAND_WEIGHT)))
+    target = _target(_Reader(r.origin, r.read(keys["target"]), r.key("target")), base, n_joints, arm)
     if target.kind == "none":  # no torque goal: nothing to weigh, nothing to accept
         joint["tracking_weight"] = 0.0
         if joint["acceptance"]:
@@ -587,52 +562,32 @@ def _check_method(origin, method: str, mechanisms) -> None:
 
 def _tolerances(r: _Reader) -> tuple:
     """The ``[tolerances]`` table: ± how far a built part may be from its design, each key as
-    :data:`cadcam.problem.TOLERANCES` declares it (its default where it is missing)."""
-    out = tuple((name, float(r.get(name, _nonneg, f"a number ≥ 0 [{t.unit}]: {t.description}")))
-                for name, t in TOLERANCES.items() if name in r.table)
+    :func:`cadcam.problem.tolerance_keys` declares it; the ones it gives."""
+    out = tuple((k.name, float(r.read(k))) for k in tolerance_keys().keys if k.name in r.table)
     r.done()
     return out
 
 
 def _workshop(r: _Reader) -> Workshop:
-    """The ``[workshop]`` table: sizes of the workshop files [m], each checked by
-    :class:`cadcam.problem.Workshop` against :data:`cadcam.problem.WORKSHOP_LIMITS`; its
-    defaults where a key is missing."""
-    sizes = {}
-    for name, (lo, hi) in WORKSHOP_LIMITS.items():
-        value = r.get(name, _number, f"a length from {lo:g} to {hi:g} m", None)
-        if value is not None:
-            sizes[name] = float(value)
+    """The ``[workshop]`` table: sizes of the workshop files [m], each key as
+    :data:`cadcam.problem.WORKSHOP_KEYS` declares it; its defaults where a key is missing."""
+    sizes = {k.name: float(r.read(k)) for k in WORKSHOP_KEYS.keys if k.name in r.table}
     r.done()
-    try:
-        return Workshop(**sizes)
-    except ValueError as exc:  # a size beyond its limits, named as Workshop names it
-        raise SpecError(f"{r.origin}: {r.key(str(exc))}") from None
-
-
-#: Highest polynomial degree per basis: monomials are ill-conditioned beyond 15; Chebyshev
-#: polynomials stay well-conditioned, and a multi-turn spiral needs the degree.
-MAX_ORDER = {"monomial": 15, "chebyshev": 40}
+    return Workshop(**sizes)
 
 
 def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path(".")):
     """One [[mechanisms]] table: kind, name, joint, its profiles (one basis and one set of
     limits for all), its output law if it has an output, and the mechanism's own keys."""
-    kinds = mechanism_kinds()
-    cls = mechanism_class(r.get("kind", lambda v: v in kinds, f"one of {kinds}"))
-    name = r.get("name", lambda v: isinstance(v, str), "a string", f"mechanism {u + 1}")
-    joint = r.get("joint", lambda v: _posint(v) and v <= len(joints),
-                  f"a joint number between 1 and {len(joints)}") - 1
-    basis_name = r.get("basis", lambda v: v in BASES, f"one of {BASES}", "chebyshev")
-    cap = MAX_ORDER[basis_name]
-    order = r.get("order", lambda v: _posint(v) and v <= cap, f"an integer 1…{cap} (the cap of "
-                  f"the {basis_name} basis; {MAX_ORDER})", 3)
-    rho_min = float(r.get("rho_min", _positive, "a positive minimum profile radius [m]"))
-    rho_max = float(r.get("rho_max", _positive, "a positive maximum profile radius [m]"))
-    if rho_min >= rho_max:
-        r.fail(r.key("rho_max"), rho_max, f"a radius greater than rho_min = {rho_min} [m]")
-    curvature = float(r.get("min_curvature_radius", _nonneg,
-                            "a minimum radius of curvature ≥ 0 of the profile [m]", 0.0))
+    keys = MECHANISM_KEYS
+    cls = mechanism_class(r.read(keys["kind"].within(type="choice", choices=mechanism_kinds())))
+    name = r.read(keys["name"], f"mechanism {u + 1}")
+    joint = r.read(keys["joint"].within(high=len(joints))) - 1
+    basis_name = r.read(keys["basis"])
+    order = r.read(keys["order"].within(high=MAX_ORDER[basis_name]))
+    rho_min = float(r.read(keys["rho_min"]))
+    rho_max = float(r.read(keys["rho_max"].within(low=rho_min, open_low=True)))
+    curvature = float(r.read(keys["min_curvature_radius"]))
     theta_range = joints[joint]["theta_range"]
     domain = cls.profile_domain(theta_range)
     if not domain[1] > domain[0]:
@@ -644,13 +599,12 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
     profiles = tuple(Profile(n, Basis(basis_name, order, domain), rho_min, rho_max, curvature)
                      for n in names)
     mech = cls.from_spec(r, name=name, joint=joint, profiles=profiles, theta_range=theta_range)
-    link = r.get(LINK_ANGLE.name, _number, f"{LINK_ANGLE.description} [{LINK_ANGLE.unit}]", None)
+    link = r.read(LINK_ANGLE)
     if link is not None:
         mech = replace(mech, link_angle=float(link))
     if cls.output and "output_target" in r.table:
         where = r.key("output_target")
-        target = _target(_Reader(r.origin, r.get("output_target", lambda v: isinstance(v, dict),
-                                                 "a table"), where), base, 1, None, output=True,
+        target = _target(_Reader(r.origin, r.read(keys["output_target"]), where), base, 1, None, output=True,
                          theta_range=theta_range)
         _check_target(r.origin, where, target, [theta_range], 0, f"{cls.output} [m]")
         mech = replace(mech, output_target=target)
@@ -660,13 +614,11 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
 
 def _spring(r: "_Reader", j: int, mechanisms) -> Spring:
     """One [[springs]] table; ports name a mechanism's ports as 'port:mechanism'."""
+    keys = SPRING_KEYS
     ports = []
-    raw = r.get("ports", lambda v: isinstance(v, list) and v and all(
-        isinstance(x, str) and _PORT.match(x) for x in v),
-        "a non-empty list of ports such as 'wire:1' or '-platform:2' (port:mechanism number)")
-    for p in raw:
+    for p in r.read(keys["ports"].within(check=lambda v: all(_PORT.match(x) for x in v))):
         match = _PORT.match(p)
-        assert match is not None  # checked by r.get above
+        assert match is not None  # checked by r.read above
         sign, port, number = match.groups()
         u = int(number) - 1
         if u >= len(mechanisms):
@@ -675,17 +627,12 @@ def _spring(r: "_Reader", j: int, mechanisms) -> Spring:
             r.fail(r.key("ports"), p, f"a port of mechanism {u + 1} ({mechanisms[u].kind}): "
                                       f"{', '.join(mechanisms[u].ports)}")
         ports.append(Port(u, port, -1.0 if sign else 1.0))
-    travel = float(r.get("travel", _positive, "a positive maximum extension [m]"))
-    pre = r.get("preextension", lambda v: _nonneg(v) and v <= travel,
-                f"a fixed pre-extension in [0, travel = {travel}] [m]", None)
+    travel = float(r.read(keys["travel"]))
+    pre = r.read(keys["preextension"].within(high=travel))
     spring = Spring(
-        name=r.get("name", lambda v: isinstance(v, str), "a string", f"spring {j + 1}"),
-        rate=float(r.get("rate", _positive, "a positive spring rate [N/m]")),
-        travel=travel, ports=tuple(ports),
-        preload=float(r.get("preload", _nonneg, "an initial tension F0 ≥ 0 [N]", 0.0)),
-        free_length=_optional_float(r.get("free_length", _positive,
-                                          "a positive free (unloaded) length [m]", None)),
-        preextension=_optional_float(pre))
+        name=r.read(keys["name"], f"spring {j + 1}"), rate=float(r.read(keys["rate"])),
+        travel=travel, ports=tuple(ports), preload=float(r.read(keys["preload"])),
+        free_length=_optional_float(r.read(keys["free_length"])), preextension=_optional_float(pre))
     r.done()
     return spring
 
@@ -722,13 +669,12 @@ def _from_shorthand(data: dict, table: str) -> dict:
     meaning."""
     kind = next(k for k in mechanism_kinds() if mechanism_class(k).shorthand == table)
     out = {k: v for k, v in data.items() if k != table}
-    joint_keys = ("name", "theta_range_deg", "tracking_weight", "sensitivity_weights", "target",
-                  "acceptance", BAND_WEIGHT.name)
+    joint_keys = JOINT_KEYS.names
     out["joints"], out["mechanisms"] = [], []
     for i, entry in enumerate(data[table]):
         out["joints"].append({k: entry[k] for k in joint_keys if k in entry})
         out["mechanisms"].append({"kind": kind, "joint": i + 1,
-                                  **{k: v for k, v in entry.items() if k not in joint_keys[1:]}})
+                                  **{k: v for k, v in entry.items() if k == "name" or k not in joint_keys}})
     return out
 
 

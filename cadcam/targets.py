@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 
 from .files import read_input
+from .keys import Key, KeyTable, is_real
 
 FUNCTIONS = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
@@ -347,9 +348,9 @@ class TargetKind:
     check : callable or None
         ``check(datas) -> str or None``: given the data of every output law of this kind in
         one problem, ``"key: what is wrong"`` where they contradict each other.
-    schema : dict or None
-        The JSON Schema of its keys in ``result.json`` (:mod:`cadcam.outputs.schema`), for a
-        kind the shipped schema does not describe itself.
+    keys : KeyTable or None
+        Its keys (beside ``kind``): what the spec reader reads, the reference lists and the
+        result's schema describes.
     """
 
     name: str
@@ -358,7 +359,7 @@ class TargetKind:
     output: bool = False
     read: Callable | None = None
     check: Callable | None = None
-    schema: dict | None = None
+    keys: KeyTable | None = None
 
 
 _KINDS: dict[str, TargetKind] = {}
@@ -414,12 +415,66 @@ def _table_law(d, thetas, joint):
     return ca.interpolant("target_table", "bspline", [s[:, 0]], s[:, 1])(thetas[joint])
 
 
-for _kind in (TargetKind("expression", _expression_law, output=True),
-              TargetKind("pendulum", _pendulum_law),
-              TargetKind("table", _table_law, output=True),
-              TargetKind("arm", _arm_law),
-              TargetKind("five_bar", _five_bar_law),
-              TargetKind("none", lambda d, thetas, joint: ca.SX(0))):
+#: The units a table's angles may be written in, with their factor to radians.
+ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
+
+#: Every target table's ``kind``: the law it is (one of :func:`target_kinds`).
+KIND = Key("kind", "", "the kind of law", "string", min_length=1)
+G = Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81)
+EXPRESSION_KEYS = KeyTable('kind = "expression"', "A law written as an expression of theta (theta1, theta2… "
+                           "on several joints), parsed, never evaluated as code.", (
+    Key("expression", "", "an expression of theta such as '0.08*theta**2' (a torque [N·m] or an output [m])",
+        "string", min_length=1),
+    Key("parameters", "", "named numbers the expression uses (name = number; names other than functions, pi, e "
+        "and theta, theta1, theta2…)", "table", default={}, check=lambda v: all(
+            isinstance(k, str) and k.isidentifier() and not reserved_name(k) and is_real(x) for k, x in v.items()),
+        words="each name = a number"),
+))
+PENDULUM_KEYS = KeyTable('kind = "pendulum"', "A pendulum's gravity torque m g l sin(θ + phase).", (
+    Key("mass", "kg", "the pendulum's mass m", low=0, open_low=True),
+    Key("length", "m", "the distance l from the joint to the centre of mass", low=0, open_low=True),
+    G,
+    Key("phase", "rad", "the phase added to the joint angle", default=0.0),
+))
+TABLE_KEYS = KeyTable('kind = "table"', "A law sampled in a table, interpolated by a cubic B-spline: inline "
+                      "samples, or a CSV file with header theta_rad,<value> or theta_deg,<value> (torque_Nm "
+                      "for a torque, x_m for an output).", (
+    Key("samples", "", "[angle, value] rows, angles increasing, in angle_unit (the value in N·m for a torque, "
+        "m for an output); give samples or file", "rows", length=2, min_length=4, default=None,
+        default_text="none: file", check=lambda v: all(b[0] > a[0] for a, b in zip(v, v[1:])),
+        words="angles increasing"),
+    Key("angle_unit", "", "the unit of the samples' angles", "choice", choices=tuple(ANGLE_UNITS), default="rad"),
+    Key("file", "", "a CSV file, relative to the spec, whose header names its angles' unit: theta_rad,<value> or "
+        "theta_deg,<value>", "string", min_length=1, default=None, default_text="none: samples"),
+))
+ARM_KEYS = KeyTable('[arm] (or kind = "arm")', "A planar serial arm whose joints are the problem's joints: "
+                    "its gravity torques (an arm target gives these keys itself or reads the spec's [arm]).", (
+    Key("masses", "kg", "each link's mass, one per joint", "numbers", low=0, open_low=True, min_length=1),
+    Key("lengths", "m", "each link's length, one per mass", "numbers", low=0),
+    Key("com", "m", "each link's centre-of-mass distance from its joint, one per mass", "numbers"),
+    G,
+))
+ARM_JOINT = Key("joint", "", "the arm's joint whose torque this is (1-based)", "integer", low=1)
+FIVE_BAR_KEYS = KeyTable('kind = "five_bar"', "A joint's gravity torque of Endo2010's parallel five-bar arm "
+                         "(2 joints: theta1 = link 1, theta2 = the crank).", (
+    Key("joint", "", "1 (link 1, theta1) or 2 (the crank, theta2)", "integer", low=1, high=2),
+    Key("masses", "kg", "the point masses m1…m6", "numbers", length=6, low=0, open_low=True),
+    Key("upper", "m", "the upper arm's length l_u", low=0, open_low=True),
+    Key("crank", "m", "the crank's length l_c", low=0, open_low=True),
+    Key("fore", "m", "the forearm's length l_a, elbow to tip", low=0),
+    Key("com", "m", "the distances [l1, l2, l3, l5]", "numbers", length=4, low=0),
+    G,
+))
+
+for _kind in (TargetKind("expression", _expression_law, output=True, keys=EXPRESSION_KEYS),
+              TargetKind("pendulum", _pendulum_law, keys=PENDULUM_KEYS),
+              TargetKind("table", _table_law, output=True, keys=TABLE_KEYS),
+              TargetKind("arm", _arm_law, keys=KeyTable('kind = "arm"', "Joint's gravity torque of a planar "
+                                                        "serial arm ([arm]'s keys, given here or in [arm]).",
+                                                        (ARM_JOINT, *ARM_KEYS.keys))),
+              TargetKind("five_bar", _five_bar_law, keys=FIVE_BAR_KEYS),
+              TargetKind("none", lambda d, thetas, joint: ca.SX(0),
+                         keys=KeyTable('kind = "none"', "No torque goal: the joint's torque is not weighed.", ()))):
     register_target_kind(_kind)
 
 

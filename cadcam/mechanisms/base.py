@@ -17,7 +17,8 @@ from typing import ClassVar
 import casadi as ca
 import numpy as np
 
-from ..physics.profile import Basis, profile_function
+from ..keys import Key, KeyTable
+from ..physics.profile import BASES, Basis, profile_function
 from ..physics.wrap import arc_length_density, length_function, wound_length
 
 #: The torque model of every mechanism; others are force models a mechanism offers
@@ -187,11 +188,33 @@ class Picture:
     runs_on: str = "the cable runs on the red arc only"
 
 
-#: The optional key every ``[[mechanisms]]`` table may have for its drawings (the spec reader,
-#: the reference page and the result's schema read it).
-LINK_ANGLE = Quantity("link_angle", "rad", "The world angle of the joint's link, from the joint axis towards its "
-                      "mass, at θ = 0; the link turns with the mechanism's turning body (drawings only; default, for "
-                      "a pendulum target, where gravity along −y gives the target's torque m g l sin(θ + phase))")
+#: Highest polynomial degree per basis: monomials are ill-conditioned beyond 15; Chebyshev
+#: polynomials stay well-conditioned, and a multi-turn spiral needs the degree.
+MAX_ORDER = {"monomial": 15, "chebyshev": 40}
+
+#: The optional key every ``[[mechanisms]]`` table may have for its drawings.
+LINK_ANGLE = Key("link_angle", "rad", "the world angle of the joint's link, from the joint axis towards its "
+                 "mass, at θ = 0; the link turns with the mechanism's turning body (drawings only)", default=None,
+                 default_text="for a pendulum target, where gravity along −y gives the target's torque "
+                 "m g l sin(θ + phase)")
+
+#: The keys every ``[[mechanisms]]`` table has, before the mechanism's own
+#: (:attr:`Mechanism.spec_keys`): its kind, name and joint, its profiles' basis and limits.
+MECHANISM_KEYS = KeyTable("[[mechanisms]]", "A mechanism on one joint with its designed profiles (one basis and "
+                          "one set of limits for all its profiles); then the keys of its kind.", (
+    Key("kind", "", "the mechanism's kind (see below)", "string", min_length=1),
+    Key("name", "", "the mechanism's name", "string", default=None, default_text="'mechanism N'"),
+    Key("joint", "", "the joint it turns with (1-based)", "integer", low=1),
+    Key("basis", "", "the profiles' polynomial basis", "choice", choices=BASES, default="chebyshev"),
+    Key("order", "", f"the profiles' polynomial degree, at most the basis's cap {MAX_ORDER}", "integer", low=1,
+        high=max(MAX_ORDER.values()), default=3),
+    Key("rho_min", "m", "the profiles' least radius", low=0, open_low=True),
+    Key("rho_max", "m", "the profiles' greatest radius, above rho_min", low=0, open_low=True),
+    Key("min_curvature_radius", "m", "the profiles' least radius of curvature (0: convex only)", low=0, default=0.0),
+    LINK_ANGLE,
+    Key("output_target", "", "the law x_d(θ) [m] the mechanism's output tracks, for a mechanism with an output "
+        "(its keys: a target kind's, see Target kinds)", "table", default=None, default_text="none"),
+))
 
 
 @dataclass(frozen=True)
@@ -257,7 +280,11 @@ class Mechanism:
     picture: ClassVar[Picture] = Picture()
     #: A spec's top-level list of this mechanism, one per joint (a shorthand), or "".
     shorthand: ClassVar[str] = ""
-    #: SI unit ("m", "rad", "N/m", "N", "-") of each of its own spec keys, for labels.
+    #: Its own spec keys, after :data:`MECHANISM_KEYS` (:meth:`from_spec` reads them; the
+    #: reference and the result's schema list them).
+    spec_keys: ClassVar[KeyTable] = KeyTable("", "", ())
+    #: SI unit of each of its own spec keys (those of a sub-table by their own name), for
+    #: labels (derived from :attr:`spec_keys`).
     spec_units: ClassVar[dict[str, str]] = {}
     #: Design methods of its own (:class:`DesignMethod`), besides the NLP.
     methods: ClassVar[tuple[DesignMethod, ...]] = ()
@@ -274,6 +301,8 @@ class Mechanism:
         cls.unknowns = tuple(v.name for v in cls.per_angle)
         cls.unknown_units = tuple(v.unit for v in cls.per_angle)
         cls.residual_units = tuple(v.unit for v in cls.residual_rows)
+        cls.spec_units = {k.name: k.unit for key in cls.spec_keys.keys
+                          for k in (key.fields.keys if key.fields is not None else (key,)) if k.unit}
 
     @classmethod
     def named_parameters(cls, q) -> Named:
@@ -412,9 +441,9 @@ class Mechanism:
 
     @classmethod
     def from_spec(cls, reader, name: str, joint: int, profiles, theta_range=(0.0, 0.0)) -> "Mechanism":
-        """Read the mechanism's own keys from its spec table (``reader.get(key, ok, form,
-        default)``, ``reader.table_reader(key, form)``); ``theta_range`` [rad] is its joint's
-        range."""
+        """Read the mechanism's own keys, :attr:`spec_keys`, from its spec table
+        (``reader.read(key, default)``, ``reader.table_reader(key)``); ``theta_range`` [rad] is
+        its joint's range."""
         return cls(name=name, joint=joint, profiles=profiles)
 
     def spec_fields(self) -> dict:

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..keys import Key, KeyTable
+
 
 @dataclass(frozen=True)
 class Port:
@@ -96,6 +98,22 @@ class SpringParameters:
     rate: np.ndarray
     preload: np.ndarray
     travel: np.ndarray
+
+
+#: A ``[[springs]]`` table's keys (:mod:`cadcam.spec` reads them, the reference lists them).
+SPRING_KEYS = KeyTable("[[springs]]", "A linear extension spring joining ports of the mechanisms.", (
+    Key("name", "", "the spring's name", "string", default_text="'spring N'", default=None),
+    Key("ports", "", "the ports the spring joins, each 'port:mechanism' with an optional '-' for the "
+        "opposite sign, such as 'wire:1' or '-platform:2'", "strings", min_length=1),
+    Key("rate", "N/m", "the spring's rate k", low=0, open_low=True),
+    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46)",
+        low=0, open_low=True),
+    Key("preload", "N", "the spring's initial tension F0 (force F0 + kx for x > 0)", low=0, default=0.0),
+    Key("free_length", "m", "the unloaded spring's length (its installed length is free_length + x)",
+        low=0, open_low=True, default=None, default_text="none (not drawn to length)"),
+    Key("preextension", "m", "a fixed pre-extension x0 in [0, travel]", low=0, default=None,
+        default_text="none (a design variable)"),
+))
 
 
 class Network:

@@ -39,6 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
+from ...keys import Key, KeyTable
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register
 from .file_model import anchored_path, anchored_span
 
@@ -49,6 +50,29 @@ GUESS_SWEEPS = 6
 ANCHOR_WRAP = 0.3
 TURNING = ("pulley", "spring_end")
 WINDING = {"ccw": 1.0, "cw": -1.0}
+
+#: Its own keys of a ``[[mechanisms]]`` table.
+SPEC_KEYS = KeyTable('kind = "anchored_pulley"', "Ludovico2021 / Endo2010's pulley: the cable is anchored on the profile at φ = 0 (the outline's point at polar angle anchor_angle, i.e. (ρ(0) cos anchor_angle, ρ(0) sin anchor_angle) in the world frame at θ = 0), wound on it in the direction `winding`, and leaves it tangentially straight to the spring end, the spring acting along the cable; port \"cable\" is the change of the path length anchor → spring end from the joint angle reference_angle. A third party recomputes the torque from the outline and these fields: at joint angle θ, turn the body `turning` by sense·θ about the joint (the origin), find the tangent from the spring end to the outline on the side the cable winds, x = x₀ + (wrapped length + free span)(θ) − (same)(reference_angle), V = ½k x² + F0 x, τ = dV/dθ.", (
+    Key("spring_end", "m", "the spring end's world position [x, y] at θ = 0 (Endo2010's (a, b); Ludovico2021's R "
+        "at distance L), outside rho_max", "numbers", length=2),
+    Key("turning", "", "the body that turns with the joint: 'pulley' (Endo2010: the spring end is fixed) or "
+        "'spring_end' (Ludovico2021: the pulley is fixed)", "choice", choices=TURNING),
+    Key("sense", "", "the turning body rotates by sense·θ about the joint, counter-clockwise positive", "choice",
+        choices=(1, -1), default=1),
+    Key("winding", "", "the cable's direction on the pulley from its anchor, seen in the pulley's frame: 'ccw' "
+        "(the profile point at polar angle φ is at angle anchor_angle + φ) or 'cw' (at anchor_angle − φ)",
+        "choice", choices=tuple(WINDING), default="ccw"),
+    Key("initial_radius", "m", "the radius of the NLP's circular start, inside (rho_min, rho_max)", low=0,
+        open_low=True, default=0.0, default_text="mid-range of ρ, at most 40 % of the spring end's distance"),
+    Key("reference_angle", "rad", "the joint angle at which the spring's extension is its pre-extension x₀",
+        default=None, default_text="the end of the range where the spring is shortest"),
+    Key("anchor_angle", "rad", "the world angle of the anchor direction φ = 0 at θ = 0", default=None,
+        default_text="the anchor leaves the cable wound at the range's shortest end"),
+    Key("min_moment_arm", "m", "the smallest moment arm (the distance from the joint to the cable line)", low=0,
+        default=0.0),
+    Key("min_free_span", "m", "the shortest straight cable between the pulley and the spring end", low=0,
+        default=0.0),
+))
 
 
 def _pose(bases, theta, alpha, c, q):
@@ -90,7 +114,7 @@ class AnchoredPulley(Mechanism):
 
     kind = "anchored_pulley"
     citation = "Ludovico2021"
-    spec_units = {"spring_end": "m", "anchor_angle": "rad", "reference_angle": "rad", "min_moment_arm": "m", "min_free_span": "m", "initial_radius": "m"}
+    spec_keys = SPEC_KEYS
     ports = ("cable",)
     fixed_sign_ports = {"cable": ("winding", "sense")}  # the cable's line never crosses the axis
     parameters = (Quantity("ell", "m", "the distance ℓ from the joint to the spring end", placed="length"),
@@ -260,32 +284,21 @@ class AnchoredPulley(Mechanism):
     # -- spec ------------------------------------------------------------------------------------
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
-        form = "[x, y]: the spring end's world position at theta = 0 [m], outside rho_max"
-        end = reader.get("spring_end", lambda v: isinstance(v, list) and len(v) == 2
-                         and all(reader.number(x) for x in v), form)
+        keys = SPEC_KEYS
+        end = reader.read(keys["spring_end"])
         if not np.hypot(*end) > max(p.rho_max for p in profiles):
-            reader.fail(reader.key("spring_end"), end, form)
-        turning = reader.get("turning", lambda v: v in TURNING, f"one of {TURNING}")
-        sense = reader.get("sense", lambda v: reader.number(v) and v in (1, -1), "1 or -1 (the turning body "
-                           "rotates by sense * theta, counter-clockwise positive)", 1)
-        winding = reader.get("winding", lambda v: v in WINDING, f"one of {tuple(WINDING)}", "ccw")
+            reader.fail(reader.key("spring_end"), end, keys["spring_end"].form())
+        turning, sense, winding = (reader.read(keys[k]) for k in ("turning", "sense", "winding"))
         p = profiles[0]
-        start = reader.get("initial_radius", lambda v: reader.number(v) and p.rho_min < v < p.rho_max,
-                           f"the circular start's radius in (rho_min, rho_max) = ({p.rho_min}, "
-                           f"{p.rho_max}) [m]", 0.0)
+        start = reader.read(keys["initial_radius"].within(low=p.rho_min, high=p.rho_max, open_high=True))
         mech = cls(name=name, joint=joint, profiles=profiles, spring_end_x=float(end[0]),
-                   spring_end_y=float(end[1]), turning=turning, sense=float(sense),
-                   winding=winding, initial_radius=float(start))
+                   spring_end_y=float(end[1]), turning=turning, sense=float(sense), winding=winding,
+                   initial_radius=float(start))
         least = theta_range[0] if mech.sigma > 0 else theta_range[1]
-        ref = reader.get("reference_angle", reader.number, "the joint angle [rad] at which "
-                         "the spring has its pre-extension", least)
-        default_anchor = mech._default_anchor(least, profiles[0])
-        anchor = reader.get("anchor_angle", reader.number, "the anchor's world angle at "
-                            "theta = 0 [rad]", default_anchor)
-        arm = reader.get("min_moment_arm", lambda v: reader.number(v) and v >= 0,
-                         "a moment arm ≥ 0 [m]", 0.0)
-        span = reader.get("min_free_span", lambda v: reader.number(v) and v >= 0,
-                          "a free cable span ≥ 0 [m]", 0.0)
+        ref = reader.read(keys["reference_angle"], least)
+        anchor = reader.read(keys["anchor_angle"], mech._default_anchor(least, profiles[0]))
+        arm = reader.read(keys["min_moment_arm"])
+        span = reader.read(keys["min_free_span"])
         return replace(mech, reference_angle=float(ref), anchor_angle=float(anchor),
                        min_moment_arm=float(arm), min_free_span=float(span))
 

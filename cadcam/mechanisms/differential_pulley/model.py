@@ -44,6 +44,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
+from ...keys import Key, KeyTable
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register, split_coefficients
 from .file_model import differential_output, differential_spans
 from .robot_path import robot_path
@@ -51,6 +52,29 @@ from .starts import envelope_start
 
 WINDING = {"ccw": 1.0, "cw": -1.0}
 GROOVES = ("flat", "helical")
+
+#: Its own keys of a ``[[mechanisms]]`` table.
+SPEC_KEYS = KeyTable('kind = "differential_pulley"', "Fedorov2018's differential pair: two profiles (design.cams k and k + 1, both of this basis and these limits) on one shaft and one cable of constant length over an idler whose centre rides a slider. A third party recomputes x(θ) from the two outlines and these fields: at joint angle θ turn both outlines by sense·θ about the shaft (the origin); profile 1's point at polar angle φ lies at world angle anchor_angles[0] + w₁φ (w₁ = +1 for winding \"ccw\", −1 for \"cw\"), profile 2's at anchor_angles[1] − w₁φ; the idler (radius idler_radius) is centred at x·(cos slider_angle, sin slider_angle); the cable leaves each outline tangentially, touching the idler with the idler on its left as seen in that profile's winding frame; x is where the cable length — both wound lengths from the anchors (φ = 0), both free spans and the arc on the idler — equals cable_length.", (
+    Key("sense", "", "the shaft turns by sense·θ, counter-clockwise positive", "choice", choices=(1, -1), default=1),
+    Key("winding", "", "profile 1's winding from its anchor (profile 2 is wound the other way)", "choice",
+        choices=tuple(WINDING), default="ccw"),
+    Key("groove", "", "'flat': each wrap under one turn; 'helical': a spiral groove, wraps beyond one turn "
+        "(planar per turn)", "choice", choices=GROOVES, default="flat"),
+    Key("idler_radius", "m", "the idler's radius q (0: a point)", low=0, default=0.0),
+    Key("slider_range", "m", "[x_min, x_max]: the slider's travel from the shaft axis, 0 < x_min < x_max, x_min > "
+        "rho_max + idler_radius (the idler clears both pulleys)", "numbers", length=2, low=0, open_low=True,
+        check=lambda v: v[0] < v[1], words="x_min < x_max"),
+    Key("slider_angle", "rad", "the world angle of the slider's line from the shaft", default=0.0),
+    Key("reference_angle", "rad", "the joint angle at which the slider port is zero", default=None,
+        default_text="the range's first angle"),
+    Key("min_free_span", "m", "the shortest straight cable between a pulley and the idler", low=0, default=0.0),
+    Key("rolling_radius", "m", "the cable transferred per radian by the start design", low=0, open_low=True,
+        default=0.0, default_text="mid-range of ρ"),
+    Key("anchor_angles", "rad", "[a1, a2]: the world angles of both anchors (φ = 0) at θ = 0", "numbers", length=2,
+        default=None, default_text="set by the start design"),
+    Key("cable_length", "m", "the cable's length from anchor to anchor", low=0, open_low=True, default=None,
+        default_text="set by the start design"),
+))
 #: Sweeps of the closed-form guess of α at a fixed x (exact for a circle after one).
 GUESS_SWEEPS = 6
 
@@ -96,7 +120,7 @@ class DifferentialPulley(Mechanism):
 
     kind = "differential_pulley"
     citation = "Fedorov2018"
-    spec_units = {"slider_angle": "rad", "idler_radius": "m", "anchor_angles": "rad", "cable_length": "m", "reference_angle": "rad", "slider_range": "m", "min_free_span": "m", "rolling_radius": "m"}
+    spec_keys = SPEC_KEYS
     n_profiles: ClassVar[int] = 2
     closure_rows: ClassVar[int] = 1
     ports = ("slider",)
@@ -377,33 +401,19 @@ class DifferentialPulley(Mechanism):
     # -- spec ------------------------------------------------------------------------------------
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
-        num, pos = reader.number, reader.positive
-        sense = reader.get("sense", lambda v: num(v) and v in (1, -1), "1 or -1 (the shaft turns "
-                           "by sense * theta, counter-clockwise positive)", 1)
-        winding = reader.get("winding", lambda v: v in WINDING, f"one of {tuple(WINDING)} (profile "
-                             "1's winding from its anchor; profile 2 is wound the other way)", "ccw")
-        groove = reader.get("groove", lambda v: v in GROOVES, f"one of {GROOVES}", "flat")
-        q = reader.get("idler_radius", lambda v: num(v) and v >= 0, "an idler radius ≥ 0 [m]", 0.0)
-        form = "[x_min, x_max]: the slider's travel from the shaft axis [m], 0 < x_min < x_max"
-        rng = reader.get("slider_range", lambda v: isinstance(v, list) and len(v) == 2 and all(
-            num(x) for x in v) and 0 < v[0] < v[1], form)
+        keys = SPEC_KEYS
+        sense, winding, groove, q = (reader.read(keys[k]) for k in ("sense", "winding", "groove", "idler_radius"))
+        rng = reader.read(keys["slider_range"])
         if not rng[0] > max(p.rho_max for p in profiles) + q:
-            reader.fail(reader.key("slider_range"), rng, f"{form}, x_min > rho_max + idler_radius "
-                        "(the idler clears both pulleys)")
+            reader.fail(reader.key("slider_range"), rng, keys["slider_range"].form())
         mech = cls(name=name, joint=joint, profiles=profiles, sense=float(sense), winding=winding,
                    groove=groove, idler_radius=float(q), slider_range=(float(rng[0]), float(rng[1])),
-                   slider_angle=float(reader.get("slider_angle", num, "the slider line's world "
-                                                 "angle [rad]", 0.0)),
-                   reference_angle=float(reader.get("reference_angle", num, "the joint angle [rad] "
-                                                    "at which the slider port is zero", theta_range[0])),
-                   min_free_span=float(reader.get("min_free_span", lambda v: num(v) and v >= 0,
-                                                  "a free cable span ≥ 0 [m]", 0.0)),
-                   rolling_radius=float(reader.get("rolling_radius", pos, "the cable transferred "
-                                                   "per radian by the start design [m]", 0.0)))
-        anchors = reader.get("anchor_angles", lambda v: isinstance(v, list) and len(v) == 2
-                             and all(num(x) for x in v), "[a1, a2]: the anchors' world angles at "
-                             "theta = 0 [rad]", None)
-        length = reader.get("cable_length", pos, "the cable length from anchor to anchor [m]", None)
+                   slider_angle=float(reader.read(keys["slider_angle"])),
+                   reference_angle=float(reader.read(keys["reference_angle"], theta_range[0])),
+                   min_free_span=float(reader.read(keys["min_free_span"])),
+                   rolling_radius=float(reader.read(keys["rolling_radius"])))
+        anchors = reader.read(keys["anchor_angles"])
+        length = reader.read(keys["cable_length"])
         if anchors is not None:
             mech = replace(mech, anchor_angles=(float(anchors[0]), float(anchors[1])))
         if length is not None:

@@ -6,12 +6,10 @@ for a mechanism's ``output_target``.
 """
 from __future__ import annotations
 
-import json
-from importlib import resources
-
 import casadi as ca
 import numpy as np
 
+from ...keys import Key, KeyTable
 from ...targets import TargetKind, register_target_kind
 from .cable_robot import cable_length, pick_and_place
 
@@ -75,40 +73,43 @@ def slider_cable(x, d: dict):
     return shortest_cable(d) + d["amplification"] * (x - d["slider_at_shortest"])
 
 
-def read_spring_balance(r, theta_range) -> dict:
-    """A ``spring_balance`` output law's keys: the pendulum, the slider spring and where its
-    elongation is zero."""
-    return {"mass": r.get("mass", r.positive, "a positive pendulum mass [kg]"),
-            "length": r.get("length", r.positive, "a positive length to the centre of mass [m]"),
-            "g": r.get("g", r.positive, "a positive gravity [m/s²]", 9.81),
-            "rate": r.get("rate", r.positive, "the slider spring's positive rate [N/m]"),
-            "preload": r.get("preload", r.nonneg, "the slider spring's initial tension ≥ 0 [N]"),
-            "slider_zero": r.get("slider_zero", r.positive, "the idler's distance from the shaft "
-                                 "where the spring's elongation is zero [m]"),
-            "phase": r.get("phase", r.number, "the joint angle minus the pendulum angle from "
-                           "its stable equilibrium [rad]", 0.0)}
+SPRING_BALANCE_KEYS = KeyTable('kind = "spring_balance"', "x_d = slider_zero − e(θ + phase) with e the elongation at which a spring (rate, preload) balances a pendulum (mass, length, g) by energy, zero at the unstable equilibrium (Fedorov2018 Eq. 16–18).", (
+    Key("mass", "kg", "the pendulum's mass", low=0, open_low=True),
+    Key("length", "m", "the distance from the joint to the pendulum's centre of mass", low=0, open_low=True),
+    Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81),
+    Key("rate", "N/m", "the slider spring's rate", low=0, open_low=True),
+    Key("preload", "N", "the slider spring's initial tension", low=0),
+    Key("slider_zero", "m", "the idler's distance from the shaft where the spring's elongation is zero",
+        low=0, open_low=True),
+    Key("phase", "rad", "the joint angle minus the pendulum angle from its stable equilibrium", default=0.0),
+))
+CABLE_ROBOT_KEYS = KeyTable('kind = "cable_robot"', "x_d = slider_at_shortest + (ℓ(θ) − ℓ_min)/amplification: the idler position that gives one cable of a two-cable robot its length ℓ from anchor to the end effector on a pick-and-place path (cadcam.mechanisms.differential_pulley.cable_robot.pick_and_place at input share (θ − theta_range[0])/(theta_range[1] − theta_range[0])), ℓ_min its least value along the path (Fedorov2018 Sec. 4.1).", (
+    Key("anchor", "m", "[x, y]: this cable's attachment on the frame", "numbers", length=2),
+    Key("start", "m", "[x, y]: the path's pick point", "numbers", length=2),
+    Key("lift", "m", "the height of the vertical moves", low=0, open_low=True),
+    Key("span", "m", "the horizontal move, signed"),
+    Key("lift_share", "-", "the share of the input rotation each vertical move takes", low=0, high=0.5,
+        open_low=True, open_high=True),
+    Key("amplification", "-", "the ratio G of cable to idler travel of the amplification stage (6 for 6:1)",
+        low=0, open_low=True),
+    Key("slider_at_shortest", "m", "the idler's distance from the shaft where the cable is shortest",
+        low=0, open_low=True),
+    Key("overlap", "-", "the share of the input during which the horizontal move overlaps a vertical one, "
+        "below lift_share", low=0, default=0.0),
+    Key("theta_range", "rad", "[start, end]: the joint angles over which the path runs, end > start",
+        "numbers", length=2, default=None, default_text="the joint's range",
+        check=lambda v: v[1] > v[0], words="end > start"),
+))
 
 
 def read_cable_robot(r, theta_range) -> dict:
     """A ``cable_robot`` output law (Fedorov2018 Sec. 4.1): this cable's frame anchor, the
-    pick-and-place path, the amplification and the idler's position at the shortest cable."""
-    point = r.list_of(r.number, 2)
-    data = {"anchor": r.get("anchor", point, "[x, y]: this cable's attachment on the frame [m]"),
-            "start": r.get("start", point, "[x, y]: the path's pick point [m]"),
-            "lift": r.get("lift", r.positive, "the height of the vertical moves [m]"),
-            "span": r.get("span", r.number, "the horizontal move [m], signed"),
-            "lift_share": r.get("lift_share", lambda v: r.number(v) and 0 < v < 0.5,
-                                "the share of the input rotation each vertical move takes, in (0, 0.5)"),
-            "amplification": r.get("amplification", r.positive, "the ratio G of cable to idler "
-                                   "travel of the amplification stage (6 for 6:1)"),
-            "slider_at_shortest": r.get("slider_at_shortest", r.positive, "the idler's distance "
-                                        "from the shaft where the cable is shortest [m]")}
-    data["overlap"] = r.get("overlap", lambda v: r.number(v) and 0 <= v < data["lift_share"],
-                            "the share of the input during which the horizontal move overlaps a "
-                            "vertical one, in [0, lift_share)", 0.0)
-    data["theta_range"] = r.get("theta_range", lambda v: point(v) and v[1] > v[0], "[start, end]: "
-                                "the joint angles over which the path runs [rad], end > start",
-                                list(theta_range))
+    pick-and-place path, the amplification and the idler's position at the shortest cable;
+    ``overlap`` below its ``lift_share``, ``theta_range`` by default its joint's."""
+    data = {k.name: r.read(k) for k in CABLE_ROBOT_KEYS.keys if k.name not in ("overlap", "theta_range")}
+    overlap = CABLE_ROBOT_KEYS["overlap"].within(high=data["lift_share"], open_high=True)
+    data["overlap"] = r.read(overlap)
+    data["theta_range"] = r.read(CABLE_ROBOT_KEYS["theta_range"], list(theta_range))
     return {k: ([float(x) for x in v] if isinstance(v, list) else float(v)) for k, v in data.items()}
 
 
@@ -118,11 +119,8 @@ def _spring_balance_law(d, thetas, cam):
                                                 d["g"], d["rate"], d["preload"])
 
 
-#: The JSON Schema of both laws' keys in result.json, by kind.
-SCHEMAS = json.loads((resources.files(__package__) / "output_laws.schema.json").read_text(encoding="utf-8"))
-
 register_target_kind(TargetKind("spring_balance", _spring_balance_law, torque=False, output=True,
-                                read=read_spring_balance, schema=SCHEMAS["spring_balance"]))
+                                keys=SPRING_BALANCE_KEYS))
 def one_path(datas) -> str | None:
     """The cables of one cable robot follow one path: the first path key two laws differ in."""
     for key in SHARED_PATH_KEYS:
@@ -134,4 +132,4 @@ def one_path(datas) -> str | None:
 
 register_target_kind(TargetKind("cable_robot", lambda d, thetas, cam: cable_robot_slider(thetas[cam], d),
                                 torque=False, output=True, read=read_cable_robot, check=one_path,
-                                schema=SCHEMAS["cable_robot"]))
+                                keys=CABLE_ROBOT_KEYS))

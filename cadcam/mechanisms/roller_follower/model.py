@@ -59,6 +59,7 @@ import numpy as np
 
 from ...citations import Paper, register_paper
 from ...physics.profile import profile_function
+from ...keys import Key, KeyTable
 from ..base import Limit, Mechanism, Picture, Quantity, register
 from .file_model import roller_follower_port
 from .geometry import (contact_point, follower_axes, line_coordinates, pitch_curvature_radius,
@@ -82,6 +83,25 @@ STEM_RADII = 4.0
 SOURCE = register_paper("Norton2009", Paper(
     "R. L. Norton", 2009, "Cam design and manufacturing handbook (2nd edition)",
     "Industrial Press, New York", None))
+
+
+#: Its own keys of a ``[[mechanisms]]`` table.
+SPEC_KEYS = KeyTable('kind = "roller_follower"', "A radial cam turning with its joint and a translating roller follower pressed on it by a spring (port \"follower\"): the roller (radius roller_radius) touches the profile; its centre slides on the line of world direction follower_angle at offset from the axis; the cam's polar axis lies at world angle axis_angle at θ = 0.", (
+    Key("roller_radius", "m", "the roller's radius r", low=0, open_low=True),
+    Key("follower_angle", "rad", "the world direction β of the follower's travel, away from the cam (π/2: vertical)",
+        default=np.pi / 2),
+    Key("offset", "m", "the follower line's offset e from the joint axis", default=0.0),
+    Key("max_pressure_angle", "rad", "the largest pressure angle φ_max (0.5236: 30°)", low=0, high=np.pi / 2,
+        open_low=True, open_high=True, default=MAX_PRESSURE_ANGLE),
+    Key("min_pitch_curvature_ratio", "-", "the pitch curve's least radius of curvature in roller radii (1: "
+        "convexity only; 2–3 usual)", low=1, default=PITCH_CURVATURE_RATIO),
+    Key("reference_angle", "rad", "the joint angle at which the spring has its pre-deflection", default=None,
+        default_text="the range's first angle"),
+    Key("initial_radius", "m", "the radius of the NLP's circular start, inside (rho_min, rho_max)", low=0,
+        open_low=True, default=0.0, default_text="mid-range of ρ"),
+    Key("axis_angle", "rad", "the world angle γ₀ of the cam's polar axis at θ = 0", default=None,
+        default_text="the contact starts a little after φ = 0"),
+))
 
 
 @register
@@ -112,9 +132,7 @@ class RollerFollower(Mechanism):
     picture = Picture(title="cam and follower", wound="", free="follower stem", contact="contact point",
                       anchor="profile start (φ = 0)", circle="roller (+ centre)", arc="designed arc",
                       runs_on="the roller touches the red arc only")
-    spec_units = {"roller_radius": "m", "follower_angle": "rad", "offset": "m", "axis_angle": "rad",
-                  "max_pressure_angle": "rad", "min_pitch_curvature_ratio": "-",
-                  "reference_angle": "rad", "initial_radius": "m"}
+    spec_keys = SPEC_KEYS
     ports = ("follower",)
     parameters = (Quantity("roller_radius", "m", "the roller's radius r (Eq. G3)"),
                   Quantity("follower_angle", "rad", "the follower's direction of travel β (world)"),
@@ -275,31 +293,16 @@ class RollerFollower(Mechanism):
     # -- spec ------------------------------------------------------------------------------------
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
-        """Its keys (SI): roller_radius, follower_angle, offset, axis_angle, max_pressure_angle,
-        min_pitch_curvature_ratio, reference_angle, initial_radius; then the checks of
-        :func:`_placed`."""
-        num, p = reader.number, profiles[0]
+        """Its keys (:data:`SPEC_KEYS`), then the checks of :func:`_placed`."""
+        keys, p = SPEC_KEYS, profiles[0]
         mech = cls(
             name=name, joint=joint, profiles=profiles,
-            roller_radius=float(reader.get("roller_radius", reader.positive, "a positive roller radius [m]")),
-            follower_angle=float(reader.get("follower_angle", num, "the world direction of the "
-                                            "follower's travel [rad] (pi/2: vertical)", np.pi / 2)),
-            offset=float(reader.get("offset", num, "the follower line's offset from the joint axis [m]",
-                                    0.0)),
-            max_pressure_angle=float(reader.get(
-                "max_pressure_angle", lambda v: num(v) and 0 < v < np.pi / 2,
-                "the largest pressure angle in (0, pi/2) [rad] (0.5236: 30°)", MAX_PRESSURE_ANGLE)),
-            min_pitch_curvature_ratio=float(reader.get(
-                "min_pitch_curvature_ratio", lambda v: num(v) and v >= 1, "a ratio ≥ 1 of the pitch "
-                "curve's least radius of curvature to the roller radius (1: convexity only; 2–3 usual)",
-                PITCH_CURVATURE_RATIO)),
-            reference_angle=float(reader.get("reference_angle", num, "the joint angle [rad] at which "
-                                             "the spring has its pre-deflection", theta_range[0])),
-            initial_radius=float(reader.get(
-                "initial_radius", lambda v: num(v) and p.rho_min < v < p.rho_max,
-                f"the circular start's radius in (rho_min, rho_max) = ({p.rho_min}, {p.rho_max}) [m]", 0.0)))
-        axis = reader.get("axis_angle", num, "the world angle [rad] of the cam's polar axis at "
-                          "theta = 0", None)
+            **{k: float(reader.read(keys[k])) for k in ("roller_radius", "follower_angle", "offset",
+                                                         "max_pressure_angle", "min_pitch_curvature_ratio")},
+            reference_angle=float(reader.read(keys["reference_angle"], theta_range[0])),
+            initial_radius=float(reader.read(keys["initial_radius"].within(
+                low=p.rho_min, high=p.rho_max, open_high=True))))
+        axis = reader.read(keys["axis_angle"])
         return _placed(reader, mech, theta_range, axis)
 
     def spec_fields(self) -> dict:

@@ -20,6 +20,7 @@ from .capstan import wire_torque_function
 from .departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
 from .file_model import wire_cam_port
 from ...physics.profile import profile_function
+from ...keys import Key, KeyTable
 from ..base import Mechanism, Quantity, register
 
 #: Circle-solution sweeps of the closed-form guess of α.
@@ -36,6 +37,16 @@ def platform_displacement(qx, qx_ref):
     return qx - qx_ref  # Johnston2023 Eq. 16, 18
 
 
+#: Its own keys of a ``[[mechanisms]]`` table (or of a ``[[cams]]`` entry).
+SPEC_KEYS = KeyTable('kind = "wire_cam"', "Johnston2023's wire cam with its follower idler; ports \"wire\" and \"platform\".", (
+    Key("idler", "", "the follower idler", "table", fields=KeyTable("idler", "The follower idler.", (
+        Key("radius", "m", "the idler's radius r", low=0, open_low=True),
+        Key("offset", "m", "the idler's vertical offset a₀ (Johnston2023 Eq. 7)"),
+    ))),
+    Key("mu", "-", "the wire–cam friction coefficient (used by the force models only)", low=0),
+))
+
+
 @register
 @dataclass(frozen=True)
 class WireCam(Mechanism):
@@ -48,7 +59,7 @@ class WireCam(Mechanism):
 
     kind = "wire_cam"
     citation = "Johnston2023"
-    spec_units = {"radius": "m", "offset": "m", "mu": "-"}
+    spec_keys = SPEC_KEYS
     shorthand = "cams"  # [[cams]]: a wire cam on its own joint (cadcam ≤ 0.1)
     ports = ("wire", "platform")
     fixed_sign_ports = {"wire": ()}  # the wire wraps the cam as θ grows, whatever its profile (Eq. 6)
@@ -147,11 +158,12 @@ class WireCam(Mechanism):
 
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
-        idler = reader.table_reader("idler", "a table with radius and offset [m]")
-        radius = float(idler.get("radius", reader.positive, "a positive idler radius [m]"))
-        offset = float(idler.get("offset", reader.number, "the idler's vertical offset a0 [m]"))
+        idler_keys = SPEC_KEYS["idler"].fields
+        idler = reader.table_reader(SPEC_KEYS["idler"])
+        radius = float(idler.read(idler_keys["radius"]))
+        offset = float(idler.read(idler_keys["offset"]))
         idler.done()
-        mu = float(reader.get("mu", lambda v: reader.number(v) and v >= 0, "a friction coefficient ≥ 0"))
+        mu = float(reader.read(SPEC_KEYS["mu"]))
         return cls(name=name, joint=joint, profiles=profiles, idler_radius=radius,
                    idler_offset=offset, mu=mu)
 
