@@ -678,6 +678,33 @@ def _from_shorthand(data: dict, table: str) -> dict:
     return out
 
 
+#: A joint range [deg] at most this wide whose ends all lie within a turn reads as radians
+#: typed as degrees; a table's angles spanning more than this many times its joint's range,
+#: beyond a turn, read as degrees typed as radians.
+NARROW_RANGE_DEG = 2 * math.pi
+WIDE_TABLE_RATIO = 10.0
+
+
+def implausible_units(problem: Problem) -> list[str]:
+    """One line per angle that is plausible only in the other unit, with how to write it: a
+    joint range of a few degrees whose ends are radian-sized, a table's angles far wider than
+    its joint's range."""
+    notes = []
+    for i, joint in enumerate(problem.joints):
+        lo, hi = (math.degrees(a) for a in joint.theta_range)
+        if hi - lo <= NARROW_RANGE_DEG and max(abs(lo), abs(hi)) <= NARROW_RANGE_DEG:
+            notes.append(f"joints[{i + 1}].theta_range_deg = [{lo:.4g}, {hi:.4g}] spans {hi - lo:.3g}°: if these "
+                         f"are radians, write degrees ([{math.degrees(lo):.4g}, {math.degrees(hi):.4g}])")
+        if joint.target.kind == "table":
+            angles = np.asarray(joint.target.data["samples"])[:, 0]
+            span = angles[-1] - angles[0]
+            if span > 2 * math.pi and span > WIDE_TABLE_RATIO * (joint.theta_range[1] - joint.theta_range[0]):
+                notes.append(f"joints[{i + 1}].target: the table's angles span {span:.4g} rad, {span / (2 * math.pi):.3g} "
+                             f"turns, against a joint range of {hi - lo:.4g}°: if they are degrees, write "
+                             'angle_unit = "deg" (or a CSV header theta_deg)')
+    return notes
+
+
 def parse_value(text: str, origin: str = "--set"):
     """A TOML value written on the command line (``1.5``, ``[1, 2]``, ``"exact"``)."""
     try:

@@ -154,6 +154,30 @@ def test_the_spec_reference_page_is_what_the_declarations_make():
         assert f'### `kind = "{kind}"`' in page
 
 
+def _shipped_specs():
+    """Every shipped spec with each of its variants (None: the spec as written)."""
+    root = Path(__file__).resolve().parents[1]
+    for path in sorted((root / "models").glob("*.toml")) + [root / "docs" / "first_balancer.toml"]:
+        for variant in [None, *tomllib.loads(path.read_text()).get("variants", {})]:
+            yield path, variant
+
+
+@pytest.mark.parametrize("path,variant", list(_shipped_specs()), ids=lambda v: getattr(v, "stem", str(v)))
+def test_every_key_the_reader_reads_of_a_shipped_spec_is_declared_and_on_the_reference_page(path, variant):
+    from cadcam.outputs.spec_reference import REFERENCE_FILE, declared_keys
+    from cadcam.spec import read_keys, read_spec_data
+
+    page = REFERENCE_FILE.read_text(encoding="utf-8")
+    names = {name for _, name in declared_keys()}
+    _, reads = read_keys(read_spec_data(path, variant), str(path), path.parent)
+    given = [r for r in reads if r.given]
+    assert given
+    for read in given:
+        assert read.declaration.name in names, read.key
+        assert f"`{read.declaration.name}`" in page or f".{read.declaration.name}`" in page, read.key
+
+
+
 def test_every_top_level_field_is_documented(schema, result):
     # the top level stays open for newer fields, so check here that the schema names them all
     def resolve(node):

@@ -1,9 +1,9 @@
 """The design page's form, generated from the spec reader's declarations.
 
 Every field is a key the spec reader reads (:func:`cadcam.spec.read_keys`), labelled with its
-last name and the unit in brackets of the form it expects, helped by that form (the words of
-its error message), and grouped by what it sets: the target and range, the springs, the
-geometry, the solver, the workshop files. No label, unit or help is written here.
+last name and its declared unit (:class:`cadcam.keys.Key`), helped by the form it expects (the
+words of its error message), and grouped by what it sets: the target and range, the springs,
+the geometry, the solver, the workshop files. No label, unit or help is written here.
 """
 from __future__ import annotations
 
@@ -24,9 +24,6 @@ GROUPS = (
     ("Solver", re.compile(r"^solver\.(?!ipopt$)[a-z_]+$")),
     ("Workshop files", re.compile(r"^workshop\.[a-z_]+$")),
 )
-
-_UNIT = re.compile(r"\[([^\[\]]+)\]\s*$")
-
 
 @dataclass(frozen=True)
 class Field:
@@ -91,14 +88,13 @@ def _editable(read: KeyRead) -> bool:
             or (isinstance(v, list) and all(isinstance(x, (int, float)) for x in v)))
 
 
-def _label(key: str, form: str) -> str:
-    """The key within its numbered table (``rate``, ``target.mass``, ``idler.radius``) and the
-    unit of its form, if it names one."""
+def _label(key: str, unit: str) -> str:
+    """The key within its numbered table (``rate``, ``target.mass``, ``idler.radius``) and its
+    unit, if it has one."""
     parts = key.split(".")
     numbered = [i for i, p in enumerate(parts) if p.isdigit()]
     name = ".".join(parts[numbered[0] + 1:] if numbered else parts[1:] or parts)
-    unit = _UNIT.search(form)
-    return f"{name} [{unit.group(1)}]" if unit else name
+    return f"{name} [{unit}]" if unit else name
 
 
 def fields_of(reads: list[KeyRead]) -> list[Field]:
@@ -110,7 +106,8 @@ def fields_of(reads: list[KeyRead]) -> list[Field]:
             continue
         group = next((title for title, pattern in GROUPS if pattern.search(read.key)), None)
         if group is not None:
-            seen[read.key] = Field(read.key, group, _label(read.key, read.form), read.form, read.value)
+            seen[read.key] = Field(read.key, group, _label(read.key, read.declaration.unit), read.form,
+                                   read.value)
     order = [title for title, _ in GROUPS]
     return sorted(seen.values(), key=lambda f: order.index(f.group))
 

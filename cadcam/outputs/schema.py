@@ -1,7 +1,8 @@
 """The JSON Schema of ``result.json`` (``cadcam/result.schema.json``): its generic parts are
-written in the file, and the parts that the registries declare are generated from them — the
-torque models, the design methods, the ``[solver]`` options' meanings, the target kinds, the acceptance limits, the tolerances, a joint's band weight, and each mechanism's own keys (the
-``spec.schema.json`` beside its model) and each target kind's keys (:attr:`TargetKind.schema`).
+written in the file, and the parts that the declarations hold are generated from them — the
+torque models, the design methods, the ``[solver]`` options, the target kinds and their keys
+(:attr:`TargetKind.keys`), a joint's keys with its acceptance limits, the tolerances, a spring's
+keys, the keys every mechanism has and each mechanism's own (:attr:`Mechanism.spec_keys`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
 the shipped file is what this module makes of it.
@@ -12,18 +13,19 @@ import copy
 import json
 import re
 import sys
-from importlib import resources
 from pathlib import Path
 
 from ..files import atomic_path
-from ..mechanisms.base import LINK_ANGLE, design_methods, mechanism_class, mechanism_kinds, torque_models
-from ..problem import ACCEPTANCE, BAND_WEIGHT, FUNCTIONS, MAX_MOMENT_ARM_DEGREE, SOLVER, TOLERANCES
+from ..keys import KeyTable
+from ..mechanisms.base import MECHANISM_KEYS, design_methods, mechanism_class, mechanism_kinds, torque_models
+from ..physics.springs import SPRING_KEYS
+from ..problem import JOINT_KEYS, SOLVER, acceptance_keys, tolerance_keys
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
 SCHEMA_FILE = Path(__file__).resolve().parent.parent / "result.schema.json"
-#: The file beside a mechanism's model that holds the JSON Schema of its own spec keys.
-MECHANISM_SCHEMA = "spec.schema.json"
+#: Keys whose schema is a reference to another definition of the file, not their own.
+REFERENCES = {"target": {"$ref": "#/$defs/target"}, "output_target": {"$ref": "#/$defs/target"}}
 
 
 def _kind_block(kind: str, then: dict) -> dict:
@@ -45,47 +47,50 @@ def plain(text: str) -> str:
     return re.sub(r":\w+:`~?([^`]+)`", r"\1", text).replace("``", '"')
 
 
+def table_block(table: KeyTable, common: tuple[str, ...] = ("kind",)) -> dict:
+    """The ``then`` block of a kind's table: its description, required keys, the names it may
+    hold (the ``common`` ones and its own) and its keys' properties."""
+    schema = table.schema()
+    return {"description": plain(schema["description"]), "required": schema["required"],
+            "propertyNames": {"enum": [*common, *table.names]},
+            "properties": {k: REFERENCES.get(k, prop) for k, prop in schema["properties"].items()}}
+
+
 def mechanism_schemas() -> dict[str, dict]:
-    """Each registered mechanism's schema of its own keys, read from its folder."""
+    """Each registered mechanism's ``then`` block: its own keys, after those every mechanism has."""
+    return {kind: table_block(mechanism_class(kind).spec_keys, MECHANISM_KEYS.names) for kind in mechanism_kinds()}
+
+
+def _properties(table: KeyTable) -> dict:
+    """A table's keys as JSON Schema properties, descriptions in plain text."""
     out = {}
-    for kind in mechanism_kinds():
-        package = mechanism_class(kind).__module__.rsplit(".", 1)[0]
-        path = resources.files(package) / MECHANISM_SCHEMA
-        if path.is_file():
-            schema = json.loads(path.read_text(encoding="utf-8"))
-            keys = schema.get("propertyNames", {}).get("enum")
-            if keys is not None and LINK_ANGLE.name not in keys:  # every mechanism's optional key
-                keys.append(LINK_ANGLE.name)
-            out[kind] = schema
+    for name, prop in table.schema()["properties"].items():
+        out[name] = REFERENCES.get(name, {**prop, "description": plain(prop["description"])})
     return out
 
 
 def result_schema(schema: dict) -> dict:
-    """``schema`` (the shipped file's) with its declared parts made from the registries."""
+    """``schema`` (the shipped file's) with its declared parts made from the declarations."""
     out = copy.deepcopy(schema)
     defs = out["$defs"]
     defs["torque_model"]["enum"] = list(torque_models())
-    defs["options"]["properties"]["method"]["enum"] = ["nlp", *design_methods()]
-    defs["options"]["properties"]["functions"]["enum"] = list(FUNCTIONS)
-    defs["options"]["properties"]["moment_arm_degree"]["maximum"] = MAX_MOMENT_ARM_DEGREE
-    for name, setting in SOLVER.items():
-        defs["options"]["properties"][name]["description"] = plain(setting.description)
+    options = defs["options"]["properties"]
+    for name, prop in _properties(KeyTable("[solver]", "", tuple(SOLVER.values()))).items():
+        options[name] = {**options.get(name, {}), **prop}
+    options["method"]["enum"] = ["nlp", *design_methods()]
     defs["solver_run"]["properties"]["name"]["enum"] = ["ipopt", *design_methods()]
     kinds = list(dict.fromkeys(target_kinds() + target_kinds(output=True)))
     defs["target"]["properties"]["kind"]["enum"] = kinds
     defs["target"]["allOf"] = _declared(defs["target"]["allOf"], {
-        k: target_kind(k).schema for k in kinds if target_kind(k).schema is not None})
+        k: table_block(target_kind(k).keys) for k in kinds if target_kind(k).keys is not None})
     defs["mechanism"]["allOf"] = _declared(defs["mechanism"]["allOf"], mechanism_schemas())
-    defs["mechanism"]["properties"][LINK_ANGLE.name] = {
-        "description": f"{LINK_ANGLE.description} [{LINK_ANGLE.unit}].", "type": "number"}
-    defs["joint"]["properties"]["acceptance"]["properties"] = {
-        key: {"description": f"{a.description} [{a.unit}]", "type": "number", "exclusiveMinimum": 0}
-        for key, a in ACCEPTANCE.items()}
-    defs["joint"]["properties"][BAND_WEIGHT.name] = {
-        "description": f"{BAND_WEIGHT.description} [{BAND_WEIGHT.unit}]", "type": "number", "minimum": 0}
-    defs["problem"]["properties"]["tolerances"]["properties"] = {
-        key: {"description": f"± {t.description} [{t.unit}] (default {t.default:g})", "type": "number", "minimum": 0}
-        for key, t in TOLERANCES.items()}
+    defs["mechanism"]["properties"] = _properties(MECHANISM_KEYS)
+    defs["spring"]["properties"] = _properties(SPRING_KEYS)
+    joint = defs["joint"]["properties"]
+    joint.update(_properties(JOINT_KEYS))
+    joint["acceptance"]["properties"] = _properties(acceptance_keys())
+    joint["acceptance"]["additionalProperties"] = False
+    defs["problem"]["properties"]["tolerances"]["properties"] = _properties(tolerance_keys())
     return out
 
 

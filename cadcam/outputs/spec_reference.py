@@ -1,27 +1,25 @@
-"""``docs/spec_reference.md``: the spec keys that cadcam declares in one place, as tables —
-the ``[solver]`` options (:data:`cadcam.problem.SOLVER`) and the IPOPT options cadcam passes on
-(:data:`cadcam.problem.IPOPT_OPTIONS`), the ``[workshop]`` sizes
-(:class:`cadcam.problem.Workshop`, :data:`cadcam.problem.WORKSHOP_LIMITS`), the acceptance
-limits (:data:`cadcam.problem.ACCEPTANCE`), the tolerances (:data:`cadcam.problem.TOLERANCES`) and a joint's
-band weight (:data:`cadcam.problem.BAND_WEIGHT`), the target kinds
-(:func:`cadcam.targets.target_kinds`) and each mechanism's own keys (the ``spec.schema.json``
-beside its model, with its ports, parameters and limits).
+"""``docs/spec_reference.md``: every key a spec may hold, as tables generated from their
+declarations (:class:`cadcam.keys.KeyTable`) — the top level, ``[[joints]]`` with their
+acceptance limits and every target kind, ``[arm]``, ``[[mechanisms]]`` with each mechanism's
+own keys and output laws, ``[[springs]]``, ``[solver]`` with the IPOPT options cadcam passes
+on, ``[workshop]`` and ``[tolerances]``.
 
 ``python -m cadcam.outputs.spec_reference`` writes it (``make generated``); the tests check
-that the committed page is what this module makes.
+that the committed page is what this module makes, and that every key the reader reads of any
+shipped spec is on it.
 """
 from __future__ import annotations
 
-import json
 import sys
-from dataclasses import fields
 from pathlib import Path
 
 from ..files import atomic_path
-from ..mechanisms.base import LINK_ANGLE, mechanism_class
-from ..problem import ACCEPTANCE, BAND_WEIGHT, IPOPT_OPTIONS, TOLERANCES, SOLVER, WORKSHOP_LIMITS, Workshop
-from ..targets import target_kinds
-from .schema import mechanism_schemas
+from ..keys import Key, KeyTable
+from ..mechanisms.base import MECHANISM_KEYS, mechanism_class, mechanism_kinds
+from ..physics.springs import SPRING_KEYS
+from ..problem import IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, acceptance_keys, tolerance_keys
+from ..spec import SPEC_KEYS
+from ..targets import ARM_KEYS, target_kind, target_kinds
 
 #: The page, in the repository's docs folder.
 REFERENCE_FILE = Path(__file__).resolve().parents[2] / "docs" / "spec_reference.md"
@@ -30,8 +28,9 @@ HEADER = """# Spec reference (generated)
 
 This page is written by `make generated` from the declarations in the code; do not edit it by
 hand. Every quantity is in SI units (lengths m, angles rad, forces N, rates N/m) except
-`theta_range_deg`. The README's [spec section](../README.md#spec-format-toml-si-units) explains
-the layout of a spec; `models/` holds one spec per seed case.
+`theta_range_deg` and the angles of a table whose `angle_unit` (or CSV header) says `deg`.
+The [guide](guide.md) explains the layout of a spec; `models/` holds one spec per seed case.
+A key whose default is "required" must be given.
 """
 
 
@@ -39,15 +38,49 @@ def _cell(text) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
-def _solver() -> list[str]:
-    rows = ["## `[solver]`", "", "| key | default | values | meaning |", "|---|---|---|---|"]
-    for name, s in SOLVER.items():
-        rows.append(f"| `{name}` | `{s.default!r}` | {_cell(s.form)} | {_cell(s.description)} |")
+def _rows(keys, prefix: str = "") -> list[str]:
+    """One row per key (a declared sub-table's keys after it, as ``table.key``)."""
+    rows = []
+    for k in keys:
+        rows.append(f"| `{prefix}{k.name}` | {_cell(k.constraint())} | {k.unit or '–'} | "
+                    f"{_cell(k.default_words())} | {_cell(k.description)} |")
+        if k.fields is not None:
+            rows += _rows(k.fields.keys, f"{prefix}{k.name}.")
+    return rows
+
+
+def _table(table: KeyTable, heading: str = "##", title: str | None = None) -> list[str]:
+    """A section: the table's name, what it sets, and its keys."""
+    head = [f"{heading} `{title or table.path}`", "", _cell(table.description), ""]
+    if not table.keys:
+        return head[:-1] + ["", "No keys but `kind`."]
+    return head + ["| key | value | unit | default | meaning |", "|---|---|---|---|---|", *_rows(table.keys)]
+
+
+def _targets(output: bool) -> list[str]:
+    """A section per target kind: a joint's torque laws, or a mechanism's output laws."""
+    rows = []
+    for kind in target_kinds(output):
+        if output and kind in target_kinds():
+            continue  # listed with the torque laws
+        table = target_kind(kind).keys
+        where = "[mechanisms.output_target]" if output else "[joints.target]"
+        rows += ["", *_table(table, "###", f'{where} kind = "{kind}"')]
+    return rows
+
+
+def _mechanism(kind: str) -> list[str]:
+    cls = mechanism_class(kind)
+    rows = _table(cls.spec_keys, "###")
+    rows[3:3] = [f"Ports: {', '.join(f'`{p}`' for p in cls.ports)}. "
+                 f"Unknowns per angle: {', '.join(f'`{q.name}` [{q.unit}]' for q in cls.per_angle)}."
+                 + (" Limits: " + ", ".join(f"{lim.what} (`{lim.bound}`)" for lim in cls.limits) + "."
+                    if cls.limits else ""), ""]
     return rows
 
 
 def _ipopt() -> list[str]:
-    rows = ["## `[solver.ipopt]`", "", "The IPOPT options cadcam passes on, and the values it allows (IPOPT's own "
+    rows = ["### `[solver.ipopt]`", "", "The IPOPT options cadcam passes on, and the values it allows (IPOPT's own "
             "documentation describes each; IPOPT's default applies where one is not given). Any other option is "
             "refused before work, those naming files or libraries among them; `max_iter` and `tol` are "
             "`[solver]` keys. A stop at IPOPT's acceptable level has its own status, `acceptable`.", "",
@@ -55,76 +88,40 @@ def _ipopt() -> list[str]:
     return rows + [f"| `{name}` | {_cell(s.form)} |" for name, s in IPOPT_OPTIONS.items()]
 
 
-def _workshop() -> list[str]:
-    rows = ["## `[workshop]`", "", "Sizes of the workshop files [m]; each `cadcam design` flag of the same name "
-            "(`--bore-diameter` …) overrides the spec's.", "", "| key | default [m] | range [m] |", "|---|---|---|"]
-    for f in fields(Workshop):
-        lo, hi = WORKSHOP_LIMITS[f.name]
-        rows.append(f"| `{f.name}` | `{f.default!r}` | {lo:g} to {hi:g} |")
-    return rows
-
-
-def _acceptance() -> list[str]:
-    rows = ["## `[joints.acceptance]`", "", "What a design must meet on the fine re-check to be a `success` "
-            "(else its status is `target_missed` and `cadcam design` exits 1); a limit with a default applies "
-            "to every joint with a torque target unless its spec sets another.", "",
-            "| key | unit | default | limits |", "|---|---|---|---|"]
-    return rows + [f"| `{key}` | {a.unit} | {'–' if a.default is None else f'`{a.default!r}`'} | {_cell(a.description)} |"
-                   for key, a in ACCEPTANCE.items()]
-
-
-def _tolerances() -> list[str]:
-    rows = ["## `[tolerances]`", "", "How far a built part may be from its design, ± around each nominal value: "
-            "every design reports the torque band they give (`tolerance_band` in `result.json`, the summary, the "
-            "shaded band of `torque.png`).", "", "| key | unit | default | tolerance on |", "|---|---|---|---|"]
-    rows += [f"| `{key}` | {t.unit} | `{t.default!r}` | {_cell(t.description)} |" for key, t in TOLERANCES.items()]
-    return rows + ["", f"A joint's `{BAND_WEIGHT.name}` [{BAND_WEIGHT.unit}] (`[[joints]]`, default 0): "
-                   f"{_cell(BAND_WEIGHT.description)}."]
-
-
-def _targets() -> list[str]:
-    return ["## Target kinds", "",
-            "A joint's `[joints.target]` (a torque law [N·m]): " + ", ".join(f"`{k}`" for k in target_kinds()) + ".",
-            "",
-            "A mechanism's `[mechanisms.output_target]` (an output law [m]): "
-            + ", ".join(f"`{k}`" for k in target_kinds(output=True)) + "."]
-
-
-def _kind_of(prop: dict) -> str:
-    """The JSON type of a key, in words."""
-    if "enum" in prop:
-        return "one of " + ", ".join(f"`{json.dumps(v)}`" for v in prop["enum"])
-    if "properties" in prop:
-        return "table"
-    if prop.get("$ref", "").endswith("/numbers") or "items" in prop:
-        return "array"
-    return prop.get("type", "value")
-
-
-def _mechanism(kind: str, schema: dict) -> list[str]:
-    cls = mechanism_class(kind)
-    rows = [f"### `kind = \"{kind}\"`", "", _cell(schema.get("description", "")), "",
-            f"Ports: {', '.join(f'`{p}`' for p in cls.ports)}. "
-            f"Unknowns per angle: {', '.join(f'`{q.name}` [{q.unit}]' for q in cls.per_angle)}."]
-    if cls.limits:
-        rows[-1] += " Limits: " + ", ".join(f"{lim.what} (`{lim.bound}`)" for lim in cls.limits) + "."
-    required = set(schema.get("required", ()))
-    rows += ["", "| key | required | type | meaning |", "|---|---|---|---|"]
-    for key, prop in schema.get("properties", {}).items():
-        rows.append(f"| `{key}` | {'yes' if key in required else 'no'} | {_kind_of(prop)} | "
-                    f"{_cell(prop.get('description', ''))} |")
-    return rows
-
-
 def reference() -> str:
     """The page's text."""
-    rows = [HEADER, *_solver(), "", *_ipopt(), "", *_workshop(), "", *_acceptance(), "", *_tolerances(), "", *_targets(), "", "## Mechanisms", "",
-            "Keys every `[[mechanisms]]` table has: `kind`, `name`, `joint` (1-based), the profile's "
-            "`basis`, `order`, `rho_min`, `rho_max`, optional `min_curvature_radius` and optional "
-            f"`{LINK_ANGLE.name}` [{LINK_ANGLE.unit}] ({_cell(LINK_ANGLE.description)}); then its own:"]
-    for kind, schema in mechanism_schemas().items():
-        rows += ["", *_mechanism(kind, schema)]
+    solver = KeyTable("[solver]", "How the design is transcribed and solved.", tuple(SOLVER.values()))
+    rows = [HEADER, *_table(SPEC_KEYS, title="top level"), "", *_table(JOINT_KEYS), "",
+            *_table(acceptance_keys(), "###"), "", "## Target kinds", "",
+            "A joint's `[joints.target]` is a torque law [N·m] of its angle (`kind` and the kind's keys); "
+            "`expression` and `table` may also be a mechanism's `[mechanisms.output_target]`, a law [m].",
+            *_targets(output=False), "", *_table(ARM_KEYS), "", *_table(MECHANISM_KEYS)]
+    for kind in mechanism_kinds():
+        rows += ["", *_mechanism(kind)]
+    rows += ["", "### Output laws a mechanism brings", "",
+             "Kinds of `[mechanisms.output_target]` beside `expression` and `table`.", *_targets(output=True),
+             "", *_table(SPRING_KEYS), "", *_table(solver), "", *_ipopt(), "", *_table(WORKSHOP_KEYS), "",
+             *_table(tolerance_keys())]
     return "\n".join(rows) + "\n"
+
+
+def declared_keys() -> set[tuple[str, str]]:
+    """(table path, key name) of every key on the page: what a test holds the reader's keys
+    against."""
+    tables = [SPEC_KEYS, JOINT_KEYS, acceptance_keys(), ARM_KEYS, MECHANISM_KEYS, SPRING_KEYS, WORKSHOP_KEYS,
+              tolerance_keys(), KeyTable("[solver]", "", tuple(SOLVER.values()))]
+    tables += [mechanism_class(k).spec_keys for k in mechanism_kinds()]
+    tables += [target_kind(k).keys for k in dict.fromkeys(target_kinds() + target_kinds(output=True))]
+    out = set()
+
+    def add(path: str, keys: tuple[Key, ...]):
+        for k in keys:
+            out.add((path, k.name))
+            if k.fields is not None:
+                add(f"{path}.{k.name}", k.fields.keys)
+    for table in tables:
+        add(table.path, table.keys)
+    return out
 
 
 def main() -> int:

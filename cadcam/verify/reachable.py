@@ -27,6 +27,7 @@ import numpy as np
 from ..designs import default_start
 from ..mechanisms.base import kinds_in
 from ..problem import Problem
+from ..spec import implausible_units
 from .evaluate import evaluate
 
 #: Angles along a joint's range on which the target's work W(θ) is integrated.
@@ -85,10 +86,12 @@ class _CircularStart:
 
 
 def advice(problem: Problem) -> list[str]:
-    """What the problem's mechanisms cannot do exactly, one line each with its fix, told
-    before the solve without refusing it (:meth:`cadcam.mechanisms.base.Mechanism.advice`:
-    Endo2010's convexity bound, for one)."""
-    return [note for kind in kinds_in(problem.mechanisms) for note in kind.advice(problem)]
+    """What the problem's mechanisms cannot do exactly, and angles plausible only in the other
+    unit (:func:`cadcam.spec.implausible_units`), one line each with its fix, told before the
+    solve without refusing it (:meth:`cadcam.mechanisms.base.Mechanism.advice`: Endo2010's
+    convexity bound, for one)."""
+    return [*implausible_units(problem),
+            *(note for kind in kinds_in(problem.mechanisms) for note in kind.advice(problem))]
 
 
 def _over_limit(joint, rmse_bound: float, target_rms: float) -> str | None:
