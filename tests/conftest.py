@@ -17,6 +17,25 @@ SPEC_1DOF = ROOT / "models" / "johnston2023_1dof.toml"
 SPEC_RR = ROOT / "models" / "johnston2023_rr_arm.toml"
 TABLE3 = ROOT / "models" / "johnston2023_table3_design.json"
 TABLE4 = ROOT / "models" / "johnston2023_table4_design.json"
+#: A package outside cadcam that adds a mechanism through the entry-point group.
+PLUGIN = ROOT / "tests" / "plugin"
+
+
+def toy_pulley():
+    """The plug-in's mechanism class, imported from its folder and registered, as its entry
+    point registers it when the package is installed."""
+    import importlib.util
+    import sys
+
+    from cadcam.mechanisms.base import register
+
+    module = sys.modules.get("cadcam_toy_pulley")
+    if module is None:
+        spec = importlib.util.spec_from_file_location("cadcam_toy_pulley", PLUGIN / "cadcam_toy_pulley.py")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules["cadcam_toy_pulley"] = module
+        spec.loader.exec_module(module)
+    return register(module.ToyPulley)
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -10,8 +10,10 @@ and dl_k/dθ = √(ρ_k² + ρ_k′²)(α_k) dα_k/dθ for the wrapped lengths l
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
+from importlib.metadata import entry_points
 from typing import ClassVar
 
 import casadi as ca
@@ -27,22 +29,59 @@ ENERGY = "energy"
 
 _REGISTRY: dict[str, type] = {}
 
+#: The entry-point group through which an installed package adds mechanisms: each entry names a
+#: :class:`Mechanism` subclass (``toy_pulley = "cadcam_toy_pulley:ToyPulley"``), registered the
+#: first time the registry is read.
+ENTRY_POINT_GROUP = "cadcam.mechanisms"
+_plugins_loaded = False
+
 
 def register(cls):
-    """Class decorator: make a mechanism available to specs under ``cls.kind``."""
+    """Class decorator: make a mechanism available to specs under ``cls.kind``, once it is
+    checked to provide every required hook (:func:`missing_hooks`).
+
+    Raises
+    ------
+    TypeError
+        A hook the class leaves out, named with the group it belongs to.
+    ValueError
+        Another class registered under the same kind.
+    """
+    missing = missing_hooks(cls)
+    if missing:
+        raise TypeError(f"mechanism {cls.__name__} ({cls.kind or 'no kind'}) does not provide "
+                        f"{', '.join(missing)}: see the checklist in docs/mechanisms.md")
     if cls.kind in _REGISTRY and _REGISTRY[cls.kind] is not cls:
         raise ValueError(f"a mechanism named {cls.kind!r} is already registered")
     _REGISTRY[cls.kind] = cls
     return cls
 
 
+def _load_plugins() -> None:
+    """Register the mechanisms that installed packages name in :data:`ENTRY_POINT_GROUP`, once;
+    one that fails to load is left out with one warning line, so a broken package cannot stop
+    every design."""
+    global _plugins_loaded
+    if _plugins_loaded:
+        return
+    _plugins_loaded = True
+    for entry in entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            register(entry.load())
+        except Exception as exc:  # a third party's import error, or a class that misses hooks
+            warnings.warn(f"cadcam: the mechanism {entry.name!r} of an installed package ({entry.value}) is "
+                          f"left out: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", stacklevel=2)
+
+
 def mechanism_class(kind: str):
     """The registered mechanism class named ``kind``; KeyError if there is none."""
+    _load_plugins()
     return _REGISTRY[kind]
 
 
 def mechanism_kinds() -> tuple[str, ...]:
-    """Names of the registered mechanisms."""
+    """Names of the registered mechanisms, those of installed packages included."""
+    _load_plugins()
     return tuple(sorted(_REGISTRY))
 
 
@@ -227,6 +266,51 @@ class Profile:
     rho_max: float
     #: Smallest radius of curvature allowed over the wrapped range [m] (0: convex only).
     min_curvature_radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class Hook:
+    """One member a mechanism provides, declared once: its group, whether every mechanism must
+    write it, and what it is for; the checklist of docs/mechanisms.md follows these (a test
+    holds the two in step) and :func:`register` refuses a class that lacks a required one."""
+
+    name: str
+    group: str
+    required: bool = False
+
+
+def _hooks(group: str, required: tuple[str, ...], optional: tuple[str, ...] = ()) -> tuple[Hook, ...]:
+    return tuple(Hook(n, group, True) for n in required) + tuple(Hook(n, group, False) for n in optional)
+
+
+#: The hooks of the interface, by group, in the order docs/mechanisms.md lists them.
+HOOKS = (
+    *_hooks("declarations", ("kind", "citation", "ports", "per_angle", "residual_rows"),
+            ("parameters", "unknown_bounds", "n_profiles", "closure_rows", "output", "shorthand", "spec_keys")),
+    *_hooks("geometry", ("residual", "guess", "displacements"),
+            ("closure", "profile_rotation", "profile_domain", "wrap_end", "max_span", "windings")),
+    *_hooks("limits", (), ("limits", "margins", "fixed_sign_ports", "advice")),
+    *_hooks("starts and methods", (), ("start_radius", "prepare_start", "methods", "force_models", "force_arms",
+                                       "legacy_force_models", "reference_angle")),
+    *_hooks("spec", (), ("from_spec", "spec_fields")),
+    *_hooks("drawing", (), ("picture", "link_rotation", "segments", "wraps", "circles", "spring_line",
+                            "summary_lines")),
+    *_hooks("files", (), ("port_length_from_file", "output_from_file", "free_spans_from_file")),
+)
+
+#: Members every mechanism has from the base class or derives from its hooks: not hooks.
+PROVIDED = ("name", "joint", "profiles", "link_angle", "output_target", "parameter_names", "unknowns",
+            "unknown_units", "residual_units", "margin_names", "spec_units", "named_parameters", "named_unknowns",
+            "parameter_values", "placement_steps", "world_points", "arm", "planar", "offers", "bases",
+            "structure", "citations", "check_torque_model", "has_file_model")
+
+
+def missing_hooks(cls) -> list[str]:
+    """The required :data:`HOOKS` that ``cls`` neither writes nor inherits from a mechanism
+    other than the base, as ``group: name``."""
+    def written(name: str) -> bool:
+        return any(name in vars(k) for k in cls.__mro__ if k is not Mechanism and issubclass(k, Mechanism))
+    return [f"{h.group}: {h.name}" for h in HOOKS if h.required and not written(h.name)]
 
 
 @dataclass(frozen=True)

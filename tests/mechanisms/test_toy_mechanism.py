@@ -1,7 +1,8 @@
-"""The mechanism interface carries a mechanism defined outside cadcam: ``tests/mechanisms/toy_pulley.py``
+"""The mechanism interface carries a mechanism defined outside cadcam: ``tests/plugin/cadcam_toy_pulley.py``
 (a pulley turning with its joint, its cable running to a fixed point A through a spring) plugs
 in by registration alone, and is evaluated, checked against closed forms and independent
-geometry, designed and written out by the CLI with no other file changed."""
+geometry, designed and written out by the CLI with no other file changed
+(tests/mechanisms/test_entry_point.py installs it as a package instead)."""
 import json
 
 import numpy as np
@@ -13,8 +14,9 @@ import cadcam.cli
 from cadcam.verify.model import torque_function
 from cadcam.mechanisms.base import departure_solver
 
-from . import toy_pulley  # noqa: F401  (registers "toy_pulley")
-from ..conftest import check_output_file
+from ..conftest import check_output_file, toy_pulley
+
+toy_pulley()  # registers "toy_pulley", as the entry point of its installed package does
 
 ANCHOR = (0.0, 0.10)   # m: A straight above the joint
 RATE, PRELOAD, TRAVEL = 1000.0, 2.0, 0.08  # N/m, N, m
@@ -27,7 +29,7 @@ X0 = 0.010  # m
 def write_spec(path, expression="0.5 + 0.3*theta", theta_range=(-10.0, 90.0), grid=46):
     path.write_text(f"""
 name = "toy pulley"
-source = "tests/mechanisms/toy_pulley.py: anchored-spring pulley (Ludovico2021, Endo2010) to a point"
+source = "tests/plugin/cadcam_toy_pulley.py: anchored-spring pulley (Ludovico2021, Endo2010) to a point"
 torque_model = "energy"
 
 [solver]

@@ -1,4 +1,6 @@
-"""A toy mechanism for the tests: a noncircular pulley whose cable runs to a fixed point.
+"""A mechanism from outside cadcam, installed as a package of its own (``tests/plugin``'s
+pyproject.toml names it in the entry-point group ``cadcam.mechanisms``): a noncircular pulley
+whose cable runs to a fixed point.
 
 The pulley ρ(φ) turns with its joint (the base class's ``profile_rotation``: the profile point
 at polar angle φ sits at world angle φ − θ). The cable is anchored on the profile at φ = 0,
@@ -31,8 +33,15 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from cadcam.keys import Key, KeyTable
 from cadcam.mechanisms.anchored_pulley.model import AnchoredPulley
-from cadcam.mechanisms.base import Mechanism, Quantity, register
+from cadcam.mechanisms.base import Mechanism, Quantity
+
+#: Its own keys of a ``[[mechanisms]]`` table.
+SPEC_KEYS = KeyTable('kind = "toy_pulley"', "A pulley turning with its joint, its cable running to a fixed point "
+                     "through a spring there.", (
+    Key("anchor", "m", "[ax, ay]: the fixed point the cable runs to, outside rho_max", "numbers", length=2),
+))
 
 
 def _canonical(q):
@@ -41,7 +50,6 @@ def _canonical(q):
     return ca.vertcat(ca.sqrt(a.anchor_x ** 2 + a.anchor_y ** 2), ca.atan2(a.anchor_y, a.anchor_x), 1, 0, 0, 0)
 
 
-@register
 @dataclass(frozen=True)
 class ToyPulley(Mechanism):
     """A pulley turning with its joint, its cable running to the fixed point
@@ -54,6 +62,7 @@ class ToyPulley(Mechanism):
     #: one tag of cadcam.citations.PAPERS (a result lists it); Endo2010 is cited above only
     citation = "Ludovico2021"
     ports = ("cable",)
+    spec_keys = SPEC_KEYS
     parameters = (Quantity("anchor_x", "m", "the fixed point's x"), Quantity("anchor_y", "m", "the fixed point's y"))
     per_angle = AnchoredPulley.per_angle
     residual_rows = AnchoredPulley.residual_rows
@@ -89,11 +98,9 @@ class ToyPulley(Mechanism):
 
     @classmethod
     def from_spec(cls, reader, name, joint, profiles, theta_range=(0.0, 0.0)):
-        form = "[ax, ay]: the fixed point the cable runs to [m], outside rho_max"
-        anchor = reader.get("anchor", lambda v: isinstance(v, list) and len(v) == 2
-                            and all(reader.number(x) for x in v), form)
+        anchor = reader.read(SPEC_KEYS["anchor"])
         if not np.hypot(*anchor) > max(p.rho_max for p in profiles):
-            reader.fail(reader.key("anchor"), anchor, form)
+            reader.fail(reader.key("anchor"), anchor, SPEC_KEYS["anchor"].form())
         return cls(name=name, joint=joint, profiles=profiles,
                    anchor_x=float(anchor[0]), anchor_y=float(anchor[1]))
 
