@@ -11,6 +11,7 @@ and dl_k/dθ = √(ρ_k² + ρ_k′²)(α_k) dα_k/dθ for the wrapped lengths l
 from __future__ import annotations
 
 import warnings
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib.metadata import entry_points
@@ -241,7 +242,7 @@ LINK_ANGLE = Key("link_angle", "rad", "the world angle of the joint's link, from
 #: (:attr:`Mechanism.spec_keys`): its kind, name and joint, its profiles' basis and limits.
 MECHANISM_KEYS = KeyTable("[[mechanisms]]", "A mechanism on one joint with its designed profiles (one basis and "
                           "one set of limits for all its profiles); then the keys of its kind.", (
-    Key("kind", "", "the mechanism's kind (see below)", "string", min_length=1),
+    Key("kind", "", "the mechanism's kind", "string", min_length=1),
     Key("name", "", "the mechanism's name", "string", default=None, default_text="'mechanism N'"),
     Key("joint", "", "the joint it turns with (1-based)", "integer", low=1),
     Key("basis", "", "the profiles' polynomial basis", "choice", choices=BASES, default="chebyshev"),
@@ -314,8 +315,9 @@ def missing_hooks(cls) -> list[str]:
 
 
 @dataclass(frozen=True)
-class Mechanism:
-    """Base of every mechanism: a name, the joint it turns with (0-based) and its profiles.
+class Mechanism(ABC):
+    """Base of every mechanism: a name, the joint it turns with (0-based) and its profiles; an
+    abstract class whose required hooks (:data:`HOOKS`) :func:`register` checks at import.
 
     Subclasses are frozen dataclasses that add their numbers as fields and define the class
     attributes and class methods below; see docs/mechanisms.md.
@@ -412,6 +414,7 @@ class Mechanism:
                          if quantity.placed else 0.0 for quantity in self.parameters])
 
     @classmethod
+    @abstractmethod
     def residual(cls, bases, theta, z, c, q):
         """(R, branch_error): R(z) = 0 fixes z; branch_error ≥ 0 is zero on the physical branch."""
         raise NotImplementedError
@@ -424,11 +427,13 @@ class Mechanism:
         return ca.SX(0, 1)
 
     @classmethod
+    @abstractmethod
     def guess(cls, bases, theta, c, q):
         """A closed-form start for z (a column of len(unknowns))."""
         raise NotImplementedError
 
     @classmethod
+    @abstractmethod
     def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
         """Port displacements d [m] from the reference pose (a column of len(ports))."""
         raise NotImplementedError
