@@ -49,10 +49,9 @@ STANDARD = "-std=c99"
 #: Flags the generated C is tested to compile with warning-free, at -O1 and -O2 (tests/export/test_export.py).
 WARNINGS = [STANDARD, "-Wall", "-Wextra", "-Werror"]
 #: The flags of ``--format shared`` (with ``-fPIC -shared``): the standard without the
-#: warnings, which the tests check and which made Sec. 10.4's exported problem compile in 22.8 s
-#: instead of 18.8 s (medians of 3, by hand, 2026-11-23); -O1: it compiled in 60–80 % of the time
-#: -O2 took, into a constraint Jacobian and a Lagrangian Hessian that evaluate about as fast
-#: (``make bench`` runs of 2026-11-23; see CHANGELOG).
+#: warnings, which the tests check and which lengthen the compile; -O1, because -O2 compiles
+#: markedly slower into functions that evaluate about as fast (``make bench`` times the
+#: export's compile, benchmarks/results.md).
 CFLAGS = [STANDARD, "-O1"]
 
 
