@@ -5,7 +5,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: app docs-images demo test lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
+.PHONY: app docs-images demo test test-slow lint bench convergence clean generated study-weights_1dof reproduce-johnston2023 reproduce-ludovico2021 reproduce-endo2010 reproduce-fedorov2018 check-energy
 
 # cadcam (editable) with its dependencies — casadi, numpy, scipy, matplotlib, ezdxf, manifold3d,
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
@@ -28,9 +28,14 @@ demo: $(STAMP)
 	$(VENV)/bin/cadcam design docs/first_balancer.toml -o out/first_balancer
 	@echo "demo outputs: out/first_balancer/ (result.json, verification.md, *.png, cam1.dxf/.svg and the other workshop files)"
 
-# one worker per core; a test module stays on one worker (its module fixtures are built once)
+# one worker per core; a test module stays on one worker (its module fixtures are built once);
+# the tests marked slow (designs too heavy for five minutes on two cores) are left to test-slow
 test: $(STAMP)
-	$(PY) -m pytest -q -n auto --dist loadfile
+	$(PY) -m pytest -q -n auto --dist loadfile -m "not slow"
+
+# the tests marked slow, which CI runs after make test
+test-slow: $(STAMP)
+	$(PY) -m pytest -q -n auto --dist loadfile -m slow
 
 # ruff (the rules in pyproject.toml: defects, not style) and mypy on the public API; both
 # report before the target fails

@@ -216,6 +216,10 @@ def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: boo
         data = _five_bar(r, n_joints)
     elif kind == "table":
         data = _table(r, base, output)
+    elif kind == "expression":  # its value's unit is the law's: N·m for a torque, m for an output
+        keys = declared.keys
+        data = {"expression": r.read(keys["expression"].within(unit="m" if output else "N·m")),
+                "parameters": r.read(keys["parameters"])}
     else:
         data = {k.name: r.read(k) for k in declared.keys.keys}
     r.done()
@@ -571,9 +575,9 @@ def _tolerances(r: _Reader) -> tuple:
 def _workshop(r: _Reader) -> Workshop:
     """The ``[workshop]`` table: sizes of the workshop files [m], each key as
     :data:`cadcam.problem.WORKSHOP_KEYS` declares it; its defaults where a key is missing."""
-    sizes = {k.name: float(r.read(k)) for k in WORKSHOP_KEYS.keys if k.name in r.table}
+    sizes = {k.name: r.read(k, None) for k in WORKSHOP_KEYS.keys}
     r.done()
-    return Workshop(**sizes)
+    return Workshop(**{name: float(v) for name, v in sizes.items() if v is not None})
 
 
 def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path(".")):

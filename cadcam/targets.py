@@ -423,7 +423,7 @@ KIND = Key("kind", "", "the kind of law", "string", min_length=1)
 G = Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81)
 EXPRESSION_KEYS = KeyTable('kind = "expression"', "A law written as an expression of theta (theta1, theta2… "
                            "on several joints), parsed, never evaluated as code.", (
-    Key("expression", "", "an expression of theta such as '0.08*theta**2' (a torque [N·m] or an output [m])",
+    Key("expression", "", "an expression of theta such as '0.08*theta**2', in N·m for a torque, m for an output",
         "string", min_length=1),
     Key("parameters", "", "named numbers the expression uses (name = number; names other than functions, pi, e "
         "and theta, theta1, theta2…)", "table", default={}, check=lambda v: all(

@@ -57,7 +57,7 @@ def test_cli_set_and_unknown_variant(tmp_path, capsys):
     d.write_text(TABLE3.read_text())
     assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--grid", "5",
                  "--set", "springs.2.rate=0.0"]) == 2
-    assert "springs[2].rate = 0.0: expected a positive spring rate" in capsys.readouterr().err
+    assert "springs[2].rate = 0.0: expected the spring's rate k: a number > 0" in capsys.readouterr().err
     assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--variant", "nope"]) == 2
     assert "no variant 'nope'" in capsys.readouterr().err
     assert main(["evaluate", str(SPEC_RR), "--design", str(d), "--grid", "5",

@@ -10,7 +10,7 @@ from cadcam.app.form import field_of_error
 from cadcam.app.state import TEMPLATES, DesignState
 from cadcam.solve import compiled
 from cadcam.solve.ipopt import COMPILED_CACHED, EXPANDED_COMPILING
-from cadcam.spec import KeyRead, read_keys, read_spec_data
+from cadcam.spec import read_keys, read_spec_data
 
 from ..conftest import needs_cc, wait_for_library
 
@@ -23,7 +23,7 @@ def wire_cam():
 def test_the_fields_carry_the_readers_forms_and_units(wire_cam):
     rate = wire_cam.field("springs.1.rate")
     assert (rate.group, rate.label, rate.help, rate.value) == (
-        "Springs", "rate [N/m]", "a positive spring rate [N/m]", 1100.0)
+        "Springs", "rate [N/m]", "the spring's rate k: a number > 0 [N/m]", 1100.0)
     assert wire_cam.field("cams.1.target.expression").label == "target.expression [N·m]"
     assert wire_cam.field("workshop.bore_diameter").value == 0.006  # the Workshop default, not None
     keys = [f.key for f in wire_cam.fields]
@@ -34,7 +34,10 @@ def test_read_keys_records_every_key_with_its_value_or_default():
     path = "models/roller_follower_pendulum.toml"
     _, reads = read_keys(read_spec_data(path))
     by_key = {r.key: r for r in reads}
-    assert by_key["joints.1.target.mass"] == KeyRead("joints.1.target.mass", "a positive mass [kg]", 0.5, True)
+    mass = by_key["joints.1.target.mass"]
+    assert (mass.key, mass.form, mass.value, mass.given) == (
+        "joints.1.target.mass", "the pendulum's mass m: a number > 0 [kg]", 0.5, True)
+    assert mass.declaration.unit == "kg"
     assert by_key["joints.1.target.g"].value == 9.81 and not by_key["joints.1.target.g"].given
 
 
@@ -80,7 +83,7 @@ def test_a_bad_value_is_one_line_beside_its_field():
     state.edit("springs.1.rate", "-5")
     outcome = state.design("springs.1.rate")
     assert outcome.result is None and outcome.field == "springs.1.rate"
-    assert outcome.error.endswith("springs[1].rate = -5: expected a positive spring rate [N/m]")
+    assert outcome.error.endswith("springs[1].rate = -5: expected the spring's rate k: a number > 0 [N/m]")
     assert "\n" not in outcome.error
 
 
@@ -210,7 +213,7 @@ def test_the_link_angle_is_a_geometry_field_of_every_mechanism():
     state = DesignState.template("roller_follower_pendulum")
     link = state.field("mechanisms.1.link_angle")
     assert (link.group, link.label, link.value) == ("Geometry", "link_angle [rad]", None)
-    assert link.help == f"{LINK_ANGLE.description} [rad]"
+    assert link.help == LINK_ANGLE.form() and link.help.endswith("[rad]")
     assert state.edit("mechanisms.1.link_angle", "1.2") is None
     assert load_problem(state.path, overrides=state.override_pairs()).mechanisms[0].link_angle == 1.2
 

@@ -136,17 +136,17 @@ def test_spec_five_bar_targets_evaluate_and_round_trip():
 
 @pytest.mark.parametrize("changes, expected", [
     ({"masses": [0.4, 0.1, 0.2, 0.24, 0.25]},
-     "cams[1].target.masses = [0.4, 0.1, 0.2, 0.24, 0.25]: expected a list of 6 positive"),
+     "cams[1].target.masses = [0.4, 0.1, 0.2, 0.24, 0.25]: expected the point masses m1…m6: a list of 6 numbers each > 0 [kg]"),
     ({"masses": [0.4, 0.1, -0.2, 0.24, 0.25, 0.39]}, "cams[1].target.masses = [0.4, 0.1, -0.2"),
     ({"com": [0.25, 0.04, -0.25, 0.04]}, "cams[1].target.com = [0.25, 0.04, -0.25, 0.04]: "
-     "expected a list [l1, l2, l3, l5] of 4 distances ≥ 0 [m]"),
-    ({"crank": 0.0}, "cams[1].target.crank = 0.0: expected a positive crank length"),
-    ({"fore": "0.5"}, "cams[1].target.fore = '0.5': expected a forearm length"),
+     "expected the distances [l1, l2, l3, l5]: a list of 4 numbers each ≥ 0 [m]"),
+    ({"crank": 0.0}, "cams[1].target.crank = 0.0: expected the crank's length l_c: a number > 0 [m]"),
+    ({"fore": "0.5"}, "cams[1].target.fore = '0.5': expected the forearm's length l_a, elbow to tip: a number ≥ 0 [m]"),
     ({"joint": 3}, "cams[1].target.joint = 3: expected 1 (link 1, theta1) or 2"),
     ({"joint": 1.0}, "cams[1].target.joint = 1.0: expected 1"),
-    ({"upper": None}, "missing key 'cams[1].target.upper': expected a positive upper-arm"),
+    ({"upper": None}, "missing key 'cams[1].target.upper': expected the upper arm's length l_u: a number > 0 [m]"),
     ({"lengths": [0.5, 0.5]}, "unknown key 'cams[1].target.lengths'"),
-    ({"kind": "five-bar"}, "cams[1].target.kind = 'five-bar': expected one of"),
+    ({"kind": "five-bar"}, "cams[1].target.kind = 'five-bar': expected the kind of law: one of"),
 ])
 def test_malformed_five_bar_target_gets_one_line(changes, expected):
     with pytest.raises(SpecError) as err:

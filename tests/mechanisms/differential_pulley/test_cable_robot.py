@@ -91,7 +91,7 @@ def test_helical_circles_wound_oppositely_keep_the_idler_still_over_two_and_a_ha
 
 @pytest.mark.parametrize("key,value,message", [
     ("lift_share", 0.6, "in (0, 0.5)"),
-    ("overlap", 0.5, "in [0, lift_share)"),
+    ("overlap", 0.5, "below lift_share: a number in [0, 0.45)"),
     ("anchor", [0.0], "[x, y]"),
     ("amplification", -6.0, "ratio G"),
 ])

@@ -226,8 +226,8 @@ def test_balancer_result_recomputes_from_its_json(balancer, tmp_path):
 
 @pytest.mark.parametrize("key, value, message", [
     ("mechanisms.1.slider_range", [0.05, 0.2], "x_min > rho_max + idler_radius"),
-    ("mechanisms.1.output_target.kind", "pendulum", "one of ('expression', 'table', 'spring_balance', 'cable_robot')"),
-    ("mechanisms.1.groove", "spiral", "one of ('flat', 'helical')"),
+    ("mechanisms.1.output_target.kind", "pendulum", "the kind of law: one of 'expression', 'table', 'spring_balance', 'cable_robot'"),
+    ("mechanisms.1.groove", "spiral", "(planar per turn): one of 'flat', 'helical'"),
     ("mechanisms.1.output_target.expression", "1/(theta-theta)", "mechanisms[1].output_target"),
 ])
 def test_malformed_differential_specs_get_one_line_errors(key, value, message):

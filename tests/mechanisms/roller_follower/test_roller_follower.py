@@ -215,13 +215,13 @@ def test_spec_round_trip_keeps_the_placement():
 
 
 @pytest.mark.parametrize("key, value, expected", [
-    ("roller_radius", -0.005, "mechanisms[1].roller_radius = -0.005: expected a positive roller radius"),
+    ("roller_radius", -0.005, "mechanisms[1].roller_radius = -0.005: expected the roller's radius r: a number > 0 [m]"),
     ("follower_angle", "up", "mechanisms[1].follower_angle = 'up': expected the world direction"),
     ("max_pressure_angle", 2.0, "mechanisms[1].max_pressure_angle = 2.0: expected the largest pressure"),
-    ("min_pitch_curvature_ratio", 0.5, "mechanisms[1].min_pitch_curvature_ratio = 0.5: expected a ratio ≥ 1"),
+    ("min_pitch_curvature_ratio", 0.5, "mechanisms[1].min_pitch_curvature_ratio = 0.5: expected the pitch curve's least radius of curvature in roller radii (1: convexity only; 2–3 usual): a number ≥ 1"),
     ("offset", 0.02, "mechanisms[1].offset = 0.02: expected an offset with |offset|"),
     ("axis_angle", 2.5, "mechanisms[1].axis_angle = 2.5: expected a placement whose contact angles"),
-    ("initial_radius", 0.05, "mechanisms[1].initial_radius = 0.05: expected the circular start's radius"),
+    ("initial_radius", 0.05, "mechanisms[1].initial_radius = 0.05: expected the radius of the NLP's circular start, inside (rho_min, rho_max): a number in ("),
     ("roller_radious", 0.005, "unknown key 'mechanisms[1].roller_radious'"),
 ])
 def test_bad_spec_key_is_one_line_naming_it(key, value, expected):
