@@ -19,7 +19,7 @@ from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
 from .interrupts import INTERRUPTED, STOP, interrupt_arrived, signals_stop_the_run
-from .files import FolderBusy, files_of_others, held_folder, in_the_way
+from .files import FolderBusy, NotCadcams, held_folder, refuse_files_of_others
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
@@ -125,25 +125,17 @@ def cmd_design(args) -> int:
     for note in advice(problem):
         print(f"cadcam: note: {note}", file=sys.stderr, flush=True)
     with held_folder(args.output) as out:
-        _check_files_are_ours(out)
+        _check_files_are_ours(out, problem, args.figures)
         return _design_into(args, problem, out)
 
 
-def _check_files_are_ours(out: Path) -> None:
-    """Refuse, before any work, an output folder that holds a folder named like an output, or
-    files named like outputs that cadcam did not write (it replaces only its own files)."""
-    from .outputs.run_files import RUN_FILES
+def _check_files_are_ours(out: Path, problem, figures: bool) -> None:
+    """Refuse, before any work, an output folder where the run would replace or remove
+    something that is not a file cadcam recorded writing there (it replaces only its own files,
+    unchanged)."""
+    from .outputs.run_files import run_file_names
 
-    named = [n for n in sorted(os.listdir(out)) if RUN_FILES.fullmatch(n)]
-    taken = in_the_way(out, named)
-    if taken:
-        raise InputError(f"-o {out}: {taken[0]} stands where an output file goes and is not a file (a "
-                         "folder, or a link to one or to nothing); cadcam replaces only files: move it or give "
-                         "another output folder")
-    others = files_of_others(out, named, ("result.json",))
-    if others:
-        raise InputError(f"-o {out}: {others[0]} is a file cadcam did not write (no result.json of cadcam's "
-                         "beside it); cadcam replaces only its own files: move it or give another output folder")
+    refuse_files_of_others(out, run_file_names(problem, figures, problem.workshop), "result.json")
 
 
 def _design_into(args, problem, out: Path) -> int:
@@ -287,7 +279,8 @@ def cmd_export(args) -> int:
     problem, design = _problem_and_design(args)
     _check_output_dir(args.output)
     try:
-        manifest = export(problem, design, args.what, args.format.split(","), args.output)
+        with held_folder(args.output) as out:  # one run at a time updates the folder's record of its files
+            manifest = export(problem, design, args.what, args.format.split(","), out)
     except ExportError as exc:
         raise InputError(str(exc)) from None
     print(f"exported {args.what} ({', '.join(f['name'] for f in manifest['functions'])}) to "
@@ -540,7 +533,7 @@ def _run_command(argv) -> int:
         print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
         return INTERRUPTED
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError,
-            CompileError, FolderBusy) as exc:
+            CompileError, FolderBusy, NotCadcams) as exc:
         print(f"cadcam: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # the reader of our output went away (``| head``): stop quietly

@@ -1,18 +1,29 @@
 """File input and output: inputs read only from regular files of bounded size as UTF-8 text,
-outputs written atomically (a temporary file in the same folder, then a rename), and folders of
-outputs staged so that a run that fails or is killed never leaves a final-looking set.
+outputs written atomically (a temporary file in the same folder, then a rename), and sets of
+outputs staged and swapped into their folder whole or not at all.
 
-Temporary files and staging folders are hidden and named ``.cadcam-<pid>-…``; one whose process
-is gone (a run killed with SIGKILL) is removed by the next write into the same folder.
+A set replaces or removes only files that cadcam recorded writing: each swap records the files
+of its set with their SHA-256 in the folder's hidden :data:`MANIFEST`, and a later set replaces
+or removes a file only while it still matches that record; it is refused, before the caller's
+work, for anything else where it would write (:func:`refuse_files_of_others`). A folder without
+a manifest (or a set it does not record: written by a cadcam before the manifest) holds no file
+of cadcam's: nothing in it is replaced or removed, and a file under a name the set writes
+refuses it.
+
+Temporary files, staging and backup folders are hidden and named ``.cadcam-<pid>-…``; one whose
+process is gone (a run killed with SIGKILL) is removed by the next write into the same folder,
+and a swap it cut short is undone first.
 """
 from __future__ import annotations
 
 import contextlib
 import errno
 import fcntl
+import hashlib
 import json
 import os
 import re
+import secrets
 import shutil
 import stat
 import tempfile
@@ -27,6 +38,19 @@ _TEMP_NAME = re.compile(re.escape(TEMP_PREFIX) + r"(\d+)-")
 #: it deliberately with the environment variable CADCAM_CAP_INPUT_BYTES.
 MAX_INPUT_BYTES = 10_000_000
 
+#: The record, hidden in a folder, of the sets of outputs cadcam swapped into it: per set, named
+#: by its marker (the file the set writes last: ``result.json`` for a design, ``manifest.json``
+#: for an export), each file's SHA-256 (hex) and size [bytes].
+MANIFEST = ".cadcam-manifest.json"
+#: The form of :data:`MANIFEST` this cadcam writes and reads (its ``cadcam_manifest`` key).
+MANIFEST_FORM = 1
+#: The file of a swap's backup folder giving the swap's token (which the manifest it brings in
+#: holds) and the new files' digests, from which a swap cut short is undone
+#: (:func:`_undo_cut_swap`); written once the backup is whole, so that a backup folder without
+#: it held nothing that was not still in place.
+_JOURNAL = ".cadcam-journal.json"
+_SHA256 = re.compile(r"[0-9a-f]{64}")
+
 
 class InputFileError(ValueError):
     """An input file that cannot be read as asked: the message is one line, without the path."""
@@ -34,6 +58,11 @@ class InputFileError(ValueError):
 
 class FolderBusy(ValueError):
     """Another cadcam run holds the output folder (:func:`held_folder`); one line."""
+
+
+class NotCadcams(ValueError):
+    """Something stands where a set of outputs would replace or remove a file, and it is not the
+    file cadcam recorded writing there (:func:`refuse_files_of_others`); one line naming it."""
 
 
 def short_repr(value, limit: int = 80) -> str:
@@ -85,8 +114,9 @@ def process_alive(pid: int) -> bool:
 
 
 def remove_leftovers(folder) -> list[str]:
-    """Remove the temporary files and staging folders in ``folder`` whose writing process is
-    gone (see the module docstring); return their names."""
+    """Remove the temporary files, staging and backup folders in ``folder`` whose writing
+    process is gone (see the module docstring), undoing the swap a backup folder was kept for
+    (a backup that still holds what could not be put back stays); return their names."""
     removed = []
     with contextlib.suppress(FileNotFoundError, NotADirectoryError):
         for name in os.listdir(folder):
@@ -94,6 +124,8 @@ def remove_leftovers(folder) -> list[str]:
             if match and int(match[1]) != os.getpid() and not process_alive(int(match[1])):
                 path = Path(folder) / name
                 if path.is_dir() and not path.is_symlink():
+                    if (path / _JOURNAL).exists() and not _undo_cut_swap(Path(folder), path):
+                        continue
                     shutil.rmtree(path)
                 else:
                     path.unlink()
@@ -176,35 +208,25 @@ def held_folder(folder):
 
 
 @contextlib.contextmanager
-def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None = None):
+def staged_folder(folder, marker: str, names=()):
     """Yield a hidden staging folder inside ``folder`` to write a set of outputs into; on
-    success move each file into ``folder`` in name order, the names in ``last`` after the others.
+    success swap the set into ``folder`` whole or not at all (:func:`_swap`).
 
-    Before the move the old copies of ``last`` are removed, so a run killed while moving
-    leaves no final-looking file (such as ``result.json``) beside a partial set; so are the
-    files of ``folder`` whose names ``owned`` matches in full (the names a set may hold) and
-    the new set does not hold, so no file of an earlier set stays beside it. On an exception
-    the staging folder, and the folders this call created, are removed and ``folder``'s
-    previous content is left as it was.
+    ``marker`` is the file the set writes last (``result.json``, ``manifest.json``); it names
+    the set in the folder's :data:`MANIFEST`. The swap replaces or removes only the files of
+    the previous set of that name that still match the manifest; anything else where it would
+    replace or remove a file is refused (:func:`refuse_files_of_others`), on entry already for
+    ``names`` (every name the set may write), so that the caller is refused before its work.
+    On an exception the staging folder, and the folders this call created, are removed and
+    ``folder``'s previous content is left as it was.
     """
     with _made_folder(Path(folder)) as folder:
         remove_leftovers(folder)
+        refuse_files_of_others(folder, names, marker)
         stage = Path(tempfile.mkdtemp(prefix=_temp_prefix("stage-"), dir=folder))
         try:
             yield stage
-            new = set(os.listdir(stage))
-            _refuse_folders_in_the_way(folder, new)
-            ours = bool(last) and written_by_cadcam(folder / last[0])
-            if not ours:
-                _refuse_files_of_others(folder, new, last)
-            stale = [] if owned is None or not ours else [
-                n for n in os.listdir(folder) if owned.fullmatch(n) and n not in new and (folder / n).is_file()]
-            for name in [*last, *stale]:
-                with contextlib.suppress(FileNotFoundError):
-                    os.unlink(folder / name)
-            for name in sorted(new, key=lambda n: (n in last, n)):
-                os.replace(stage / name, folder / name)
-            stage.rmdir()
+            _swap(folder, stage, marker)
         except OSError as exc:  # name the file the user knows, not its staged copy
             if isinstance(exc.filename, str) and exc.filename.startswith(str(stage)):
                 exc.filename = str(folder) + exc.filename[len(str(stage)):]
@@ -213,50 +235,228 @@ def staged_folder(folder, last: tuple[str, ...] = (), owned: re.Pattern | None =
             shutil.rmtree(stage, ignore_errors=True)
 
 
-def written_by_cadcam(marker: Path) -> bool:
-    """Whether ``marker`` (the file a set of outputs writes last: ``result.json``,
-    ``manifest.json``) is cadcam's: JSON naming the ``cadcam_version`` that wrote it."""
+def file_digest(path) -> tuple[str, int]:
+    """SHA-256 (hex) and size [bytes] of the regular file ``path``, a link not followed;
+    OSError if it is something else or cannot be read."""
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)  # a FIFO must not block
+    with os.fdopen(fd, "rb") as fh:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise OSError(errno.EINVAL, "not a regular file", str(path))
+        return hashlib.file_digest(fh, "sha256").hexdigest(), st.st_size
+
+
+def recorded_sets(folder) -> dict[str, dict[str, tuple[str, int]]]:
+    """The sets the :data:`MANIFEST` of ``folder`` records: marker → file name → (SHA-256,
+    size); empty without one. :class:`NotCadcams` for one that is not a regular file or not a
+    manifest of :data:`MANIFEST_FORM` (cadcam writes no other: it may be another's file)."""
+    path = Path(folder) / MANIFEST
+    if not os.path.lexists(path):
+        return {}
     try:
-        data = json.loads(read_input(marker))
-    except (InputFileError, OSError, ValueError, RecursionError):
-        return False
-    return isinstance(data, dict) and isinstance(data.get("cadcam_version"), str)
+        if os.path.islink(path):
+            raise InputFileError("a link, not a file")
+        return _parsed_manifest(read_input(path))
+    except (InputFileError, ValueError, RecursionError) as exc:
+        raise NotCadcams(f"{path}: not a record of cadcam's it can read ({exc}); cadcam replaces or removes only "
+                         "the files it recorded writing there: move it away or give another output folder") from None
 
 
-def files_of_others(folder: Path, names, last: tuple[str, ...]) -> list[str]:
-    """The files among ``names`` in ``folder`` that cadcam did not write: every one that exists,
-    unless the folder holds a set of cadcam's (its ``last[0]``, :func:`written_by_cadcam`)."""
-    existing = [n for n in sorted(names) if (folder / n).is_file()]
-    if not existing or (last and written_by_cadcam(folder / last[0])):
-        return []
-    return existing
+def _parsed_manifest(text: str) -> dict[str, dict[str, tuple[str, int]]]:
+    """The sets of the manifest ``text``; ValueError, saying what is wrong, for anything but
+    a manifest of :data:`MANIFEST_FORM` whose every name is a plain file name."""
+    data = json.loads(text)
+    if not isinstance(data, dict) or data.get("cadcam_manifest") != MANIFEST_FORM:
+        raise ValueError(f"no cadcam_manifest = {MANIFEST_FORM}")
+    return {marker: {name: _digest_entry(entry) for name, entry in _named(files)}
+            for marker, files in _named(data.get("sets"))}
 
 
-def _refuse_files_of_others(folder: Path, names, last: tuple[str, ...]) -> None:
-    """FileExistsError, before anything moves, where a file stands under the name of an output
-    in a folder that holds no set of cadcam's: cadcam replaces only its own files."""
-    others = [n for n in sorted(names) if (folder / n).is_file()]
-    if others:
-        raise FileExistsError(errno.EEXIST, f"a file cadcam did not write stands where an output goes (no "
-                              f"{last[0] if last else 'set'} of cadcam's beside it); cadcam replaces only its own "
-                              "files: move it or give another output folder", str(folder / others[0]))
+def _named(table):
+    """The (name, value) pairs of the manifest's object ``table``, every name a plain file name
+    of the folder (no path, no ``..``, not the manifest or a temporary file): a manifest never
+    leads cadcam to a file elsewhere."""
+    if not isinstance(table, dict):
+        raise ValueError("a table that is not one")
+    for name, value in table.items():
+        if name in ("", ".", "..", MANIFEST) or "/" in name or "\0" in name or _TEMP_NAME.match(name):
+            raise ValueError(f"{short_repr(name)} is not a file name of the folder")
+        yield name, value
 
 
-def in_the_way(folder: Path, names) -> list[str]:
-    """The names among ``names`` under which something other than a file stands in ``folder``
-    (a folder, a link to one or to nothing), in name order: cadcam replaces files it writes,
-    never a folder or a link of the user's."""
-    return [n for n in sorted(names) if os.path.lexists(folder / n) and not (folder / n).is_file()]
+def _digest_entry(entry) -> tuple[str, int]:
+    """A manifest entry ``{"sha256": …, "size": …}`` as (SHA-256, size)."""
+    if not (isinstance(entry, dict) and isinstance(entry.get("sha256"), str) and _SHA256.fullmatch(entry["sha256"])
+            and type(entry.get("size")) is int and entry["size"] >= 0):
+        raise ValueError("an entry without its sha256 and size")
+    return entry["sha256"], entry["size"]
 
 
-def _refuse_folders_in_the_way(folder: Path, names) -> None:
-    """IsADirectoryError, before anything moves, where :func:`in_the_way` finds an output's
-    name taken."""
-    taken = in_the_way(folder, names)
-    if taken:
-        raise IsADirectoryError(errno.EISDIR, "something other than a file (a folder, or a link to one "
-                                "or to nothing) stands where this output file goes; cadcam replaces "
-                                "only files: move it or give another output folder", str(folder / taken[0]))
+def _manifest_text(sets: dict[str, dict[str, tuple[str, int]]], swap: str) -> str:
+    """:data:`MANIFEST` recording ``sets`` (marker → file name → (SHA-256, size)), brought in by
+    the swap of token ``swap``."""
+    return json.dumps({"cadcam_manifest": MANIFEST_FORM, "swap": swap,
+                       "sets": {marker: {name: {"sha256": sha, "size": size} for name, (sha, size) in sorted(files.items())}
+                                for marker, files in sorted(sets.items())}}, indent=2) + "\n"
+
+
+def refuse_files_of_others(folder, names, marker: str) -> dict[str, dict[str, tuple[str, int]]]:
+    """:class:`NotCadcams`, naming the first, for each entry of ``folder`` that a set of
+    ``marker`` writing ``names`` would replace or remove and that is not the file the
+    :data:`MANIFEST` records for the set: under a name in ``names``, anything it does not record
+    (a user's file, a folder, a link, a file of a cadcam that kept no manifest); and every file it
+    records for the set (each is replaced or removed) that changed since, or cannot be read to
+    tell. Entries under other names are not looked at. Returns the recorded sets."""
+    folder = Path(folder)
+    sets = recorded_sets(folder)
+    ours = sets.get(marker, {})
+    for name in sorted({*names, *ours}):
+        why = _why_not_ours(folder / name, ours.get(name))
+        if why:
+            raise NotCadcams(f"{folder / name}: {why}; cadcam replaces or removes only the files it recorded writing "
+                             "there: move it away or give another output folder")
+    return sets
+
+
+def _why_not_ours(path: Path, recorded: tuple[str, int] | None) -> str | None:
+    """Why the entry ``path`` is not the file ``recorded`` ((SHA-256, size), None: none is), in
+    words; None where it is, or where nothing stands."""
+    if not os.path.lexists(path):
+        return None
+    if not stat.S_ISREG(os.lstat(path).st_mode):
+        return "not a file (a folder, a link, a device) where cadcam writes one"
+    if recorded is None:
+        return (f"a file with no record of cadcam's writing it (none in {MANIFEST}: another's file, or one of a "
+                "cadcam that kept no record)")
+    try:
+        digest = file_digest(path)
+    except OSError as exc:
+        return f"cannot be read to tell whether it is the file cadcam wrote ({exc.strerror or exc})"
+    return None if digest == recorded else "changed since cadcam wrote it"
+
+
+def _swap(folder: Path, stage: Path, marker: str) -> None:
+    """Move the set of ``marker`` staged in ``stage`` into ``folder`` whole, or leave ``folder``
+    as it was and say so (OSError).
+
+    Checked first (:func:`refuse_files_of_others`, for the names actually written). Every file
+    the swap replaces or removes is then kept in a hidden backup folder (:func:`_backup`); the
+    old marker goes (a swap cut short leaves no final-looking set), the new files come in, the
+    old set's files the new one does not hold go, and the marker and the manifest come in last.
+    If a step fails, the steps done are undone from the backup; a swap cut short by SIGKILL is
+    undone by the next :func:`remove_leftovers`.
+    """
+    new = sorted(os.listdir(stage))
+    sets = refuse_files_of_others(folder, new, marker)
+    written = {name: file_digest(stage / name) for name in new}
+    stale = sorted(n for n in sets.get(marker, {}) if n not in written and os.path.lexists(folder / n))
+    journal = {"swap": secrets.token_hex(16), "files": written}
+    write_text(stage / MANIFEST, _manifest_text({**sets, marker: written}, journal["swap"]))
+    last = [n for n in (marker, MANIFEST) if n == MANIFEST or n in written]
+    displaced = [n for n in (*new, MANIFEST, *stale) if os.path.lexists(folder / n)]
+    first = [marker] if marker in written and marker in displaced else []
+    # (name, the folder it comes from; None: it is removed)
+    steps = ([(n, None) for n in first] + [(n, stage) for n in new if n != marker]
+             + [(n, None) for n in stale] + [(n, stage) for n in last])
+    try:
+        backup = _backup(folder, displaced, journal)
+    except OSError as exc:
+        raise _left_whole(exc, folder / marker) from exc
+    done: list[str] = []
+    try:
+        for name, source in steps:
+            if source is None:
+                os.unlink(folder / name)
+            else:
+                os.replace(source / name, folder / name)
+            done.append(name)
+    except BaseException as exc:
+        _undo(folder, backup, done)
+        if isinstance(exc, OSError):
+            raise _left_whole(exc, folder / name) from exc
+        raise
+    shutil.rmtree(backup, ignore_errors=True)
+
+
+def _left_whole(exc: OSError, path: Path) -> OSError:
+    """The error ``exc`` of a swap into ``path``'s folder that was undone, saying so."""
+    return OSError(exc.errno, f"{exc.strerror or exc}; the new set was not moved in and the earlier one is left "
+                   "whole", str(path))
+
+
+def _backup(folder: Path, names: list[str], journal: dict) -> Path:
+    """A hidden folder ``.cadcam-<pid>-old-…`` in ``folder`` keeping its files ``names`` (hard
+    links, or copies where there can be none: an immutable file, a file system without links),
+    then the ``journal`` of the swap (:data:`_JOURNAL`); removed again if that fails, nothing in
+    ``folder`` changed."""
+    backup = Path(tempfile.mkdtemp(prefix=_temp_prefix("old-"), dir=folder))
+    try:
+        for name in names:
+            try:
+                os.link(folder / name, backup / name, follow_symlinks=False)
+            except OSError:
+                shutil.copy2(folder / name, backup / name, follow_symlinks=False)
+        write_text(backup / _JOURNAL, json.dumps(journal))
+    except BaseException:
+        shutil.rmtree(backup, ignore_errors=True)
+        raise
+    return backup
+
+
+def _undo(folder: Path, backup: Path, done: list[str]) -> None:
+    """Undo the swap steps ``done`` (names, in order) from ``backup`` (:func:`_backup`), latest
+    first, and remove the backup; an OSError naming the backup, which is then kept, if a
+    step cannot be undone."""
+    try:
+        for name in reversed(list(dict.fromkeys(done))):
+            if os.path.lexists(backup / name):
+                os.replace(backup / name, folder / name)
+            else:
+                os.unlink(folder / name)
+    except OSError as exc:
+        raise OSError(exc.errno, f"{exc.strerror or exc}: a failed swap could not be undone; the earlier files not "
+                      f"put back are kept in {backup} (the next cadcam run into this folder puts them back)",
+                      str(folder / name)) from exc
+    shutil.rmtree(backup, ignore_errors=True)
+
+
+def _undo_cut_swap(folder: Path, backup: Path) -> bool:
+    """Undo the swap a killed run was making in ``folder`` from its backup folder ``backup``
+    (:func:`_swap`), unless the swap ended (the manifest is the one it brought in: a new set may
+    hold the same bytes as the old one, so the swap's token tells); whether the backup may go:
+    False where it still holds what could not be put back."""
+    try:
+        journal = json.loads(read_input(backup / _JOURNAL))
+        if _swap_of(folder) == journal["swap"]:
+            return True
+        files = {name: tuple(d) for name, d in journal["files"].items()}
+        kept = sorted(set(os.listdir(backup)) - {_JOURNAL})
+        for name, digest in files.items():  # new files moved in under names that were free
+            if name not in kept and _digest_or_none(folder / name) == digest:
+                os.unlink(folder / name)
+        for name in kept:
+            os.replace(backup / name, folder / name)
+    except (InputFileError, OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False  # left for the user: nothing in it is removed unread
+    return True
+
+
+def _swap_of(folder: Path) -> str | None:
+    """The token of the swap that brought in the :data:`MANIFEST` of ``folder``; None where
+    there is none to read."""
+    try:
+        data = json.loads(read_input(folder / MANIFEST))
+    except (InputFileError, ValueError, RecursionError):
+        return None
+    return data.get("swap") if isinstance(data, dict) else None
+
+
+def _digest_or_none(path: Path) -> tuple[str, int] | None:
+    """:func:`file_digest` of ``path``, None where it has none."""
+    try:
+        return file_digest(path)
+    except OSError:
+        return None
 
 
 def write_text(path, text: str) -> None:

@@ -19,7 +19,7 @@ from .files import staged_folder
 from .version import __version__
 from .outputs.forked import Drawing, draw
 from .solve.messages import count
-from .outputs.run_files import RUN_FILES, WorkshopError, torque_table, write_outputs, write_workshop_files
+from .outputs.run_files import WorkshopError, run_file_names, torque_table, write_outputs, write_workshop_files
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -205,10 +205,11 @@ class Result:
 
     def save(self, directory, workshop: Workshop | None | Literal["spec"] = "spec",
              figures: bool = True, workers: int = 1) -> list[str]:
-        """Write what ``cadcam design`` writes into ``directory``, all or nothing
-        (``result.json`` last; see :func:`cadcam.files.staged_folder`); the files of an earlier
-        run there that this one does not write (:data:`cadcam.outputs.run_files.RUN_FILES`) are
-        removed, other files are left alone.
+        """Write what ``cadcam design`` writes into ``directory``, the set whole or not at all
+        (:func:`cadcam.files.staged_folder`). It replaces or removes only the files of the set
+        cadcam recorded writing there that are unchanged since (a file of the earlier set this one
+        does not write is removed); other files are left alone, and before any drawing a file
+        where it writes that is not one of those refuses it.
 
         Parameters
         ----------
@@ -235,14 +236,19 @@ class Result:
         WorkshopError
             A cam's workshop files cannot be made (its outline cannot be closed, or a hole
             leaves too little material); every other file is written.
+        cadcam.files.NotCadcams
+            Something stands where a file goes, or where a file of the earlier set is removed,
+            that is not a file cadcam recorded writing there (nothing is written).
+        OSError
+            The set could not be written or swapped in (the earlier one is left whole).
         """
         notes, failure = [], None
         plots: list[Drawing] = []
         sheets: list[Drawing] = []
-        with staged_folder(Path(directory), last=("result.json",), owned=RUN_FILES) as stage:
+        sizes = self.problem.workshop if workshop == "spec" else workshop
+        with staged_folder(Path(directory), "result.json", run_file_names(self.problem, figures, sizes)) as stage:
             outcome = None  # the workshop step's, recorded in result.json beside the design's status
-            if workshop is not None:
-                sizes = self.problem.workshop if workshop == "spec" else workshop
+            if sizes is not None:
                 try:
                     notes = write_workshop_files(self, stage, sizes, figures, sheets)
                     outcome = {"status": "written", "files": notes}

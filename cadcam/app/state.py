@@ -21,6 +21,7 @@ from typing import NamedTuple
 from .. import examples
 from ..api import Session
 from ..designs import DesignError
+from ..files import MANIFEST
 from ..result import Result
 from ..solve.compiled import CompileError
 from ..spec import SpecError, apply_override, read_keys, read_spec_data
@@ -215,7 +216,8 @@ class DesignState:
                 result.save(tmp, workshop=workshop, figures=figures)
             except ValueError:  # a workshop file that cannot be made: the others are written
                 pass
-            return {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file()}
+            # without the folder's record of what cadcam wrote (cadcam.files.MANIFEST): not an output
+            return {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file() and p.name != MANIFEST}
 
 
 @functools.cache

@@ -44,6 +44,11 @@ from ..problem import Problem
 
 WHATS = ("model", "problem")
 FORMATS = ("c", "shared", "casadi")
+#: The NLP functions ``--what problem`` exports (each as ``cadcam_<name>``).
+NLP_EXPORTED = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
+#: The functions of each export by ``what``: their C symbols and ``.casadi`` file names.
+FUNCTIONS = {"model": ("cadcam_torque", "cadcam_torque_jacobian"),
+             "problem": tuple(f"cadcam_{name}" for name in NLP_EXPORTED)}
 #: The C standard of the generated code.
 STANDARD = "-std=c99"
 #: Flags the generated C is tested to compile with warning-free, at -O1 and -O2 (tests/export/test_export.py).
@@ -102,7 +107,7 @@ def model_functions(problem: Problem, design: Design) -> list[ca.Function]:
               poses=solved_poses(problem, design))
     f = torque_function(problem, design.bases, tangency="newton", **kw)
     jac = torque_jacobian_function(problem, design.bases, **kw)
-    return [_renamed(f, "cadcam_torque"), _renamed(jac, "cadcam_torque_jacobian")]
+    return [_renamed(g, name) for g, name in zip((f, jac), FUNCTIONS["model"])]
 
 
 def _renamed(f: ca.Function, name: str) -> ca.Function:
@@ -119,8 +124,7 @@ def problem_functions(problem: Problem):
 
     tr = Transcription(problem.with_options(functions="mapped"))
     generated = oracle_functions(tr.whole_nlp)
-    fns = [_renamed(generated[name], f"cadcam_{name}")
-           for name in ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")]
+    fns = [_renamed(generated[name], f"cadcam_{name}") for name in NLP_EXPORTED]
     return fns, tr
 
 
@@ -208,8 +212,20 @@ def export(problem: Problem, design: Design, what: str, formats, out) -> dict:
     bad = [f for f in formats if f not in FORMATS]
     if bad or not formats:
         raise ExportError(f"--format {','.join(bad) or '(none)'}: expected some of {FORMATS}")
-    with staged_folder(out, last=("manifest.json",)) as stage:  # the manifest last: the set is complete
+    # the manifest last: the set is complete
+    with staged_folder(out, "manifest.json", export_file_names(what, formats)) as stage:
         return _write(problem, design, what, formats, stage)
+
+
+def export_file_names(what: str, formats: list[str]) -> list[str]:
+    """The names of the files :func:`export` writes for ``what`` in ``formats``, known before
+    any work (a folder holding a file cadcam may not replace is refused before it)."""
+    stem = f"cadcam_{what}"
+    c = "c" in formats or "shared" in formats
+    return (["manifest.json", *(["problem_data.json"] if what == "problem" else [])]
+            + ([f"{stem}.c", f"{stem}.h", *(["cadcam_design.h"] if what == "model" else [])] if c else [])
+            + ([f"lib{stem}.so"] if "shared" in formats else [])
+            + ([f"{name}.casadi" for name in FUNCTIONS[what]] if "casadi" in formats else []))
 
 
 def _write(problem: Problem, design: Design, what: str, formats: list[str], out: Path) -> dict:

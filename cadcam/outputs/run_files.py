@@ -11,7 +11,6 @@ side on the cores.
 from __future__ import annotations
 
 import functools
-import re
 from pathlib import Path
 
 import numpy as np
@@ -26,14 +25,6 @@ class WorkshopError(ValueError):
     """A cam's workshop files cannot be made: its outline cannot be closed, or a hole or the
     groove leaves too little material (the message names the cam and the size)."""
 
-
-#: Names of the files a design run may write (:func:`write_outputs`, :func:`write_workshop_files`):
-#: a run into a folder removes those of an earlier run that it does not write itself — the
-#: figures after ``--no-figures``, the files of a cam the new design does not have.
-RUN_FILES = re.compile(r"result\.json|(torque|torque_recheck|profile|output)\.csv"
-                       r"|(profile|torque|springs|output|convergence)\.png"
-                       r"|cam\d+(\.dxf|\.svg|\.stl|\.step|_points\.csv|_groove\.csv|_sheet\.pdf|_sheet\.png)"
-                       r"|verification\.(json|md)")
 
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
@@ -66,6 +57,25 @@ def torque_table(ev) -> tuple[list[str], np.ndarray]:
                                                                s["tau"][i] - s["tau_d"][i])]
         rows.append(np.column_stack(cols + [*s["x"]]))
     return header, np.vstack(rows)
+
+
+def run_file_names(problem, figures: bool, workshop: Workshop | None) -> list[str]:
+    """The name of every file a design run of ``problem`` may write (:func:`write_outputs` with
+    ``figures``, :func:`write_workshop_files` with the sizes ``workshop``, none if None), known
+    before the solve, so that a folder holding a file cadcam may not replace is refused before
+    any work (:func:`cadcam.files.refuse_files_of_others`). A profile comes out as an outline or
+    a helical groove, and IPOPT's iterates may be missing: the names of either are given."""
+    output = any(mech.output_target is not None for mech in problem.mechanisms)
+    names = ["result.json", "torque.csv", "torque_recheck.csv", "profile.csv", *(["output.csv"] if output else [])]
+    if figures:
+        names += [f"{name}.png" for name in ("profile", "convergence", *(("torque", "springs") if problem.springs else ()),
+                                              *(("output",) if output else ()))]
+    if workshop is None:
+        return names
+    kinds = (".dxf", ".svg", "_points.csv", "_groove.csv", *(("_sheet.pdf", "_sheet.png") if figures else ()),
+             *((".stl", ".step") if workshop.stl is not None else ()))
+    return names + [f"cam{i + 1}{kind}" for i in range(len(problem.profiles)) for kind in kinds] \
+        + ["verification.json", "verification.md"]
 
 
 def write_torque_csv(path: Path, ev) -> None:

@@ -16,7 +16,7 @@ from PIL import Image
 
 import cadcam.outputs.plots
 from cadcam.cli import main
-from cadcam.files import TEMP_PREFIX, staged_folder, write_text
+from cadcam.files import MANIFEST, TEMP_PREFIX, NotCadcams, recorded_sets, staged_folder, write_text
 from cadcam.solve.transcription import Transcription
 from cadcam.optimize import optimize
 from cadcam.spec import load_spec
@@ -61,7 +61,8 @@ def test_a_complete_design_leaves_no_hidden_file(tmp_path, design):
     code, _ = design(tmp_path / "o")
     names = sorted(os.listdir(tmp_path / "o"))
     assert code == 0 and "result.json" in names and "torque.png" in names
-    assert not [n for n in names if n.startswith(".")]
+    assert [n for n in names if n.startswith(".")] == [MANIFEST]  # the set's record, no temporary file
+    assert sorted(recorded_sets(tmp_path / "o")["result.json"]) == [n for n in names if n != MANIFEST]
 
 
 def test_no_figures_writes_every_file_but_those_matplotlib_draws_and_says_so(tmp_path, design):
@@ -140,41 +141,45 @@ def test_sigterm_during_the_solve_exits_130_and_leaves_nothing(tmp_path, monkeyp
     assert solvers[0].stats()["return_status"] == "NonIpopt_Exception_Thrown"
 
 
-def test_a_move_that_fails_leaves_no_final_looking_result(tmp_path, monkeypatch):
-    (tmp_path / "result.json").write_text('{"cadcam_version": "old"}')  # an earlier set of cadcam's
-    (tmp_path / "a.csv").write_text("old")
+def test_a_move_that_fails_leaves_the_earlier_set_whole(tmp_path, monkeypatch):
+    """The old result.json was removed first, so a failed move left half a set (issue 48)."""
+    with staged_folder(tmp_path, "result.json") as stage:  # an earlier set of cadcam's
+        for name in ("result.json", "a.csv", "c.csv"):
+            (stage / name).write_text(f"old {name}")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
     real, moved = os.replace, []
 
     def replace(src, dst):
-        if moved:  # the second move fails: the set is half old, half new
-            raise OSError(errno.EIO, "Input/output error")
-        moved.append(os.path.basename(dst))
+        if "-stage-" in os.path.dirname(src) and os.path.dirname(dst) == str(tmp_path):  # moves into place
+            if moved:  # the second move fails: the set is half old, half new
+                raise OSError(errno.EIO, "Input/output error")
+            moved.append(os.path.basename(dst))
         real(src, dst)
-    with pytest.raises(OSError):
-        with staged_folder(tmp_path, last=("result.json",)) as stage:
-            (stage / "result.json").write_text("new")
-            (stage / "a.csv").write_text("new")
-            (stage / "b.csv").write_text("new")
+    with pytest.raises(OSError, match="the earlier one is left whole"):
+        with staged_folder(tmp_path, "result.json") as stage:
+            for name in ("result.json", "a.csv", "b.csv"):
+                (stage / name).write_text(f"new {name}")
             monkeypatch.setattr(os, "replace", replace)
+    monkeypatch.undo()
     assert moved == ["a.csv"]  # result.json is never moved before the others
-    assert not (tmp_path / "result.json").exists()  # and the old one is gone: the set is visibly incomplete
-    assert sorted(os.listdir(tmp_path)) == ["a.csv"]
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # c.csv too, and no hidden folder
 
 
 def test_a_folder_of_the_users_in_the_way_is_never_deleted(tmp_path):
     """A folder (or a link to one) named like an output stops the move before anything moves;
     it kept being replaced by the output, with everything in it, before."""
+    with staged_folder(tmp_path, "result.json") as stage:
+        (stage / "result.json").write_text("old")
     (tmp_path / "torque.csv").mkdir()
     (tmp_path / "torque.csv" / "mine.txt").write_text("the user's")
-    (tmp_path / "result.json").write_text("old")
-    with pytest.raises(IsADirectoryError, match="replaces only files") as refused:
-        with staged_folder(tmp_path, last=("result.json",)) as stage:
+    with pytest.raises(NotCadcams, match="not a file") as refused:
+        with staged_folder(tmp_path, "result.json") as stage:
             (stage / "result.json").write_text("new")
             (stage / "torque.csv").write_text("new")
-    assert refused.value.filename == str(tmp_path / "torque.csv")
+    assert str(refused.value).startswith(f"{tmp_path / 'torque.csv'}: ")
     assert (tmp_path / "torque.csv" / "mine.txt").read_text() == "the user's"
     assert (tmp_path / "result.json").read_text() == "old"  # nothing moved
-    assert sorted(os.listdir(tmp_path)) == ["result.json", "torque.csv"]
+    assert sorted(os.listdir(tmp_path)) == [MANIFEST, "result.json", "torque.csv"]
 
 
 def test_design_into_a_folder_holding_a_users_folder_is_refused_before_work(tmp_path, capsys):
@@ -288,25 +293,24 @@ def test_a_second_run_into_a_held_folder_is_refused_before_work(tmp_path, capsys
     assert (out / "result.json").is_file()
 
 
-def test_a_file_cadcam_did_not_write_is_never_replaced(tmp_path, capsys):
+def test_a_file_cadcam_did_not_write_is_never_replaced(tmp_path, capsys, design):
     """A user's own torque.csv in the output folder was overwritten (and a user's cam3.dxf
-    deleted as a stale output): cadcam replaces only files of a folder it wrote a set into."""
-    from cadcam.cli import main
-
+    deleted as a stale output): cadcam replaces only files it recorded writing, and leaves
+    those under names it does not write."""
     (tmp_path / "torque.csv").write_text("the user's")
     assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "torque.csv is a file cadcam did not write" in err
+    assert len(err.splitlines()) == 1 and "torque.csv: a file with no record of cadcam's writing it" in err
     assert (tmp_path / "torque.csv").read_text() == "the user's"
-    with pytest.raises(FileExistsError, match="replaces only its own"):  # the same for the API
-        with staged_folder(tmp_path, last=("result.json",)) as stage:
+    with pytest.raises(NotCadcams, match="replaces or removes only the files it recorded"):  # the same for the API
+        with staged_folder(tmp_path, "result.json") as stage:
             (stage / "torque.csv").write_text("new")
             (stage / "result.json").write_text('{"cadcam_version": "0"}')
     assert sorted(os.listdir(tmp_path)) == ["torque.csv"]
-    (tmp_path / "cam3.dxf").write_text("the user's")  # named like an output, but not cadcam's
+    (tmp_path / "cam3.dxf").write_text("the user's")  # named like an output of a 3-cam design, not this one
     (tmp_path / "torque.csv").unlink()
-    assert main(["design", str(SPEC_1DOF), "--grid", "12", "--no-figures", "-o", str(tmp_path)]) == 2
-    assert (tmp_path / "cam3.dxf").read_text() == "the user's"
+    assert design(tmp_path, "--no-figures")[0] == 0
+    assert (tmp_path / "cam3.dxf").read_text() == "the user's" and "cam3.dxf" not in recorded_sets(tmp_path)["result.json"]
 
 
 def test_a_folder_of_cadcams_own_is_written_again(tmp_path):
