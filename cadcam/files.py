@@ -26,6 +26,7 @@ import re
 import secrets
 import shutil
 import stat
+import sys
 import tempfile
 import tomllib
 from pathlib import Path
@@ -138,12 +139,17 @@ def _temp_prefix(name: str = "") -> str:
 
 
 def loads_toml(text: str) -> dict:
-    """``tomllib.loads``, with a document nested too deeply for the parser reported as a
+    """``tomllib.loads``, with a document nested too deeply for the parser and an integer too
+    long for ``int`` (:func:`sys.get_int_max_str_digits`) reported as a
     ``tomllib.TOMLDecodeError`` like any other malformed TOML."""
     try:
         return tomllib.loads(text)
     except RecursionError:
         raise tomllib.TOMLDecodeError("nested too deeply") from None
+    except tomllib.TOMLDecodeError:
+        raise
+    except ValueError:  # the parser's int() of a literal past Python's digit limit
+        raise tomllib.TOMLDecodeError(f"an integer of more than {sys.get_int_max_str_digits()} digits") from None
 
 
 @contextlib.contextmanager

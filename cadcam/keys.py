@@ -33,8 +33,14 @@ REQUIRED: Any = _Required()
 
 
 def is_real(v) -> bool:
-    """Whether ``v`` is a finite number (not a bool)."""
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    """Whether ``v`` read from a file is a finite real number: a float, or an int a float can
+    hold (a longer int is no quantity, and ``math.isfinite`` raises ``OverflowError`` on it)."""
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,6 @@ problem it solved and can be re-evaluated without the original file.
 """
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field, replace
 from typing import Any, Callable
@@ -14,7 +13,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .files import env_cap
-from .keys import Key, KeyTable
+from .keys import Key, KeyTable, is_real
 from .mechanisms.base import ENERGY, Mechanism, Profile
 from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
@@ -113,10 +112,6 @@ def _integer(v, least: int) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= least
 
 
-def _real(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
 @dataclass(frozen=True)
 class Setting:
     """One IPOPT option cadcam passes on (:data:`IPOPT_OPTIONS`), declared once: the values it
@@ -158,7 +153,7 @@ SOLVER = {k.name: k for k in (
     Key("ipopt", "", "further IPOPT options (name without the ``ipopt.`` prefix = value), each one of "
         ":data:`IPOPT_OPTIONS`, e.g. a warm start (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a "
         "start that is already close to the optimum", "table", (), check=lambda v: all(
-            re.fullmatch(r"[a-z][a-z0-9_]*", k) and (_real(x) or isinstance(x, str)) for k, x in v.items()),
+            re.fullmatch(r"[a-z][a-z0-9_]*", k) and (is_real(x) or isinstance(x, str)) for k, x in v.items()),
         words="of IPOPT option names = numbers or strings, such as mu_init = 1e-6"),
     Key("method", "", "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
         "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, re-checked like an optimum (no NLP "
@@ -186,7 +181,7 @@ def _choice(*values):
 
 def _between(lo: float, hi: float, open_lo: bool = True, text: str = "") -> Setting:
     above = (lambda v: v > lo) if open_lo else (lambda v: v >= lo)
-    return Setting(None, lambda v: _real(v) and above(v) and v <= hi,
+    return Setting(None, lambda v: is_real(v) and above(v) and v <= hi,
                    text or f"a number in {'(' if open_lo else '['}{lo:g}, {hi:g}]", "")
 
 

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..verify.evaluate import METRIC_NAMES
 from ..files import InputFileError, loads_toml, read_input
+from ..keys import is_real
 from ..problem import Problem, cap
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data
 
@@ -186,10 +187,6 @@ class Study:
                                          p["log"], p["integer"]) for p in d["parameters"]])
 
 
-def _number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
 def read_catalogue(path: Path) -> tuple[dict, ...]:
     """Spring tables {name, rate [N/m], travel [m], preload [N]} from a catalogue CSV (module
     docstring); an empty or missing ``pretension_N`` is no preload."""
@@ -310,7 +307,7 @@ def _parameter_range(p: dict, where: str, design: str, origin: str) -> tuple[tup
     """A parameter's ``range`` (low, high) and its ``num`` (at least 2, unless ``design`` is a
     Latin hypercube, which samples the range itself)."""
     r = p["range"]
-    if not (isinstance(r, list) and len(r) == 2 and all(_number(x) for x in r) and r[1] > r[0]):
+    if not (isinstance(r, list) and len(r) == 2 and all(is_real(x) for x in r) and r[1] > r[0]):
         raise StudyError(f"{origin}: {where}.range = {r!r}: expected [low, high] numbers with high > low")
     if p.get("log") and r[0] <= 0:
         raise StudyError(f"{origin}: {where}.range: a log range needs low > 0")
