@@ -11,14 +11,27 @@ what binds, the torque against its target with the error, the mechanism at one j
 player runs it over the range), the springs' extensions against their travel, and the files to
 download. An input error is the command line's one line, shown under the field it names.
 
+Every callback of the page (an edit, a catalogue pick, a template, an upload, the player, a
+download, the first design) runs through one guard (:meth:`DesignPage.guarded`): what it raises
+is shown as one line on the page (:func:`one_line`: control characters escaped, no folder
+named) and logged as one line, never left to the server as a traceback. An uploaded file is
+written, under a name of the page's own, to a folder of its own, removed once another file or a
+template replaces it and when the tab's session ends or the server stops. The server answers
+only to the address it serves on (:mod:`cadcam.app.hosts`).
+
 Everything the page loads comes from this server: Bokeh's and Panel's scripts are served from it
 (``resources="server"``) and the figures are PNG images sent over its socket.
 """
 from __future__ import annotations
 
 import asyncio
+import functools
+import inspect
 import io
+import logging
 import re
+import shutil
+import signal
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -26,24 +39,67 @@ from pathlib import Path
 import panel as pn
 from matplotlib.figure import Figure
 
+from .. import examples
 from ..make.step import available as step_available
 from ..outputs.plots import springs_figure, torque_figure
 from ..spec import SpecError
-from .state import TEMPLATES, DesignState, Outcome, catalogue, result_json, zipped
+from .state import INPUT_ERRORS, TEMPLATES, DesignState, Outcome, catalogue, result_json, zipped
 from .form import table_title, value_text
 from .frames import Frames
+from .hosts import refuse_other_hosts, served_hosts
+
+log = logging.getLogger(__name__)
 
 #: One worker: designs run one after another, whichever tab asked (the builds are shared).
 WORKER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="cadcam-design")
 
 #: Resolution of the figures on the page [dots per inch].
 PAGE_DPI = 100
+#: Longest message the page shows for a failure [characters]: an error quoting a 5,000-digit
+#: field stays a line a person reads.
+MESSAGE_CHARS = 300
+#: Start of the name of each uploaded file's folder, in the system's temporary folder.
+UPLOAD_PREFIX = "cadcam-app-open-"
+#: The verdict line while a design runs.
+DESIGNING = "<span class='solving'>designing…</span>"
+
+#: Upload folders not yet removed (by any tab): the server removes those left when it stops.
+_UPLOADS: set[Path] = set()
+#: The folders of an absolute path in a message (POSIX, or a Windows drive's), not preceded by
+#: a word: the page names a file by its name alone.
+_FOLDERS = re.compile(r"(?<![\w.~-])(?:[A-Za-z]:)?[\\/](?:[^\\/\s'\"]+[\\/])+")
 
 CSS = """
 .field-error { color: #b00020; font-size: 12px; margin: -4px 10px 6px 10px; }
 .verdict-success { color: #1b5e20; font-weight: bold; }
 .verdict-failure { color: #b00020; font-weight: bold; }
+.page-error { color: #b00020; }
 """
+
+
+class PageError(Exception):
+    """A request the page cannot do, said in one line (a download before any design)."""
+
+
+def one_line(text: str, limit: int = MESSAGE_CHARS) -> str:
+    """``text`` as one line the page shows: the folders of absolute paths left out, control and
+    other unprintable characters escaped (a newline as ``\\n``), cut to ``limit`` characters."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in _FOLDERS.sub("", text))
+    return text if len(text) <= limit else text[:limit - 1] + "…"
+
+
+def public(message: str, path: Path, name: str) -> str:
+    """``message`` as one line (:func:`one_line`), the file at ``path`` named ``name`` (what
+    the page shows for it: an upload by the browser's name for it)."""
+    return one_line(message.replace(str(path), name))
+
+
+def failure_line(action: str, exc: BaseException) -> str:
+    """The one line saying that ``action`` failed with ``exc``: an input error's own words (they
+    name what is wrong), else the action and the kind of error."""
+    if isinstance(exc, (*INPUT_ERRORS, PageError)):
+        return one_line(str(exc))
+    return one_line(f"{action} failed: {type(exc).__name__}: {exc}")
 
 
 def slug(key: str) -> str:
@@ -63,11 +119,22 @@ def torque_png(result) -> bytes:
     return png(torque_figure(result.evaluation, result.band))
 
 
+class Download(pn.widgets.FileDownload):
+    """A download whose callback gives None when it failed (:meth:`DesignPage.guarded` has said
+    why): nothing is sent, where Panel would raise."""
+
+    def _sync_data(self, fileobj):
+        if fileobj is not None:
+            super()._sync_data(fileobj)
+
+
 class DesignPage:
     """One tab's page over one :class:`DesignState`."""
 
     def __init__(self, state: DesignState):
         self.state = state
+        self.name = state.path.name  # what the page calls the file open: an upload by the browser's name
+        self.folder: Path | None = None  # the upload folder of the file open, if uploaded
         self.inputs: dict[str, pn.widgets.TextInput] = {}
         self.errors: dict[str, pn.pane.HTML] = {}
         self.headings: dict[int, pn.pane.HTML] = {}  # each spring's, by its number
@@ -78,11 +145,12 @@ class DesignPage:
         names = [t.title for t in TEMPLATES]
         self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
                                           css_classes=["template"], sizing_mode="stretch_width")
-        self.template.param.watch(self._on_template, "value")
+        self.template.param.watch(self.guarded("opening the template", self._on_template), "value")
         self.upload = pn.widgets.FileInput(accept=".toml,.json", css_classes=["open-file"], sizing_mode="stretch_width")
-        self.upload.param.watch(self._on_upload, ["value", "filename"])
+        self.upload.param.watch(self.guarded("opening the file", self._on_upload), ["value", "filename"])
         self.open_error = pn.pane.HTML("", css_classes=["field-error", "open-error"])
-        self.opened = pn.pane.HTML(_opened(self.state), css_classes=["opened"])
+        self.opened = pn.pane.HTML(self._opened(), css_classes=["opened"])
+        self.failure = pn.pane.HTML("", css_classes=["page-error"], visible=False, sizing_mode="stretch_width")
         self.form = pn.Column(sizing_mode="stretch_width")
         self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
         self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
@@ -92,7 +160,7 @@ class DesignPage:
         self.player = pn.widgets.Player(name="joint angle", start=0, end=1, value=0, interval=250,
                                         loop_policy="loop", show_loop_controls=False, css_classes=["pose-player"],
                                         width=420)
-        self.player.param.watch(self._on_pose, "value")
+        self.player.param.watch(self.guarded("drawing the mechanism", self._on_pose), "value")
         self.downloads = pn.Row(*self._download_buttons(), css_classes=["downloads"])
         self._build_form()
 
@@ -102,7 +170,7 @@ class DesignPage:
         left = pn.Column(pn.pane.HTML("<h2>cadcam design page</h2>"), self.template,
                          pn.pane.HTML("<small>or open a spec (TOML) or a result.json:</small>"), self.upload,
                          self.open_error, self.opened, self.form, width=400)
-        right = pn.Column(self.verdict, self.details, self.downloads,
+        right = pn.Column(self.failure, self.verdict, self.details, self.downloads,
                           pn.Tabs(("Torque", self.torque), ("Mechanism", pn.Column(self.player, self.mechanism)),
                                   ("Springs", self.springs), dynamic=False),
                           sizing_mode="stretch_width")
@@ -138,7 +206,7 @@ class DesignPage:
             async def edited(event, key=f.key):  # a coroutine function, which param awaits
                 await self._on_edit(key, event.new)
 
-            box.param.watch(edited, "value")
+            box.param.watch(self.guarded(f"applying {f.key}", edited), "value")
             error = pn.pane.HTML("", css_classes=["field-error", f"error-{slug(f.key)}"], visible=False,
                                  sizing_mode="stretch_width")
             self.inputs[f.key], self.errors[f.key] = box, error
@@ -170,8 +238,44 @@ class DesignPage:
                 box.value = value_text(self.state.value(key))
             await self.design()
 
-        pick.param.watch(picked, "value")
+        pick.param.watch(self.guarded(f"picking spring {number}", picked), "value")
         return pick
+
+    # ----------------------------------------------------------------------------- guard
+    def guarded(self, action: str, callback):
+        """``callback`` (a coroutine function or a plain one), its failure shown on the page as
+        one line (:meth:`fail`) instead of raised into the server; a plain callback then gives
+        None. Every callback of the page is one of these; ``action`` says what it does
+        (``opening the file``)."""
+        if inspect.iscoroutinefunction(callback):
+            @functools.wraps(callback)
+            async def run(*args, **kwargs):
+                try:
+                    return await callback(*args, **kwargs)
+                except Exception as exc:
+                    self.fail(action, exc)
+        else:
+            @functools.wraps(callback)
+            def run(*args, **kwargs):
+                try:
+                    return callback(*args, **kwargs)
+                except Exception as exc:
+                    self.fail(action, exc)
+        run.guarded = action
+        return run
+
+    def fail(self, action: str, exc: Exception) -> None:
+        """Show and log the one line of ``action``'s failure ``exc`` (:func:`failure_line`); a
+        design it stopped is no longer said to be under way. The traceback of an error that is
+        not the input's goes to the log's debug level, for a report."""
+        line = failure_line(action, exc)
+        self.failure.object, self.failure.visible = _escape(line), True
+        if self.verdict.object == DESIGNING:
+            self.verdict.object = "<span class='verdict-failure'>not designed: the error is above</span>"
+        expected = isinstance(exc, (*INPUT_ERRORS, PageError))
+        log.log(logging.INFO if expected else logging.WARNING, "design page: %s", line)
+        if not expected:
+            log.debug("design page: %s", action, exc_info=exc)
 
     # ---------------------------------------------------------------------------- actions
     async def _on_edit(self, key: str, text: str) -> None:
@@ -191,7 +295,8 @@ class DesignPage:
         first, then the springs and the mechanism (each figure drawn in the worker too)."""
         self._shown += 1
         shown = self._shown
-        self.verdict.object = "<span class='solving'>designing…</span>"
+        self.failure.visible = False
+        self.verdict.object = DESIGNING
         outcome = await self._in_worker(self.state.design, edited)
         if shown != self._shown:  # a later edit is being designed: show that one
             return
@@ -219,28 +324,50 @@ class DesignPage:
     async def _on_template(self, event) -> None:
         chosen = next((t for t in TEMPLATES if t.title == event.new), None)
         if chosen is not None and event.new != self._template_title():
-            await self._open(lambda: DesignState.template(chosen.spec, variant=chosen.variant))
+            await self._open(examples.path(chosen.spec), variant=chosen.variant)
 
     async def _on_upload(self, *events) -> None:
-        if not self.upload.value or not self.upload.filename:
-            return
-        folder = Path(tempfile.mkdtemp(prefix="cadcam-app-open-"))
-        path = folder / Path(self.upload.filename).name
-        path.write_bytes(self.upload.value)
-        await self._open(lambda: DesignState(path))
+        """Open the file uploaded, judged by its content (a result JSON opens with ``{``, which
+        no TOML does), written under a name of the page's own: the browser's name for it is
+        only shown."""
+        data, name = self.upload.value, self.upload.filename
+        if data is None or name is None:
+            return  # the upload widget cleared, or half set
+        folder = Path(tempfile.mkdtemp(prefix=UPLOAD_PREFIX))
+        _UPLOADS.add(folder)
+        path = folder / ("upload.json" if data.lstrip()[:1] == b"{" else "upload.toml")
+        await self._open(path, name=name, folder=folder, data=data)
 
-    async def _open(self, make) -> None:
+    async def _open(self, path: Path, variant: str | None = None, name: str | None = None,
+                    folder: Path | None = None, data: bytes | None = None) -> None:
+        """Open spec ``path`` (its ``variant``; an upload's ``data`` written to it first in its
+        folder ``folder``), shown by ``name`` (default: its file name), and design it; the
+        folder of the file it replaces is removed. A file that cannot be opened leaves no folder
+        and the file open as it was; a spec error is shown under the upload."""
+        name = name or path.name
         try:
-            state = make()
-        except SpecError as exc:
-            self.open_error.object = str(exc)
+            if data is not None:
+                path.write_bytes(data)
+            state = DesignState(path, variant=variant)
+        except Exception as exc:
+            _discard(folder)
+            if not isinstance(exc, SpecError):
+                raise
+            self.open_error.object = _escape(public(str(exc), path, name))
             return
         self.open_error.object = ""
-        self.opened.object = _opened(state)
         state.session = self.state.session  # the builds and last answers stay with the tab
-        self.state = state
+        self.state, self.name = state, name
+        _discard(self.folder)
+        self.folder = folder
+        self.opened.object = self._opened()
         self._build_form()
         await self.design()
+
+    def close(self) -> None:
+        """Remove the upload folder of the file open (the tab's session has ended)."""
+        _discard(self.folder)
+        self.folder = None
 
     async def _on_pose(self, event) -> None:
         frames, self._pose = self.frames, event.new
@@ -256,15 +383,22 @@ class DesignPage:
         return frames.png(pose) if pose == self._pose and frames is self.frames else None
 
     # ------------------------------------------------------------------------------- views
+    def _opened(self) -> str:
+        """The line naming the file open (and its variant)."""
+        variant = f" (variant {self.state.variant})" if self.state.variant else ""
+        return f"<small>open {_escape(one_line(self.name + variant))}</small>"
+
     def _show_error(self, key: str | None, message: str | None) -> None:
         self._error_key = key
         for k, pane in self.errors.items():
-            pane.object, pane.visible = (message, True) if k == key else ("", False)
+            shown = k == key
+            pane.object, pane.visible = _escape(public(message, self.state.path, self.name)) if shown else "", shown
 
     def _show(self, outcome: Outcome) -> None:
         if outcome.error is not None:
             self._show_error(outcome.field, outcome.error)
-            self.verdict.object = (f"<span class='verdict-failure'>not designed: {_escape(outcome.error)}</span>")
+            self.verdict.object = (f"<span class='verdict-failure'>not designed: "
+                                   f"{_escape(public(outcome.error, self.state.path, self.name))}</span>")
             if self.state.result is not None:
                 self.details.object = ("<small>The figures, result.json and workshop files below are those of the "
                                        "last design made; the spec (TOML) has the edits as they are.</small>")
@@ -300,25 +434,20 @@ class DesignPage:
             files = self._result_files(True, solids=True)
             return io.BytesIO(zipped({**files, "summary.txt": (self._result().summary() + "\n").encode("utf-8")}))
 
-        step_button = ([pn.widgets.FileDownload(callback=solids, filename="step.zip", label="STEP solids (zip)",
-                                                css_classes=["download-step"], button_type="primary")]
-                       if step_available() else [])
+        def button(make, filename: str, label: str, kind: str) -> Download:
+            return Download(callback=self.guarded(f"downloading {filename}", make), filename=filename, label=label,
+                            css_classes=[f"download-{kind}"], button_type="primary")
 
-        return [pn.widgets.FileDownload(callback=spec, filename="spec.toml", label="spec (TOML)",
-                                        css_classes=["download-spec"], button_type="primary"),
-                pn.widgets.FileDownload(callback=result, filename="result.json", label="result.json",
-                                        css_classes=["download-result"], button_type="primary"),
-                pn.widgets.FileDownload(callback=dxf, filename="dxf.zip", label="DXF outlines (zip)",
-                                        css_classes=["download-dxf"], button_type="primary"),
-                *step_button,
-                pn.widgets.FileDownload(callback=everything, filename="outputs.zip",
-                                        label="every file: SVG, solids, sheets, figures, summary (zip)",
-                                        css_classes=["download-all"], button_type="primary")]
+        return [button(spec, "spec.toml", "spec (TOML)", "spec"),
+                button(result, "result.json", "result.json", "result"),
+                button(dxf, "dxf.zip", "DXF outlines (zip)", "dxf"),
+                *([button(solids, "step.zip", "STEP solids (zip)", "step")] if step_available() else []),
+                button(everything, "outputs.zip", "every file: SVG, solids, sheets, figures, summary (zip)", "all")]
 
     def _result(self):
         result = self.state.result
         if result is None:
-            raise ValueError("no design yet: the spec has an error")
+            raise PageError("nothing to download yet: no design has been made from this file (the line below says why)")
         return result
 
     def _result_files(self, figures: bool, solids: bool = False) -> dict[str, bytes]:
@@ -330,34 +459,68 @@ def _heading(title: str) -> str:
     return f"<b>{_escape(title)}</b>"
 
 
-def _opened(state: DesignState) -> str:
-    """The line naming the file open (and its variant)."""
-    variant = f" (variant {state.variant})" if state.variant else ""
-    return f"<small>open {_escape(state.path.name + variant)}</small>"
-
-
 def _escape(text: str) -> str:
     return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 
+def _discard(folder: Path | None) -> None:
+    """Remove upload folder ``folder`` once the worker has done what was queued before it (a
+    design of the file in it may be under way)."""
+    if folder is None:
+        return
+    try:
+        WORKER.submit(_remove, folder)
+    except RuntimeError:  # the worker has stopped (the server too): nothing reads the folder now
+        _remove(folder)
+
+
+def _remove(folder: Path) -> None:
+    shutil.rmtree(folder, ignore_errors=True)
+    _UPLOADS.discard(folder)
+
+
 def page(path: str | None = None) -> pn.Row:
-    """A new tab's page over ``path`` (default: the first template), designed once loaded."""
+    """A new tab's page over ``path`` (default: the first template), designed once loaded; its
+    upload folder removed when its session ends."""
     state = DesignState(Path(path)) if path else DesignState.template(TEMPLATES[0].spec)
     view = DesignPage(state)
-    pn.state.onload(view.design)
+    pn.state.onload(view.guarded("designing", view.design))
+    pn.state.on_session_destroyed(lambda session_context: view.close())
     return view.view()
 
 
-def serve(path: str | None = None, port: int = 5006, address: str = "127.0.0.1", show: bool = True) -> None:
-    """Serve the page on ``address``:``port`` until interrupted (one user on localhost by
-    default): every script from this server, no asset from the network."""
+def app_server(path: str | None = None, port: int = 5006, address: str = "127.0.0.1", show: bool = True):
+    """The page's Bokeh server on ``address``:``port``, listening but not started: every script
+    from this server, no asset from the network, and no answer to a name other than the
+    address it serves on (:func:`cadcam.app.hosts.served_hosts`), the websocket's ``Origin``
+    held to the same names."""
     pn.extension(raw_css=[CSS], inline=True)
-    origins = [f"{host}:{port}" for host in ("localhost", "127.0.0.1", address)]
+    hosts = served_hosts(address, port)
+    origins = sorted(h for h in hosts if not h.startswith("["))  # Bokeh reads no IPv6 origin
+    server = pn.serve({"/": lambda: page(path)}, port=port, address=address, show=show, websocket_origin=origins,
+                      title="cadcam design page", resources="server", threaded=False, start=False, print_url=True)
+    refuse_other_hosts(server._tornado, hosts)
+    return server
+
+
+def serve(path: str | None = None, port: int = 5006, address: str = "127.0.0.1", show: bool = True) -> None:
+    """Serve the page on ``address``:``port`` (:func:`app_server`; one user on localhost by
+    default) until interrupted, terminated or hung up; then remove the upload folders left."""
+    server = app_server(path, port=port, address=address, show=show)
+
+    def stop(*_) -> None:  # as Panel stops on SIGINT: the loop ends, then the cleanup below
+        server.io_loop.asyncio_loop.call_soon_threadsafe(server.io_loop.stop)
+
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), stop)
     try:
-        pn.serve({"/": lambda: page(path)}, port=port, address=address, show=show, websocket_origin=origins,
-                 title="cadcam design page", resources="server", threaded=False, print_url=True)
+        server.start()
+        server.io_loop.start()
     finally:  # a stopped server exits once the worker's task under way ends, not everything queued
         WORKER.shutdown(wait=False, cancel_futures=True)
+        for folder in list(_UPLOADS):
+            _remove(folder)
 
 
-__all__ = ["DesignPage", "page", "serve", "slug"]
+__all__ = ["DesignPage", "PageError", "app_server", "one_line", "page", "serve", "slug"]
