@@ -32,9 +32,10 @@ def _netloc(name: str, port: int) -> str:
 
 def served_hosts(address: str, port: int) -> frozenset[str]:
     """The ``Host`` values (lower case, with the port; without it on port 80, which browsers
-    leave out) of a page served on ``address``:``port``: the loopback names, the address, and
-    for an address on every interface (:data:`EVERY_INTERFACE`) this machine's names."""
-    names = {*LOOPBACK_NAMES, address.lower()} - set(EVERY_INTERFACE)
+    leave out) of a page served on ``address``:``port``: the loopback names, the address (the
+    browser opened on ``0.0.0.0`` sends that), and for an address on every interface
+    (:data:`EVERY_INTERFACE`) this machine's names."""
+    names = {*LOOPBACK_NAMES, address.lower()} - {""}
     if address in EVERY_INTERFACE:
         names |= {socket.gethostname().lower(), socket.getfqdn().lower()}
     hosts = {_netloc(name, port) for name in names}
