@@ -99,6 +99,8 @@ def test_the_wheel_holds_the_package_its_data_and_licence(wheel):
                    if "__pycache__" not in p.parts}
         assert sources <= names, sorted(sources - names)
         for data in ["cadcam/py.typed", "cadcam/result.schema.json",
+                     "cadcam/data/springs/mcmaster_extension_springs.csv",
+                     "cadcam/data/springs/LICENSE.virtual-counterweight",
                      *(f"cadcam/models/{n}" for n in examples.files())]:
             assert z.read(data) == (ROOT / data).read_bytes(), data
         info = f"cadcam-{VERSION}.dist-info"
@@ -120,11 +122,13 @@ PROBE = """
 import json, cadcam, importlib.metadata as m
 from importlib.resources import files
 from cadcam import examples
+from cadcam.physics.catalogue import shipped
 spec = cadcam.load_spec(examples.path("johnston2023_1dof"))
 print(json.dumps({"file": cadcam.__file__, "version": cadcam.__version__, "metadata": m.version("cadcam"),
                   "names": examples.names(), "folder": str(examples.folder()), "spec": spec.name,
                   "siblings": sorted(p.name for p in examples.path("johnston2023_rr_arm").parent.iterdir()),
-                  "schema": (files("cadcam") / "result.schema.json").is_file()}))
+                  "schema": (files("cadcam") / "result.schema.json").is_file(),
+                  "catalogue": len(shipped())}))
 """
 
 
@@ -146,6 +150,7 @@ def test_an_installed_wheel_reports_the_version_and_reaches_the_examples(wheel, 
     assert got["file"].startswith(str(where)), got["file"]  # not the source tree
     assert got["version"] == got["metadata"] == VERSION
     assert got["names"] == examples.names() and got["spec"] == "johnston2023_1dof" and got["schema"]
+    assert got["catalogue"] == 1284  # the shipped spring catalogue, read from the package
     assert got["siblings"] == examples.files()
     if form == "unpacked":
         assert got["folder"] == str(where / "cadcam" / "models")

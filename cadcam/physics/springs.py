@@ -15,6 +15,7 @@ only, which is what makes multi-joint grids separable.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import casadi as ca
@@ -36,6 +37,79 @@ class Port:
         return f"{'-' if self.sign < 0 else ''}{self.name}:{self.mechanism + 1}"
 
 
+def wahl_factor(index):
+    """The stress correction k = (w + 0.5)/(w − 0.75) [-] of a coil of spring index ``index``
+    w = D/d (Bergsträsser's factor, EN 13906-2 Eq. for extension springs); numbers or arrays."""
+    return (index + 0.5) / (index - 0.75)
+
+
+@dataclass(frozen=True)
+class SpringBody:
+    """A real spring's body: its sizes and the limits of its length, load and wire stress.
+
+    Every field may be a number or an array (one entry per catalogue spring), so that one
+    formula serves a spec's spring and the whole catalogue's screen
+    (:mod:`cadcam.physics.catalogue`).
+
+    Attributes
+    ----------
+    rate : float
+        Rate k [N/m].
+    preload : float
+        Initial tension F0 [N]: the force at the free length.
+    free_length : float
+        Free length L0 [m] (inside the hooks).
+    length_max : float
+        Longest allowed length [m].
+    load_max : float
+        Largest allowed load [N].
+    wire_diameter : float
+        Wire diameter d [m].
+    coil_diameter : float
+        Mean coil diameter D = outside diameter − d [m].
+    allowed_stress : float
+        Static allowance of the wire's corrected shear stress [Pa]
+        (:data:`cadcam.physics.catalogue.MATERIALS`).
+    """
+
+    rate: float
+    preload: float
+    free_length: float
+    length_max: float
+    load_max: float
+    wire_diameter: float
+    coil_diameter: float
+    allowed_stress: float
+
+    def force(self, x):
+        """The force F0 + kx [N] at extension ``x`` [m]."""
+        return self.preload + self.rate * x
+
+    def length(self, x):
+        """The length L0 + x [m] at extension ``x`` [m]."""
+        return self.free_length + x
+
+    def stress(self, x):
+        """The corrected shear stress τ = 8·D·F·k/(π·d³) [Pa] of the wire at extension ``x`` [m]
+        (EN 13906-2; k the :func:`wahl_factor` of w = D/d)."""
+        d, D = self.wire_diameter, self.coil_diameter
+        return 8 * D * self.force(x) * wahl_factor(D / d) / (math.pi * d**3)
+
+    def extension_limits(self) -> dict:
+        """The largest extension [m] each limit allows, by name: ``length`` (L ≤ L_max),
+        ``load`` (F ≤ F_max) and ``stress`` (τ ≤ the allowance). Each is an upper bound on x
+        because force, length and stress all grow with it."""
+        d, D = self.wire_diameter, self.coil_diameter
+        stress_force = self.allowed_stress * math.pi * d**3 / (8 * D * wahl_factor(D / d))
+        return {"length": self.length_max - self.free_length,
+                "load": (self.load_max - self.preload) / self.rate,
+                "stress": (stress_force - self.preload) / self.rate}
+
+
+#: The names of :meth:`SpringBody.extension_limits`, in the order a tie is named.
+BODY_LIMITS = ("length", "load", "stress")
+
+
 @dataclass(frozen=True)
 class Spring:
     """A linear extension spring.
@@ -55,6 +129,13 @@ class Spring:
         Length of the unloaded spring [m]; the installed length is free_length + x.
     preextension : float or None
         Fixed pre-extension x₀ [m] (Ludovico2021's u₀); None makes it a design variable.
+    part : str or None
+        The catalogue part number the rate, preload, free length and travel were filled from.
+    catalogue : str or None
+        The catalogue file the part is read from; None: the shipped one.
+    body : SpringBody or None
+        The part's body (sizes and limits); its travel is the least extension the body's
+        limits allow.
     """
 
     name: str
@@ -64,6 +145,9 @@ class Spring:
     preload: float = 0.0
     free_length: float | None = None
     preextension: float | None = None
+    part: str | None = None
+    catalogue: str | None = None
+    body: SpringBody | None = None
 
     def energy(self, x):
         """Stored energy ½kx² + F0·x [J] at extension ``x`` [m]."""
@@ -77,7 +161,27 @@ class Spring:
             out["free_length"] = self.free_length
         if self.preextension is not None:
             out["preextension"] = self.preextension
+        if self.part is not None:
+            out["part"] = self.part
+        if self.catalogue is not None:
+            out["catalogue"] = self.catalogue
         return out
+
+    def body_report(self, extension_max: float) -> dict | None:
+        """The body's numbers at the largest extension ``extension_max`` [m] a design reaches,
+        against their limits (SI units), or None for a spring without a body."""
+        b = self.body
+        if b is None:
+            return None
+        limits = b.extension_limits()
+        return {"name": self.name, "part": self.part,
+                "peak_force": float(b.force(extension_max)), "load_max": float(b.load_max),
+                "max_length": float(b.length(extension_max)), "length_max": float(b.length_max),
+                "peak_stress": float(b.stress(extension_max)), "allowed_stress": float(b.allowed_stress),
+                "wire_diameter": float(b.wire_diameter), "coil_diameter": float(b.coil_diameter),
+                "free_length": float(b.free_length), "initial_tension": float(b.preload),
+                "extension_limits": {k: float(v) for k, v in limits.items()},
+                "travel_binding": min(BODY_LIMITS, key=lambda k: limits[k])}
 
 
 @dataclass(frozen=True)
@@ -105,9 +209,15 @@ SPRING_KEYS = KeyTable("[[springs]]", "A linear extension spring joining ports o
     Key("name", "", "the spring's name", "string", default_text="'spring N'", default=None),
     Key("ports", "", "the ports the spring joins, each 'port:mechanism' with an optional '-' for the "
         "opposite sign, such as 'wire:1' or '-platform:2'", "strings", min_length=1),
-    Key("rate", "N/m", "the spring's rate k", low=0, open_low=True),
-    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46)",
-        low=0, open_low=True),
+    Key("part", "", "a catalogue part number: fills rate, preload, free_length and travel (the least "
+        "extension its largest length, largest load and wire stress allow) from its row, so the spec "
+        "gives none of them", "string", min_length=1, default=None, default_text="none (the spec gives the rate)"),
+    Key("catalogue", "", "the catalogue CSV the part is read from, relative to the spec "
+        "(columns as cadcam.physics.catalogue.COLUMNS)", "string", min_length=1, default=None,
+        default_text="none (the shipped McMaster-Carr catalogue)"),
+    Key("rate", "N/m", "the spring's rate k (from the catalogue where part is given)", low=0, open_low=True),
+    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46; from "
+        "the catalogue where part is given)", low=0, open_low=True),
     Key("preload", "N", "the spring's initial tension F0 (force F0 + kx for x > 0)", low=0, default=0.0),
     Key("free_length", "m", "the unloaded spring's length (its installed length is free_length + x)",
         low=0, open_low=True, default=None, default_text="none (not drawn to length)"),
