@@ -282,6 +282,9 @@ class Result:
             "problem": self.problem.to_dict(),
             "citations": citations(self.problem),
         }
+        bodies = [s.body_report(x) for s, x in zip(self.problem.springs, fine.metrics.extension_max)]
+        if any(bodies):
+            out["spring_bodies"] = [b for b in bodies if b is not None]
         if self.band is not None:
             out["tolerance_band"] = self.band.to_dict()
         if sol is not None:

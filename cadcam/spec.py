@@ -26,10 +26,11 @@ import numpy as np
 
 from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
-from .keys import REQUIRED, Key, KeyTable
+from .keys import REQUIRED, Key, KeyTable, is_real
 from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Profile, design_methods,
                               legacy_torque_models, mechanism_class, mechanism_kinds, torque_models)
 from .physics.profile import Basis
+from .physics.catalogue import load_catalogue
 from .physics.springs import SPRING_KEYS, Port, Spring
 from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, Joint, Options, Problem,
                       Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
@@ -439,7 +440,7 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
         if too_many:
             raise SpecError(f"{origin}: {mech_label}: the mechanisms on {joint_label}[{i + 1}]: {too_many}")
     _check_spans(origin, joints, mechanisms, joint_label)
-    springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms)
+    springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms, base)
                for j, raw in enumerate(raw_springs)]
     _check_output_laws(origin, mechanisms)
     _check_method(origin, options.method, mechanisms)
@@ -616,7 +617,7 @@ def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path("."))
     return mech
 
 
-def _spring(r: "_Reader", j: int, mechanisms) -> Spring:
+def _spring(r: "_Reader", j: int, mechanisms, base: Path = Path(".")) -> Spring:
     """One [[springs]] table; ports name a mechanism's ports as 'port:mechanism'."""
     keys = SPRING_KEYS
     ports = []
@@ -631,14 +632,53 @@ def _spring(r: "_Reader", j: int, mechanisms) -> Spring:
             r.fail(r.key("ports"), p, f"a port of mechanism {u + 1} ({mechanisms[u].kind}): "
                                       f"{', '.join(mechanisms[u].ports)}")
         ports.append(Port(u, port, -1.0 if sign else 1.0))
-    travel = float(r.read(keys["travel"]))
-    pre = r.read(keys["preextension"].within(high=travel))
-    spring = Spring(
-        name=r.read(keys["name"], f"spring {j + 1}"), rate=float(r.read(keys["rate"])),
-        travel=travel, ports=tuple(ports), preload=float(r.read(keys["preload"])),
-        free_length=_optional_float(r.read(keys["free_length"])), preextension=_optional_float(pre))
+    part, filled = _part(r, base)
+    numbers = {name: float(r.read(keys[name], filled.get(name, _DECLARED))) for name in ("rate", "travel", "preload")}
+    free_length = _optional_float(r.read(keys["free_length"], filled.get("free_length", _DECLARED)))
+    pre = r.read(keys["preextension"].within(high=numbers["travel"]))
+    spring = Spring(name=r.read(keys["name"], f"spring {j + 1}"), ports=tuple(ports), **numbers,
+                    free_length=free_length, preextension=_optional_float(pre), **part)
     r.done()
     return spring
+
+
+#: The keys a catalogue part fills, which a spec naming a part does not give.
+_FILLED = ("rate", "preload", "free_length", "travel")
+
+
+def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
+    """The part, catalogue and body of a spring that names a catalogue part, and the values its
+    row fills; two empty dicts for one that does not.
+
+    A resolved problem (:meth:`Problem.to_dict`) gives the filled values beside its part: they
+    are accepted where they are the row's own.
+    """
+    keys = SPRING_KEYS
+    number = r.read(keys["part"])
+    given = r.read(keys["catalogue"])
+    if number is None:
+        if given is not None:
+            raise SpecError(f"{r.origin}: {r.key('catalogue')} = {short_repr(given)}: a catalogue is read "
+                            "only for a part; add part = \"...\" or remove catalogue")
+        return {}, {}
+    path = None if given is None else (Path(given) if Path(given).is_absolute() else base / given)
+    cat = load_catalogue(path)
+    try:
+        body = cat.spring_body(cat.index(number))
+    except KeyError as exc:
+        raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: {exc.args[0]}") from None
+    travel = min(body.extension_limits().values())
+    filled = {"rate": body.rate, "preload": body.preload, "free_length": body.free_length, "travel": travel}
+    if not travel > 0:
+        raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: its initial tension already "
+                        "stresses the wire beyond its allowance; choose another part")
+    for name in _FILLED:
+        if name in r.table and not (is_real(r.table[name]) and float(r.table[name]) == filled[name]):
+            raise SpecError(f"{r.origin}: {r.key(name)} = {short_repr(r.table[name])}: part {number!r} sets "
+                            f"{name} ({filled[name]:.6g} {keys[name].unit} from its row); give the part or "
+                            f"{name}, not both")
+    where = None if path is None else str(path.resolve())
+    return {"part": number, "catalogue": where, "body": body}, filled
 
 
 def _optional_float(v):

@@ -215,9 +215,8 @@ SPRING_KEYS = KeyTable("[[springs]]", "A linear extension spring joining ports o
     Key("catalogue", "", "the catalogue CSV the part is read from, relative to the spec "
         "(columns as cadcam.physics.catalogue.COLUMNS)", "string", min_length=1, default=None,
         default_text="none (the shipped McMaster-Carr catalogue)"),
-    Key("rate", "N/m", "the spring's rate k (from the catalogue where part is given)", low=0, open_low=True),
-    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46; from "
-        "the catalogue where part is given)", low=0, open_low=True),
+    Key("rate", "N/m", "the spring's rate k", low=0, open_low=True),
+    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46)", low=0, open_low=True),
     Key("preload", "N", "the spring's initial tension F0 (force F0 + kx for x > 0)", low=0, default=0.0),
     Key("free_length", "m", "the unloaded spring's length (its installed length is free_length + x)",
         low=0, open_low=True, default=None, default_text="none (not drawn to length)"),

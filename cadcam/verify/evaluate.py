@@ -875,9 +875,34 @@ def _margins(ev: Evaluation, ext: np.ndarray) -> dict:
     }
 
 
-def _violations(p: Problem, margins: dict) -> list[str]:
-    """One line per margin below minus its tolerance (a NaN, not computable, counts as one)."""
-    violations = []
+#: A catalogue spring's body limits (:meth:`cadcam.physics.springs.SpringBody.extension_limits`)
+#: as the re-check names them: the words and the quantity, its unit and its largest value.
+BODY_CHECKS = {
+    "length": ("spring longer than its largest length", "length", "m", "length_max"),
+    "load": ("spring force above its largest load", "force", "N", "load_max"),
+    "stress": ("wire stress above its allowance", "stress", "Pa", "allowed_stress"),
+}
+
+
+def _body_violations(p: Problem, extension_max) -> list[str]:
+    """One line per catalogue spring whose largest extension passes one of its body's limits by
+    more than the travel's tolerance."""
+    out = []
+    for s, x in zip(p.springs, extension_max):
+        if s.body is None:
+            continue
+        for name, limit in s.body.extension_limits().items():
+            words, quantity, unit, largest = BODY_CHECKS[name]
+            if not x <= limit + LENGTH_TOL:
+                out.append(f"{words}: {s.name} ({getattr(s.body, quantity)(x):.4g} {unit} of "
+                           f"{getattr(s.body, largest):.4g} {unit})")
+    return out
+
+
+def _violations(p: Problem, margins: dict, extension_max=()) -> list[str]:
+    """One line per margin below minus its tolerance (a NaN, not computable, counts as one),
+    then each catalogue spring's body limit passed at its largest extension ``extension_max``."""
+    violations = _body_violations(p, extension_max)
     for mech, own in zip(p.mechanisms, margins["mechanism"]):
         violations += [f"{lim.name.replace('_', ' ')} below its limit: {mech.name} (margin {own[lim.name]:.3g})"
                        for lim in mech.limits if not own[lim.name] >= -LIMIT_TOL[lim.unit]]
@@ -897,7 +922,7 @@ def _metrics(ev: Evaluation) -> tuple[Metrics, list]:
                           for i, c in enumerate(p.joints)))
     ext = np.array([ev.tensor.extension_range(j) for j in range(len(p.springs))]).reshape(-1, 2)
     margins = _margins(ev, ext)
-    violations = _violations(p, margins)
+    violations = _violations(p, margins, ext[:, 1])
     out_err = [output_error(mech, u) for mech, u in zip(p.mechanisms, ev.units)]
     return Metrics(
         grid=ev.grid,
