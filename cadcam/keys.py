@@ -55,7 +55,10 @@ class Key:
         Its SI unit (``m``, ``rad``, ``N/m``, ``N``, ``kg``, ``-``), or "" for text, choices and
         tables.
     description : str
-        What it sets, a phrase starting in lower case (``the spring's rate``).
+        What it sets, a phrase starting in lower case (``the spring's rate``): what a message
+        names.
+    details : str
+        More about it, for the reference and the schema, not for one-line messages.
     type : str
         One of :data:`TYPES`.
     default : object
@@ -98,6 +101,7 @@ class Key:
     check: Callable[[Any], bool] | None = field(default=None, compare=False)
     words: str = ""
     fields: "KeyTable | None" = None
+    details: str = ""
 
     def __post_init__(self):
         if self.type not in TYPES:
@@ -196,7 +200,8 @@ class Key:
     def schema(self) -> dict:
         """The key as a JSON Schema property."""
         unit = f" [{self.unit}]" if self.unit else ""
-        out: dict[str, Any] = {"description": f"{self.description[:1].upper()}{self.description[1:]}{unit}."}
+        more = f" ({self.details})" if self.details else ""
+        out: dict[str, Any] = {"description": f"{self.description[:1].upper()}{self.description[1:]}{more}{unit}."}
         number = {"number": "number", "integer": "integer"}
         if self.type in number:
             out["type"] = number[self.type]

@@ -140,29 +140,32 @@ SOLVER = {k.name: k for k in (
     Key("limit_margin", "", "the fraction of every limit (spring travel, ρ_min, ρ_max) the NLP keeps in reserve, so "
         "that what happens between grid points stays inside the limit on the re-check", "number", 1e-4, low=0,
         high=0.1, open_high=True),
-    Key("multistart", "", "extra randomised starts besides the default one (0 = single start)", "integer", 0, low=0),
+    Key("multistart", "", "extra randomised starts besides the default one", "integer", 0, low=0,
+        details="0: a single start"),
     Key("seed", "", "the seed of the multistart generator", "integer", 0, low=0, high=2**32, open_high=True),
     Key("max_iter", "", "IPOPT's iteration limit", "integer", 500, low=1),
-    Key("tol", "", "IPOPT's tolerance; a looser one would stop short of the optimum and call it converged",
-        "number", 1e-8, low=0, high=TOL_CAP, open_low=True),
+    Key("tol", "", "IPOPT's tolerance", "number", 1e-8, low=0, high=TOL_CAP, open_low=True,
+        details="a looser one would stop short of the optimum and call it converged"),
     Key("recheck_factor", "", "how many times finer than the design grid the re-check grid is", "integer", 10, low=2),
-    Key("objective", "", "``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47); "
-        "``minimax``: the largest |τ − τ_d| over the grid, by an epigraph variable per joint (for problems whose "
-        "joint torques and targets each depend on their own joint's angle)", "choice", "least_squares",
-        choices=OBJECTIVES),
+    Key("objective", "", "the tracking objective", "choice", "least_squares", choices=OBJECTIVES,
+        details="``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47); ``minimax``: the "
+        "largest |τ − τ_d| over the grid, by an epigraph variable per joint (for problems whose joint torques and "
+        "targets each depend on their own joint's angle)"),
     Key("ipopt", "", "further IPOPT options (name without the ``ipopt.`` prefix = value), each one of "
         ":data:`IPOPT_OPTIONS`, e.g. a warm start (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a "
         "start that is already close to the optimum", "table", (), check=lambda v: all(
             re.fullmatch(r"[a-z][a-z0-9_]*", k) and (is_real(x) or isinstance(x, str)) for k, x in v.items()),
         words="of IPOPT option names = numbers or strings, such as mu_init = 1e-6"),
-    Key("method", "", "``nlp``: cadcam's NLP from the start design; a mechanism's own method "
+    Key("method", "", "the design method", "string", "nlp", min_length=1,
+        details="``nlp``: cadcam's NLP from the start design; a mechanism's own method "
         "(:func:`cadcam.mechanisms.base.design_methods`): its start design itself, re-checked like an optimum (no NLP "
-        "is built)", "string", "nlp", min_length=1),
+        "is built)"),
     Key("moment_arm_degree", "", "the degree of each anchored pulley's moment arm r_m(θ), a Chebyshev series in its "
         "joint's angle, in the ``moment_arm`` design method (Ludovico2021 Sec. III; its Table III uses 5); the "
         "pulleys it gives are fitted as profiles of their mechanisms' own ``order``", "integer", 5, low=1,
         high=MAX_MOMENT_ARM_DEGREE),
-    Key("functions", "", "how IPOPT's functions of the NLP are evaluated. ``expanded``: expanded into scalar (SX) "
+    Key("functions", "", "how IPOPT's functions of the NLP are evaluated", "choice", "auto", choices=FUNCTIONS,
+        details="``expanded``: expanded into scalar (SX) "
         "graphs when the solver is built, whose time grows with the grid; ``mapped``: the graph of mapped per-angle "
         "functions as built, flat in the grid, evaluated more slowly; ``compiled``: that graph as C, compiled once "
         "per problem structure and cached on disk (:mod:`cadcam.solve.compiled`; needs a C compiler): slow the "
@@ -171,7 +174,7 @@ SOLVER = {k.name: k for k in (
         "the next build of the same structure. They give the same optimum up to rounding (the iteration count may "
         "differ by a few) where the optimum is isolated; where it is not (an output law met exactly, as by "
         "Fedorov2018's balancer) rounding can lead IPOPT to another of its optima, in other iterations. The summary "
-        "and ``result.json``'s ``solver.functions`` say which were used", "choice", "auto", choices=FUNCTIONS),
+        "and ``result.json``'s ``solver.functions`` say which were used"),
 )}
 
 
@@ -415,11 +418,11 @@ def tolerance_keys() -> KeyTable:
 #: (:func:`cadcam.solve.objective._band_rows`); 0, the default, leaves the band out.
 BAND_WEIGHT = Key(
     "band_weight", "N·m",
-    "the weight of the joint's tolerance band in the objective: band_weight × ∫w dθ, w the band's first-order "
-    "half-width under [tolerances] (beside tracking_weight × ∫(τ − τ_d)²; 0 leaves it out). Every part "
-    "of w (rate, preload, spring ends' and idlers' placement, profile offset) on a joint whose springs act on it "
-    "alone, but a differential pulley's profile offset; its springs' parts (rate, preload, spring-end placement) on "
-    "a joint that a spring joins to another", low=0, default=0.0)
+    "the weight of the joint's tolerance band in the objective", low=0, default=0.0,
+    details="band_weight × ∫w dθ, w the band's first-order half-width under [tolerances] (beside tracking_weight "
+    "× ∫(τ − τ_d)²; 0 leaves it out). Every part of w (rate, preload, spring ends' and idlers' placement, profile "
+    "offset) on a joint whose springs act on it alone, but a differential pulley's profile offset; its springs' parts "
+    "(rate, preload, spring-end placement) on a joint that a spring joins to another")
 
 #: Largest span of a joint's angle range [deg]: cables may wrap helical grooves, but not without end.
 MAX_JOINT_SPAN_DEG = 3600.0
@@ -427,9 +430,9 @@ MAX_JOINT_SPAN_DEG = 3600.0
 #: A ``[[joints]]`` table's keys.
 JOINT_KEYS = KeyTable("[[joints]]", "A joint: the range to balance, its torque target and the weights of its "
                       "objective terms.", (
-    Key("theta_range_deg", "deg", f"[min, max] joint angles from the reference pose, a non-empty range at most "
-        f"{MAX_JOINT_SPAN_DEG:g}° wide (ten turns of a helical groove), within ±{MAX_JOINT_SPAN_DEG:g}°",
-        "numbers", length=2, low=-MAX_JOINT_SPAN_DEG, high=MAX_JOINT_SPAN_DEG,
+    Key("theta_range_deg", "deg", "[min, max] joint angles from the reference pose", "numbers", length=2,
+        low=-MAX_JOINT_SPAN_DEG, high=MAX_JOINT_SPAN_DEG, details=f"a non-empty range at most {MAX_JOINT_SPAN_DEG:g}° "
+        f"wide (ten turns of a helical groove), within ±{MAX_JOINT_SPAN_DEG:g}°",
         check=lambda v: 0 < v[1] - v[0] <= MAX_JOINT_SPAN_DEG, words=f"0 < max − min ≤ {MAX_JOINT_SPAN_DEG:g}"),
     Key("sensitivity_weights", "", "one weight per spring of ∫|∂τ/∂k_j| in the objective (Johnston2023 Eq. 47)",
         "numbers", low=0, default=None, default_text="0 for every spring"),

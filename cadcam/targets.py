@@ -425,10 +425,9 @@ EXPRESSION_KEYS = KeyTable('kind = "expression"', "A law written as an expressio
                            "on several joints), parsed, never evaluated as code.", (
     Key("expression", "", "an expression of theta such as '0.08*theta**2', in N·m for a torque, m for an output",
         "string", min_length=1),
-    Key("parameters", "", "named numbers the expression uses (name = number; names other than functions, pi, e "
-        "and theta, theta1, theta2…)", "table", default={}, check=lambda v: all(
+    Key("parameters", "", "named numbers the expression uses", "table", default={}, check=lambda v: all(
             isinstance(k, str) and k.isidentifier() and not reserved_name(k) and is_real(x) for k, x in v.items()),
-        words="each name = a number"),
+        words="each name = a number, the name not a function's, pi, e, theta, theta1, theta2…"),
 ))
 PENDULUM_KEYS = KeyTable('kind = "pendulum"', "A pendulum's gravity torque m g l sin(θ + phase).", (
     Key("mass", "kg", "the pendulum's mass m", low=0, open_low=True),

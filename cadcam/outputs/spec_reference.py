@@ -43,7 +43,7 @@ def _rows(keys, prefix: str = "") -> list[str]:
     rows = []
     for k in keys:
         rows.append(f"| `{prefix}{k.name}` | {_cell(k.constraint())} | {k.unit or '–'} | "
-                    f"{_cell(k.default_words())} | {_cell(k.description)} |")
+                    f"{_cell(k.default_words())} | {_cell(k.description + (f'. {k.details}' if k.details else ''))} |")
         if k.fields is not None:
             rows += _rows(k.fields.keys, f"{prefix}{k.name}.")
     return rows

@@ -126,7 +126,7 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
 
     _enter(page, "springs.1.rate", "-5")
     error = page.locator(".error-springs-1-rate")
-    message = error.get_by_text("springs[1].rate = -5: expected a positive spring rate [N/m]")
+    message = error.get_by_text("springs[1].rate = -5: expected the spring's rate k: a number > 0 [N/m]")
     message.wait_for(state="visible", timeout=10_000)
     page.screenshot(path=str(SCREENS / "3_error.png"), full_page=True)
 

@@ -159,6 +159,7 @@ def test_readme_c_example_compiles_and_runs(rr, exported, tmp_path):
 
 
 @needs_gcc
+@pytest.mark.slow  # compiles the whole exported NLP: minutes on two cores
 def test_problem_export_compiles_and_matches_the_solver(tmp_path):
     problem = load_spec(SPEC_1DOF).with_options(grid=8, convexity_points=10)
     from cadcam.optimize import default_start

@@ -126,7 +126,7 @@ def test_the_band_weight_is_read_checked_and_written():
     assert problem.to_dict()["joints"][0]["band_weight"] == 0.5
     assert parse_spec(problem.to_dict(), "result").joints[0].band_weight == 0.5
     data["cams"][0]["band_weight"] = -1.0
-    with pytest.raises(SpecError, match=r"band_weight = -1.0: expected a weight ≥ 0 \[N·m\]"):
+    with pytest.raises(SpecError, match=r"band_weight = -1.0: expected the weight of the joint's tolerance band in the objective: a number ≥ 0 \[N·m\]"):
         parse_spec(data, "1dof")
     assert parse_spec(read_spec_data(SPEC_1DOF), "1dof").joints[0].band_weight == 0.0
 

@@ -14,6 +14,9 @@ from cadcam.verify.evaluate import evaluate
 
 from .test_cable_robot import ROBOT
 
+#: The cable robot designed by its NLP takes minutes on two cores: the slow lane.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def robot():

@@ -184,6 +184,7 @@ def balancer():
     return optimize(completed, built_for(completed)[0], start=start)
 
 
+@pytest.mark.slow  # the balancer's design takes minutes on two cores
 def test_balancer_meets_fedorovs_goals(balancer):
     r = balancer
     fine = r.recheck.metrics
@@ -264,6 +265,7 @@ def test_balancer_outlines_close_round_the_hub_as_the_nlp_designed_them(balancer
         holes(outline, balancer.problem.workshop.bore_diameter, 0.0025)  # raises if a wall is short
 
 
+@pytest.mark.slow  # the balancer's design takes minutes on two cores
 def test_balancer_files_give_its_torque_and_x(balancer, tmp_path):
     """Read back from the written DXFs, about the 0.5 mm cable's centre line (its anchor too,
     where pulley 2's cable is tied at the range's end), the pair moves the idler and so loads
@@ -278,6 +280,7 @@ def test_balancer_files_give_its_torque_and_x(balancer, tmp_path):
     assert report["passed"]
 
 
+@pytest.mark.slow  # the balancer's design takes minutes on two cores
 def test_a_warm_redesign_of_the_differential_balancer_is_no_worse_than_a_cold_one(balancer):
     """Fedorov's balancer on the design page's path: a spring's edit leaves the envelope's cable
     length as it was, so the last answer and its multipliers start the design; it succeeds, in
