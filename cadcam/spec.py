@@ -27,6 +27,7 @@ import numpy as np
 from .errors import SpecError
 from .files import InputFileError, loads_toml, read_input, short_repr
 from .keys import REQUIRED, Key, KeyTable, is_real
+from .library_files import ipopt_options
 from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Profile, design_methods,
                               legacy_torque_models, mechanism_class, mechanism_kinds, torque_models)
 from .physics.profile import Basis
@@ -353,8 +354,7 @@ def _ipopt_refusal(name: str, value) -> str | None:
     try:
         with _quiet_stdout():  # IPOPT prints its option documentation for a bad value
             probe = ca.nlpsol("probe", "ipopt", {"x": x, "f": (x - 1) ** 2},
-                              {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-                               f"ipopt.{name}": value, "error_on_fail": False})
+                              ipopt_options({f"ipopt.{name}": value, "error_on_fail": False}))
             if name == "linear_solver":
                 probe(x0=0)
     except RuntimeError as exc:

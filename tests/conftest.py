@@ -1,6 +1,9 @@
 """Shared fixtures: the 1-DOF model spec and the RR-arm problem with Johnston2023's Table 3 design."""
+import contextlib
 import json
+import shutil
 import signal
+import subprocess
 import threading
 import time
 from pathlib import Path
@@ -8,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import cadcam
 from cadcam import Design, load_spec
 from cadcam.solve import compiled
 
@@ -60,6 +64,32 @@ def private_compile_cache(tmp_path_factory):
         env.setenv("CADCAM_CACHE_DIR", str(tmp_path_factory.mktemp("compiled")))
         env.setenv(compiled.BACKGROUND_ENV, "0")
         yield
+
+
+@pytest.fixture(scope="session")
+def planted(tmp_path_factory):
+    """A shared library whose constructor writes the file ``loaded`` beside it: proof if it is
+    ever loaded. Its soname is its own path (a library linked with it loads it from there), and
+    it defines ``memset`` (a linker looking for that symbol takes it)."""
+    if shutil.which("cc") is None:
+        pytest.skip("no C compiler to build the library")
+    folder = tmp_path_factory.mktemp("planted")
+    source = folder / "planted.c"
+    library = folder / "libplanted.so"
+    source.write_text('#include <stdio.h>\n__attribute__((constructor)) static void planted(void) {\n'
+                      f'  FILE *f = fopen("{folder / "loaded"}", "w"); if (f) fclose(f);\n}}\n'
+                      "void *memset(void *s, int c, unsigned long n) {\n"
+                      "  unsigned char *p = s; while (n--) *p++ = (unsigned char)c; return s;\n}\n")
+    subprocess.run(["cc", "-shared", "-fPIC", str(source), "-o", str(library), f"-Wl,-soname,{library}"],
+                   check=True)
+    return library
+
+
+@pytest.fixture(scope="session")
+def design_1dof(tmp_path_factory):
+    """The 1-DOF model designed on a grid of 12 (a quick design), in an empty working folder."""
+    with contextlib.chdir(tmp_path_factory.mktemp("design_1dof")):
+        return cadcam.design(SPEC_1DOF, grid=12)
 
 
 @pytest.fixture(scope="session")

@@ -3,8 +3,6 @@ a library or a file, a linear solver that is not installed, or a tolerance loose
 own, is refused in one line with exit 2 before any work, from a spec, a flag or the API; a stop
 at IPOPT's acceptable level is its own status, never success."""
 import json
-import shutil
-import subprocess
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -15,20 +13,6 @@ from cadcam.cli import main
 from cadcam.problem import IPOPT_OPTIONS
 
 from .conftest import SPEC_1DOF
-
-
-@pytest.fixture(scope="module")
-def planted(tmp_path_factory):
-    """A shared library whose constructor writes a file beside it: proof if it is ever loaded."""
-    if shutil.which("cc") is None:
-        pytest.skip("no C compiler to build the library")
-    folder = tmp_path_factory.mktemp("planted")
-    source = folder / "planted.c"
-    source.write_text('#include <stdio.h>\n__attribute__((constructor)) static void planted(void) {\n'
-                      f'  FILE *f = fopen("{folder / "loaded"}", "w"); if (f) fclose(f);\n}}\n')
-    library = folder / "libplanted.so"
-    subprocess.run(["cc", "-shared", "-fPIC", str(source), "-o", str(library)], check=True)
-    return library
 
 
 @pytest.mark.parametrize("options", [

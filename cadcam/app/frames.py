@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 
+from ..library_files import matplotlib_defaults
 from ..outputs.plots import pose_frames
 from ..verify.evaluate import Evaluation
 
@@ -20,6 +21,7 @@ class Frames:
         self.count, self._frame = pose_frames(ev, count)
         self._png: dict[int, bytes] = {}
 
+    @matplotlib_defaults()
     def png(self, i: int) -> bytes:
         """Frame ``i`` (0 … count − 1) as PNG bytes."""
         i = max(0, min(int(i), self.count - 1))

@@ -40,6 +40,7 @@ import panel as pn
 from matplotlib.figure import Figure
 
 from .. import examples
+from ..library_files import matplotlib_defaults
 from ..make.step import available as step_available
 from ..outputs.plots import springs_figure, torque_figure
 from ..spec import SpecError
@@ -107,6 +108,7 @@ def slug(key: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", key.lower()).strip("-")
 
 
+@matplotlib_defaults()
 def png(fig: Figure, dpi: int = PAGE_DPI) -> bytes:
     """``fig`` as PNG bytes."""
     buffer = io.BytesIO()

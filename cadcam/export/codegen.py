@@ -160,8 +160,10 @@ def _layout(v, families, problem: Problem) -> list[dict]:
 
 def shared_library_command(source, library) -> list[str]:
     """The command that ``--format shared`` compiles C ``source`` into ``library`` with
-    (:data:`CFLAGS`); CompileError if there is no C compiler."""
-    return [compiler(), *CFLAGS, "-fPIC", "-shared", str(source), "-o", str(library), "-lm"]
+    (:data:`CFLAGS`), their paths absolute (the compiler runs elsewhere:
+    :func:`cadcam.solve.compiled.run_compiler`); CompileError if there is no C compiler."""
+    return [compiler(), *CFLAGS, "-fPIC", "-shared", str(Path(source).absolute()), "-o",
+            str(Path(library).absolute()), "-lm"]
 
 
 def _mark_unused(source: str) -> str:

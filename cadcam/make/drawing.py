@@ -18,6 +18,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Rectangle
 
 from ..files import atomic_path
+from ..library_files import matplotlib_defaults
 from ..mechanisms.base import Picture
 from ..version import __version__
 from .workshop import MM, Outline, holes
@@ -58,6 +59,7 @@ def draw_sheet(path, outline: Outline, bore_diameter: float, anchor_diameter: fl
     return n
 
 
+@matplotlib_defaults()
 def save_sheet(fig: Figure, *paths) -> None:
     """Write a sheet of :func:`sheet_figure` to each of ``paths`` (``.png`` at :data:`DPI` dots
     per inch, or ``.pdf``), atomically."""
@@ -75,6 +77,7 @@ def _sheet_format(path) -> str:
     return fmt
 
 
+@matplotlib_defaults()
 def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
                  rho_max: float, title: str, *, spec: str = "", drawing: str = "",
                  date: str | None = None, words: Picture = Picture()) -> tuple[Figure, int]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..files import atomic_path
+from ..library_files import libraries_imported
 from .biarc import ArcChain, arc_points
 
 MM = 1e3
@@ -16,7 +17,8 @@ MM = 1e3
 def available() -> bool:
     """True where build123d (the extra ``step``) is installed."""
     try:
-        import build123d  # noqa: F401
+        with libraries_imported():  # it imports ezdxf; OpenCascade's message files
+            import build123d  # noqa: F401
     except ImportError:
         return False
     return True
@@ -24,7 +26,8 @@ def available() -> bool:
 
 def _profile_face(chain: ArcChain):
     """The chain's closed outline [mm] as a build123d Face: a line or a three-point arc per segment."""
-    import build123d as bd
+    with libraries_imported():
+        import build123d as bd
 
     ends = np.roll(chain.vertices, -1, axis=0)
     edges = []
@@ -47,7 +50,8 @@ def write_step(path, chain: ArcChain, holes, thickness: float, groove_depth: flo
     (the outline offset inwards). Sizes are checked by :func:`cadcam.make.workshop.write_stl`'s
     rules before this is called.
     """
-    import build123d as bd
+    with libraries_imported():
+        import build123d as bd
 
     face = _profile_face(chain)
     t = thickness * MM

@@ -10,15 +10,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import casadi as ca
-import ezdxf
 import numpy as np
 from manifold3d import CrossSection, JoinType, Manifold
 from numpy.polynomial import Legendre, Polynomial
 
 from ..files import atomic_path, write_csv as write_table, write_text
+from ..library_files import libraries_imported
 from ..physics.profile import Basis, convexity_margin, curvature, profile_function
 from ..problem import MIN_WALL
 from .biarc import ArcChain, arc_geometry, biarc_fit, segment_distance
+
+with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
+    import ezdxf
 
 TWO_PI = 2 * np.pi
 MM = 1e3

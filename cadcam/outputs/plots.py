@@ -2,10 +2,11 @@
 
 Every figure is built with ``matplotlib.figure.Figure`` — no pyplot, no global state — so
 importing this module never selects a backend and the figures work alike in a notebook (any
-backend: a Figure displays itself) and headless. :func:`figures` returns the figures of a
-design run by name; :func:`save_figure` writes one as a PNG, atomically (what ``cadcam design``
-writes). Views only: no physics here; the geometry comes from the
-mechanisms' drawing hooks (``world_points``, ``segments``, ``circles``).
+backend: a Figure displays itself) and headless; each is drawn, and saved, with matplotlib's
+own defaults, whatever a ``matplotlibrc`` says (:func:`cadcam.library_files.matplotlib_defaults`).
+:func:`figures` returns the figures of a design run by name; :func:`save_figure` writes one as
+a PNG, atomically (what ``cadcam design`` writes). Views only: no physics here; the geometry
+comes from the mechanisms' drawing hooks (``world_points``, ``segments``, ``circles``).
 
 Lengths are drawn in millimetres and torques in newton-millimetres; the data stay SI.
 """
@@ -27,6 +28,7 @@ from ..verify.binding import limit_state
 from ..verify.evaluate import METRICS, Evaluation, output_error, output_law
 from ..verify.tolerance import Band
 from ..files import atomic_path
+from ..library_files import matplotlib_defaults
 from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
 
@@ -54,6 +56,7 @@ RHO_BINDING = dict(marker="x", color="crimson", ms=10, mew=2.2, ls="none", zorde
 CONVEXITY_BINDING = dict(marker="D", mfc="none", mec="magenta", mew=1.8, ms=12, ls="none", zorder=6)
 
 
+@matplotlib_defaults()
 def save_figure(fig: Figure, path, dpi: int = DPI) -> None:
     """Write ``fig`` to ``path`` as a PNG, atomically (a complete file or none)."""
     with atomic_path(path) as tmp:
@@ -300,6 +303,7 @@ def pose_views(ev: Evaluation, boxes, pose: int = 0, n_poses: int = 1) -> Figure
 POSES_MIN_WIDTH = 7.0
 
 
+@matplotlib_defaults()
 def _poses_figure(ev: Evaluation, rows: list, columns: list[tuple]) -> Figure:
     """The figure of :func:`profile_figure`: each mechanism's row of :func:`_row`, in the
     ``columns``: (index into each row's poses, view (lo, hi) [mm] or None for the row's own)."""
@@ -475,6 +479,7 @@ def _profile_legend(pairs: int, seen: set[str], words: Picture) -> list[Line2D]:
 
 
 # -------------------------------------------------------------------------------------- torque
+@matplotlib_defaults()
 def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
     """Torque against target and the error [N·mm]: lines for one joint, with the tolerance
     ``band`` shaded around the torque (:mod:`cadcam.verify.tolerance`) and the error its
@@ -528,6 +533,7 @@ def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
 
 
 # -------------------------------------------------------------------------------------- output
+@matplotlib_defaults()
 def output_figure(ev: Evaluation, recheck: Evaluation | None = None) -> Figure:
     """Each mechanism's output x(θ) against its law x_d(θ) [mm] and the error [µm]: on the
     ``recheck`` evaluation's finer grid where given, the design grid's angles marked on it (the
@@ -577,6 +583,7 @@ def _short(name: str) -> str:
     return name.split(" (")[0] or name
 
 
+@matplotlib_defaults()
 def springs_figure(ev: Evaluation) -> Figure:
     """Every spring's extension against its travel [mm].
 
@@ -717,6 +724,7 @@ def power_of_ten(value: float, _position=None) -> str:
     return power if abs(mantissa - 1) < 1e-6 else f"{mantissa:.3g}×{power}"
 
 
+@matplotlib_defaults()
 def convergence_figure(history: dict) -> Figure:
     """IPOPT's iterations of the returned solve: the objective, the primal and dual
     infeasibilities (log scale, with the barrier parameter μ) and the step (‖d‖, log scale,
@@ -876,6 +884,7 @@ def axis_label(key: str) -> tuple[str, float]:
     return key, 1.0
 
 
+@matplotlib_defaults()
 def study_figure(table: list[dict], x: str, y: str, color: str | None = None, pareto: bool = False,
                  title: str = "") -> Figure:
     """Scatter of column ``y`` against ``x`` over a study's successful cases, optionally

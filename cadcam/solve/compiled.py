@@ -53,6 +53,7 @@ from pathlib import Path
 import casadi as ca
 
 from ..files import TEMP_PREFIX, atomic_path, process_alive, remove_leftovers
+from ..library_files import ipopt_options
 from ..version import __version__
 
 #: The functions IPOPT calls (CasADi's names), in the order they are generated; ``nlp_grad``
@@ -172,7 +173,7 @@ def oracle_functions(nlp: dict) -> dict[str, ca.Function]:
     their derivatives taken :data:`DIRECTIONS` at a time, each rebuilt with
     :data:`FUNCTION_OPTIONS`. A library of these is what ``nlpsol(name, "ipopt", library)``
     loads."""
-    solver = ca.nlpsol("oracle", "ipopt", nlp, {"oracle_options": {"max_num_dir": DIRECTIONS}})
+    solver = ca.nlpsol("oracle", "ipopt", nlp, ipopt_options({"oracle_options": {"max_num_dir": DIRECTIONS}}))
     functions = {"nlp": solver.oracle(), **{name: solver.get_function(name) for name in ORACLE}}
     return {name: rebuilt(f, FUNCTION_OPTIONS) for name, f in functions.items()}
 
@@ -243,7 +244,8 @@ def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path | None
     if not replaceable:
         return None, False
     remove_leftovers(folder)  # the build folders of compiles killed before they ended
-    with tempfile.TemporaryDirectory(dir=folder, prefix=f"{TEMP_PREFIX}{os.getpid()}-build-") as tmp:
+    # absolute: the compiler runs in a folder of its own (run_compiler)
+    with tempfile.TemporaryDirectory(dir=folder.absolute(), prefix=f"{TEMP_PREFIX}{os.getpid()}-build-") as tmp:
         sources = []
         for name, f in oracle_functions(source() if source is not None else nlp).items():
             # without CasADi's comment per operation, which doubles the C
@@ -452,7 +454,8 @@ def compile_in_background(nlp: dict, source=None, key: str | None = None) -> boo
         return True
     try:
         _nlp_function(source() if source is not None else nlp).save(str(pending / NLP_FILE))
-        process = subprocess.Popen([sys.executable, "-m", __name__, key, str(pending)], start_new_session=True,
+        # -P: python -m would put the working folder first on sys.path (cadcam.library_files)
+        process = subprocess.Popen([sys.executable, "-P", "-m", __name__, key, str(pending)], start_new_session=True,
                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL)
     except BaseException as exc:
@@ -582,23 +585,27 @@ def compiler_failure(run: subprocess.CompletedProcess) -> str:
 
 
 def run_compiler(command: list[str]) -> subprocess.CompletedProcess:
-    """Run ``command`` (a compiler driver) in a session of its own, its output captured (as
-    text, any bytes that are not UTF-8 replaced). Should anything stop the wait (Ctrl-C,
-    SIGTERM), the whole session is killed and waited for: the driver's own children (cc1, as,
-    ld) are not left running as orphans. CompileError if the driver cannot be run."""
-    try:
-        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                errors="replace", start_new_session=True)
-    except OSError as exc:
-        raise CompileError(f"the C compiler {command[0]!r} cannot be run ({exc.strerror or exc}); "
-                           "install a working one or use functions = 'expanded'") from None
-    try:
-        out, err = proc.communicate()
-    except BaseException:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
-        raise
+    """Run ``command`` (a compiler driver, its paths absolute) in a session of its own and in an
+    empty private folder, its output captured (as text, any bytes that are not UTF-8
+    replaced). The folder: GNU ld opens a linker script's relative names (``libgcc_s.so.1``) in
+    its working folder, and links in a library planted there (:mod:`cadcam.library_files`).
+    Should anything stop the wait (Ctrl-C, SIGTERM), the whole session is killed and waited
+    for: the driver's own children (cc1, as, ld) are not left running as orphans.
+    CompileError if the driver cannot be run."""
+    with tempfile.TemporaryDirectory(prefix="cadcam-cc-") as empty:
+        try:
+            proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                    errors="replace", start_new_session=True, cwd=empty)
+        except OSError as exc:
+            raise CompileError(f"the C compiler {command[0]!r} cannot be run ({exc.strerror or exc}); "
+                               "install a working one or use functions = 'expanded'") from None
+        try:
+            out, err = proc.communicate()
+        except BaseException:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            raise
     return subprocess.CompletedProcess(command, proc.returncode, out, err)
 
 

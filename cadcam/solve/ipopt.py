@@ -14,6 +14,7 @@ import numpy as np
 
 from ..designs import Design
 from . import compiled
+from ..library_files import ipopt_options
 from ..problem import Options
 
 #: The largest barrier parameter IPOPT's adaptive μ may choose, in the NLP's scaled units (mm,
@@ -121,10 +122,9 @@ def _ipopt_options(opt: Options, extra: dict | None = None) -> dict:
     """CasADi's ``nlpsol`` options of an IPOPT solve with ``opt``'s settings and ``extra``."""
     # show_eval_warnings: CasADi's warning of a NaN at a trial point (IPOPT's to handle: it
     # shortens the step) is kept in the result by Transcription.solve, not printed
-    return {"print_time": False, "show_eval_warnings": True, "ipopt.print_level": 0, "ipopt.sb": "yes",
-            "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
-            "ipopt.mu_strategy": "adaptive", "ipopt.mu_max": MU_MAX, **{f"ipopt.{k}": v for k, v in opt.ipopt},
-            **(extra or {})}
+    return ipopt_options({"show_eval_warnings": True, "ipopt.max_iter": opt.max_iter, "ipopt.tol": opt.tol,
+                          "ipopt.mu_strategy": "adaptive", "ipopt.mu_max": MU_MAX,
+                          **{f"ipopt.{k}": v for k, v in opt.ipopt}, **(extra or {})})
 
 
 #: How a build's functions were evaluated (:attr:`cadcam.solve.transcription.Transcription.functions_used`),

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import casadi as ca
 
+from ..library_files import ipopt_options
+
 #: The functions IPOPT calls that CasADi generates by derivation, by the ``nlpsol`` option that
 #: supplies each one: CasADi's name of the function.
 DERIVATIVES = {"grad_f": "nlp_grad_f", "jac_g": "nlp_jac_g", "hess_lag": "nlp_hess_l"}
@@ -32,4 +34,4 @@ def sharing_solver(solver: ca.Function, nlp: dict, options: dict, expand: bool =
         Evaluate ``f`` and ``g`` as SX (else as their MX graphs).
     """
     derivatives = {option: solver.get_function(name) for option, name in DERIVATIVES.items()}
-    return ca.nlpsol(solver.name(), "ipopt", nlp, {**options, **derivatives, "expand": expand})
+    return ca.nlpsol(solver.name(), "ipopt", nlp, ipopt_options({**options, **derivatives, "expand": expand}))

@@ -39,6 +39,7 @@ from multiprocessing import get_context
 from pathlib import Path
 
 from ..files import process_alive, short_repr
+from ..library_files import PYTHON_SAFE_PATH
 from ..version import __version__
 from .study import Study, StudyError
 
@@ -296,7 +297,9 @@ def _is_study_definition(study) -> bool:
 # -- executors --------------------------------------------------------------------------------
 #: Worker processes run single-threaded BLAS: a sweep is parallel across cases, and threads
 #: inside each worker only compete for the same cores (measured: 2 workers 1.7× slower without).
-WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: They are started with ``python -c``, which would put the working folder first on
+#: ``sys.path``: :data:`cadcam.library_files.PYTHON_SAFE_PATH` keeps it off.
+WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", **PYTHON_SAFE_PATH}
 
 
 class _WorkerEnv:
@@ -316,8 +319,9 @@ class _WorkerEnv:
 
 class _Local:
     def __init__(self, workers: int):
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
-        with _WorkerEnv():  # start every worker now, with the worker environment
+        # every worker started now, and the pool's resource tracker, in the worker environment
+        with _WorkerEnv():
+            self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
             list(self.pool.map(abs, range(workers)))
 
     def submit(self, *args):

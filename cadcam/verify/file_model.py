@@ -22,10 +22,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import ezdxf
 import numpy as np
 
+from ..library_files import libraries_imported
 from ..physics.outline import STRAIGHT, FileOutline, outline_from_chain
+
+with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
+    import ezdxf
 
 #: Millimetres per metre (the files' unit: the DXF's $INSUNITS = 4, a groove's columns ``_mm``).
 MM = 1e3

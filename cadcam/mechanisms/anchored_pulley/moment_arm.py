@@ -31,6 +31,7 @@ import numpy as np
 from numpy.polynomial import Chebyshev
 
 from ...errors import SpecError
+from ...library_files import ipopt_options
 from ...physics.profile import Basis, fit_profile, profile_function
 from .kim_deshpande import Envelope, SpringState, cable_line, envelope
 from .model import ANCHOR_WRAP, WINDING, AnchoredPulley
@@ -203,8 +204,8 @@ def design_moment_arms(problem, joint: int = 0, degree: int = 5, grid: int | Non
     rows += [t - (torque - target[None, :]), t + (torque - target[None, :])]
     g = ca.vertcat(*[ca.vec(row) for row in rows])
     solver = ca.nlpsol("moment_arm", "ipopt", {"x": ca.vertcat(ca.vec(c), t), "f": t, "g": g},
-                       {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-                        "ipopt.tol": problem.options.tol, "ipopt.max_iter": problem.options.max_iter})
+                       ipopt_options({"ipopt.tol": problem.options.tol,
+                                      "ipopt.max_iter": problem.options.max_iter}))
     start = np.zeros((basis.size, len(units)))
     start[0] = [problem.mechanisms[u].start_radius(problem.mechanisms[u].profiles[0])
                 for u in units]  # circles
