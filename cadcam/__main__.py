@@ -13,6 +13,7 @@ from .interrupts import INTERRUPTED, STOP, ignore_further_signals, interrupt_arr
 def main() -> int:
     """Run ``cadcam`` with ``sys.argv``; return its exit code (:mod:`cadcam.cli`), or, when it
     was interrupted, end the process with :data:`INTERRUPTED` (see :func:`_end_interrupted`)."""
+    _escaping_streams()
     stop_on_signals()
     try:
         from .cli import main as run_command
@@ -29,6 +30,15 @@ def main() -> int:
     if code == INTERRUPTED:
         _end_interrupted()
     return code
+
+
+def _escaping_streams() -> None:
+    """Standard output and error write a character their encoding lacks as an escape (``·`` as
+    ``\\xb7`` under ``PYTHONIOENCODING=ascii``) instead of failing the command."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)  # None: a closed descriptor at start-up
+        if reconfigure is not None:
+            reconfigure(errors="backslashreplace")
 
 
 def _end_interrupted() -> None:

@@ -19,7 +19,7 @@ from .mechanisms.base import mechanism_class, mechanism_kinds, torque_models
 from .solve.compiled import CompileError
 from .designs import DesignError
 from .interrupts import INTERRUPTED, STOP, interrupt_arrived, signals_stop_the_run
-from .files import FolderBusy, NotCadcams, held_folder, refuse_files_of_others
+from .files import FolderBusy, NotCadcams, held_folder, printable, refuse_files_of_others
 from .version import __version__
 from .problem import SOLVER, WORKSHOP_LIMITS, cap, evaluation_size_error, size_error
 from .spec import SpecError, parse_value
@@ -30,6 +30,13 @@ from .targets import ExpressionError
 
 class InputError(ValueError):
     """Bad command-line input."""
+
+
+def _say(*lines: str, err: bool = False) -> None:
+    """Print ``lines`` on standard output (``err``: standard error), each on one line whatever
+    the names, keys and paths in it hold (:func:`cadcam.files.printable`): every message of the
+    command line goes out here."""
+    print("\n".join(printable(line) for line in lines), file=sys.stderr if err else sys.stdout, flush=True)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -123,10 +130,13 @@ def cmd_design(args) -> int:
     _check_output_dir(args.output)
     refuse_unreachable(problem)
     for note in advice(problem):
-        print(f"cadcam: note: {note}", file=sys.stderr, flush=True)
-    with held_folder(args.output) as out:
-        _check_files_are_ours(out, problem, args.figures)
-        return _design_into(args, problem, out)
+        _say(f"cadcam: note: {note}", err=True)
+    try:
+        with held_folder(args.output) as out:
+            _check_files_are_ours(out, problem, args.figures)
+            return _design_into(args, problem, out)
+    except _NotWritten as failed:  # out of the folder's hold: the folders this run made are gone if empty
+        return _not_written(failed.result, failed.why)
 
 
 def _check_files_are_ours(out: Path, problem, figures: bool) -> None:
@@ -146,24 +156,46 @@ def _design_into(args, problem, out: Path) -> int:
     writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
     writers.join()  # the drawings are forked from a process of one thread
-    print(result.summary(), flush=True)  # before the files: the verdict is shown whatever they do
     try:
         notes = result.save(out, figures=args.figures, workers=os.cpu_count() or 1)
     except WorkshopError as exc:
         named = [name for name in WORKSHOP_FLAGS if f"{name} = " in str(exc)]
         fix = "; ".join(f"set it with --{name.replace('_', '-')} or the spec's [workshop] {name}"
                         for name in named)
-        print(f"cadcam: the workshop files cannot be made: {exc} (the design and its other files are written "
-              f"to {out}{'; ' + fix if fix else ''})", file=sys.stderr)
-        return 1
+        raise _NotWritten(result, f"the workshop files cannot be made: {exc} (the design and its other "
+                                  f"files are written to {out}{'; ' + fix if fix else ''})") from exc
+    except OSError as exc:  # disk full, permissions: the verdict's first line says so
+        raise _NotWritten(result, _os_error_words(exc)) from exc
     output = any(m.output_target is not None for m in problem.mechanisms)
     pngs = (f" profile.png{' torque.png springs.png' if problem.springs else ''} convergence.png"
             f"{' output.png' if output else ''}" if args.figures else "")
-    print(f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv"
-          f"{' output.csv' if output else ''}{pngs}")
-    print(f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
-          f"or cam*_groove.csv{' cam*.stl' if problem.workshop.stl is not None else ''} ({'; '.join(notes)})")
+    _say(*result.summary().split("\n"),
+         f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv"
+         f"{' output.csv' if output else ''}{pngs}",
+         f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
+         f"or cam*_groove.csv{' cam*.stl' if problem.workshop.stl is not None else ''} ({'; '.join(notes)})")
     return 0 if result.success else 1
+
+
+#: First words of ``cadcam design``'s output when its files could not all be written: its first
+#: line says so, before the design's verdict (which says whether the design is good).
+NOT_WRITTEN = "not written"
+
+
+class _NotWritten(Exception):
+    """A design (``result``) whose files could not all be written, and why (one line)."""
+
+    def __init__(self, result, why: str):
+        super().__init__(why)
+        self.result, self.why = result, why
+
+
+def _not_written(result, why: str) -> int:
+    """Report a design whose files could not all be written (``why``): a first line saying
+    so on standard output, the design's summary after it, ``why`` on standard error; exit 1."""
+    _say(f"{NOT_WRITTEN}: {why}", *result.summary().split("\n"))
+    _say(f"cadcam: error: {why}", err=True)
+    return 1
 
 
 #: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), and the
@@ -202,7 +234,7 @@ def cmd_check(args) -> int:
     if not 0 < args.tol < 1:
         raise InputError(f"--tol {args.tol}: give a relative error between 0 and 1")
     report = check_derivatives(problem, design, points=args.points, tol=args.tol, nlp=not args.no_nlp)
-    print(json.dumps(report.to_dict(), indent=2) if args.json else repr(report))
+    _say(*(json.dumps(report.to_dict(), indent=2) if args.json else repr(report)).split("\n"))
     return 0 if report.passed else 1
 
 
@@ -268,8 +300,8 @@ def cmd_evaluate(args) -> int:
     problem = completed(problem)
     design = _design(args, problem)
     ev = evaluate(problem, design, grid=args.grid)
-    print(json.dumps({"torque_model": problem.torque_model, "design": design.to_dict(),
-                      "metrics": ev.metrics.to_dict()}, indent=2))
+    _say(*json.dumps({"torque_model": problem.torque_model, "design": design.to_dict(),
+                       "metrics": ev.metrics.to_dict()}, indent=2).split("\n"))
     return 0
 
 
@@ -283,8 +315,8 @@ def cmd_export(args) -> int:
             manifest = export(problem, design, args.what, args.format.split(","), out)
     except ExportError as exc:
         raise InputError(str(exc)) from None
-    print(f"exported {args.what} ({', '.join(f['name'] for f in manifest['functions'])}) to "
-          f"{args.output}/: {' '.join(manifest['files'])} manifest.json")
+    _say(f"exported {args.what} ({', '.join(f['name'] for f in manifest['functions'])}) to "
+         f"{args.output}/: {' '.join(manifest['files'])} manifest.json")
     return 0
 
 
@@ -299,30 +331,23 @@ def cmd_sweep(args) -> int:
     summary = run_sweep(study, args.output, workers=args.workers, dask=args.dask)
     elsewhere = (f", {summary['elsewhere']} still running in another sweep on this database"
                  if summary["elsewhere"] else "")
-    print(f"{study.name}: {summary['cases']} cases, {summary['ran']} run now, {summary['skipped']} "
-          f"already recorded{elsewhere}; {summary['cases_per_min']:.1f} cases/min; statuses "
-          f"{summary['statuses']}; results in {args.output}")
+    _say(f"{study.name}: {summary['cases']} cases, {summary['ran']} run now, {summary['skipped']} "
+         f"already recorded{elsewhere}; {summary['cases_per_min']:.1f} cases/min; statuses "
+         f"{summary['statuses']}; results in {args.output}")
     failed = sum(n for k, n in summary["statuses"].items() if k != "success")
     return 0 if failed == 0 else 1
 
 
 def cmd_sweep_export(args) -> int:
-    import csv
-    import io
-
-    from .files import write_text
+    from .files import write_csv
     from .sweep.runner import flat_table, read_rows
 
     _check_output_file(args.csv, "--csv")
     study, rows = read_rows(args.database)
     table = flat_table(study, rows)
     header = list(dict.fromkeys(k for row in table for k in row))
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=header)
-    writer.writeheader()
-    writer.writerows(table)
-    write_text(args.csv, buf.getvalue())
-    print(f"{len(table)} cases of {study['name']} written to {args.csv}")
+    write_csv(args.csv, header, ([row.get(k) for k in header] for row in table))
+    _say(f"{len(table)} cases of {study['name']} written to {args.csv}")
     return 0
 
 
@@ -338,7 +363,7 @@ def cmd_plot_study(args) -> int:
             keys = sorted({k for r in table for k in r})
             raise InputError(f"{flag} {name!r}: no such column in {args.database}; columns: {', '.join(keys)}")
     plot_study(table, args.x, args.y, args.color, args.pareto, args.output, study["name"])
-    print(f"plot written to {args.output}")
+    _say(f"plot written to {args.output}")
     return 0
 
 
@@ -352,20 +377,20 @@ def cmd_cache(args) -> int:
     if refused is not None:
         if args.clear:
             raise InputError(f"{str(folder)!r}: not a cache cadcam uses or clears: {refused}; {MAKE_PRIVATE}")
-        print(f"{folder}: not used: {refused} (solver.functions = 'auto' and 'compiled' solve with expanded "
+        _say(f"{folder}: not used: {refused} (solver.functions = 'auto' and 'compiled' solve with expanded "
               f"functions; {MAKE_PRIVATE})")
         return 0
     if args.clear:
         n, size, left = clear_cache()
-        print(f"removed {libraries(n)} ({size / 1e6:.1f} MB) from {folder}"
-              + (f"; left in place, not cadcam's to remove: {_named(left)}" if left else ""))
+        _say(f"removed {libraries(n)} ({size / 1e6:.1f} MB) from {folder}"
+             + (f"; left in place, not cadcam's to remove: {_named(left)}" if left else ""))
         return 0
     entries = cache_entries()
     libs = [path for path, why in entries if why is None]
     others = [(path.name, why) for path, why in entries if why is not None]
-    print(f"{folder}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
-          "(solver.functions = 'auto' or 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves "
-          "the folder)" + (f"; never loaded: {_named(others)}" if others else ""))
+    _say(f"{folder}: {libraries(len(libs))}, {sum(path.stat().st_size for path in libs) / 1e6:.1f} MB "
+         "(solver.functions = 'auto' or 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves "
+         "the folder)" + (f"; never loaded: {_named(others)}" if others else ""))
     return 0
 
 
@@ -530,21 +555,26 @@ def _run_command(argv) -> int:
         return _run_interruptible(args)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: temporary files are gone, no partial set is left
         STOP.finished = True  # first, and without a call: a later signal would raise in whatever runs next
-        print("cadcam: interrupted; no partial outputs were left", file=sys.stderr)
+        _say("cadcam: interrupted; no partial outputs were left", err=True)
         return INTERRUPTED
     except (SpecError, DesignError, ExpressionError, InputError, StudyError, SweepError,
             CompileError, FolderBusy, NotCadcams) as exc:
-        print(f"cadcam: error: {exc}", file=sys.stderr)
+        _say(f"cadcam: error: {exc}", err=True)
         return 2
     except BrokenPipeError:  # the reader of our output went away (``| head``): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as exc:  # the environment failed after work began: disk full, permissions…
-        where = f"{exc.filename}: " if exc.filename else ""
-        fix = ("" if isinstance(exc, (IsADirectoryError, FileExistsError))
-               else "; free space or fix the permissions and run again")
-        print(f"cadcam: error: {where}{exc.strerror or exc} (nothing half-written is left{fix})", file=sys.stderr)
+        _say(f"cadcam: error: {_os_error_words(exc)}", err=True)
         return 1
+
+
+def _os_error_words(exc: OSError) -> str:
+    """What failed as one line: the file, the system's reason, what is left and what to do."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    fix = ("" if isinstance(exc, (IsADirectoryError, FileExistsError))
+           else "; free space or fix the permissions and run again")
+    return f"{where}{exc.strerror or exc} (nothing half-written is left{fix})"
 
 
 def _run_interruptible(args) -> int:

@@ -17,10 +17,13 @@ and a swap it cut short is undone first.
 from __future__ import annotations
 
 import contextlib
+import csv
 import errno
 import fcntl
 import hashlib
+import io
 import json
+import numbers
 import os
 import re
 import secrets
@@ -29,6 +32,7 @@ import stat
 import sys
 import tempfile
 import tomllib
+import unicodedata
 from pathlib import Path
 
 #: Start of every temporary file's and staging folder's name (followed by the writer's pid).
@@ -66,9 +70,33 @@ class NotCadcams(ValueError):
     file cadcam recorded writing there (:func:`refuse_files_of_others`); one line naming it."""
 
 
+#: Unicode categories of the characters :func:`printable` escapes: controls (a terminal's
+#: escape codes, line breaks, C1 controls), format characters (bidirectional overrides, zero
+#: widths), surrogates (the undecodable bytes of a file name) and line and paragraph separators.
+UNPRINTABLE = frozenset({"Cc", "Cf", "Cs", "Zl", "Zp"})
+
+#: First characters of a CSV text cell that a spreadsheet takes for a formula (OWASP's CSV
+#: injection list; its tab and carriage return, and any other control character, are escaped
+#: before: :func:`printable`); such a cell gets a leading apostrophe (:func:`csv_text`).
+FORMULA_STARTS = ("=", "+", "-", "@")
+
+
+def printable(text: str) -> str:
+    """``text`` with each character of :data:`UNPRINTABLE` written as an escape
+    (``\\x1b``, ``\\n``, ``\\u202e``), as a Python literal writes it: what cadcam prints
+    that names keys, names and paths stays on its line and sends a terminal no commands."""
+    if text.isprintable():
+        return text
+    return "".join(_escape(ch) if unicodedata.category(ch) in UNPRINTABLE else ch for ch in text)
+
+
+def _escape(ch: str) -> str:
+    return repr(ch)[1:-1]  # Python escapes every character it does not print
+
+
 def short_repr(value, limit: int = 80) -> str:
     """``repr(value)`` cut to ``limit`` characters, for one-line messages about input."""
-    text = repr(value)
+    text = printable(repr(value))
     return text if len(text) <= limit else text[:limit - 1] + "…"
 
 
@@ -466,9 +494,9 @@ def _digest_or_none(path: Path) -> tuple[str, int] | None:
 
 
 def write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically."""
+    """Write ``text`` to ``path`` atomically, as UTF-8 (whatever the locale's encoding)."""
     with atomic_path(path) as tmp:
-        tmp.write_text(text)
+        tmp.write_text(text, encoding="utf-8")
 
 
 def write_json(path, data) -> None:
@@ -477,6 +505,32 @@ def write_json(path, data) -> None:
 
 
 def write_csv(path, header: list[str], rows) -> None:
-    """Write a CSV table with ``header`` and numeric ``rows`` atomically (full precision)."""
-    lines = [",".join(header)] + [",".join(repr(float(v)) for v in row) for row in rows]
-    write_text(path, "\n".join(lines) + "\n")
+    """Write a CSV table with ``header`` and ``rows`` atomically: each cell a number (integers
+    as integers, the others in full precision), None (empty) or text (:func:`csv_text`)."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([csv_text(name) for name in header])
+    if getattr(rows, "dtype", None) is not None and rows.dtype.kind == "f":
+        # a numpy table of floats, the run files' (10⁵–10⁶ cells): as Python floats, no text
+        buffer.writelines(",".join(map(repr, row)) + "\n" for row in rows.tolist())
+    else:
+        writer.writerows([_csv_cell(value) for value in row] for row in rows)
+    write_text(path, buffer.getvalue())
+
+
+def _csv_cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return repr(float(value))
+    return csv_text(value)
+
+
+def csv_text(value) -> str:
+    """``value`` as a CSV text cell: :func:`printable`, and with a leading apostrophe where it
+    would start like a spreadsheet formula (:data:`FORMULA_STARTS`), which spreadsheets then
+    show as text."""
+    text = printable(str(value))
+    return "'" + text if text.startswith(FORMULA_STARTS) else text

@@ -15,7 +15,7 @@ from .verify.binding import binding_constraints
 from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation
 from .verify.tolerance import Band, tolerance_band
-from .files import staged_folder
+from .files import printable, staged_folder
 from .version import __version__
 from .outputs.forked import Drawing, draw
 from .solve.messages import count
@@ -176,7 +176,7 @@ class Result:
         if self.warnings:
             lines.append(_warnings_line(self.warnings))
         lines += [f"  binding: {b}" for b in self.binding]
-        return "\n".join(lines)
+        return "\n".join(map(printable, lines))  # a name's line break or escape code stays in its line
 
     def __repr__(self) -> str:
         return self.summary()

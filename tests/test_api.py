@@ -167,8 +167,9 @@ def test_ipopt_options_reach_ipopt(tmp_path, capfd):
     """(The design without figures: IPOPT's log is printed before any is drawn.)"""
     assert main(["design", str(SPEC_1DOF), "--grid", "12", "-o", str(tmp_path / "o"), "--no-figures",
                  "--ipopt", "print_level=5"]) == 0
-    out = capfd.readouterr().out
-    assert "iter    objective    inf_pr" in out  # IPOPT's own iteration log
+    printed = capfd.readouterr()
+    assert "iter    objective    inf_pr" in printed.err  # IPOPT's own iteration log, on stderr
+    assert printed.out.startswith("success: ")  # the verdict first
     assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "p"), "--ipopt", "print_level"]) == 2
     assert main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "p"), "--ipopt", "tol=1e-3"]) == 2
     assert not (tmp_path / "p").exists()

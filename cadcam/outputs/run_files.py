@@ -98,7 +98,7 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     write_json(out / "result.json", {**result.to_dict(), **({"workshop": workshop} if workshop else {})})
     write_torque_csv(out / "torque.csv", ev)
     write_torque_csv(out / "torque_recheck.csv", result.recheck)
-    rows = [[i + 1, p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
+    rows = [[float(i + 1), p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
             for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
     write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
     outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]

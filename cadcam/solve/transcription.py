@@ -38,7 +38,7 @@ from . import compiled
 from .blocks import BAND_SCALE, LENGTH_SCALE
 from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, WARM_IPOPT, Multipliers,
                     Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
-from .messages import kept_warnings
+from .messages import kept_warnings, printed_to_stderr
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
                         _tracking_terms)
 from .rows import _mechanism_rows, _spring_network_rows, _start_order
@@ -449,7 +449,7 @@ class Transcription:
             runs.append(self._imposing.stats())
             return sol
 
-        with signals_kept(), kept_warnings() as warnings:
+        with signals_kept(), kept_warnings() as warnings, printed_to_stderr():
             if warm is not None and warm.whole:  # the answer needed the deferred rows: so will this one
                 sol = impose(w0, warm)
             else:

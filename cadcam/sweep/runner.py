@@ -38,7 +38,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from multiprocessing import get_context
 from pathlib import Path
 
-from ..files import process_alive, short_repr
+from ..files import printable, process_alive, short_repr
 from ..library_files import PYTHON_SAFE_PATH
 from ..version import __version__
 from .study import Study, StudyError
@@ -426,9 +426,10 @@ def _nearest(case: dict, solved: list[tuple[dict, dict, float, str]], scales: di
 
 
 def _case_words(row: dict) -> str:
-    """A case by its parameters (``springs.1.rate = 1200``), as progress lines name it."""
-    return ", ".join(f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
-                     for key, value in json.loads(row["params"]).items())
+    """A case by its parameters (``springs.1.rate = 1200``), as progress lines name it (a
+    catalogue id's control characters escaped)."""
+    return printable(", ".join(f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
+                               for key, value in json.loads(row["params"]).items()))
 
 
 def _reporter(total: int, done: int):
