@@ -32,6 +32,11 @@ class InputError(ValueError):
     """Bad command-line input."""
 
 
+#: Ports ``cadcam app`` may serve on (TCP's; 0, "any free port", would leave the page's address
+#: unknown to the browser tab it opens).
+PORTS = (1, 65535)
+
+
 def _say(*lines: str, err: bool = False) -> None:
     """Print ``lines`` on standard output (``err``: standard error), each on one line whatever
     the names, keys and paths in it hold (:func:`cadcam.files.printable`): every message of the
@@ -405,6 +410,8 @@ def _named(files: list[tuple[str, str]]) -> str:
 
 
 def cmd_app(args) -> int:
+    if not PORTS[0] <= args.port <= PORTS[1]:
+        raise InputError(f"--port {args.port}: expected a port from {PORTS[0]} to {PORTS[1]}")
     try:
         from .app import page
     except ImportError as exc:  # Panel is the app extra's

@@ -80,6 +80,9 @@ UNPRINTABLE = frozenset({"Cc", "Cf", "Cs", "Zl", "Zp"})
 #: before: :func:`printable`); such a cell gets a leading apostrophe (:func:`csv_text`).
 FORMULA_STARTS = ("=", "+", "-", "@")
 
+#: Most digits of a ``CADCAM_CAP_<NAME>`` value (:func:`env_cap`): more than any count of work.
+CAP_DIGITS = 18
+
 
 def printable(text: str) -> str:
     """``text`` with each character of :data:`UNPRINTABLE` written as an escape
@@ -102,9 +105,12 @@ def short_repr(value, limit: int = 80) -> str:
 
 def env_cap(name: str, default: int) -> int:
     """A cap on work: the environment variable ``CADCAM_CAP_<NAME>`` if it is a positive
-    integer, else ``default``."""
+    integer (ASCII digits, at most :data:`CAP_DIGITS`), else ``default``: a value that is not
+    one leaves the cap where it was."""
     text = os.environ.get(f"CADCAM_CAP_{name.upper()}", "")
-    return int(text) if text.isdigit() and int(text) > 0 else default
+    if not (text.isascii() and text.isdigit() and len(text) <= CAP_DIGITS):
+        return default
+    return int(text) or default
 
 
 def read_input(path) -> str:
@@ -112,6 +118,8 @@ def read_input(path) -> str:
     missing, not a regular file (a folder, a device such as /dev/zero, a FIFO), larger than
     :data:`MAX_INPUT_BYTES` or not UTF-8."""
     limit = env_cap("input_bytes", MAX_INPUT_BYTES)
+    if "\0" in os.fsdecode(path):  # a spec's string may hold one; the system takes no such name
+        raise InputFileError("cannot read it (a NUL character in its name)")
     try:
         st = os.stat(path)
         if not stat.S_ISREG(st.st_mode):

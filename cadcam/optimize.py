@@ -11,7 +11,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from .designs import Design, default_start, preextensions
+from .designs import Design, DesignError, default_start, preextensions
+from .errors import SpecError
 from .mechanisms.base import design_methods, kinds_in
 from .verify.evaluate import LIMIT_TOL, MARGINS, evaluate, poses_of, start_samples
 from .problem import ACCEPTANCE, Problem, cap
@@ -179,7 +180,13 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         ``status`` is ``success`` only for a converged optimum whose fine re-check passed.
         With a mechanism's own ``problem.options.method`` (not ``"nlp"``) the start design is
         the answer: no NLP is built, and ``success`` means that it passed the fine re-check.
+
+    Raises
+    ------
+    SpecError, DesignError
+        ``problem`` not a Problem, ``start`` neither None nor a Design (one line).
     """
+    _refuse_other_types(problem, start)
     t0 = time.perf_counter()
     if start is None:
         problem, start = start_design(problem)
@@ -209,6 +216,16 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
                                f"{best.solve.start}'s, ended {best.status})")
             return result
     return best
+
+
+def _refuse_other_types(problem, start) -> None:
+    """:func:`optimize`'s refusal of a ``problem`` or ``start`` of another type, in one line."""
+    if not isinstance(problem, Problem):
+        raise SpecError(f"problem: expected a Problem (cadcam.load_problem makes one from a spec), not "
+                        f"{type(problem).__name__}")
+    if start is not None and not isinstance(start, Design):
+        raise DesignError(f"start: expected a Design (cadcam.load_design makes one from a dict or a design "
+                          f"file) or None, not {type(start).__name__}")
 
 
 def _verified(problem: Problem, tr: Transcription, solved: Solve) -> Result:

@@ -862,6 +862,8 @@ def load_spec(path, variant: str | None = None, overrides=()) -> Problem:
     SpecError
         One line naming the file, the key and the expected form.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise SpecError(f"spec: expected a file name (str or Path), not {type(path).__name__}")
     path = Path(path)
     data = read_spec_data(path, variant, overrides)
     return parse_spec(data, str(path), path.parent)
