@@ -92,7 +92,8 @@ def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
 
     ``success`` only if the solve converged, every number of the re-check is finite, no
     constraint is violated and every joint meets its acceptance limits (:attr:`Joint.limits`:
-    the spec's, and by default an RMSE of at most 5 % of the target's RMS); else the first that
+    the spec's, and by default an RMSE of at most 5 % of the target's RMS, or of its torque
+    floor where the target's RMS is below that, :data:`cadcam.problem.TORQUE_FLOOR`); else the first that
     fails: the solver's status, ``not_finite``, ``recheck_failed`` or ``target_missed``.
     """
     m = fine.metrics
@@ -108,16 +109,26 @@ def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
         return "not_finite", "the re-check has NaN or infinite values: the design cannot be trusted"
     if fine.violations:
         return "recheck_failed", f"{what}, but it violates constraints on the fine re-check grid"
-    missed = [_missed(joint, key, m[key][i], limit) for i, joint in enumerate(problem.joints)
-              for key, limit in joint.limits.items() if m[key][i] is not None and not m[key][i] <= limit]
+    missed = [text for i, joint in enumerate(problem.joints) for key, limit in joint.limits.items()
+              if (text := _missed(problem, i, key, m, limit)) is not None]
     if missed:
         return "target_missed", f"{what}, but the target is missed on the fine re-check: {'; '.join(missed)}"
     return "success", f"{what}; every constraint holds and the target is met on the fine re-check grid"
 
 
-def _missed(joint, key: str, value: float, limit: float) -> str:
-    """One missed acceptance limit in words, with the key that sets it."""
-    a = ACCEPTANCE[key]
+def _missed(problem: Problem, i: int, key: str, m, limit: float) -> str | None:
+    """Joint ``i``'s acceptance limit ``key`` = ``limit`` missed by the re-check's metrics
+    ``m``, in words with the key that sets it; None where it is met. ``relative_rmse`` is
+    judged against the joint's torque floor where its target's RMS is below it
+    (:meth:`~cadcam.problem.Problem.floor_acceptance`: a zero target has no relative RMSE)."""
+    joint, a, value = problem.joints[i], ACCEPTANCE[key], m[key][i]
+    if key == "relative_rmse" and (floor := problem.floor_acceptance(i, limit, m.rmse[i], value)) is not None:
+        if m.rmse[i] <= floor[0]:
+            return None
+        shown = f"RMSE = {1e3 * m.rmse[i]:.4g} N·mm, above its limit {1e3 * floor[0]:.4g} N·mm, {floor[1]}"
+        return f"{joint.name!r}: {shown} ([joints.acceptance] {key})"
+    if value is None or value <= limit:
+        return None
     shown = (f"{100 * value:.3g} %, above its limit {100 * limit:.3g} %" if a.unit == "ratio"
              else f"{value:.4g} {a.unit}, above its limit {limit:.4g} {a.unit}")
     return f"{joint.name!r}: {a.label} = {shown} ([joints.acceptance] {key})"

@@ -362,13 +362,25 @@ class Acceptance:
     default: float | None = None
 
 
+#: The torque floor of a joint's ``relative_rmse``, as a share of its springs' torque scale
+#: (:meth:`Problem.spring_torque_scale`) [ratio]: the relative RMSE is a share of the larger of
+#: the target's RMS and this floor, so that a zero or vanishing target, whose relative RMSE
+#: divides by (nearly) zero, is met only by an RMSE within ``relative_rmse`` × the floor [N·m].
+#: A target below 1 % of the torque its springs can hold is, for them, nil. Every shipped
+#: spec's target is above its floor (the nearest, johnston2023_1dof's, at 2.5 % of its springs'
+#: torque scale), so none of their verdicts rests on it.
+TORQUE_FLOOR = 0.01
+
 #: The ``[joints.acceptance]`` keys: what a design must meet on the fine re-check to be a
 #: success (status ``target_missed`` otherwise). The relative RMSE has a default, so that
 #: success means the target was met: a spring too weak for its load converges to a design
 #: that holds every constraint, and only this limit tells that it does not do the job.
 ACCEPTANCE = {
     "relative_rmse": Acceptance("RMSE / target RMS", "ratio",
-                                "the torque's RMSE over the range as a share of the target's RMS", 0.05),
+                                "the torque's RMSE over the range as a share of the target's RMS, or of the joint's "
+                                f"torque floor where the target's RMS is below it ({100 * TORQUE_FLOOR:.3g} % of its "
+                                "springs' torque scale: the energy they store within their travel over the range's "
+                                "span), so that a zero target is met only within that share of the floor", 0.05),
     "rmse": Acceptance("RMSE", "N·m", "the torque's RMSE over the range"),
     "max_abs_error": Acceptance("max |τ − τ_d|", "N·m", "the largest torque error over the range"),
 }
@@ -545,6 +557,39 @@ class Problem:
         order: what every torque model, the NLP and the exports read."""
         return SpringParameters(*(np.array([getattr(s, name) for s in self.springs], dtype=float)
                                   for name in ("rate", "preload", "travel")))
+
+    # -- acceptance ------------------------------------------------------------------------------
+    def spring_energy(self, i: int) -> float:
+        """The energy [J] the springs acting on joint ``i`` store within their travel t_j,
+        Σ_j (½k_j t_j² + F0_j t_j): the most their energy can change along its range."""
+        network = self.network()
+        return float(sum(s.energy(s.travel) for j, s in enumerate(self.springs) if i in network.joints_of(j)))
+
+    def spring_torque_scale(self, i: int) -> float:
+        """Joint ``i``'s springs' torque scale [N·m]: :meth:`spring_energy` over its range's
+        span [rad], the torque those springs could hold along the whole range."""
+        low, high = self.joints[i].theta_range
+        return self.spring_energy(i) / (high - low)
+
+    def torque_floor(self, i: int) -> float:
+        """The least torque [N·m] joint ``i``'s ``relative_rmse`` is a share of:
+        :data:`TORQUE_FLOOR` × :meth:`spring_torque_scale`."""
+        return TORQUE_FLOOR * self.spring_torque_scale(i)
+
+    def floor_acceptance(self, i: int, limit: float, rmse: float, share: float | None) -> tuple[float, str] | None:
+        """Where joint ``i``'s ``relative_rmse`` = ``limit`` is a share of its torque floor
+        (:meth:`torque_floor`) — its target's RMS, ``rmse`` / ``share``, being below it, or zero
+        everywhere (``share`` None) — the largest RMSE [N·m] it accepts, ``limit`` × the floor,
+        and that limit in words; None where the target's RMS is the larger (``share`` alone is
+        judged) or ``share`` meets ``limit`` anyway."""
+        if share is not None and share <= limit:
+            return None
+        floor, target_rms = self.torque_floor(i), 0.0 if share is None else rmse / share
+        if target_rms >= floor:
+            return None
+        return limit * floor, (f"{100 * limit:.3g} % of the torque floor {1e3 * floor:.4g} N·mm, "
+                               f"{100 * TORQUE_FLOOR:.3g} % of its springs' torque scale, the target's RMS "
+                               f"({1e3 * target_rms:.3g} N·mm) being below it")
 
     # -- copies ----------------------------------------------------------------------------------
     def with_options(self, **kw) -> "Problem":

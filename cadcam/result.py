@@ -27,18 +27,28 @@ if TYPE_CHECKING:
     from .problem import Problem, Workshop
 
 
-def _limit(joint) -> str:
-    """The joint's relative-RMSE acceptance limit, as the summary shows it."""
-    limit = joint.limits.get("relative_rmse")
-    return "" if limit is None else f", accepted up to {100 * limit:.3g} %"
+def _rmse_text(problem, i: int, rmse: float, share: float | None) -> str:
+    """Joint ``i``'s RMSE [N·mm] and its relative acceptance, as the summary shows them: its
+    share of the target's RMS and the limit on it, or where the target's RMS is below the
+    joint's torque floor (:meth:`~cadcam.problem.Problem.floor_acceptance`), the RMSE that
+    floor accepts."""
+    limit = problem.joints[i].limits.get("relative_rmse")
+    floor = None if limit is None else problem.floor_acceptance(i, limit, rmse, share)
+    if floor is None:
+        accepted = "" if limit is None else f", accepted up to {100 * limit:.3g} %"
+        return f"{1e3 * rmse:.4g}" + ("" if share is None else f" ({100 * share:.3g} % of the target's RMS{accepted})")
+    relative = "" if share is None else f"{100 * share:.3g} % of the target's RMS; "
+    return f"{1e3 * rmse:.4g} ({relative}accepted up to {1e3 * floor[0]:.4g} N·mm, {floor[1]})"
 
 
 def _band_line(band: Band, ev: Evaluation) -> str:
     """The summary's line on the tolerance band: each joint's widest half-width, as a share of
-    its target's peak, and how far the worst corner, re-checked, moves the torque."""
+    its target's peak (where that peak is not below the joint's torque floor, which a vanishing
+    target is), and how far the worst corner, re-checked, moves the torque."""
+    floors = [ev.problem.torque_floor(i) for i in range(len(ev.problem.joints))]
     per_joint = [f"± {1e3 * h.max():.3g} N·mm ({100 * h.max() / peak:.2g} % of the target's peak; worst corner "
-                 f"re-checked {1e3 * c['recomputed']:.3g})" if peak > 0 else f"± {1e3 * h.max():.3g} N·mm"
-                 for h, c, peak in zip(band.half_width, band.corners, np.abs(ev.tau_d).max(axis=1))]
+                 f"re-checked {1e3 * c['recomputed']:.3g})" if peak > 0 and peak >= floor else f"± {1e3 * h.max():.3g} N·mm"
+                 for h, c, peak, floor in zip(band.half_width, band.corners, np.abs(ev.tau_d).max(axis=1), floors)]
     return f"  tolerance band ({band.label()}) per joint: {'; '.join(per_joint)}"
 
 
@@ -158,8 +168,7 @@ class Result:
         """A few lines: status and message, RMSE per joint, iterations and times, output and
         path errors, violated and binding constraints."""
         metrics, fine = self.evaluation.metrics, self.recheck.metrics
-        rmse = [f"{1e3 * v:.4g}" + (f" ({100 * r:.3g} % of the target's RMS{_limit(joint)})" if r is not None else "")
-                for v, r, joint in zip(metrics.rmse, metrics.relative_rmse, self.problem.joints)]
+        rmse = [_rmse_text(self.problem, i, v, r) for i, (v, r) in enumerate(zip(metrics.rmse, metrics.relative_rmse))]
         lines = [f"{self.status}: {self.message}",
                  f"  {self.problem.name}: RMSE per joint [N·mm]: {', '.join(rmse) or 'none (no torque goal)'}; "
                  f"iterations {self.nit}, build {self.build_time_s:.3f} s (functions {self.functions}), "

@@ -50,7 +50,7 @@ def unreachable(problem: Problem) -> str | None:
         if not joint.limits:
             continue
         for bound in (_energy_bound(problem, i), _sign_bound(problem, i, start)):
-            if bound is not None and (missed := _over_limit(joint, *bound[:2])):
+            if bound is not None and (missed := _over_limit(problem, i, *bound[:2])):
                 return f"joint {joint.name!r}: {bound[2]}, so no design comes within {missed}: {bound[3]}"
     return None
 
@@ -94,12 +94,20 @@ def advice(problem: Problem) -> list[str]:
             *(note for kind in kinds_in(problem.mechanisms) for note in kind.advice(problem))]
 
 
-def _over_limit(joint, rmse_bound: float, target_rms: float) -> str | None:
-    """The first acceptance limit that an RMSE of at least ``rmse_bound`` [N·m] breaks, in words."""
-    for key, limit in joint.limits.items():
-        if key == "relative_rmse" and target_rms > 0 and rmse_bound > limit * target_rms:
-            return (f"{100 * rmse_bound / target_rms:.3g} % of the target's RMS (accepted: {100 * limit:.3g} %, "
-                    "[joints.acceptance] relative_rmse)")
+def _over_limit(problem: Problem, i: int, rmse_bound: float, target_rms: float) -> str | None:
+    """The first acceptance limit of joint ``i`` that an RMSE of at least ``rmse_bound`` [N·m]
+    breaks, its target's RMS being ``target_rms`` [N·m], in words (``relative_rmse`` against
+    the joint's torque floor where the target's RMS is below it, as the verdict judges it)."""
+    for key, limit in problem.joints[i].limits.items():
+        if key == "relative_rmse":
+            share = rmse_bound / target_rms if target_rms > 0 else None
+            floor = problem.floor_acceptance(i, limit, rmse_bound, share)
+            if floor is not None and rmse_bound > floor[0]:
+                return (f"an RMSE of {1e3 * rmse_bound:.4g} N·mm (accepted: {1e3 * floor[0]:.4g} N·mm, {floor[1]}; "
+                        "[joints.acceptance] relative_rmse)")
+            if floor is None and share is not None and share > limit:
+                return (f"{100 * share:.3g} % of the target's RMS (accepted: {100 * limit:.3g} %, "
+                        "[joints.acceptance] relative_rmse)")
         if key in ("rmse", "max_abs_error") and rmse_bound > limit:
             return f"an RMSE of {rmse_bound:.4g} N·m (accepted: {key} = {limit:.4g} N·m)"
     return None
@@ -115,9 +123,7 @@ def _held_angles(problem: Problem, i: int) -> np.ndarray:
 def _energy_bound(problem: Problem, i: int):
     """(RMSE bound [N·m], target RMS [N·m], why, fix) of joint ``i``'s energy budget, or None
     if its springs can store what its target needs."""
-    joint, network = problem.joints[i], problem.network()
-    on_joint = [j for j in range(network.S) if i in network.joints_of(j)]
-    store = sum(s.energy(s.travel) for j, s in enumerate(problem.springs) if j in on_joint)
+    joint, store = problem.joints[i], problem.spring_energy(i)
     theta = _held_angles(problem, i)
     tau_d = np.asarray(joint.target.function(len(problem.joints), i).map(theta.shape[1])(theta)).ravel()
     lines = np.moveaxis(tau_d.reshape([ENERGY_SAMPLES if c == i else HELD_SAMPLES
