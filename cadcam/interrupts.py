@@ -1,7 +1,8 @@
-"""How a run of ``cadcam`` stops: Ctrl-C and SIGTERM alike raise ``KeyboardInterrupt``, so
-clean-up code (``finally`` blocks, context managers) removes temporary files and ends child
-processes; a signal that arrives while an interrupt is being handled is ignored, so that
-clean-up is never cut short, however many arrive. The command then exits 130.
+"""How a run of ``cadcam`` stops: Ctrl-C, SIGTERM and SIGHUP (its terminal closed) alike raise
+``KeyboardInterrupt``, so clean-up code (``finally`` blocks, context managers) removes
+temporary files and ends child processes; a signal that arrives while an interrupt is being
+handled is ignored, so that clean-up is never cut short, however many arrive. The command then
+exits 130. A run started with SIGHUP ignored (``nohup``) keeps ignoring it.
 
 This module imports nothing of cadcam's, so the command line can install the handler before
 the engine (CasADi, NumPy) is imported.
@@ -13,8 +14,12 @@ import signal
 import sys
 import threading
 
-#: The signals that stop a run.
-STOPPING = (signal.SIGINT, signal.SIGTERM)
+#: The signals that stop a run: Ctrl-C, ``kill``'s default and the hang-up of a closed
+#: terminal, which would otherwise end the process where it stands, its temporary files left.
+STOPPING = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: The stopping signals a process started ignoring keeps ignoring: ``nohup`` starts a command
+#: with SIGHUP ignored so that it outlives its terminal.
+KEPT_IGNORED = (signal.SIGHUP,)
 #: The exit code of an interrupted command (128 + SIGINT, as shells report Ctrl-C).
 INTERRUPTED = 130
 
@@ -69,7 +74,8 @@ def stop_on_signals() -> dict:
     """Install the handler of :data:`STOPPING` (module docstring); return the previous
     handlers, by signal."""
     STOP.arrived = STOP.finished = False
-    return {s: signal.signal(s, STOP) for s in STOPPING}
+    return {s: signal.signal(s, STOP) for s in STOPPING
+            if not (s in KEPT_IGNORED and signal.getsignal(s) is signal.SIG_IGN)}
 
 
 def ignore_further_signals() -> None:

@@ -538,10 +538,11 @@ def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
 
     Returns sorted [θ [rad], value] pairs. Raises ValueError with a reason.
     """
-    try:  # a byte order mark (spreadsheets write one) is not part of the header
-        rows = list(csv.reader(io.StringIO(read_input(path).removeprefix("\ufeff"), newline="")))
+    try:  # a byte order mark (spreadsheets write one) is not part of the header; strict: an
+        # unclosed quote would otherwise swallow the rest of the file as one cell
+        rows = list(csv.reader(io.StringIO(read_input(path).removeprefix("\ufeff"), newline=""), strict=True))
     except csv.Error as exc:
-        raise ValueError(f"not a readable CSV ({exc})") from None
+        raise ValueError(f"not a readable CSV ({exc}): close every quote, or remove it") from None
     if not rows:
         raise ValueError("the table is empty")
     head = [h.strip() for h in rows[0]]

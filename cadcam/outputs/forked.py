@@ -21,11 +21,11 @@ import threading
 import warnings
 from collections.abc import Callable
 
+from ..interrupts import STOPPING
+
 #: A figure or sheet to draw: a function of no arguments that writes its file(s) atomically.
 Drawing = Callable[[], None]
 
-#: The signals that stop a run (``cadcam design`` turns SIGTERM into KeyboardInterrupt).
-STOPPING = {signal.SIGINT, signal.SIGTERM}
 #: Linux prctl option: the signal a process gets when its parent ends.
 PR_SET_PDEATHSIG = 1
 #: Largest pickled error a worker sends back [bytes] (a pipe holds 64 KiB unread).
@@ -105,10 +105,13 @@ def _blocked(signals):
 
 def _work(drawings: list[Drawing], taken, sender, parent: int) -> None:
     """A worker: take the next drawing until none is left; on an error send it and stop the
-    others taking more. Ctrl-C is left to the parent; SIGTERM ends it (not through the parent's
-    handler, which it inherited), and so does its parent's end."""
+    others taking more. Ctrl-C is left to the parent; the other stopping signals (SIGTERM,
+    SIGHUP) end it (not through the parent's handler, which it inherited), and so does its
+    parent's end."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    for s in set(STOPPING) - {signal.SIGINT}:
+        if signal.getsignal(s) is not signal.SIG_IGN:  # SIGHUP under nohup stays ignored
+            signal.signal(s, signal.SIG_DFL)
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPPING)
     if os.getppid() != parent:  # the parent ended before prctl

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..designs import Design
 from . import compiled
+from ..interrupts import STOPPING
 from ..library_files import ipopt_options
 from ..problem import Options
 
@@ -137,8 +138,9 @@ EXPANDED_COMPILING = "expanded (compiling in the background for the next build)"
 
 @contextlib.contextmanager
 def signals_kept():
-    """Raise again, after the block, what a Python handler of SIGINT or SIGTERM raised inside
-    it (Ctrl-C's KeyboardInterrupt; ``cadcam``'s SIGTERM handler raises the same).
+    """Raise again, after the block, what a Python handler of a stopping signal
+    (:data:`cadcam.interrupts.STOPPING`) raised inside it (Ctrl-C's KeyboardInterrupt;
+    ``cadcam``'s SIGTERM and SIGHUP handler raises the same).
 
     While IPOPT iterates, CasADi runs Python's pending signal handlers; when one raises, CasADi
     stops IPOPT and returns status ``NonIpopt_Exception_Thrown`` without the exception, so an
@@ -162,7 +164,7 @@ def signals_kept():
 
     installed = {}
     try:
-        for s in (signal.SIGINT, signal.SIGTERM):
+        for s in STOPPING:
             handler = signal.getsignal(s)
             if callable(handler):
                 installed[s] = handler  # recorded first: the finally restores it whenever a signal comes

@@ -40,6 +40,7 @@ from pathlib import Path
 
 from ..files import printable, process_alive, short_repr
 from ..library_files import PYTHON_SAFE_PATH
+from ..problem import cap
 from ..version import __version__
 from .study import Study, StudyError
 
@@ -67,6 +68,14 @@ DASK_SCHEMES = ("tcp", "tls", "ws", "wss")
 COLUMNS = ("case_id", "idx", "params", "status", "message", "metrics", "recheck", "design",
            "iterations", "solve_time_s", "build_time_s", "wall_time_s", "error",
            "cadcam_version", "torque_model", "finished")
+#: The tables a study database is read through, with the columns a reader needs: each must be
+#: a real table (not a view, whose query could run without end, nor a virtual table).
+READ_TABLES = {"study": ("id", "definition"), "cases": COLUMNS}
+#: Longest a read of a study database may take [s] (its schema, its study and its cases; a
+#: study of :data:`cadcam.problem.CAPS` ``cases`` rows reads in well under a second).
+READ_TIME_S = 30.0
+#: SQLite virtual-machine steps between two looks at the clock while a database is read.
+READ_CHECK_STEPS = 10_000
 
 
 class SweepError(StudyError):
@@ -133,24 +142,29 @@ def compile_structures(study: dict, cases: list[dict]) -> int:
 # -- database ---------------------------------------------------------------------------------
 def open_db(path, study: Study) -> sqlite3.Connection:
     """Open (or create, with its folder) the study database; refuse one that holds a different
-    study."""
+    study, or none, before writing anything to it: such a file is only read, read-only, and
+    its journal mode is left as it is."""
     if Path(path).exists() and not Path(path).is_file():
         raise SweepError(f"{path}: not a file; give the path of a study database (SQLite)")
-    if Path(path).is_file() and Path(path).stat().st_size and not _is_study_database(path):
-        raise SweepError(f"{path}: not a study database that cadcam wrote (left as it is); give a new path")
+    definition = json.dumps(study.to_dict(), sort_keys=True)
+    if Path(path).is_file() and Path(path).stat().st_size:
+        stored = _stored_definition(path)
+        if stored is None:
+            raise SweepError(f"{path}: not a study database that cadcam wrote (left as it is); give a new path")
+        if stored != definition:
+            raise SweepError(f"{path}: holds the results of a different study (left as it is); use another -o file")
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     try:
         db = sqlite3.connect(str(path), timeout=LOCK_WAIT_S)
-        definition = json.dumps(study.to_dict(), sort_keys=True)
         _create_tables(db, definition)
+        if db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0] != definition:
+            db.close()  # another runner created it for its study a moment ago: left in its mode
+            raise SweepError(f"{path}: holds the results of a different study; use another -o file")
         _use_wal(db)
         db.execute("PRAGMA synchronous=FULL")
     except sqlite3.Error as exc:
         raise SweepError(f"{path}: not a study database ({exc}); give a new path or a database "
                          "this study wrote") from None
-    if db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0] != definition:
-        db.close()
-        raise SweepError(f"{path}: holds the results of a different study; use another -o file")
     return db
 
 
@@ -203,24 +217,51 @@ def _remove_database(path) -> None:
             os.unlink(f"{path}{suffix}")
 
 
-def _read_only(path) -> sqlite3.Connection:
-    """A read-only connection to the SQLite file ``path``, its name escaped in the URI (a ``#``,
-    ``?`` or ``%`` in a file name is part of the name)."""
-    return sqlite3.connect(f"{Path(path).resolve().as_uri()}?mode=ro", uri=True)
-
-
-def _is_study_database(path) -> bool:
-    """Whether ``path`` is a SQLite database with cadcam's study tables (read, never written)."""
+@contextlib.contextmanager
+def _reading(path):
+    """A read-only connection to the SQLite file ``path`` whose statements stop after
+    :data:`READ_TIME_S` (:class:`SweepError`), closed on leaving. It never writes beside the
+    file: without a ``-wal`` file there (no runner at work, nothing to read from one) the file
+    is opened immutable, so that a database in WAL mode gets no ``-wal`` and ``-shm`` files
+    from being read; with one, as SQLite needs to read it. The name is escaped in the URI (a
+    ``#``, ``?`` or ``%`` in a file name is part of the name)."""
+    mode = "ro" if os.path.lexists(f"{path}-wal") else "ro&immutable=1"
+    db = sqlite3.connect(f"{Path(path).resolve().as_uri()}?mode={mode}", uri=True)
+    deadline = time.monotonic() + READ_TIME_S
+    db.set_progress_handler(lambda: time.monotonic() > deadline, READ_CHECK_STEPS)
     try:
-        db = _read_only(path)
-        try:
-            tables = {name for (name,) in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-            columns = {row[1] for row in db.execute("PRAGMA table_info(cases)")}
-        finally:
-            db.close()
+        yield db
+    except sqlite3.OperationalError:
+        if time.monotonic() > deadline:
+            raise SweepError(f"{path}: reading it took over {READ_TIME_S:g} s: not a study database that "
+                             "`cadcam sweep` wrote") from None
+        raise
+    finally:
+        db.close()
+
+
+def _has_study_tables(db: sqlite3.Connection) -> bool:
+    """Whether ``db`` holds each of :data:`READ_TABLES` as a real table with its columns."""
+    created = dict(db.execute("SELECT name, sql FROM sqlite_master WHERE type = 'table' AND name IN "
+                              f"({','.join('?' * len(READ_TABLES))})", tuple(READ_TABLES)).fetchall())
+    for name, columns in READ_TABLES.items():
+        sql = created.get(name)
+        if not (isinstance(sql, str) and sql.upper().startswith("CREATE TABLE")):  # none, or a virtual table
+            return False
+        if not set(columns) <= {row[1] for row in db.execute(f"PRAGMA table_info({name})")}:
+            return False
+    return True
+
+
+def _stored_definition(path) -> str | None:
+    """The study definition (JSON text) a study database at ``path`` holds, read through its
+    tables (:func:`_has_study_tables`, read-only); None for any other file."""
+    try:
+        with _reading(path) as db:
+            row = db.execute("SELECT definition FROM study WHERE id = 1").fetchone() if _has_study_tables(db) else None
     except sqlite3.Error:
-        return False
-    return {"study", "cases"} <= tables and {"case_id", "params", "status"} <= columns
+        return None
+    return row[0] if row is not None and isinstance(row[0], str) else None
 
 
 def record(db: sqlite3.Connection, row: dict) -> None:
@@ -260,29 +301,40 @@ def claim(db: sqlite3.Connection, case_id: str) -> bool:
 
 
 def read_rows(path) -> tuple[dict, list[dict]]:
-    """The study definition and every recorded case (parsed JSON), ordered by case index."""
+    """The study definition and every recorded case (parsed JSON), ordered by case index, read
+    only through the study tables (:func:`_has_study_tables`), at most :data:`~cadcam.problem.CAPS`
+    ``cases`` rows, within :data:`READ_TIME_S`."""
     if not Path(path).is_file():
         raise SweepError(f"{str(path)!r}: no such study database (a file that `cadcam sweep` wrote)")
+    most = cap("cases")
     try:
-        db = _read_only(path)
-        try:
+        with _reading(path) as db:
+            if not _has_study_tables(db):
+                raise TypeError("not a study database")
             study = json.loads(db.execute("SELECT definition FROM study WHERE id = 1").fetchone()[0])
-            if not _is_study_definition(study):
-                raise TypeError("not a study definition")
-            rows = []
-            for r in db.execute(f"SELECT {','.join(COLUMNS)} FROM cases ORDER BY idx"):
-                row = dict(zip(COLUMNS, r))
-                for k in ("params", "metrics", "recheck", "design"):
-                    row[k] = json.loads(row[k]) if row[k] else None
-                if not isinstance(row["params"], dict) or not all(
-                        isinstance(row[k], (dict, type(None))) for k in ("metrics", "recheck")):
-                    raise TypeError("a case without parameters or with malformed metrics")
-                rows.append(row)
-        finally:
-            db.close()
+            records = db.execute(f"SELECT {','.join(COLUMNS)} FROM cases ORDER BY idx LIMIT ?", (most + 1,)).fetchall()
+        if not _is_study_definition(study):
+            raise TypeError("not a study definition")
+        if len(records) > most:
+            raise SweepError(f"{path}: holds more than {most} cases, beyond the cap on a study's cases (raise it "
+                             "deliberately with CADCAM_CAP_CASES)")
+        rows = [_case_row(r) for r in records]
+    except SweepError:  # said in its own words (a ValueError too)
+        raise
     except (sqlite3.Error, ValueError, TypeError, RecursionError):
         raise SweepError(f"{path}: not a cadcam study database (give a file that `cadcam sweep` wrote)") from None
     return study, rows
+
+
+def _case_row(record: tuple) -> dict:
+    """One ``cases`` record as a row, its JSON columns parsed (TypeError if malformed)."""
+    row = dict(zip(COLUMNS, record))
+    for k in ("params", "metrics", "recheck", "design"):
+        row[k] = json.loads(row[k]) if row[k] else None
+    if not isinstance(row["params"], dict) or not all(
+            isinstance(row[k], (dict, type(None))) for k in ("metrics", "recheck")):
+        raise TypeError("a case without parameters or with malformed metrics")
+    return row
 
 
 def _is_study_definition(study) -> bool:

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..verify.evaluate import METRIC_NAMES
-from ..files import InputFileError, loads_toml, read_input
+from ..files import InputFileError, loads_toml, read_input, short_repr
 from ..keys import is_real
 from ..problem import Problem, cap
 from ..spec import SpecError, apply_override, parse_spec, read_spec_data
@@ -187,27 +187,49 @@ class Study:
                                          p["log"], p["integer"]) for p in d["parameters"]])
 
 
+#: The columns a spring catalogue (CSV) must have; ``pretension_N`` and ``notes`` may follow.
+CATALOGUE_COLUMNS = ("id", "source", "rate_N_per_m", "travel_m")
+
+
 def read_catalogue(path: Path) -> tuple[dict, ...]:
     """Spring tables {name, rate [N/m], travel [m], preload [N]} from a catalogue CSV (module
-    docstring); an empty or missing ``pretension_N`` is no preload."""
-    try:
-        rows = list(csv.DictReader(io.StringIO(read_input(path), newline="")))
+    docstring); an empty or missing ``pretension_N`` is no preload.
+
+    Raises ValueError with one line naming the data row: a quote left open or a stray one, a
+    row of another number of cells than the header, or a number that is not a finite one (a
+    byte order mark before the header, as spreadsheets write, is not part of it).
+    """
+    try:  # strict: an unclosed quote would otherwise swallow the rest of the file as one cell
+        rows = list(csv.reader(io.StringIO(read_input(path).removeprefix("\ufeff"), newline=""), strict=True))
     except csv.Error as exc:
-        raise ValueError(f"not a readable CSV ({exc})") from None
-    need = ("id", "source", "rate_N_per_m", "travel_m")
-    if not rows or any(k not in rows[0] for k in need):
-        raise ValueError(f"the header must include {','.join(need)}")
+        raise ValueError(f"not a readable CSV ({exc}): close every quote, or remove it") from None
+    header = [h.strip() for h in rows[0]] if rows else []
+    if any(k not in header for k in CATALOGUE_COLUMNS):
+        raise ValueError(f"the header must include {','.join(CATALOGUE_COLUMNS)}")
     out = []
-    for r in rows:
-        try:
-            rate, travel = float(r["rate_N_per_m"]), float(r["travel_m"])
-            preload = float((r.get("pretension_N") or "").strip() or 0.0)
-        except ValueError:
-            raise ValueError(f"spring {r['id']!r}: rate_N_per_m, travel_m and pretension_N must be "
-                             "numbers") from None
-        out.append({"name": f"{r['id']} ({r['source']})", "rate": rate, "travel": travel,
-                    "preload": preload})
+    for k, cells in enumerate(rows[1:], start=1):
+        if not cells:
+            continue  # a blank line
+        if len(cells) != len(header):
+            raise ValueError(f"data row {k} has {len(cells)} cells and the header {len(header)}: give every "
+                             "column of the header, empty where unknown")
+        out.append(_catalogue_spring(k, dict(zip(header, cells))))
+    if not out:
+        raise ValueError("the catalogue has no springs: give one row per spring after the header")
     return tuple(out)
+
+
+def _catalogue_spring(k: int, row: dict) -> dict:
+    """The spring table of catalogue data row ``k`` (the header's names → its cells)."""
+    try:
+        rate, travel = float(row["rate_N_per_m"]), float(row["travel_m"])
+        preload = float((row.get("pretension_N") or "").strip() or 0.0)
+    except ValueError:
+        rate = travel = preload = math.nan
+    if not all(map(math.isfinite, (rate, travel, preload))):
+        raise ValueError(f"data row {k} (spring {short_repr(row['id'], 40)}): rate_N_per_m, travel_m and "
+                         "pretension_N must be finite numbers")
+    return {"name": f"{row['id']} ({row['source']})", "rate": rate, "travel": travel, "preload": preload}
 
 
 def load_study(path) -> Study:

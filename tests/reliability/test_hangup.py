@@ -1,0 +1,117 @@
+"""Issue 48, rule 5: SIGHUP (a closed terminal) stops a run as Ctrl-C and SIGTERM do.
+
+Every stopping signal (:data:`cadcam.interrupts.STOPPING`) raises KeyboardInterrupt, so that the
+run removes what it was writing and exits 130; a run started with SIGHUP ignored (``nohup``)
+keeps ignoring it. The commands run as the console script does, signalled by another process
+at the moment they stage their outputs (a hidden ``.cadcam-<pid>-stage-…`` folder in the output
+folder), where the default action of SIGHUP left that folder behind and exited −1.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from cadcam.interrupts import INTERRUPTED, STOPPING, signals_stop_the_run
+from cadcam.outputs import forked
+
+from ..conftest import ROOT, SPEC_1DOF
+from ..test_interrupts import STUDY, SWEEP_ENDS_WITHIN_S, _descendants, _running
+
+
+def _command(*args: str, nohup: bool = False) -> subprocess.Popen:
+    """``cadcam`` with ``args`` as a child process; with ``nohup``, started with SIGHUP ignored."""
+    ignore = (lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN)) if nohup else None
+    return subprocess.Popen([sys.executable, "-m", "cadcam", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, preexec_fn=ignore)
+
+
+def _staging(folder, proc: subprocess.Popen, timeout: float = 120.0) -> bool:
+    """Wait until ``proc`` stages its outputs in ``folder``; False if it ended first."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and proc.poll() is None:
+        if folder.is_dir() and any(n.startswith(".cadcam-") for n in os.listdir(folder)):
+            return True
+        time.sleep(0.005)
+    return False
+
+
+def _caught(pid: int) -> set[int]:
+    """The signals process ``pid`` has a handler for (its SigCgt mask in /proc)."""
+    with open(f"/proc/{pid}/status") as f:
+        mask = next(int(line.split()[1], 16) for line in f if line.startswith("SigCgt:"))
+    return {s for s in range(1, 65) if mask & (1 << (s - 1))}
+
+
+def test_every_stopping_signal_raises_once_and_comes_back_after_the_run():
+    for s in STOPPING:
+        before = signal.getsignal(s)
+        with pytest.raises(KeyboardInterrupt):
+            with signals_stop_the_run():
+                os.kill(os.getpid(), s)
+                time.sleep(1)  # the handler raises in here
+        assert signal.getsignal(s) is before
+
+
+def test_a_hangup_ignored_at_start_stays_ignored():
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with signals_stop_the_run():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)  # nothing happens
+            time.sleep(0.05)
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+
+
+def test_the_drawing_processes_stop_on_the_same_signals():
+    """One declaration of the stopping signals: the forked drawing processes block and unblock
+    what the command stops on, SIGHUP among them."""
+    assert forked.STOPPING is STOPPING and signal.SIGHUP in STOPPING
+
+
+def test_a_design_hung_up_while_it_stages_exits_as_ctrl_c_does_and_leaves_nothing(tmp_path):
+    """Exit 130, Ctrl-C's (tests/test_interrupts.py), with no output or staging folder."""
+    out = tmp_path / "o"
+    proc = _command("design", str(SPEC_1DOF), "-o", str(out), "--grid", "12")
+    assert _staging(out, proc), proc.communicate()
+    proc.send_signal(signal.SIGHUP)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == INTERRUPTED, err
+    assert err.strip().splitlines()[-1].startswith("cadcam: interrupted")
+    assert os.listdir(tmp_path) == []  # no output folder, no staging folder
+
+
+def test_a_design_under_nohup_outlives_a_hangup(tmp_path):
+    out = tmp_path / "o"
+    proc = _command("design", str(SPEC_1DOF), "-o", str(out), "--grid", "12", "--no-figures", nohup=True)
+    deadline = time.time() + 30
+    while signal.SIGTERM not in _caught(proc.pid) and time.time() < deadline:
+        time.sleep(0.005)
+    assert signal.SIGHUP not in _caught(proc.pid)
+    proc.send_signal(signal.SIGHUP)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert (out / "result.json").is_file()
+
+
+def test_a_sweep_hung_up_while_its_workers_solve_ends_them_and_exits_130(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    proc = _command("sweep", str(study), "-o", str(tmp_path / "s.db"), "--workers", "2")
+    deadline = time.time() + 60
+    while len(workers := _descendants(proc.pid)) < 2 and time.time() < deadline:
+        time.sleep(0.05)
+    time.sleep(1.0)  # the workers are solving their first cases
+    assert proc.poll() is None and len(workers) >= 2
+    proc.send_signal(signal.SIGHUP)
+    proc.communicate(timeout=SWEEP_ENDS_WITHIN_S)
+    assert proc.returncode == INTERRUPTED
+    time.sleep(0.5)
+    assert not [pid for pid in workers if _running(pid)]
+    assert not (tmp_path / "s.db").exists()  # created by this run, nothing recorded
