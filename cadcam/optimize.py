@@ -18,6 +18,7 @@ from .verify.evaluate import LIMIT_TOL, MARGINS, evaluate, poses_of, start_sampl
 from .problem import ACCEPTANCE, Problem, cap
 from .result import Result
 from .solve.builds import built_for
+from .solve.memory import MemoryBudgetError
 from .solve.messages import count, merged
 from .solve.ipopt import Multipliers, Solve, joined
 from .solve.transcription import Transcription
@@ -294,7 +295,11 @@ def _refined(result: Result, tr: Transcription) -> Result:
     if points <= problem.options.convexity_points:
         return result
     finer = replace(problem, options=replace(problem.options, convexity_points=points))
-    finer_tr = Transcription(finer)
+    try:
+        finer_tr = Transcription(finer)
+    except MemoryBudgetError:  # the design stands as it was re-checked
+        result.message += f" (not solved again with {points} convexity check points: beyond the memory budget)"
+        return result
     again = solve(finer_tr, finer, result.design)
     # its multipliers are of the finer NLP's rows: no warm start of the spec's own NLP
     again.multipliers = None

@@ -38,6 +38,7 @@ from . import compiled
 from .blocks import BAND_SCALE, LENGTH_SCALE
 from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, WARM_IPOPT, Multipliers,
                     Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
+from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
                         _tracking_terms)
@@ -80,9 +81,14 @@ class Transcription:
     """
 
     def __init__(self, problem: Problem):
-        """Build the NLP of ``problem``'s structure, step by step, and its IPOPT solver."""
+        """Build the NLP of ``problem``'s structure, step by step, and its IPOPT solver.
+
+        Raises :class:`~cadcam.solve.memory.MemoryBudgetError` (a SpecError) before the solver
+        is built where its memory is estimated beyond the budget (:mod:`cadcam.solve.memory`)."""
         t0 = time.perf_counter()
         self._build_graph(problem)
+        # refused before CasADi expands and differentiates the graph, where the memory goes
+        check_memory(problem, self.nlp["x"].numel(), self.nlp["g"].numel())
         self._split: Transcription | None = None  # the graph compiled functions come from
         # the library auto looks for, named once (serializing the graph takes a while)
         self._key = compiled.key_of(self.nlp) if problem.options.functions == "auto" else None
