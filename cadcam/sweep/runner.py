@@ -29,13 +29,14 @@ import contextlib
 import json
 import math
 import os
+import signal
 import socket
 import sqlite3
 import sys
 import time
 import urllib.parse
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from multiprocessing import get_context
+from multiprocessing import get_context, resource_tracker
 from pathlib import Path
 
 from ..files import printable, process_alive, short_repr
@@ -369,10 +370,24 @@ class _WorkerEnv:
                 os.environ[k] = v
 
 
+def _start_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (it tracks the pool's semaphores) with SIGHUP
+    blocked, as multiprocessing blocks SIGINT and SIGTERM for it: a closed terminal hangs up the
+    whole process group, and the tracker, ended by it, would leave the semaphores unreleased
+    and, started again, print tracebacks below the run's last line."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 class _Local:
     def __init__(self, workers: int):
-        # every worker started now, and the pool's resource tracker, in the worker environment
+        # every worker started now, and the pool's resource tracker (SIGHUP blocked for it), in the
+        # worker environment
         with _WorkerEnv():
+            _start_resource_tracker()
             self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
             list(self.pool.map(abs, range(workers)))
 

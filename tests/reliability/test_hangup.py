@@ -24,10 +24,12 @@ from ..test_interrupts import STUDY, SWEEP_ENDS_WITHIN_S, _descendants, _running
 
 
 def _command(*args: str, nohup: bool = False) -> subprocess.Popen:
-    """``cadcam`` with ``args`` as a child process; with ``nohup``, started with SIGHUP ignored."""
+    """``cadcam`` with ``args`` as a child process leading a process group of its own, as a
+    terminal's job does; with ``nohup``, started with SIGHUP ignored."""
     ignore = (lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN)) if nohup else None
     return subprocess.Popen([sys.executable, "-m", "cadcam", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT, preexec_fn=ignore)
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, preexec_fn=ignore,
+                            start_new_session=True)
 
 
 def _staging(folder, proc: subprocess.Popen, timeout: float = 120.0) -> bool:
@@ -76,11 +78,13 @@ def test_the_drawing_processes_stop_on_the_same_signals():
 
 
 def test_a_design_hung_up_while_it_stages_exits_as_ctrl_c_does_and_leaves_nothing(tmp_path):
-    """Exit 130, Ctrl-C's (tests/test_interrupts.py), with no output or staging folder."""
+    """Exit 130, Ctrl-C's (tests/test_interrupts.py), with no output or staging folder: the
+    hang-up reaches the command and the processes drawing its figures, as a closed terminal's."""
     out = tmp_path / "o"
     proc = _command("design", str(SPEC_1DOF), "-o", str(out), "--grid", "12")
     assert _staging(out, proc), proc.communicate()
-    proc.send_signal(signal.SIGHUP)
+    time.sleep(0.3)  # the figures are being drawn
+    os.killpg(proc.pid, signal.SIGHUP)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == INTERRUPTED, err
     assert err.strip().splitlines()[-1].startswith("cadcam: interrupted")
@@ -101,6 +105,9 @@ def test_a_design_under_nohup_outlives_a_hangup(tmp_path):
 
 
 def test_a_sweep_hung_up_while_its_workers_solve_ends_them_and_exits_130(tmp_path):
+    """A closed terminal hangs up the whole process group: the command, its workers and
+    multiprocessing's resource tracker, which must outlive them to release their semaphores
+    (killed, it is started again and prints tracebacks)."""
     study = tmp_path / "study.toml"
     study.write_text(STUDY)
     proc = _command("sweep", str(study), "-o", str(tmp_path / "s.db"), "--workers", "2")
@@ -109,9 +116,11 @@ def test_a_sweep_hung_up_while_its_workers_solve_ends_them_and_exits_130(tmp_pat
         time.sleep(0.05)
     time.sleep(1.0)  # the workers are solving their first cases
     assert proc.poll() is None and len(workers) >= 2
-    proc.send_signal(signal.SIGHUP)
-    proc.communicate(timeout=SWEEP_ENDS_WITHIN_S)
+    os.killpg(proc.pid, signal.SIGHUP)
+    _, err = proc.communicate(timeout=SWEEP_ENDS_WITHIN_S)
     assert proc.returncode == INTERRUPTED
+    assert err.strip().splitlines()[-1] == "cadcam: interrupted; no partial outputs were left", err
+    assert "Traceback" not in err and "leak" not in err
     time.sleep(0.5)
     assert not [pid for pid in workers if _running(pid)]
     assert not (tmp_path / "s.db").exists()  # created by this run, nothing recorded
