@@ -88,7 +88,7 @@ class Transcription:
         t0 = time.perf_counter()
         self._build_graph(problem)
         # refused before CasADi expands and differentiates the graph, where the memory goes
-        check_memory(problem, self.nlp["x"].numel(), self.nlp["g"].numel())
+        check_memory(problem.options, self.nlp)
         self._split: Transcription | None = None  # the graph compiled functions come from
         # the library auto looks for, named once (serializing the graph takes a while)
         self._key = compiled.key_of(self.nlp) if problem.options.functions == "auto" else None
