@@ -131,15 +131,22 @@ def test_design_ends_130_with_nothing_left_or_completes(tmp_path_factory, delay,
         assert err.strip().splitlines()[-1].startswith("cadcam: interrupted") and not out.exists()
 
 
-def test_a_sweep_signalled_while_its_workers_solve_ends_them_and_exits_130(tmp_path):
+def sweep_solving(tmp_path, command=None) -> tuple[subprocess.Popen, list[int]]:
+    """A two-worker sweep of :data:`STUDY` started by ``command`` (default :func:`_command`),
+    once its workers are solving their first cases, and the workers' pids."""
     study = tmp_path / "study.toml"
     study.write_text(STUDY)
-    proc = _command("sweep", str(study), "-o", str(tmp_path / "s.db"), "--workers", "2")
+    proc = (command or _command)("sweep", str(study), "-o", str(tmp_path / "s.db"), "--workers", "2")
     deadline = time.time() + 60
     while len(workers := _descendants(proc.pid)) < 2 and time.time() < deadline:
         time.sleep(0.05)
     time.sleep(1.0)  # the workers are solving their first cases
     assert proc.poll() is None and len(workers) >= 2
+    return proc, workers
+
+
+def test_a_sweep_signalled_while_its_workers_solve_ends_them_and_exits_130(tmp_path):
+    proc, workers = sweep_solving(tmp_path)
     _signal(proc, 3, gap=0.05)
     proc.communicate(timeout=SWEEP_ENDS_WITHIN_S)  # the workers are ended, not waited for
     assert proc.returncode == INTERRUPTED

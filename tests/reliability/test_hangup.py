@@ -20,7 +20,7 @@ from cadcam.interrupts import INTERRUPTED, STOPPING, signals_stop_the_run
 from cadcam.outputs import forked
 
 from ..conftest import ROOT, SPEC_1DOF
-from ..test_interrupts import STUDY, SWEEP_ENDS_WITHIN_S, _descendants, _running
+from ..test_interrupts import SWEEP_ENDS_WITHIN_S, _running, sweep_solving
 
 
 def _command(*args: str, nohup: bool = False) -> subprocess.Popen:
@@ -108,14 +108,7 @@ def test_a_sweep_hung_up_while_its_workers_solve_ends_them_and_exits_130(tmp_pat
     """A closed terminal hangs up the whole process group: the command, its workers and
     multiprocessing's resource tracker, which must outlive them to release their semaphores
     (killed, it is started again and prints tracebacks)."""
-    study = tmp_path / "study.toml"
-    study.write_text(STUDY)
-    proc = _command("sweep", str(study), "-o", str(tmp_path / "s.db"), "--workers", "2")
-    deadline = time.time() + 60
-    while len(workers := _descendants(proc.pid)) < 2 and time.time() < deadline:
-        time.sleep(0.05)
-    time.sleep(1.0)  # the workers are solving their first cases
-    assert proc.poll() is None and len(workers) >= 2
+    proc, workers = sweep_solving(tmp_path, _command)
     os.killpg(proc.pid, signal.SIGHUP)
     _, err = proc.communicate(timeout=SWEEP_ENDS_WITHIN_S)
     assert proc.returncode == INTERRUPTED
