@@ -1,4 +1,4 @@
-"""Command line: cadcam design, evaluate, check, export, sweep, sweep-export and plot-study.
+"""Command line: cadcam design, evaluate, check, export, sweep, springs, sweep-export and plot-study.
 
 Exit codes: 0 success; 1 a solve that failed or did not pass its re-check (the result is still
 written), a derivative check beyond its tolerance, or the environment failed after work began;
@@ -343,6 +343,77 @@ def cmd_sweep(args) -> int:
     return 0 if failed == 0 else 1
 
 
+def cmd_springs(args) -> int:
+    """``cadcam springs``: a spec's spring slot searched over a whole catalogue (module
+    :mod:`cadcam.sweep.springs`); exit 0 when a feasible spring is found, 1 otherwise."""
+    from .physics.catalogue import load_catalogue
+    from .spec import parse_spec, read_spec_data
+    from .sweep.springs import search
+
+    data = read_spec_data(args.spec)
+    origin, base = str(args.spec), Path(args.spec).parent
+    problem = parse_spec(data, origin, base)
+    if not 1 <= args.slot <= len(problem.springs):
+        raise InputError(f"--slot {args.slot}: the spec has {len(problem.springs)} spring(s); give 1 … "
+                         f"{len(problem.springs)}")
+    for flag, value, name in (("--workers", args.workers, "workers"), ("--limit", args.limit, "cases")):
+        if value is not None and not (0 if name == "workers" else 1) <= value <= cap(name):
+            raise InputError(f"{flag} {value}: expected {0 if name == 'workers' else 1} to {cap(name)} "
+                             f"(CADCAM_CAP_{name.upper()} raises the cap)")
+    given = args.catalogue or data["springs"][args.slot - 1].get("catalogue")
+    path = None if given is None else str(Path(given) if args.catalogue or Path(given).is_absolute()
+                                          else base / given)
+    catalogue = load_catalogue(path)
+    _check_output_dir(args.output)
+    with held_folder(args.output) as out:
+        _check_files_are_ours(out / "best", problem, True)
+        part_path = None if path is None else str(Path(path).resolve())
+        found = search(data, origin, base, args.slot - 1, catalogue, part_path,
+                       os.cpu_count() or 1 if args.workers is None else args.workers,
+                       args.limit or cap("cases"), _springs_progress)
+        return _write_search(found, (data, origin, base), args, part_path, out)
+
+
+def _springs_progress(row: dict, found) -> None:
+    """One line on stderr per spring designed: its part, verdict and rmse, and the best so far."""
+    from .sweep.springs import verdict
+
+    word, reason = verdict(row)
+    best = found.best()
+    what = f"rmse {row['rmse']:.4g} N·m" if row.get("rmse") is not None else reason
+    so_far = f"{best} (rmse {found.designed[best]['rmse']:.4g} N·m)" if best else "none"
+    print(f"[{len(found.designed)}/{found.planned}] {row['part']}: {word}, {what} "
+          f"({row['wall_time_s']:.1f} s); best so far: {so_far}", file=sys.stderr, flush=True)
+
+
+def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) -> int:
+    """Write ``springs.csv`` and the best design's folder ``best/`` (its design solved again here
+    from the search's answer, then written as ``cadcam design`` writes it); print the summary;
+    return the exit code."""
+    from .designs import Design
+    from .files import write_csv
+    from .optimize import optimize
+    from .spec import parse_spec
+    from .sweep.springs import TABLE_COLUMNS, part_spec
+
+    data, origin, base = spec
+    table = found.table(args.rank)
+    write_csv(out / "springs.csv", list(TABLE_COLUMNS), table)
+    words = [row[1] for row in table]
+    best = found.best()
+    summary = (f"{len(table)} springs: {int((~found.screened.passed).sum())} screened out, "
+               f"{len(found.designed)} designed, {words.count('feasible')} feasible, {words.count('near')} near; ")
+    if best is None:
+        print(summary + f"no feasible spring; the table in {out / 'springs.csv'}")
+        return 1
+    problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
+    result = optimize(problem, start=Design.from_dict(found.designed[best]["design"], problem))
+    result.save(out / "best", figures=True, workers=os.cpu_count() or 1)
+    print(summary + f"the best: {best}, rmse {found.designed[best]['rmse']:.4g} N·m ({result.status} again "
+          f"in {out / 'best'}); the table, ranked by {args.rank}, in {out / 'springs.csv'}")
+    return 0
+
+
 def cmd_sweep_export(args) -> int:
     from .files import write_csv
     from .sweep.runner import flat_table, read_rows
@@ -507,6 +578,7 @@ def _add_study_commands(sub) -> None:
     p.add_argument("--dask", metavar="ADDRESS", help="run on a Dask cluster: a scheduler address, "
                    "or 'local' for a LocalCluster on this machine")
     p.set_defaults(run=cmd_sweep)
+    _add_springs_command(sub)
     p = sub.add_parser("sweep-export", help="a study database as a tidy CSV table")
     p.add_argument("database")
     p.add_argument("--csv", required=True, help="output CSV file")
@@ -519,6 +591,29 @@ def _add_study_commands(sub) -> None:
     p.add_argument("--pareto", action="store_true", help="mark the front minimising both x and y")
     p.add_argument("-o", "--output", required=True, help="PNG file")
     p.set_defaults(run=cmd_plot_study)
+
+
+def _add_springs_command(sub) -> None:
+    """``cadcam springs``: a spec's spring slot searched over a whole catalogue."""
+    from .sweep.springs import RANKS, VERDICTS
+
+    p = sub.add_parser("springs", help="screen a whole spring catalogue for a spec's spring, design the "
+                       "survivors, rank them (DIR/springs.csv) and write the best design (DIR/best/)",
+                       epilog="Verdicts: " + "; ".join(f"{k}: {v}" for k, v in VERDICTS.items())
+                       + ". Exit 0 when a feasible spring is found, 1 when none is.")
+    p.add_argument("spec", help="problem spec (TOML)")
+    p.add_argument("--catalogue", metavar="CSV", help="a spring catalogue (columns as "
+                   "cadcam.physics.catalogue.COLUMNS; default: the slot's own catalogue, else the shipped "
+                   "McMaster-Carr one)")
+    p.add_argument("-o", "--output", required=True, help="output folder: springs.csv and best/")
+    p.add_argument("--workers", type=int, help="worker processes (default: the machine's cores; 0 designs "
+                   "in this process)")
+    p.add_argument("--rank", choices=tuple(RANKS), default="error", help="the table's order within each "
+                   "verdict (ties by rmse): " + "; ".join(f"{k}: {v}" for k, v in RANKS.items()))
+    p.add_argument("--slot", type=int, default=1, help="the spring searched for, 1-based (default 1)")
+    p.add_argument("--limit", type=int, help="design at most N springs that pass the screen, those "
+                   "nearest the spec's own rate (|log k/k_spec|) first (default: all, up to the cases cap)")
+    p.set_defaults(run=cmd_springs)
 
 
 def _parser() -> _Parser:

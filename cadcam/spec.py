@@ -643,7 +643,7 @@ def _spring(r: "_Reader", j: int, mechanisms, base: Path = Path(".")) -> Spring:
 
 
 #: The keys a catalogue part fills, which a spec naming a part does not give.
-_FILLED = ("rate", "preload", "free_length", "travel")
+FILLED_BY_PART = ("rate", "preload", "free_length", "travel")
 
 
 def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
@@ -672,7 +672,7 @@ def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
     if not travel > 0:
         raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: its initial tension already "
                         "stresses the wire beyond its allowance; choose another part")
-    for name in _FILLED:
+    for name in FILLED_BY_PART:
         if name in r.table and not (is_real(r.table[name]) and float(r.table[name]) == filled[name]):
             raise SpecError(f"{r.origin}: {r.key(name)} = {short_repr(r.table[name])}: part {number!r} sets "
                             f"{name} ({filled[name]:.6g} {keys[name].unit} from its row); give the part or "

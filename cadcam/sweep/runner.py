@@ -383,7 +383,11 @@ def _start_resource_tracker() -> None:
 
 
 class _Local:
-    def __init__(self, workers: int):
+    """``task`` (a module-level function; default :func:`run_case`) run on a process pool of
+    ``workers`` processes started with :data:`WORKER_ENV`."""
+
+    def __init__(self, workers: int, task=run_case):
+        self.task = task
         # every worker started now, and the pool's resource tracker (SIGHUP blocked for it), in the
         # worker environment
         with _WorkerEnv():
@@ -392,7 +396,7 @@ class _Local:
             list(self.pool.map(abs, range(workers)))
 
     def submit(self, *args):
-        return self.pool.submit(run_case, *args)
+        return self.pool.submit(self.task, *args)
 
     def wait(self, futures):
         return wait(futures, return_when=FIRST_COMPLETED)[0]
@@ -411,9 +415,12 @@ class _Serial:
     """Cases run one after another in this process (``workers = 0``): for debugging and
     profiling, and the one executor whose warm starts are reproducible."""
 
+    def __init__(self, task=run_case):
+        self.task = task
+
     def submit(self, *args):
         fut = Future()
-        fut.set_result(run_case(*args))
+        fut.set_result(self.task(*args))
         return fut
 
     def wait(self, futures):
