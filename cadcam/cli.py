@@ -366,7 +366,7 @@ def cmd_springs(args) -> int:
     catalogue = load_catalogue(path)
     _check_output_dir(args.output)
     with held_folder(args.output) as out:
-        _check_files_are_ours(out / "best", problem, True)
+        _check_files_are_ours(out / "best", problem, args.figures)
         part_path = None if path is None else str(Path(path).resolve())
         found = search(data, origin, base, args.slot - 1, catalogue, part_path,
                        os.cpu_count() or 1 if args.workers is None else args.workers,
@@ -408,7 +408,7 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
         return 1
     problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
     result = optimize(problem, start=Design.from_dict(found.designed[best]["design"], problem))
-    result.save(out / "best", figures=True, workers=os.cpu_count() or 1)
+    result.save(out / "best", figures=args.figures, workers=os.cpu_count() or 1)
     print(summary + f"the best: {best}, rmse {found.designed[best]['rmse']:.4g} N·m ({result.status} again "
           f"in {out / 'best'}); the table, ranked by {args.rank}, in {out / 'springs.csv'}")
     return 0
@@ -516,15 +516,20 @@ def _add_spec_arguments(p) -> None:
                         "merged into the spec's [solver.ipopt])")
 
 
+def _add_no_figures(p) -> None:
+    """``--no-figures``, of every command that writes a design's folder."""
+    p.add_argument("--no-figures", dest="figures", action="store_false",
+                   help="write no PNG figures and no drawing sheets (what matplotlib draws: most of a "
+                        "small design's time); the tables, outlines and result.json as usual")
+
+
 def _add_design_command(sub) -> None:
     """``cadcam design``: its spec, output folder, starts, figures and workshop file sizes."""
     p = sub.add_parser("design", help="optimise a cam system and re-check it")
     _add_spec_arguments(p)
     p.add_argument("-o", "--output", required=True, help="output folder")
     p.add_argument("--multistart", type=int, help=SOLVER["multistart"].description)
-    p.add_argument("--no-figures", dest="figures", action="store_false",
-                   help="write no PNG figures and no drawing sheets (what matplotlib draws: most of a "
-                        "small design's time); the tables, outlines and result.json as usual")
+    _add_no_figures(p)
     w = p.add_argument_group("workshop files (lengths in metres; each flag overrides the spec's "
                              "[workshop] table, whose defaults are given)")
     w.add_argument("--bore-diameter", type=float, help="shaft bore (default 0.006)")
@@ -611,6 +616,7 @@ def _add_springs_command(sub) -> None:
     p.add_argument("--rank", choices=tuple(RANKS), default="error", help="the table's order within each "
                    "verdict (ties by rmse): " + "; ".join(f"{k}: {v}" for k, v in RANKS.items()))
     p.add_argument("--slot", type=int, default=1, help="the spring searched for, 1-based (default 1)")
+    _add_no_figures(p)
     p.add_argument("--limit", type=int, help="design at most N springs that pass the screen, those "
                    "nearest the spec's own rate (|log k/k_spec|) first (default: all, up to the cases cap)")
     p.set_defaults(run=cmd_springs)
