@@ -356,10 +356,10 @@ def cmd_springs(args) -> int:
     if not 1 <= args.slot <= len(problem.springs):
         raise InputError(f"--slot {args.slot}: the spec has {len(problem.springs)} spring(s); give 1 … "
                          f"{len(problem.springs)}")
-    for flag, value, name in (("--workers", args.workers, "workers"), ("--limit", args.limit, "cases")):
-        if value is not None and not (0 if name == "workers" else 1) <= value <= cap(name):
-            raise InputError(f"{flag} {value}: expected {0 if name == 'workers' else 1} to {cap(name)} "
-                             f"(CADCAM_CAP_{name.upper()} raises the cap)")
+    for flag, value, low, name in (("--workers", args.workers, 0, "workers"), ("--limit", args.limit, 1, "cases")):
+        if value is not None and not low <= value <= cap(name):
+            raise InputError(f"{flag} {value}: expected {low} to {cap(name)} (CADCAM_CAP_{name.upper()} "
+                             "raises the cap)")
     given = args.catalogue or data["springs"][args.slot - 1].get("catalogue")
     path = None if given is None else str(Path(given) if args.catalogue or Path(given).is_absolute()
                                           else base / given)
@@ -393,6 +393,7 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
     from .designs import Design
     from .files import write_csv
     from .optimize import optimize
+    from .outputs.run_files import WorkshopError
     from .spec import parse_spec
     from .sweep.springs import TABLE_COLUMNS, part_spec
 
@@ -408,7 +409,12 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
         return 1
     problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
     result = optimize(problem, start=Design.from_dict(found.designed[best]["design"], problem))
-    result.save(out / "best", figures=args.figures, workers=os.cpu_count() or 1)
+    try:
+        result.save(out / "best", figures=args.figures, workers=os.cpu_count() or 1)
+    except WorkshopError as exc:
+        print(summary + f"the best: {best}; its workshop files cannot be made: {exc} (the table and the "
+              f"design's other files are written to {out})", file=sys.stderr)
+        return 1
     print(summary + f"the best: {best}, rmse {found.designed[best]['rmse']:.4g} N·m ({result.status} again "
           f"in {out / 'best'}); the table, ranked by {args.rank}, in {out / 'springs.csv'}")
     return 0
