@@ -29,14 +29,9 @@ from cadcam.optimize import default_start, solve
 from cadcam.solve import compiled
 from cadcam.solve.transcription import Transcription
 
-from .. import test_ipopt_options
 from ..conftest import SPEC_1DOF, needs_cc
 
 pytestmark = needs_cc
-
-#: The canary: a shared library whose constructor writes a file beside it, proof if it is ever
-#: loaded (a fixture).
-planted = test_ipopt_options.planted
 
 #: Compiler flags of these tests (as tests/solve/test_compiled.py's: -O0 compiles fastest).
 FAST = ("-O0", "-fPIC")
