@@ -9,6 +9,7 @@ import pytest
 
 from cadcam import Design, evaluate, load_spec
 from cadcam.cli import main
+from cadcam.files import MANIFEST
 from cadcam.verify.evaluate import LENGTH_TOL
 
 from ...conftest import SPEC_1DOF, check_output_file
@@ -28,7 +29,7 @@ def test_design_succeeds_and_writes_its_files(run):
                  "cam1.dxf", "cam1.svg", "cam1_points.csv", "cam1_sheet.pdf", "cam1_sheet.png"):
         check_output_file(out / name)
     assert not (out / "cam1.stl").exists()  # STL only on request
-    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
+    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MANIFEST]  # the set's record only
     assert res["torque_model"] == res["friction_model"] == "energy"
     assert res["solver"]["iterations"] > 0 and res["solver"]["solve_time_s"] > 0
 
