@@ -392,8 +392,9 @@ def _swap(folder: Path, stage: Path, marker: str) -> None:
     sets = refuse_files_of_others(folder, new, marker)
     written = {name: file_digest(stage / name) for name in new}
     stale = sorted(n for n in sets.get(marker, {}) if n not in written and os.path.lexists(folder / n))
-    journal = {"swap": secrets.token_hex(16), "files": written}
-    write_text(stage / MANIFEST, _manifest_text({**sets, marker: written}, journal["swap"]))
+    swap = secrets.token_hex(16)
+    journal = {"swap": swap, "files": written}
+    write_text(stage / MANIFEST, _manifest_text({**sets, marker: written}, swap))
     last = [n for n in (marker, MANIFEST) if n == MANIFEST or n in written]
     displaced = [n for n in (*new, MANIFEST, *stale) if os.path.lexists(folder / n)]
     first = [marker] if marker in written and marker in displaced else []

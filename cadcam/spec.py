@@ -19,7 +19,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from itertools import product
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import casadi as ca
 import numpy as np
@@ -35,8 +35,8 @@ from .physics.catalogue import load_catalogue
 from .physics.springs import SPRING_KEYS, Port, Spring
 from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, Joint, Options, Problem,
                       Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
-from .targets import (ANGLE_UNITS, ARM_JOINT, ARM_KEYS, FIVE_BAR_KEYS, KIND, TABLE_KEYS, ExpressionError, Target,
-                      read_table, target_kind, target_kinds)
+from .targets import (ANGLE_UNITS, ARM_JOINT, ARM_KEYS, EXPRESSION_KEYS, FIVE_BAR_KEYS, KIND, TABLE_KEYS,
+                      ExpressionError, Target, read_table, target_kind, target_kinds)
 
 #: ``default`` of :meth:`_Reader.read`: the key's declared default.
 _DECLARED = object()
@@ -129,7 +129,7 @@ class _Reader:
             self.fail(where or "spec", table, "a table")
         self.table, self.seen = table, set[str]()
 
-    def fail(self, key, value, form):
+    def fail(self, key, value, form) -> NoReturn:
         raise SpecError(f"{self.origin}: {key} = {short_repr(value)}: expected {form}")
 
     def key(self, name: str) -> str:
@@ -219,11 +219,11 @@ def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: boo
     elif kind == "table":
         data = _table(r, base, output)
     elif kind == "expression":  # its value's unit is the law's: N·m for a torque, m for an output
-        keys = declared.keys
+        keys = EXPRESSION_KEYS
         data = {"expression": r.read(keys["expression"].within(unit="m" if output else "N·m")),
                 "parameters": r.read(keys["parameters"])}
     else:
-        data = {k.name: r.read(k) for k in declared.keys.keys}
+        data = {k.name: r.read(k) for k in (declared.keys.keys if declared.keys is not None else ())}
     r.done()
     return Target(kind, data)
 
@@ -636,8 +636,9 @@ def _spring(r: "_Reader", j: int, mechanisms, base: Path = Path(".")) -> Spring:
     numbers = {name: float(r.read(keys[name], filled.get(name, _DECLARED))) for name in ("rate", "travel", "preload")}
     free_length = _optional_float(r.read(keys["free_length"], filled.get("free_length", _DECLARED)))
     pre = r.read(keys["preextension"].within(high=numbers["travel"]))
-    spring = Spring(name=r.read(keys["name"], f"spring {j + 1}"), ports=tuple(ports), **numbers,
-                    free_length=free_length, preextension=_optional_float(pre), **part)
+    spring = Spring(name=r.read(keys["name"], f"spring {j + 1}"), rate=numbers["rate"], travel=numbers["travel"],
+                    ports=tuple(ports), preload=numbers["preload"], free_length=free_length,
+                    preextension=_optional_float(pre), **part)
     r.done()
     return spring
 
