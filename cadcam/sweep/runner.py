@@ -386,8 +386,8 @@ class _Local:
     """``task`` (a module-level function; default :func:`run_case`) run on a process pool of
     ``workers`` processes started with :data:`WORKER_ENV`."""
 
-    def __init__(self, workers: int, task=run_case):
-        self.task = task
+    def __init__(self, workers: int, task=None):
+        self.task = task if task is not None else run_case  # looked up now: a test may wrap it
         # every worker started now, and the pool's resource tracker (SIGHUP blocked for it), in the
         # worker environment
         with _WorkerEnv():
@@ -415,8 +415,8 @@ class _Serial:
     """Cases run one after another in this process (``workers = 0``): for debugging and
     profiling, and the one executor whose warm starts are reproducible."""
 
-    def __init__(self, task=run_case):
-        self.task = task
+    def __init__(self, task=None):
+        self.task = task if task is not None else run_case  # looked up now: a test may wrap it
 
     def submit(self, *args):
         fut = Future()
