@@ -86,6 +86,12 @@ def mechanism_kinds() -> tuple[str, ...]:
     return tuple(sorted(_REGISTRY))
 
 
+def built_in_kinds() -> tuple[str, ...]:
+    """Names of the mechanisms cadcam itself ships (its folders beside this module): what its
+    generated reference and schema describe; a plug-in documents its own."""
+    return tuple(k for k in mechanism_kinds() if _REGISTRY[k].__module__.startswith(f"{__package__}."))
+
+
 def torque_models() -> tuple[str, ...]:
     """``energy`` and every force model a registered mechanism offers."""
     return tuple(dict.fromkeys([ENERGY] + [m for kind in mechanism_kinds() for m in _REGISTRY[kind].force_models]))

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..keys import KeyTable
-from ..mechanisms.base import MECHANISM_KEYS, design_methods, mechanism_class, mechanism_kinds, torque_models
+from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, design_methods, mechanism_class, torque_models
 from ..physics.springs import SPRING_KEYS
 from ..problem import JOINT_KEYS, SOLVER, acceptance_keys, tolerance_keys
 from ..targets import target_kind, target_kinds
@@ -58,7 +58,7 @@ def table_block(table: KeyTable, common: tuple[str, ...] = ("kind",)) -> dict:
 
 def mechanism_schemas() -> dict[str, dict]:
     """Each registered mechanism's ``then`` block: its own keys, after those every mechanism has."""
-    return {kind: table_block(mechanism_class(kind).spec_keys, MECHANISM_KEYS.names) for kind in mechanism_kinds()}
+    return {kind: table_block(mechanism_class(kind).spec_keys, MECHANISM_KEYS.names) for kind in built_in_kinds()}
 
 
 def _properties(table: KeyTable) -> dict:

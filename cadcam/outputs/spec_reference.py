@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..files import atomic_path
 from ..keys import Key, KeyTable
-from ..mechanisms.base import MECHANISM_KEYS, mechanism_class, mechanism_kinds
+from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, mechanism_class
 from ..physics.springs import SPRING_KEYS
 from ..problem import IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, acceptance_keys, tolerance_keys
 from ..spec import SPEC_KEYS
@@ -96,7 +96,7 @@ def reference() -> str:
             "A joint's `[joints.target]` is a torque law [N·m] of its angle (`kind` and the kind's keys); "
             "`expression` and `table` may also be a mechanism's `[mechanisms.output_target]`, a law [m].",
             *_targets(output=False), "", *_table(ARM_KEYS), "", *_table(MECHANISM_KEYS)]
-    for kind in mechanism_kinds():
+    for kind in built_in_kinds():
         rows += ["", *_mechanism(kind)]
     rows += ["", "### Output laws a mechanism brings", "",
              "Kinds of `[mechanisms.output_target]` beside `expression` and `table`.", *_targets(output=True),
@@ -110,7 +110,7 @@ def declared_keys() -> set[tuple[str, str]]:
     against."""
     tables = [SPEC_KEYS, JOINT_KEYS, acceptance_keys(), ARM_KEYS, MECHANISM_KEYS, SPRING_KEYS, WORKSHOP_KEYS,
               tolerance_keys(), KeyTable("[solver]", "", tuple(SOLVER.values()))]
-    tables += [mechanism_class(k).spec_keys for k in mechanism_kinds()]
+    tables += [mechanism_class(k).spec_keys for k in built_in_kinds()]
     tables += [target_kind(k).keys for k in dict.fromkeys(target_kinds() + target_kinds(output=True))]
     out = set()
 
