@@ -202,6 +202,7 @@ def _api_examples(page: str) -> list[str]:
     return [part.split("```\n<!-- /api-example -->")[0] for part in text.split("<!-- api-example -->\n```python\n")[1:]]
 
 
+@pytest.mark.slow  # every API example of the README and the guide, designs included
 def test_the_readme_and_guide_api_examples_run_as_written(tmp_path, monkeypatch, capsys):
     (first,), guide = _api_examples("README.md"), _api_examples("docs/guide.md")
     assert len(guide) == 2

@@ -18,6 +18,9 @@ from cadcam.physics.catalogue import load_catalogue, screen
 from cadcam.spec import FILLED_BY_PART, parse_spec, read_spec_data
 from cadcam.sweep.springs import RANKS, TABLE_COLUMNS, VERDICTS, Search, part_spec, slot_need, verdict
 
+#: `cadcam springs` designs catalogue springs through a process pool: the slow lane (make test-slow).
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parent.parent
 TUTORIAL = ROOT / "docs" / "first_balancer.toml"
 HEADER = "part_number,stiffness,load_min,length_natural,length_max,load_max,wire_dia,od,material,pkg_qty,pkg_cost"

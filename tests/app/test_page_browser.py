@@ -15,6 +15,9 @@ from pathlib import Path
 
 import pytest
 
+#: A headless browser drives the served page: the slow lane (make test-slow).
+pytestmark = pytest.mark.slow
+
 playwright_api = pytest.importorskip("playwright.sync_api", reason="Playwright is the dev extra's (make test installs it)")
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -126,6 +126,7 @@ def test_envelope_method_is_only_for_differential_pairs_with_output_laws():
         parse_spec(data, "x.toml")
 
 
+@pytest.mark.slow  # the cable robot's envelope design with every file
 def test_design_command_writes_the_envelope_design_and_groove_centre_lines(tmp_path, capsys):
     from cadcam.cli import main
     assert main(["design", ROBOT, "--variant", "envelope", "-o", str(tmp_path / "out"),

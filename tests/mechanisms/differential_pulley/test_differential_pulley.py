@@ -197,6 +197,7 @@ def test_balancer_meets_fedorovs_goals(balancer):
     assert min(fine["margins"]["mechanism"][0].values()) >= 0
 
 
+@pytest.mark.slow  # the balancer's design takes minutes on two cores
 def test_balancer_energy_is_constant_over_the_turn(balancer):
     ev = balancer.recheck
     mgl = 0.17 * 9.81 * 0.10
@@ -206,6 +207,7 @@ def test_balancer_energy_is_constant_over_the_turn(balancer):
     assert np.ptp(ev.energy) == pytest.approx(2 * mgl, rel=1e-2)  # the springs do store it
 
 
+@pytest.mark.slow  # the balancer's design takes minutes on two cores
 def test_balancer_result_recomputes_from_its_json(balancer, tmp_path):
     """Saved and loaded, the result's problem (anchors, cable length, slider) and design (with
     the poses it was checked at) re-evaluate to the run's x(θ) and torques, on the design grid
@@ -244,6 +246,7 @@ def test_malformed_differential_specs_get_one_line_errors(key, value, message):
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.slow  # the balancer's design takes minutes on two cores
 def test_balancer_outlines_close_round_the_hub_as_the_nlp_designed_them(balancer):
     """Wraps of nearly a turn leave no room for a rounded closure: the outline closes by the
     convex hull of the designed arc and the hub, which the NLP's outline rows keep the whole
