@@ -304,6 +304,7 @@ def test_a_session_reuses_the_build_and_warm_starts_a_small_edit():
     assert warm.fun <= cold.fun * (1 + 1e-6)
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_a_session_keeps_as_many_answers_as_builds():
     """A page that keeps changing the grid must not keep every structure's answer."""
     from cadcam.solve.builds import KEPT_BUILDS

@@ -998,6 +998,7 @@ def _solvable(path: str) -> bool:
 
 @_settings(4)
 @given(m=mutate_tree(TREE_1DOF, RULES_1DOF, max_ops=2, scope=_solvable, kinds=("replace_any", "add_known")))
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_designs_succeed_only_when_the_recheck_says_so(m, scratch, capfd):
     work = scratch()
     spec = work / "spec.toml"

@@ -266,6 +266,7 @@ def test_a_rerun_removes_the_earlier_runs_files_it_does_not_write_and_nothing_el
 
 
 # -- figures and sheets drawn side by side (tests/outputs/test_forked.py tests the drawing processes)
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_figures_drawn_side_by_side_are_the_figures_drawn_one_after_another(tmp_path):
     code = ("from cadcam import load_spec; from cadcam.optimize import optimize; "
             f"r = optimize(load_spec({str(SPEC_1DOF)!r})); "

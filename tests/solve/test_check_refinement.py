@@ -3,6 +3,8 @@ again from its optimum with more of them (cadcam.optimize._refined)."""
 import types
 from pathlib import Path
 
+import pytest
+
 import cadcam
 from cadcam.optimize import CHECK_REFINEMENT, _broken_between_checks
 
@@ -11,6 +13,7 @@ PENDULUM = Path(__file__).resolve().parents[2] / "models" / "ludovico2021_pendul
 IPOPT_MU_MAX = 1e5
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_a_profile_bent_between_two_check_points_is_designed_again_with_more():
     """Ludovico2021's pendulum with convexity held at 2 points only, under IPOPT's own cap on
     its barrier parameter (not cadcam's, whose first optimum happens to be convex): the first

@@ -2,6 +2,7 @@
 from the expanded (SX) functions (issue 30, item 1: builds that do not grow)."""
 from dataclasses import replace
 
+import pytest
 import numpy as np
 
 from cadcam import load_spec
@@ -19,6 +20,7 @@ def hessian_pattern(problem, functions: str) -> np.ndarray:
     return np.array(sorted(zip(rows, cols)))
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_the_mapped_hessian_has_the_expanded_ones_sparsity():
     """A differential pair, whose per-angle functions have several outputs and see both
     profiles' coefficients: called whole, each pose's unknowns were coupled to every

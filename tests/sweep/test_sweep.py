@@ -55,6 +55,7 @@ def test_local_pool_and_dask_local_cluster_give_identical_rows(tmp_path):
     assert all(v[0] == "success" for v in pool.values())
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_sigkill_midway_then_resume_gives_one_row_per_case(tmp_path):
     study = _study(tmp_path, num=4)
     reference = tmp_path / "reference.db"

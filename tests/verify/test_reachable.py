@@ -31,6 +31,7 @@ def test_every_shipped_spec_is_reachable(spec):
     assert reachable.unreachable(cadcam.load_problem(spec)) is None
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_a_spring_too_weak_for_the_load_is_refused_and_its_bound_holds():
     weak = {"spring": {"rate": 250.0}}
     message = reachable.unreachable(_endo(**weak))
@@ -45,6 +46,7 @@ def test_a_spring_too_weak_for_the_load_is_refused_and_its_bound_holds():
     assert result.recheck.metrics.rmse[0] >= rmse_bound  # within its travel, no design does better
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_a_cable_wound_the_wrong_way_is_refused_naming_the_keys_that_reverse_it():
     problem = _endo(pulley={"winding": "ccw"})
     message = reachable.unreachable(problem)

@@ -85,6 +85,7 @@ def test_the_band_is_in_result_json_the_summary_and_the_figure(pair, tmp_path):
     assert any("built part" in t.get_text() for t in axes.get_legend().get_texts())
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_a_problem_without_springs_has_no_band():
     """The cable robot's envelope design (no springs), on a 21-angle grid: whether a band is
     given does not depend on the grid, and the spec's 61 angles re-check for 13 s."""

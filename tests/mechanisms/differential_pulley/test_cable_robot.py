@@ -146,6 +146,7 @@ def test_design_command_writes_the_envelope_design_and_groove_centre_lines(tmp_p
 
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_least_squares_on_joints_without_a_torque_goal_builds():
     """The cable robot has no springs and no torque goal (only output laws): its least-squares
     objective had a tracking term of an empty torque and failed in CasADi (a dot product of
@@ -160,6 +161,7 @@ def test_least_squares_on_joints_without_a_torque_goal_builds():
     assert Transcription(completed).v.vector().shape[0] > 0
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_envelope_start_takes_the_cable_length_at_the_nearest_pose_newton_solves():
     """At order 20 the fitted right-hand pulleys leave Newton no tangency near its start at the
     reference pose: the cable length is taken at the nearest pose where it finds both, and the

@@ -118,6 +118,7 @@ def test_design_leaves_a_dxf_of_a_closed_cam_with_its_bore(run):
     assert radii.min() > 3.0 + 1.0  # at least 1 mm of wall around it
 
 
+@pytest.mark.slow  # seconds of designs: make test-slow
 def test_stl_on_request_and_bad_workshop_sizes(tmp_path, capsys):
     """Without figures (the STL and the workshop's verdict are made without them, and
     test_design_succeeds_and_writes_its_files checks the figures of the same command)."""
