@@ -177,6 +177,9 @@ SOLVER = {k.name: k for k in (
         "and ``result.json``'s ``solver.functions`` say which were used"),
 )}
 
+#: The ``[solver]`` table, its keys :data:`SOLVER`'s (the reference and the schema list it).
+SOLVER_KEYS = KeyTable("[solver]", "How the design is transcribed and solved.", tuple(SOLVER.values()))
+
 
 def _choice(*values):
     return Setting(None, lambda v: v in values, "one of " + ", ".join(f'"{v}"' for v in values), "")

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..physics.outline import STRAIGHT
+
 if TYPE_CHECKING:
     from .workshop import Outline
 
@@ -34,8 +36,6 @@ MAX_ROUNDS = 30
 #: 1 − cos of the angle between two tangents below which they are parallel (the joint of the
 #: general formula loses its digits there).
 PARALLEL = 1e-12
-#: Bulge below which a segment is straight (its sag is then below 1e-12 of its length).
-STRAIGHT = 1e-12
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from ..files import atomic_path
 from ..keys import KeyTable
 from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, design_methods, mechanism_class, torque_models
 from ..physics.springs import SPRING_KEYS
-from ..problem import JOINT_KEYS, SOLVER, acceptance_keys, tolerance_keys
+from ..problem import JOINT_KEYS, SOLVER_KEYS, acceptance_keys, tolerance_keys
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -75,7 +75,7 @@ def result_schema(schema: dict) -> dict:
     defs = out["$defs"]
     defs["torque_model"]["enum"] = list(torque_models())
     options = defs["options"]["properties"]
-    for name, prop in _properties(KeyTable("[solver]", "", tuple(SOLVER.values()))).items():
+    for name, prop in _properties(SOLVER_KEYS).items():
         options[name] = {**options.get(name, {}), **prop}
     options["method"]["enum"] = ["nlp", *design_methods()]
     defs["solver_run"]["properties"]["name"]["enum"] = ["ipopt", *design_methods()]

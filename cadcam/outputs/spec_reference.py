@@ -17,7 +17,7 @@ from ..files import atomic_path
 from ..keys import Key, KeyTable
 from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, mechanism_class
 from ..physics.springs import SPRING_KEYS
-from ..problem import IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, acceptance_keys, tolerance_keys
+from ..problem import IPOPT_OPTIONS, JOINT_KEYS, SOLVER_KEYS, WORKSHOP_KEYS, acceptance_keys, tolerance_keys
 from ..spec import SPEC_KEYS
 from ..targets import ARM_KEYS, target_kind, target_kinds
 
@@ -90,7 +90,6 @@ def _ipopt() -> list[str]:
 
 def reference() -> str:
     """The page's text."""
-    solver = KeyTable("[solver]", "How the design is transcribed and solved.", tuple(SOLVER.values()))
     rows = [HEADER, *_table(SPEC_KEYS, title="top level"), "", *_table(JOINT_KEYS), "",
             *_table(acceptance_keys(), "###"), "", "## Target kinds", "",
             "A joint's `[joints.target]` is a torque law [N·m] of its angle (`kind` and the kind's keys); "
@@ -100,7 +99,7 @@ def reference() -> str:
         rows += ["", *_mechanism(kind)]
     rows += ["", "### Output laws a mechanism brings", "",
              "Kinds of `[mechanisms.output_target]` beside `expression` and `table`.", *_targets(output=True),
-             "", *_table(SPRING_KEYS), "", *_table(solver), "", *_ipopt(), "", *_table(WORKSHOP_KEYS), "",
+             "", *_table(SPRING_KEYS), "", *_table(SOLVER_KEYS), "", *_ipopt(), "", *_table(WORKSHOP_KEYS), "",
              *_table(tolerance_keys())]
     return "\n".join(rows) + "\n"
 
@@ -109,7 +108,7 @@ def declared_keys() -> set[tuple[str, str]]:
     """(table path, key name) of every key on the page: what a test holds the reader's keys
     against."""
     tables = [SPEC_KEYS, JOINT_KEYS, acceptance_keys(), ARM_KEYS, MECHANISM_KEYS, SPRING_KEYS, WORKSHOP_KEYS,
-              tolerance_keys(), KeyTable("[solver]", "", tuple(SOLVER.values()))]
+              tolerance_keys(), SOLVER_KEYS]
     tables += [mechanism_class(k).spec_keys for k in built_in_kinds()]
     tables += [target_kind(k).keys for k in dict.fromkeys(target_kinds() + target_kinds(output=True))]
     out = set()

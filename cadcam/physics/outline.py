@@ -33,8 +33,8 @@ TWO_PI = 2 * np.pi
 #: Bisection steps of a tangency (halving π rad: below 1e-15 rad) and of the slider (halving
 #: the slider's range: below 1e-15 of it).
 BISECTIONS = 52
-#: Bulge below which a segment is straight (as the writer's :data:`cadcam.make.biarc.STRAIGHT`:
-#: the sag of such an arc is below 1e-12 of its length).
+#: Bulge below which a segment is straight, for the files' writer (:mod:`cadcam.make.biarc`) and
+#: their reader alike: the sag of such an arc is below 1e-12 of its length.
 STRAIGHT = 1e-12
 #: How far [m] a target may sit inside the tangent at the outline's last point and still leave
 #: there: a departure exactly at the end of the designed arc (the range's most-wound pose), seen
