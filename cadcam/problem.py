@@ -561,6 +561,20 @@ class Problem:
         return SpringParameters(*(np.array([getattr(s, name) for s in self.springs], dtype=float)
                                   for name in ("rate", "preload", "travel")))
 
+    def mounted_springs(self) -> list[tuple[int, int, str, int]]:
+        """(spring j, mechanism u, port name, joint) of every spring with a free length that
+        hangs from the mount of its one port (:attr:`cadcam.mechanisms.base.Mechanism.mounted_ports`):
+        the springs the room along their cable bounds, and whose cable has a length to cut."""
+        out = []
+        for j, spring in enumerate(self.springs):
+            if spring.free_length is None or len(spring.ports) != 1:
+                continue
+            (port,) = spring.ports
+            mech = self.mechanisms[port.mechanism]
+            if port.name in mech.mounted_ports:
+                out.append((j, port.mechanism, port.name, mech.joint))
+        return out
+
     # -- acceptance ------------------------------------------------------------------------------
     def spring_energy(self, i: int) -> float:
         """The energy [J] the springs acting on joint ``i`` store within their travel t_j,

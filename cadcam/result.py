@@ -14,6 +14,7 @@ from .citations import cited
 from .verify.binding import binding_constraints
 from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation
+from .verify.installation import installation_lines, spring_installation
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
 from .version import __version__
@@ -145,6 +146,14 @@ class Result:
         finite = bool(np.all(np.isfinite(self.evaluation.tau)))
         return tolerance_band(self.evaluation) if self.problem.springs and finite else None
 
+    @cached_property
+    def installation(self) -> list[dict]:
+        """How each spring is installed, from the fine re-check: force and length ranges, and
+        for a spring hung from a mount on its cable the mount and the cable's cut length
+        (:func:`cadcam.verify.installation.spring_installation`; SI units)."""
+        finite = bool(np.all(np.isfinite(self.recheck.units[0].d))) if self.recheck.units else False
+        return spring_installation(self.recheck) if finite else []
+
     @property
     def binding(self) -> list[str]:
         """Constraints that bind on the fine re-check, one sentence each
@@ -181,6 +190,7 @@ class Result:
             lines += kind.summary_lines(self.recheck)
         if self.band is not None:
             lines.append(_band_line(self.band, self.evaluation))
+        lines += installation_lines(self.installation)
         lines += [f"  violated: {v}" for v in (self.recheck.violations if not self.success else [])]
         if self.warnings:
             lines.append(_warnings_line(self.warnings))
@@ -294,6 +304,8 @@ class Result:
         bodies = [s.body_report(x) for s, x in zip(self.problem.springs, fine.metrics.extension_max)]
         if any(bodies):
             out["spring_bodies"] = [b for b in bodies if b is not None]
+        if self.installation:
+            out["spring_installation"] = self.installation
         if self.band is not None:
             out["tolerance_band"] = self.band.to_dict()
         if sol is not None:

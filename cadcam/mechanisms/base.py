@@ -296,7 +296,7 @@ HOOKS = (
             ("parameters", "unknown_bounds", "n_profiles", "closure_rows", "output", "shorthand", "spec_keys")),
     *_hooks("geometry", ("residual", "guess", "displacements"),
             ("closure", "profile_rotation", "profile_domain", "wrap_end", "max_span", "windings")),
-    *_hooks("limits", (), ("limits", "margins", "fixed_sign_ports", "advice")),
+    *_hooks("limits", (), ("limits", "margins", "mounted_ports", "spring_room", "fixed_sign_ports", "advice")),
     *_hooks("starts and methods", (), ("start_radius", "prepare_start", "methods", "force_models", "force_arms",
                                        "legacy_force_models", "reference_angle")),
     *_hooks("spec", (), ("from_spec", "spec_fields")),
@@ -458,6 +458,19 @@ class Mechanism(ABC):
         limit's unit), each ≥ 0 when met, given the port arms ``arm`` [m]; imposed by the NLP
         at every grid angle and checked by the re-check."""
         return ca.SX(0, 1)
+
+    #: The ports whose spring hangs from a mount fixed to its body, along the cable's last free
+    #: span (:meth:`spring_room`); empty: the mechanism bounds no spring's length.
+    mounted_ports: ClassVar[tuple[str, ...]] = ()
+
+    @classmethod
+    def spring_room(cls, bases, theta, z, c, q, port: str):
+        """The straight length [m] a spring on ``port`` (one of :attr:`mounted_ports`) has at
+        a pose: from its mount along the cable's last free span to where the cable leaves the
+        profile. The spring, free length L0 plus extension x, must fit in it (its hook never
+        reaches the profile), and the cable from its anchor on the profile to the hook is the
+        path to the mount less L0 + x. Default: no room is bounded (no mounted ports)."""
+        raise NotImplementedError(f"{cls.kind} mounts no spring on port {port!r}")
 
     @classmethod
     def wrap_end(cls, first, last, q):
@@ -863,6 +876,16 @@ def pose_function(structure, model: str, order: int, integrals: str = "closed-fo
     d, arm, R, branch = port_function(structure, model, order, integrals)(theta, z, z_ref, wrapped, wound, c, q)
     return ca.Function("pose", [theta, z, z_ref, c, q], [d, arm, R, branch],
                        ["theta", "z", "z_ref", "c", "q"], ["d", "arm", "R", "branch_error"])
+
+
+@lru_cache(maxsize=64)
+def room_function(structure, port: str) -> ca.Function:
+    """``room(theta, z, c, q) -> room``: the room [m] of a spring on the mounted ``port``
+    (:meth:`Mechanism.spring_room`)."""
+    cls, bases = structure
+    theta, z, c, q = _symbols(cls, bases)
+    return ca.Function("room", [theta, z, c, q], [cls.spring_room(bases, theta, z, c, q, port)],
+                       ["theta", "z", "c", "q"], ["room"])
 
 
 @lru_cache(maxsize=64)

@@ -26,7 +26,8 @@ def structure_key(problem: Problem) -> str:
         [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights], c.band_weight > 0] for c in problem.joints],
         [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
          for m in problem.mechanisms],
-        [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs]])
+        [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs],
+        [s.free_length is not None for s in problem.springs]])
 
 
 def built_for(problem: Problem) -> tuple[Transcription, bool]:

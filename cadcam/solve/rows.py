@@ -16,7 +16,7 @@ import numpy as np
 from .blocks import FORCE_SCALE, LENGTH_SCALE, TORQUE_SCALE
 from .variables import _equal, _nonnegative, _Rows, _Vars
 from ..mechanisms.base import (Mechanism, margin_function, port_function, pose_residual_function,
-                               split_coefficients, wound_lengths)
+                               room_function, split_coefficients, wound_lengths)
 from ..physics.profile import convexity_margin, curvature, inside_tangent, profile_function, support_distance
 from ..physics.springs import Network
 from ..physics.wrap import friction_order, segment_lengths
@@ -291,6 +291,20 @@ def _spring_network_rows(rows: _Rows, p: _Vars, net: Network, x0, d: list, arm: 
             terms[i] = (rows.lift("U", U, TORQUE_SCALE, i),
                         {q: rows.lift("V", Vq, FORCE_SCALE, i, *q) for q, Vq in V.items()})
     return e, terms
+
+
+def _spring_fit_rows(rows: _Rows, problem: Problem, poses: list, x0, e: dict) -> None:
+    """Each mounted spring fits between its mount and the profile at every grid angle: its
+    room (:meth:`~cadcam.mechanisms.base.Mechanism.spring_room`) less its extension x₀ + e_j
+    is at least its free length L0 (with the limit margin in reserve), so that the cable from
+    the profile to its hook never runs out. Deferred: most springs fit with room to spare, and
+    the optimum of a design where one does is the one it had without the row."""
+    n = problem.options.grid
+    for j, u, port, joint in problem.mounted_springs():
+        s = poses[u].s
+        room = room_function(problem.mechanisms[u].structure(), port).map(n)(s.theta.T, s.z, s.c, s.q)
+        rows.constrain((room.T - x0[j] - e[j, joint]) / LENGTH_SCALE, lambda pr, j=j: (
+            pr.springs[j].free_length * (1 + pr.options.limit_margin) / LENGTH_SCALE, np.inf), True)
 
 
 def _coupled_travel_rows(rows: _Rows, j: int, joints: list, x0, e: dict) -> dict:

@@ -42,7 +42,7 @@ from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
                         _tracking_terms)
-from .rows import _mechanism_rows, _spring_network_rows, _start_order
+from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order
 from .sharing import sharing_solver
 from .variables import _parameter_blocks, _Rows, _Vars
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
@@ -143,6 +143,7 @@ class Transcription:
 
         # -- the spring network over the grid of all joints: still O(n) -------------------------
         e, terms = _spring_network_rows(rows, self.p, net, x0, d, arm)
+        _spring_fit_rows(rows, problem, poses, x0, e)
 
         # -- the objective: tracking, rate sensitivity, tolerance band, output laws --------------
         span = [ca.sum1(wc) for wc in w]

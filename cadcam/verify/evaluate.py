@@ -30,11 +30,12 @@ import casadi as ca
 import numpy as np
 
 from ..designs import Design
-from ..mechanisms.base import departure_solver, margin_function, pose_function, split_coefficients
+from ..mechanisms.base import departure_solver, margin_function, pose_function, room_function, split_coefficients
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
-from ..physics.wrap import whole_wrap_order
+from ..physics.wrap import whole_wrap_order, wound_length
 from ..problem import Problem, cap
+from .binding import MM
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
 LENGTH_TOL = 1e-6
@@ -61,7 +62,9 @@ class UnitSamples:
     ``z`` (unknowns × n) are the departure unknowns, ``z_ref`` those at the reference pose,
     ``d`` and ``arm`` (ports × n) the port displacements [m] and moment arms [m] of the
     problem's torque model, ``margins`` (the mechanism's limits × n) its per-pose limits
-    [m], ≥ 0 when met.
+    [m], ≥ 0 when met; ``rooms`` maps each mounted port to its spring's room [m] at the grid
+    angles and at the reference pose (n + 1,: the reference last), and ``wound_ref`` is
+    each profile's wound length at the reference pose [m] (empty without mounted ports).
     """
 
     theta: np.ndarray
@@ -72,6 +75,8 @@ class UnitSamples:
     d: np.ndarray
     arm: np.ndarray
     margins: np.ndarray
+    rooms: dict = field(default_factory=dict)
+    wound_ref: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass
@@ -609,14 +614,15 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     start = None if seed is None else np.vstack([np.interp(th, seed[0], row) for row in seed[1]])
     z, residual = departure_solver(structure).solve(th, c, q, start)
     n = theta.size
-    pieces = split_coefficients(bases, c)
     order = whole_wrap_order(design.bases) if order is None else order
     pose = pose_function(structure, problem.torque_model, order, integrals).map(n)
     d, arm, _, branch = (np.asarray(v) for v in pose(theta, z[:, 1:], z[:, 0], c, q))
     margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
+    pieces = split_coefficients(bases, c)
+    rooms, wound = _mounted_rooms(structure, th, z, c, q)
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
                        branch.ravel(), d.reshape(-1, n), arm.reshape(-1, n),
-                       margins.reshape(-1, n))
+                       margins.reshape(-1, n), rooms, wound)
     profiles = []
     for k, (b, ck) in enumerate(zip(bases, pieces)):
         # the wrapped range; where the departure failed (NaN), the whole design interval
@@ -625,6 +631,20 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
                 else (np.array([]), np.array([]), np.array([]), np.nan, np.nan, np.nan, np.nan))
         profiles.append(ProfileSamples(theta, z[k, 1:], float(z[k, 0]), *scan))
     return unit, profiles
+
+
+def _mounted_rooms(structure, th: np.ndarray, z: np.ndarray, c: np.ndarray, q: np.ndarray) -> tuple[dict, np.ndarray]:
+    """Each mounted port's room [m] (:meth:`cadcam.mechanisms.base.Mechanism.spring_room`) at the
+    angles ``th[1:]`` then at the reference pose ``th[0]`` (z: unknowns × angles, the reference
+    first), and each profile's wound length [m] at the reference pose; empty without mounted ports."""
+    cls, bases = structure
+    if not cls.mounted_ports:
+        return {}, np.zeros(0)
+    at = np.r_[th[1:], th[0]], np.c_[z[:, 1:], z[:, :1]]
+    rooms = {port: np.asarray(room_function(structure, port).map(th.size)(*at, c, q)).ravel()
+             for port in cls.mounted_ports}
+    wound = [float(wound_length(b, z[k, 0], ck)) for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c)))]
+    return rooms, np.array(wound)
 
 
 def poses_of(problem: Problem, units: list[UnitSamples]) -> list:
@@ -899,6 +919,27 @@ def _body_violations(p: Problem, extension_max) -> list[str]:
     return out
 
 
+def free_cable(ev: "Evaluation", j: int, u: int, port: str, joint: int) -> np.ndarray:
+    """The free cable [m] between the profile and the hook of spring ``j``, mounted on ``port``
+    of mechanism ``u`` on ``joint`` (:meth:`cadcam.problem.Problem.mounted_springs`), over the
+    joint's grid: its room less its length L0 + x; negative where the spring does not fit."""
+    tensor = ev.tensor
+    x = np.ravel(tensor.extension(j, tensor.line([0] * tensor.m, joint))) * np.ones(tensor.n)
+    return ev.units[u].rooms[port][:-1] - ev.problem.springs[j].free_length - x
+
+
+def _fit_violations(ev: "Evaluation") -> list[str]:
+    """One line per mounted spring that does not fit between its mount and the profile
+    somewhere on the grid by more than the travel's tolerance."""
+    out = []
+    for j, u, port, joint in ev.problem.mounted_springs():
+        least = float(np.min(free_cable(ev, j, u, port, joint)))
+        if not least >= -LENGTH_TOL:
+            out.append(f"spring longer than its room: {ev.problem.springs[j].name} reaches "
+                       f"{-MM * least:.3g} mm past where the cable leaves {ev.problem.mechanisms[u].name}")
+    return out
+
+
 def _violations(p: Problem, margins: dict, extension_max=()) -> list[str]:
     """One line per margin below minus its tolerance (a NaN, not computable, counts as one),
     then each catalogue spring's body limit passed at its largest extension ``extension_max``."""
@@ -922,7 +963,7 @@ def _metrics(ev: Evaluation) -> tuple[Metrics, list]:
                           for i, c in enumerate(p.joints)))
     ext = np.array([ev.tensor.extension_range(j) for j in range(len(p.springs))]).reshape(-1, 2)
     margins = _margins(ev, ext)
-    violations = _violations(p, margins, ext[:, 1])
+    violations = _violations(p, margins, ext[:, 1]) + _fit_violations(ev)
     out_err = [output_error(mech, u) for mech, u in zip(p.mechanisms, ev.units)]
     return Metrics(
         grid=ev.grid,

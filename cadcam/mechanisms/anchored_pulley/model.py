@@ -117,6 +117,7 @@ class AnchoredPulley(Mechanism):
     spec_keys = SPEC_KEYS
     ports = ("cable",)
     fixed_sign_ports = {"cable": ("winding", "sense")}  # the cable's line never crosses the axis
+    mounted_ports = ("cable",)  # the spring hangs from the spring end along the free span
     parameters = (Quantity("ell", "m", "the distance ℓ from the joint to the spring end", placed="length"),
                   Quantity("chi0", "rad", "the spring end's canonical angle χ₀ at θ = 0", placed="angle:ell"),
                   Quantity("sigma", "-", "σ = ±1: the spring end turns by σθ around the pulley"),
@@ -193,6 +194,11 @@ class AnchoredPulley(Mechanism):
         """|S − p(α)| [m]: the straight cable from the departure point to the spring end."""
         _, _, (ux, uy) = _pose(bases, theta, cls.named_unknowns(z).alpha, c, q)
         return ca.sqrt(ux**2 + uy**2)
+
+    @classmethod
+    def spring_room(cls, bases, theta, z, c, q, port):
+        """The free span: the spring hangs from the spring end S towards the departure point."""
+        return cls.free_span(bases, theta, z, c, q)
 
     @classmethod
     def displacements(cls, bases, theta, z, z_ref, wrapped, c, q):
