@@ -252,6 +252,8 @@ def _verified(problem: Problem, tr: Transcription, solved: Solve) -> Result:
 def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
     """The result of the solve ``best`` of ``tr``: evaluated on the design grid, re-checked on
     the fine one and judged (:func:`verdict`)."""
+    # a mount the NLP placed is where the part is re-checked, drawn and written for
+    problem = problem.placed(best.placements)
     # the NLP's tangency angles start the independent rootfinder (the roots it converges to
     # are checked by their residuals either way)
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])

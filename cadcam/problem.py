@@ -561,6 +561,14 @@ class Problem:
         return SpringParameters(*(np.array([getattr(s, name) for s in self.springs], dtype=float)
                                   for name in ("rate", "preload", "travel")))
 
+    def placed(self, placements: list[dict]) -> "Problem":
+        """This problem with each mechanism's placed parameters set (``placements``: per
+        mechanism, name → value [SI], as :attr:`cadcam.solve.ipopt.Solve.placements`): the
+        problem a design with a placed mount is re-checked, drawn and written for."""
+        if not any(placements):
+            return self
+        return replace(self, mechanisms=tuple(m.placed(v) if v else m for m, v in zip(self.mechanisms, placements)))
+
     def mounted_springs(self) -> list[tuple[int, int, str, int]]:
         """(spring j, mechanism u, port name, joint) of every spring with a free length that
         hangs from the mount of its one port (:attr:`cadcam.mechanisms.base.Mechanism.mounted_ports`):

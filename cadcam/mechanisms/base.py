@@ -297,6 +297,7 @@ HOOKS = (
     *_hooks("geometry", ("residual", "guess", "displacements"),
             ("closure", "profile_rotation", "profile_domain", "wrap_end", "max_span", "windings")),
     *_hooks("limits", (), ("limits", "margins", "mounted_ports", "spring_room", "fixed_sign_ports", "advice")),
+    *_hooks("placement", (), ("placement_region", "placed")),
     *_hooks("starts and methods", (), ("start_radius", "prepare_start", "methods", "force_models", "force_arms",
                                        "legacy_force_models", "reference_angle")),
     *_hooks("spec", (), ("from_spec", "spec_fields")),
@@ -410,6 +411,17 @@ class Mechanism(ABC):
     def parameter_values(self) -> tuple[float, ...]:
         """The numbers q of :attr:`parameter_names` (SI)."""
         return tuple(float(getattr(self, n)) for n in self.parameter_names)
+
+    def placement_region(self) -> dict[str, tuple[float, float]]:
+        """The parameters (of :attr:`parameter_names`) the NLP places, each with its (least,
+        largest) value [SI]: a mount the spec lets the design move within a region. Its start
+        is the parameter's value. Default: none, every parameter is fixed."""
+        return {}
+
+    def placed(self, values: dict[str, float]) -> "Mechanism":
+        """This mechanism with the parameters of :meth:`placement_region` set to ``values``
+        [SI] (the NLP's answer). Default: itself (it places nothing)."""
+        return self
 
     def placement_steps(self, placement: float) -> np.ndarray:
         """The step of each of :attr:`parameters` [SI] that a part placed ``placement`` [m] off

@@ -65,6 +65,8 @@ _BAND_PARTS = {
 X_BLOCKS = {
     "c": Block(MM, "ρ coefficients of profile {0} in its basis", "design"),
     "x0": Block(MM, "spring pre-extensions at the reference pose, one per spring", "design"),
+    "mount": Block(f"{MM}, rad", "mechanism {0}'s parameters placed within the spec's region (its spring end: "
+                   "lengths in mm, angles in rad)", "design"),
     "z": Block(None, "departure unknown {1} of mechanism {0} at each grid angle of its joint", "departure"),
     "ref": Block(None, "departure unknowns of mechanism {0} at its reference angle", "departure"),
     "len": Block(MM, "wrapped length of profile {0} at each grid angle (Johnston2023 Eq. 10)", "auxiliary"),

@@ -27,7 +27,8 @@ def structure_key(problem: Problem) -> str:
         [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
          for m in problem.mechanisms],
         [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs],
-        [s.free_length is not None for s in problem.springs]])
+        [s.free_length is not None for s in problem.springs],
+        [sorted(m.placement_region()) for m in problem.mechanisms]])
 
 
 def built_for(problem: Problem) -> tuple[Transcription, bool]:

@@ -91,6 +91,9 @@ class Solve:
     warnings: list[dict] = field(default_factory=list)
     #: IPOPT's multipliers at the answer (None without an NLP), for a warm start from it
     multipliers: Multipliers | None = None
+    #: Per mechanism, the parameters the NLP placed (its spring end within the spec's
+    #: region, :meth:`cadcam.mechanisms.base.Mechanism.placement_region`) by name [SI]
+    placements: list[dict] = field(default_factory=list)
 
 
 def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None,

@@ -119,7 +119,7 @@ def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profi
                      for k, b in enumerate(mech.bases)])
     z = ca.vertcat(*[v.add("z", n, u, name).T for name in mech.unknowns])
     s = _MechanismSymbols(c, z, v.add("ref", len(mech.unknowns), u),
-                          p[f"theta{mech.joint}"], p[f"q{u}"])
+                          p[f"theta{mech.joint}"], _mechanism_parameters(v, p, mech, u))
     output = z[mech.unknowns.index(mech.output), :].T if mech.output_target is not None else None
     wrapped = _wrapped_length_rows(rows, problem, mech, first_profile, s)
     # lengths wound from each anchor, for closure rows (a constant cable length): the
@@ -131,6 +131,25 @@ def _mechanism_rows(rows: _Rows, p: _Vars, problem: Problem, u: int, first_profi
     if mech.limits:
         _limit_rows(rows, n, mech, s, arm)
     return d, arm, output, _Pose(s, wrapped, wound_ref)
+
+
+def placement_scales(mech: Mechanism) -> np.ndarray:
+    """The scale of each parameter mechanism ``mech`` places (its :meth:`placement_region`'s
+    order): lengths in mm, angles in rad."""
+    units = dict(zip(mech.parameter_names, (quantity.unit for quantity in mech.parameters)))
+    return np.array([LENGTH_SCALE if units[name] == "m" else 1.0 for name in mech.placement_region()])
+
+
+def _mechanism_parameters(v: _Vars, p: _Vars, mech: Mechanism, u: int):
+    """The numbers q of mechanism ``u``: its parameters, but those it places within the spec's
+    region (:meth:`~cadcam.mechanisms.base.Mechanism.placement_region`) variables of the NLP
+    (the block ``mount``, scaled by :func:`placement_scales`)."""
+    q, region = p[f"q{u}"], list(mech.placement_region())
+    if not region:
+        return q
+    placed = v.add("mount", len(region), u) * ca.DM(placement_scales(mech))
+    return ca.vertcat(*[placed[region.index(name)] if name in region else q[i]
+                        for i, name in enumerate(mech.parameter_names)])
 
 
 def _first_segment_order(problem: Problem, mech: Mechanism) -> int:

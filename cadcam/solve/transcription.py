@@ -42,7 +42,7 @@ from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
                         _tracking_terms)
-from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order
+from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order, placement_scales
 from .sharing import sharing_solver
 from .variables import _parameter_blocks, _Rows, _Vars
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
@@ -308,6 +308,11 @@ class Transcription:
                 v.put(ubx, f"z{u}_{mech.unknowns[r]}", hi)
                 a = v.blocks[f"ref{u}"][0] + r
                 lbx[a], ubx[a] = lo, hi
+        for u, mech in enumerate(problem.mechanisms):  # a mount placed within its region
+            if mech.placement_region():
+                lo, hi = np.array(list(mech.placement_region().values())).T / placement_scales(mech)
+                v.put(lbx, f"mount{u}", lo)
+                v.put(ubx, f"mount{u}", hi)
         v.put(lbx, "x0", np.where(np.isnan(fixed), 0.0, fixed))
         v.put(ubx, "x0", np.where(np.isnan(fixed), np.inf, fixed))
         for i, j in self.pairs:
@@ -350,6 +355,10 @@ class Transcription:
                     s.z_ref[r], s.z[r], design.coefficients[k])  # Johnston2023 Eq. 10
                 v.put(w0, f"len{k}", np.asarray(wrapped).ravel() / LENGTH_SCALE)
         v.put(w0, "x0", design.preextension / LENGTH_SCALE)
+        for u, mech in enumerate(problem.mechanisms):  # a placed mount starts where the spec puts it
+            if mech.placement_region():
+                values = dict(zip(mech.parameter_names, mech.parameter_values()))
+                v.put(w0, f"mount{u}", [values[n] for n in mech.placement_region()] / placement_scales(mech))
         net = problem.network()
         d = _displacements(problem, samples)
         for j in range(self.S):
@@ -478,7 +487,13 @@ class Transcription:
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
             history=joined(histories), warnings=warnings,
-            multipliers=Multipliers(np.asarray(sol["lam_x"]).ravel(), lam_g, lam_g.size > lbg.size))
+            multipliers=Multipliers(np.asarray(sol["lam_x"]).ravel(), lam_g, lam_g.size > lbg.size),
+            placements=self.placements_of(problem, w))
+
+    def placements_of(self, problem: Problem, w) -> list[dict]:
+        """Per mechanism, the parameters the NLP vector ``w`` places, by name [SI]."""
+        return [dict(zip(mech.placement_region(), self.v.part(w, f"mount{u}") * placement_scales(mech)))
+                if mech.placement_region() else {} for u, mech in enumerate(problem.mechanisms)]
 
 
 def _displacements(problem: Problem, samples) -> list[list[np.ndarray]]:

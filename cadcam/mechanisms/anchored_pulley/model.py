@@ -72,7 +72,42 @@ SPEC_KEYS = KeyTable('kind = "anchored_pulley"', "Ludovico2021 / Endo2010's pull
         default=0.0),
     Key("min_free_span", "m", "the shortest straight cable between the pulley and the spring end", low=0,
         default=0.0),
+    Key("mount_distance", "m", "a range [least, largest] of the spring end's distance from the joint: the design "
+        "places the spring end there (starting from spring_end, which must lie in it) and states where",
+        "numbers", length=2, default=None, default_text="none (the spring end is fixed)"),
+    Key("mount_angle", "rad", "a range [least, largest] of the spring end's world angle at θ = 0: the design "
+        "places the spring end there (starting from spring_end, which must lie in it) and states where",
+        "numbers", length=2, default=None, default_text="none (the spring end is fixed)"),
 ))
+
+
+def _unwrapped_into(angle: float, bounds) -> float:
+    """``angle`` [rad] shifted by whole turns into [bounds[0], bounds[1]] where it can be (else
+    the shift nearest the range's middle)."""
+    middle = 0.5 * (bounds[0] + bounds[1])
+    return angle + 2 * np.pi * round((middle - angle) / (2 * np.pi))
+
+
+def _mount_region(reader, end, rho_max: float) -> tuple[tuple | None, tuple | None]:
+    """The spec's ``mount_distance`` and ``mount_angle`` ranges, each (least, largest) holding
+    the spring end ``end`` (its start), the distances beyond ``rho_max``; None where not given."""
+    keys, out = SPEC_KEYS, []
+    here = (float(np.hypot(*end)), float(np.arctan2(end[1], end[0])))
+    for name, value in zip(("mount_distance", "mount_angle"), here):
+        bounds = reader.read(keys[name])
+        if bounds is None:
+            out.append(None)
+            continue
+        lo, hi = float(bounds[0]), float(bounds[1])
+        if name == "mount_angle":
+            value = _unwrapped_into(value, (lo, hi))
+        least = rho_max if name == "mount_distance" else -np.inf
+        if not (least < lo <= value <= hi):
+            reader.fail(reader.key(name), bounds, f"[least, largest] with least ≤ the spring end's own "
+                        f"{'distance' if name == 'mount_distance' else 'angle'} ({value:.6g}) ≤ largest"
+                        + (f", least above rho_max = {rho_max:g} m" if name == "mount_distance" else ""))
+        out.append((lo, hi))
+    return out[0], out[1]
 
 
 def _pose(bases, theta, alpha, c, q):
@@ -111,6 +146,8 @@ class AnchoredPulley(Mechanism):
     min_moment_arm: float = 0.0
     min_free_span: float = 0.0
     initial_radius: float = 0.0
+    mount_distance: tuple[float, float] | None = None
+    mount_angle: tuple[float, float] | None = None
 
     kind = "anchored_pulley"
     citation = "Ludovico2021"
@@ -156,6 +193,25 @@ class AnchoredPulley(Mechanism):
     def ell(self) -> float:
         """Distance ℓ from the joint to the spring end [m]."""
         return float(np.hypot(self.spring_end_x, self.spring_end_y))
+
+    def placement_region(self) -> dict[str, tuple[float, float]]:
+        """ℓ within ``mount_distance`` and χ₀ within the canonical image of ``mount_angle``
+        (χ₀ = w(ψ − anchor_angle), ψ the spring end's world angle, unwrapped into the range)."""
+        out = {}
+        if self.mount_distance is not None:
+            out["ell"] = (float(self.mount_distance[0]), float(self.mount_distance[1]))
+        if self.mount_angle is not None:
+            w, chi0 = WINDING[self.winding], self.parameter_values()[1]
+            psi = _unwrapped_into(float(np.arctan2(self.spring_end_y, self.spring_end_x)), self.mount_angle)
+            ends = sorted(chi0 + w * (a - psi) for a in self.mount_angle)
+            out["chi0"] = (float(ends[0]), float(ends[1]))
+        return out
+
+    def placed(self, values: dict[str, float]) -> "AnchoredPulley":
+        """The spring end at the distance ``ell`` and canonical angle ``chi0`` the NLP placed it."""
+        ell, chi0 = values.get("ell", self.ell), values.get("chi0", self.parameter_values()[1])
+        psi = self.anchor_angle + WINDING[self.winding] * chi0
+        return replace(self, spring_end_x=float(ell * np.cos(psi)), spring_end_y=float(ell * np.sin(psi)))
 
     def parameter_values(self) -> tuple[float, ...]:
         w = WINDING[self.winding]
@@ -305,8 +361,10 @@ class AnchoredPulley(Mechanism):
         anchor = reader.read(keys["anchor_angle"], mech._default_anchor(least, profiles[0]))
         arm = reader.read(keys["min_moment_arm"])
         span = reader.read(keys["min_free_span"])
+        distance, angle = _mount_region(reader, end, max(p.rho_max for p in profiles))
         return replace(mech, reference_angle=float(ref), anchor_angle=float(anchor),
-                       min_moment_arm=float(arm), min_free_span=float(span))
+                       min_moment_arm=float(arm), min_free_span=float(span), mount_distance=distance,
+                       mount_angle=angle)
 
     @classmethod
     def advice(cls, problem) -> list[str]:
@@ -343,11 +401,13 @@ class AnchoredPulley(Mechanism):
         return float(np.arctan2(self.spring_end_y, self.spring_end_x) - w * chi0)
 
     def spec_fields(self) -> dict:
+        region = {k: list(v) for k, v in (("mount_distance", self.mount_distance), ("mount_angle", self.mount_angle))
+                  if v is not None}
         return {"spring_end": [self.spring_end_x, self.spring_end_y], "turning": self.turning,
                 "sense": int(self.sense), "winding": self.winding,
                 "anchor_angle": self.anchor_angle, "reference_angle": self.reference_angle,
                 "min_moment_arm": self.min_moment_arm, "min_free_span": self.min_free_span,
-                **({"initial_radius": self.initial_radius} if self.initial_radius else {})}
+                **({"initial_radius": self.initial_radius} if self.initial_radius else {}), **region}
 
     def port_length_from_file(self, outlines, port, theta):
         """The cable from the anchor round the outline to the spring end

@@ -78,3 +78,51 @@ def test_the_cable_length_is_the_written_outline_path_less_the_spring(bound):
     assert np.abs(cable - row["cable_length"]).max() < 2 * result.problem.workshop.tolerance
     assert "cable_length" in result.to_dict()["spring_installation"][0]
     assert f"cable {1e3 * row['cable_length']:.1f} mm" in result.summary()
+
+
+# -- the mount placed by the design within a region ------------------------------------------
+#: A spring too long for the tutorial's spring end 0.2 m from the joint: hung there it would
+#: reach past the pulley, so the design must move its mount further out.
+TOO_LONG = 0.2
+
+
+def _placed_spec(**region) -> dict:
+    data = _tutorial(TOO_LONG)
+    data["mechanisms"][0].update(region)
+    return data
+
+
+@pytest.fixture(scope="module")
+def placed():
+    return optimize(parse_spec(_placed_spec(mount_distance=[0.1, 0.35])))
+
+
+def test_the_mount_moves_out_until_the_spring_fits(placed):
+    assert placed.status == "success", placed.message
+    mech = placed.problem.mechanisms[0]
+    (row,) = placed.installation
+    assert 0.1 <= mech.ell <= 0.35 and mech.ell > 0.2 + 1e-3  # moved out, within its range
+    assert mech.spring_end_x == pytest.approx(0.0, abs=1e-12)  # only its distance was free
+    assert row["mount"] == pytest.approx([mech.spring_end_x, mech.spring_end_y])
+    assert row["least_free_cable"] >= 0
+
+
+def test_the_placed_mount_is_the_spec_the_result_reads_back(placed):
+    """result.json's problem holds the placed spring end: evaluated from it, the design gives
+    the torque the result states."""
+    again = parse_spec(placed.to_dict()["problem"])
+    fine = evaluate(again, placed.design, grid=again.options.recheck_grid)
+    assert np.abs(fine.tau - placed.recheck.tau).max() < 1e-9
+    assert again.mechanisms[0].mount_distance == (0.1, 0.35)
+
+
+@pytest.mark.parametrize("region, words", [
+    ({"mount_distance": [0.25, 0.35]}, r"mount_distance = \[0\.25, 0\.35\]: expected .*own distance \(0\.2\)"),
+    ({"mount_distance": [0.05, 0.35]}, r"least above rho_max = 0\.06 m"),
+    ({"mount_angle": [0.0, 1.0]}, r"mount_angle = \[0\.0, 1\.0\]: expected .*own angle"),
+    ({"mount_distance": [0.1]}, r"mount_distance"),
+])
+def test_a_region_that_does_not_hold_the_spring_end_is_refused(region, words):
+    from cadcam.spec import SpecError
+    with pytest.raises(SpecError, match=words):
+        parse_spec(_placed_spec(**region))
