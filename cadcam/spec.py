@@ -33,8 +33,8 @@ from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Pro
 from .physics.profile import Basis
 from .physics.catalogue import load_catalogue
 from .physics.springs import SPRING_KEYS, Port, Spring
-from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, WORKSHOP_KEYS, Joint, Options, Problem,
-                      Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
+from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, SOLVER_KEYS, WORKSHOP_KEYS, Joint, Options,
+                      Problem, Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
 from .targets import (ANGLE_UNITS, ARM_JOINT, ARM_KEYS, EXPRESSION_KEYS, FIVE_BAR_KEYS, KIND, TABLE_KEYS,
                       ExpressionError, Target, read_table, target_kind, target_kinds)
 
@@ -770,16 +770,18 @@ def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
     """Set dotted ``key`` (``springs.1.rate``, ``cams.*.order``) to ``value`` in ``data``.
 
     Array elements are numbered from 1; ``*`` means every element; a table value updates the
-    table at ``key`` rather than replacing it. Every table and array on
-    the path must exist in the spec; the last part may name a key the spec leaves at its
-    default (the spec's own validation then checks it).
+    table at ``key`` rather than replacing it. Every array on the path must exist in the spec,
+    and every table too unless its table declares it (:func:`_declared_keys`: ``solver`` in a
+    spec without ``[solver]``, a joint's ``acceptance``), which is then created; the last part
+    may name a key the spec leaves at its default (the spec's own validation then checks it,
+    and refuses a key that is not declared).
     """
     parts = key.split(".")
     if not key or not all(parts):
         raise SpecError(f"{origin}: {key!r} is not a dotted key such as 'springs.1.rate'")
 
-    def walk(node, i, path):
-        part = parts[i]
+    def walk(node, i, trail: tuple[str, ...]):
+        part, path = parts[i], ".".join(trail)
         last = i == len(parts) - 1
         if isinstance(node, list):
             if part == "*":
@@ -793,19 +795,56 @@ def apply_override(data: dict, key: str, value, origin: str = "<spec>") -> None:
                 if last:
                     node[t] = _merged(node[t], value)
                 else:
-                    walk(node[t], i + 1, f"{path}.{t + 1}")
+                    walk(node[t], i + 1, (*trail, str(t + 1)))
         elif isinstance(node, dict):
             if last:
                 node[part] = _merged(node.get(part), value)
-            elif part in node:
-                walk(node[part], i + 1, f"{path}.{part}" if path else part)
-            else:
-                raise SpecError(f"{origin}: '{key}': the spec has no '{part}' in "
-                                f"'{path or 'the top level'}'")
+                return
+            if part not in node:
+                node[part] = _created_table(node, trail, part, f"{origin}: '{key}'")
+            walk(node[part], i + 1, (*trail, part))
         else:
             raise SpecError(f"{origin}: '{key}': '{path}' is a value, not a table or array")
 
-    walk(data, 0, "")
+    walk(data, 0, ())
+
+
+def _created_table(node: dict, trail: tuple[str, ...], part: str, where: str) -> dict:
+    """An empty table ``part`` for the spec table ``node`` at ``trail`` that lacks it, where
+    its declared keys (:func:`_declared_keys`) name ``part`` a table.
+
+    Raises
+    ------
+    SpecError
+        ``part`` is no table declared there: one line naming the tables that are.
+    """
+    declared = _declared_keys(node, trail)
+    tables = [k.name for k in declared or () if k.type == "table"]
+    if part in tables:
+        return {}
+    inside = f"in '{'.'.join(trail)}'" if trail else "at the top level"
+    can = f"; the tables --set may add there: {', '.join(tables)}" if tables else ""
+    raise SpecError(f"{where}: the spec has no '{part}' {inside}, and no table of that name is declared there{can}")
+
+
+def _declared_keys(node: dict, trail: tuple[str, ...]) -> tuple[Key, ...] | None:
+    """The keys declared for the spec table ``node`` at ``trail`` (dotted parts, an array's
+    entries by number), where ``--set`` may create a missing table: the top level's, the
+    ``[solver]`` table's, a joint's, and a mechanism's (every mechanism's keys and its kind's,
+    with a joint's in a shorthand entry such as ``[[cams]]``); None elsewhere."""
+    if len(trail) < 2:
+        return {(): SPEC_KEYS.keys, ("solver",): SOLVER_KEYS.keys}.get(trail)
+    if len(trail) > 2:
+        return None
+    if trail[0] == "joints":
+        return JOINT_KEYS.keys
+    kinds = mechanism_kinds()
+    kind = node.get("kind") if trail[0] == "mechanisms" else next(
+        (k for k in kinds if mechanism_class(k).shorthand == trail[0]), None)
+    if kind not in kinds:
+        return None
+    cls = mechanism_class(kind)
+    return MECHANISM_KEYS.keys + cls.spec_keys.keys + (JOINT_KEYS.keys if cls.shorthand == trail[0] else ())
 
 
 def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
