@@ -133,9 +133,11 @@ def cmd_design(args) -> int:
     problem = _problem(args)
     problem = replace(problem, workshop=replace(problem.workshop, **flags))
     _check_output_dir(args.output)
+    # now, before a solve that may take long (the summary repeats them), and before a refusal
+    # they may explain (a 500 kg mass typed for 500 g)
+    for warning in advice(problem):
+        _say(f"cadcam: warning: {warning}", err=True)
     refuse_unreachable(problem)
-    for note in advice(problem):
-        _say(f"cadcam: note: {note}", err=True)
     try:
         with held_folder(args.output) as out:
             _check_files_are_ours(out, problem, args.figures)

@@ -32,6 +32,67 @@ class _Required:
 REQUIRED: Any = _Required()
 
 
+#: The unit a value is most often typed in by mistake, by a key's :attr:`Key.unit`: its name
+#: and its size in the key's unit (a millimetre is 1e-3 m). A value outside its key's
+#: :attr:`Key.plausible` range that this unit brings inside it is told as typed in it.
+UNIT_SLIPS = {"m": ("mm", 1e-3), "kg": ("g", 1e-3), "N/m": ("N/mm", 1e3), "m/s²": ("mm/s²", 1e-3),
+              "ratio": ("%", 1e-2)}
+
+
+@dataclass(frozen=True)
+class Plausible:
+    """Where the magnitude of a key's value is plausible: a value outside is allowed, and warned
+    of in one line (:meth:`Key.implausible`), as typed in another unit or beyond any catalogue.
+    Zero is plausible in every unit.
+
+    Attributes
+    ----------
+    low, high : float or None
+        The least and greatest plausible magnitude, in the key's unit (None: no bound).
+    what : str
+        Whose values the range holds, as the warning names them (``a balanced body's mass``).
+    """
+
+    low: float | None = None
+    high: float | None = None
+    what: str = ""
+
+    def holds(self, v: float) -> bool:
+        """Whether the magnitude of ``v`` lies in the range (zero always does)."""
+        return v == 0 or ((self.low is None or abs(v) >= self.low) and (self.high is None or abs(v) <= self.high))
+
+    def words(self, v: float, unit: str) -> str:
+        """Why ``v`` [``unit``] is implausible (``is outside … (up to 50 kg)``), with the value it
+        would be if typed in the unit of :data:`UNIT_SLIPS` that brings it inside the range,
+        else a word to check it."""
+        shown = _shown(unit)
+        if self.low is not None and self.high is not None:
+            span = f"{self.low:.3g}–{self.high:.3g}{shown}"
+        else:
+            span = f"up to {self.high:.3g}{shown}" if self.high is not None else f"from {self.low:.3g}{shown}"
+        slip = UNIT_SLIPS.get(unit)
+        fix = (f"if it is in {slip[0]}, write {v * slip[1]:.6g}" if slip is not None and self.holds(v * slip[1])
+               else f"check its value and its unit, {unit}")
+        return f"is outside {self.what} ({span}): {fix}"
+
+
+def _shown(unit: str) -> str:
+    """A unit as it follows a number in words: `` kg``, or nothing for a ratio."""
+    return "" if unit in ("", "-", "ratio") else f" {unit}"
+
+
+#: Sizes [m] of a mechanism's parts: profile radii, idlers, spring ends and travels, sliders.
+PART_SIZE = Plausible(high=1.0, what="the sizes of a mechanism's parts")
+#: Sizes [m] of what a mechanism balances or moves: links, a pendulum, a cable robot's workspace.
+REACH = Plausible(high=5.0, what="the sizes of an arm or a workspace")
+#: Masses [kg] a spring balancer carries: a limb, a tool, a robot's link.
+MASS = Plausible(high=50.0, what="the masses a spring balancer carries")
+#: Gravity [m/s²], on the Moon (1.62) and beyond the Earth's (9.81).
+GRAVITY = Plausible(1.0, 30.0, "a planet's gravity")
+#: A share of a quantity [ratio] that is a tolerance or an accepted error: at most the whole.
+SHARE = Plausible(high=1.0, what="the shares of a whole")
+
+
 def is_real(v) -> bool:
     """Whether ``v`` read from a file is a finite real number: a float, or an int a float can
     hold (a longer int is no quantity, and ``math.isfinite`` raises ``OverflowError`` on it)."""
@@ -83,6 +144,10 @@ class Key:
         What :attr:`check` asks, appended to the constraint in words.
     fields : KeyTable or None
         The keys of a ``table`` whose contents are declared.
+    plausible : Plausible, callable or None
+        Where a number's magnitude (each number's, of a list) is plausible, or a function that
+        gives it when first asked (a catalogue's range, read when a spec is); None: anywhere
+        its bounds allow.
     """
 
     name: str
@@ -102,6 +167,7 @@ class Key:
     words: str = ""
     fields: "KeyTable | None" = None
     details: str = ""
+    plausible: "Plausible | Callable[[], Plausible] | None" = field(default=None, compare=False)
 
     def __post_init__(self):
         if self.type not in TYPES:
@@ -148,6 +214,21 @@ class Key:
         if self.type == "table":
             return isinstance(v, dict)
         return isinstance(v, list) and len(v) >= self.min_length and all(isinstance(x, dict) for x in v)
+
+    def implausible(self, value, where: str) -> str | None:
+        """One line saying that ``value`` of the key at ``where`` (``springs[1].rate``), a value
+        the key allows, is plausible only in another unit or lies outside every catalogue
+        (:attr:`plausible`; a list's first such number), and what to write; else None."""
+        if self.plausible is None:
+            return None
+        plausible = self.plausible() if callable(self.plausible) else self.plausible
+        numbers = value if isinstance(value, list) else [value]
+        bad = next((v for v in numbers if is_real(v) and not plausible.holds(v)), None)
+        if bad is None:
+            return None
+        shown = f"{bad:.6g}{_shown(self.unit)}"
+        given = f"{where} = {shown}" if numbers is not value else f"{where}: its {shown}"
+        return f"{given} {plausible.words(bad, self.unit)}"
 
     # -- words ---------------------------------------------------------------------------------------
     def _bounds(self) -> str:

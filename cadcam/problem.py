@@ -13,7 +13,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .files import env_cap
-from .keys import Key, KeyTable, is_real
+from .keys import SHARE, Key, KeyTable, Plausible, is_real
 from .mechanisms.base import ENERGY, Mechanism, Profile
 from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
@@ -396,7 +396,8 @@ def acceptance_keys() -> KeyTable:
                     "its status is `target_missed` and `cadcam design` exits 1); a limit with a default applies to "
                     "every joint with a torque target unless its spec sets another.",
                     tuple(Key(name, a.unit, f"a limit on {a.description}", low=0, open_low=True, default=a.default,
-                              default_text="" if a.default is not None else "none")
+                              default_text="" if a.default is not None else "none",
+                              plausible=SHARE if a.unit == "ratio" else None)
                           for name, a in ACCEPTANCE.items()))
 
 
@@ -408,17 +409,23 @@ class Tolerance:
     unit: str
     description: str
     default: float
+    plausible: Plausible
 
+
+#: How far [m] a workshop's part plausibly is from its drawing: a value beyond reads as
+#: millimetres typed as metres.
+WORKSHOP_TOLERANCE = Plausible(high=0.01, what="a workshop's tolerances")
 
 #: The ``[tolerances]`` keys and their defaults: a catalogue spring's rate and initial tension
 #: are sold at about ±10 %, a hole drilled by hand lands within about 0.5 mm, and a profile
 #: cut by a CNC mill or a laser within about 0.05 mm.
 TOLERANCES = {
-    "rate": Tolerance("ratio", "each spring's rate k, as a share of it", 0.10),
-    "preload": Tolerance("ratio", "each spring's preload F0 (initial tension), as a share of it", 0.10),
+    "rate": Tolerance("ratio", "each spring's rate k, as a share of it", 0.10, SHARE),
+    "preload": Tolerance("ratio", "each spring's preload F0 (initial tension), as a share of it", 0.10, SHARE),
     "placement": Tolerance("m", "where a spring's ends and the idlers are placed (each spring's "
-                                "pre-extension, and each mechanism's placed parameters)", 0.5e-3),
-    "profile": Tolerance("m", "each profile's radius ρ, as a uniform offset of the cut outline", 0.05e-3),
+                                "pre-extension, and each mechanism's placed parameters)", 0.5e-3, WORKSHOP_TOLERANCE),
+    "profile": Tolerance("m", "each profile's radius ρ, as a uniform offset of the cut outline", 0.05e-3,
+                         WORKSHOP_TOLERANCE),
 }
 
 def tolerance_keys() -> KeyTable:
@@ -426,7 +433,8 @@ def tolerance_keys() -> KeyTable:
     return KeyTable("[tolerances]", "How far a built part may be from its design, ± around each nominal value: "
                     "every design reports the torque band they give (`tolerance_band` in `result.json`, the "
                     "summary, the shaded band of `torque.png`).",
-                    tuple(Key(name, t.unit, t.description, low=0, default=t.default) for name, t in TOLERANCES.items()))
+                    tuple(Key(name, t.unit, t.description, low=0, default=t.default, plausible=t.plausible)
+                          for name, t in TOLERANCES.items()))
 
 
 #: A joint's ``band_weight``: the weight of its tolerance band in the NLP's objective
@@ -515,6 +523,10 @@ class Problem:
     workshop: Workshop = field(default_factory=Workshop)
     #: The spec's ``[tolerances]`` (pairs key, value); :attr:`tolerance` adds the defaults.
     tolerances: tuple = ()
+    #: One line per value the spec gives that is plausible only in another unit or lies outside
+    #: every catalogue (:meth:`cadcam.keys.Key.implausible`), as its reader found them: told,
+    #: not refused (a spec written from this problem is read to the same lines).
+    warnings: tuple[str, ...] = field(default=(), compare=False)
 
     def __post_init__(self):
         for mech in self.mechanisms:

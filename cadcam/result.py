@@ -12,6 +12,7 @@ import numpy as np
 
 from .citations import cited
 from .verify.binding import binding_constraints
+from .verify.reachable import advice
 from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation
 from .verify.installation import installation_lines, spring_installation
@@ -138,6 +139,14 @@ class Result:
         return self.solve.warnings if self.solve is not None else []
 
     @cached_property
+    def spec_warnings(self) -> list[str]:
+        """What the spec asks that is implausible or cannot be met exactly, told, not refused:
+        values plausible only in another unit or outside every catalogue, and the bounds the
+        mechanisms know (:func:`cadcam.verify.reachable.advice`), one line each with its fix;
+        ``result.json``'s ``warnings`` and the summary's ``warning:`` lines."""
+        return advice(self.problem)
+
+    @cached_property
     def band(self) -> Band | None:
         """The torque band a built part falls in under the problem's tolerances
         (:func:`cadcam.verify.tolerance.tolerance_band`, on the design grid); None without
@@ -174,8 +183,8 @@ class Result:
         return f"<pre>{html.escape(self.summary())}</pre>"
 
     def summary(self) -> str:
-        """A few lines: status and message, RMSE per joint, iterations and times, output and
-        path errors, violated and binding constraints."""
+        """A few lines: status and message, RMSE per joint, iterations and times, the spec's
+        warnings, output and path errors, violated and binding constraints."""
         metrics, fine = self.evaluation.metrics, self.recheck.metrics
         rmse = [_rmse_text(self.problem, i, v, r) for i, (v, r) in enumerate(zip(metrics.rmse, metrics.relative_rmse))]
         lines = [f"{self.status}: {self.message}",
@@ -183,6 +192,7 @@ class Result:
                  f"iterations {self.nit}, build {self.build_time_s:.3f} s (functions {self.functions}), "
                  f"solve {self.solve.solve_time_s if self.solve is not None else float('nan'):.3f} s, "
                  f"fine re-check {self.recheck_time_s:.3f} s"]
+        lines += [f"  warning: {w}" for w in self.spec_warnings]
         outs = [f"{1e3 * v:.3g}" for v in fine.output_max_abs_error if v is not None]
         if outs:
             lines.append(f"  output max |x − x_d| on the re-check grid [mm]: {', '.join(outs)}")
@@ -296,6 +306,7 @@ class Result:
             "metrics": ev.metrics.to_dict(),
             "recheck": fine.metrics.to_dict(),
             "violations": fine.violations if self.status != "success" else [],
+            "warnings": self.spec_warnings,
             "target_samples": target_samples(ev),
             "target_samples_grid": target_samples_grid(ev),
             "problem": self.problem.to_dict(),

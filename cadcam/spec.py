@@ -95,6 +95,9 @@ class KeyRead:
 
 #: While a list, every key a :class:`_Reader` reads is appended to it (:func:`read_keys`).
 _READS: contextvars.ContextVar[list[KeyRead] | None] = contextvars.ContextVar("spec_reads", default=None)
+#: While :func:`parse_spec` reads a spec, the line of every value it gives that its key finds
+#: implausible (:meth:`cadcam.keys.Key.implausible`): the problem's :attr:`Problem.warnings`.
+_WARNINGS: contextvars.ContextVar[list[str] | None] = contextvars.ContextVar("spec_warnings", default=None)
 
 
 def _dotted(key: str) -> str:
@@ -160,6 +163,9 @@ class _Reader:
         value = self.table[name]
         if not key.ok(value):
             self.fail(self.key(name), value, form)
+        warnings = _WARNINGS.get()
+        if warnings is not None and (line := key.implausible(value, self.key(name))) is not None:
+            warnings.append(line)
         return value
 
     def table_reader(self, key: Key) -> "_Reader":
@@ -393,7 +399,8 @@ def _torque_model(top: "_Reader", data: dict) -> str:
 
 
 def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Problem:
-    """Validate a spec dictionary and build the :class:`Problem`.
+    """Validate a spec dictionary and build the :class:`Problem`, with a warning for each value
+    plausible only in another unit or outside every catalogue (:attr:`Problem.warnings`).
 
     Parameters
     ----------
@@ -404,6 +411,16 @@ def parse_spec(data: dict, origin: str = "<spec>", base: Path = Path(".")) -> Pr
     base : Path
         Folder against which table files are resolved.
     """
+    token = _WARNINGS.set([])
+    try:
+        problem = _parsed(data, origin, base)
+        return replace(problem, warnings=tuple(dict.fromkeys(_WARNINGS.get() or ())))
+    finally:
+        _WARNINGS.reset(token)
+
+
+def _parsed(data: dict, origin: str, base: Path) -> Problem:
+    """:func:`parse_spec`'s problem, without its warnings."""
     table = _shorthand_table(data)
     if table:  # errors in a shorthand name the user's own tables, not the general form
         _check_shorthand(origin, data, table)
@@ -731,10 +748,11 @@ WIDE_TABLE_RATIO = 10.0
 
 
 def implausible_units(problem: Problem) -> list[str]:
-    """One line per angle that is plausible only in the other unit, with how to write it: a
-    joint range of a few degrees whose ends are radian-sized, a table's angles far wider than
-    its joint's range."""
-    notes = []
+    """One line per value that is plausible only in another unit or outside every catalogue,
+    with how to write it: those its reader found (:attr:`Problem.warnings`: a 1e9 N/m spring,
+    a 500 kg mass), then the angles: a joint range of a few degrees whose ends are
+    radian-sized, a table's angles far wider than its joint's range."""
+    notes = list(problem.warnings)
     for i, joint in enumerate(problem.joints):
         lo, hi = (math.degrees(a) for a in joint.theta_range)
         if hi - lo <= NARROW_RANGE_DEG and max(abs(lo), abs(hi)) <= NARROW_RANGE_DEG:

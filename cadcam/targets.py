@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 
 from .files import read_input
-from .keys import Key, KeyTable, is_real
+from .keys import GRAVITY, MASS, REACH, Key, KeyTable, is_real
 
 FUNCTIONS = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
@@ -420,7 +420,7 @@ ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 
 #: Every target table's ``kind``: the law it is (one of :func:`target_kinds`).
 KIND = Key("kind", "", "the kind of law", "string", min_length=1)
-G = Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81)
+G = Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81, plausible=GRAVITY)
 EXPRESSION_KEYS = KeyTable('kind = "expression"', "A law written as an expression of theta (theta1, theta2… "
                            "on several joints), parsed, never evaluated as code.", (
     Key("expression", "", "an expression of theta such as '0.08*theta**2', in N·m for a torque, m for an output",
@@ -430,8 +430,8 @@ EXPRESSION_KEYS = KeyTable('kind = "expression"', "A law written as an expressio
         words="each name = a number, the name not a function's, pi, e, theta, theta1, theta2…"),
 ))
 PENDULUM_KEYS = KeyTable('kind = "pendulum"', "A pendulum's gravity torque m g l sin(θ + phase).", (
-    Key("mass", "kg", "the pendulum's mass m", low=0, open_low=True),
-    Key("length", "m", "the distance l from the joint to the centre of mass", low=0, open_low=True),
+    Key("mass", "kg", "the pendulum's mass m", low=0, open_low=True, plausible=MASS),
+    Key("length", "m", "the distance l from the joint to the centre of mass", low=0, open_low=True, plausible=REACH),
     G,
     Key("phase", "rad", "the phase added to the joint angle", default=0.0),
 ))
@@ -448,20 +448,21 @@ TABLE_KEYS = KeyTable('kind = "table"', "A law sampled in a table, interpolated 
 ))
 ARM_KEYS = KeyTable('[arm] (or kind = "arm")', "A planar serial arm whose joints are the problem's joints: "
                     "its gravity torques (an arm target gives these keys itself or reads the spec's [arm]).", (
-    Key("masses", "kg", "each link's mass, one per joint", "numbers", low=0, open_low=True, min_length=1),
-    Key("lengths", "m", "each link's length, one per mass", "numbers", low=0),
-    Key("com", "m", "each link's centre-of-mass distance from its joint, one per mass", "numbers"),
+    Key("masses", "kg", "each link's mass, one per joint", "numbers", low=0, open_low=True, min_length=1,
+        plausible=MASS),
+    Key("lengths", "m", "each link's length, one per mass", "numbers", low=0, plausible=REACH),
+    Key("com", "m", "each link's centre-of-mass distance from its joint, one per mass", "numbers", plausible=REACH),
     G,
 ))
 ARM_JOINT = Key("joint", "", "the arm's joint whose torque this is (1-based)", "integer", low=1)
 FIVE_BAR_KEYS = KeyTable('kind = "five_bar"', "A joint's gravity torque of Endo2010's parallel five-bar arm "
                          "(2 joints: theta1 = link 1, theta2 = the crank).", (
     Key("joint", "", "1 (link 1, theta1) or 2 (the crank, theta2)", "integer", low=1, high=2),
-    Key("masses", "kg", "the point masses m1…m6", "numbers", length=6, low=0, open_low=True),
-    Key("upper", "m", "the upper arm's length l_u", low=0, open_low=True),
-    Key("crank", "m", "the crank's length l_c", low=0, open_low=True),
-    Key("fore", "m", "the forearm's length l_a, elbow to tip", low=0),
-    Key("com", "m", "the distances [l1, l2, l3, l5]", "numbers", length=4, low=0),
+    Key("masses", "kg", "the point masses m1…m6", "numbers", length=6, low=0, open_low=True, plausible=MASS),
+    Key("upper", "m", "the upper arm's length l_u", low=0, open_low=True, plausible=REACH),
+    Key("crank", "m", "the crank's length l_c", low=0, open_low=True, plausible=REACH),
+    Key("fore", "m", "the forearm's length l_a, elbow to tip", low=0, plausible=REACH),
+    Key("com", "m", "the distances [l1, l2, l3, l5]", "numbers", length=4, low=0, plausible=REACH),
     G,
 ))
 

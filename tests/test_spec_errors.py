@@ -188,7 +188,7 @@ def test_an_output_law_beyond_the_slider_is_refused_before_the_envelope_start(tm
     acceptance is opened here, else its springs' energy budget refuses it first)."""
     spec = tmp_path / "heavy.toml"
     text = (SPEC_1DOF.parent / "fedorov2018_balancer.toml").read_text().replace("mass = 0.17", "mass = 17.0")
-    spec.write_text(text.replace("[[mechanisms]]", "[joints.acceptance]\nrelative_rmse = 1e3\n\n[[mechanisms]]", 1))
+    spec.write_text(text.replace("[[mechanisms]]", "[joints.acceptance]\nrelative_rmse = 1.0\n\n[[mechanisms]]", 1))
     assert main(["design", str(spec), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "outside its slider_range [100, 200] mm" in err

@@ -20,7 +20,7 @@ from typing import ClassVar
 import casadi as ca
 import numpy as np
 
-from ..keys import Key, KeyTable
+from ..keys import PART_SIZE, Key, KeyTable
 from ..physics.profile import BASES, Basis, profile_function
 from ..physics.wrap import arc_length_density, length_function, wound_length
 
@@ -254,9 +254,10 @@ MECHANISM_KEYS = KeyTable("[[mechanisms]]", "A mechanism on one joint with its d
     Key("basis", "", "the profiles' polynomial basis", "choice", choices=BASES, default="chebyshev"),
     Key("order", "", f"the profiles' polynomial degree, at most the basis's cap {MAX_ORDER}", "integer", low=1,
         high=max(MAX_ORDER.values()), default=3),
-    Key("rho_min", "m", "the profiles' least radius", low=0, open_low=True),
-    Key("rho_max", "m", "the profiles' greatest radius, above rho_min", low=0, open_low=True),
-    Key("min_curvature_radius", "m", "the profiles' least radius of curvature (0: convex only)", low=0, default=0.0),
+    Key("rho_min", "m", "the profiles' least radius", low=0, open_low=True, plausible=PART_SIZE),
+    Key("rho_max", "m", "the profiles' greatest radius, above rho_min", low=0, open_low=True, plausible=PART_SIZE),
+    Key("min_curvature_radius", "m", "the profiles' least radius of curvature (0: convex only)", low=0, default=0.0,
+        plausible=PART_SIZE),
     LINK_ANGLE,
     Key("output_target", "", "the law x_d(θ) [m] the mechanism's output tracks, for a mechanism with an output "
         "(its keys: a target kind's, see Target kinds)", "table", default=None, default_text="none"),

@@ -15,13 +15,14 @@ only, which is what makes multi-joint grids separable.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from ..keys import Key, KeyTable
+from ..keys import PART_SIZE, Key, KeyTable, Plausible
 
 
 @dataclass(frozen=True)
@@ -204,6 +205,23 @@ class SpringParameters:
     travel: np.ndarray
 
 
+def shipped_range(column: str, what: str, low: bool = True) -> Plausible:
+    """The shipped catalogue's range of its springs' ``column`` (a :class:`SpringBody` field:
+    ``rate``, ``preload``), named ``what``; without its least value where ``low`` is False."""
+    from .catalogue import shipped  # that module reads its springs' bodies from this one
+
+    values = getattr(shipped().body, column)
+    return Plausible(float(np.min(values)) if low else None, float(np.max(values)),
+                     f"the shipped catalogue's {what}")
+
+
+#: Where a spring's rate [N/m] is plausible: within the shipped catalogue's rates (a rate beyond
+#: is no stock spring's, and one below reads as N/mm typed as N/m).
+CATALOGUE_RATES = functools.partial(shipped_range, "rate", "rates")
+#: Where a spring's initial tension [N] is plausible: up to the shipped catalogue's largest (a
+#: small one, or none, is any spring's).
+CATALOGUE_PRELOADS = functools.partial(shipped_range, "preload", "initial tensions", low=False)
+
 #: A ``[[springs]]`` table's keys (:mod:`cadcam.spec` reads them, the reference lists them).
 SPRING_KEYS = KeyTable("[[springs]]", "A linear extension spring joining ports of the mechanisms.", (
     Key("name", "", "the spring's name", "string", default_text="'spring N'", default=None),
@@ -215,13 +233,15 @@ SPRING_KEYS = KeyTable("[[springs]]", "A linear extension spring joining ports o
     Key("catalogue", "", "the catalogue CSV the part is read from, relative to the spec "
         "(columns as cadcam.physics.catalogue.COLUMNS)", "string", min_length=1, default=None,
         default_text="none (the shipped McMaster-Carr catalogue)"),
-    Key("rate", "N/m", "the spring's rate k", low=0, open_low=True),
-    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46)", low=0, open_low=True),
-    Key("preload", "N", "the spring's initial tension F0 (force F0 + kx for x > 0)", low=0, default=0.0),
+    Key("rate", "N/m", "the spring's rate k", low=0, open_low=True, plausible=CATALOGUE_RATES),
+    Key("travel", "m", "the spring's largest extension x_max (0 ≤ x ≤ x_max, Johnston2023 Eq. 46)", low=0, open_low=True,
+        plausible=PART_SIZE),
+    Key("preload", "N", "the spring's initial tension F0 (force F0 + kx for x > 0)", low=0, default=0.0,
+        plausible=CATALOGUE_PRELOADS),
     Key("free_length", "m", "the unloaded spring's length (its installed length is free_length + x)",
-        low=0, open_low=True, default=None, default_text="none (not drawn to length)"),
+        low=0, open_low=True, default=None, default_text="none (not drawn to length)", plausible=PART_SIZE),
     Key("preextension", "m", "a fixed pre-extension x0 in [0, travel]", low=0, default=None,
-        default_text="none (a design variable)"),
+        default_text="none (a design variable)", plausible=PART_SIZE),
 ))
 
 

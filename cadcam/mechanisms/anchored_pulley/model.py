@@ -39,7 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ...keys import Key, KeyTable
+from ...keys import PART_SIZE, Key, KeyTable
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register
 from .file_model import anchored_path, anchored_span
 
@@ -54,7 +54,7 @@ WINDING = {"ccw": 1.0, "cw": -1.0}
 #: Its own keys of a ``[[mechanisms]]`` table.
 SPEC_KEYS = KeyTable('kind = "anchored_pulley"', "Ludovico2021 / Endo2010's pulley: the cable is anchored on the profile at φ = 0 (the outline's point at polar angle anchor_angle, i.e. (ρ(0) cos anchor_angle, ρ(0) sin anchor_angle) in the world frame at θ = 0), wound on it in the direction `winding`, and leaves it tangentially straight to the spring end, the spring acting along the cable; port \"cable\" is the change of the path length anchor → spring end from the joint angle reference_angle. A third party recomputes the torque from the outline and these fields: at joint angle θ, turn the body `turning` by sense·θ about the joint (the origin), find the tangent from the spring end to the outline on the side the cable winds, x = x₀ + (wrapped length + free span)(θ) − (same)(reference_angle), V = ½k x² + F0 x, τ = dV/dθ.", (
     Key("spring_end", "m", "the spring end's world position [x, y] at θ = 0 (Endo2010's (a, b); Ludovico2021's R "
-        "at distance L), outside rho_max", "numbers", length=2),
+        "at distance L), outside rho_max", "numbers", length=2, plausible=PART_SIZE),
     Key("turning", "", "the body that turns with the joint: 'pulley' (Endo2010: the spring end is fixed) or "
         "'spring_end' (Ludovico2021: the pulley is fixed)", "choice", choices=TURNING),
     Key("sense", "", "the turning body rotates by sense·θ about the joint, counter-clockwise positive", "choice",
@@ -63,15 +63,16 @@ SPEC_KEYS = KeyTable('kind = "anchored_pulley"', "Ludovico2021 / Endo2010's pull
         "(the profile point at polar angle φ is at angle anchor_angle + φ) or 'cw' (at anchor_angle − φ)",
         "choice", choices=tuple(WINDING), default="ccw"),
     Key("initial_radius", "m", "the radius of the NLP's circular start, inside (rho_min, rho_max)", low=0,
-        open_low=True, default=0.0, default_text="mid-range of ρ, at most 40 % of the spring end's distance"),
+        open_low=True, default=0.0, default_text="mid-range of ρ, at most 40 % of the spring end's distance",
+        plausible=PART_SIZE),
     Key("reference_angle", "rad", "the joint angle at which the spring's extension is its pre-extension x₀",
         default=None, default_text="the end of the range where the spring is shortest"),
     Key("anchor_angle", "rad", "the world angle of the anchor direction φ = 0 at θ = 0", default=None,
         default_text="the anchor leaves the cable wound at the range's shortest end"),
     Key("min_moment_arm", "m", "the smallest moment arm (the distance from the joint to the cable line)", low=0,
-        default=0.0),
+        default=0.0, plausible=PART_SIZE),
     Key("min_free_span", "m", "the shortest straight cable between the pulley and the spring end", low=0,
-        default=0.0),
+        default=0.0, plausible=PART_SIZE),
     Key("mount_distance", "m", "a range [least, largest] of the spring end's distance from the joint: the design "
         "places the spring end there (starting from spring_end, which must lie in it) and states where",
         "numbers", length=2, default=None, default_text="none (the spring end is fixed)"),

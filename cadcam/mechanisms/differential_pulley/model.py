@@ -44,7 +44,7 @@ import casadi as ca
 import numpy as np
 
 from ...physics.profile import profile_function
-from ...keys import Key, KeyTable
+from ...keys import PART_SIZE, REACH, Key, KeyTable
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register, split_coefficients
 from .file_model import differential_output, differential_spans
 from .robot_path import robot_path
@@ -60,20 +60,21 @@ SPEC_KEYS = KeyTable('kind = "differential_pulley"', "Fedorov2018's differential
         choices=tuple(WINDING), default="ccw"),
     Key("groove", "", "'flat': each wrap under one turn; 'helical': a spiral groove, wraps beyond one turn "
         "(planar per turn)", "choice", choices=GROOVES, default="flat"),
-    Key("idler_radius", "m", "the idler's radius q (0: a point)", low=0, default=0.0),
+    Key("idler_radius", "m", "the idler's radius q (0: a point)", low=0, default=0.0, plausible=PART_SIZE),
     Key("slider_range", "m", "[x_min, x_max]: the slider's travel from the shaft axis, 0 < x_min < x_max, x_min > "
         "rho_max + idler_radius (the idler clears both pulleys)", "numbers", length=2, low=0, open_low=True,
-        check=lambda v: v[0] < v[1], words="x_min < x_max"),
+        check=lambda v: v[0] < v[1], words="x_min < x_max", plausible=PART_SIZE),
     Key("slider_angle", "rad", "the world angle of the slider's line from the shaft", default=0.0),
     Key("reference_angle", "rad", "the joint angle at which the slider port is zero", default=None,
         default_text="the range's first angle"),
-    Key("min_free_span", "m", "the shortest straight cable between a pulley and the idler", low=0, default=0.0),
+    Key("min_free_span", "m", "the shortest straight cable between a pulley and the idler", low=0, default=0.0,
+        plausible=PART_SIZE),
     Key("rolling_radius", "m", "the cable transferred per radian by the start design", low=0, open_low=True,
-        default=0.0, default_text="mid-range of ρ"),
+        default=0.0, default_text="mid-range of ρ", plausible=PART_SIZE),
     Key("anchor_angles", "rad", "[a1, a2]: the world angles of both anchors (φ = 0) at θ = 0", "numbers", length=2,
         default=None, default_text="set by the start design"),
     Key("cable_length", "m", "the cable's length from anchor to anchor", low=0, open_low=True, default=None,
-        default_text="set by the start design"),
+        default_text="set by the start design", plausible=REACH),
 ))
 #: Sweeps of the closed-form guess of α at a fixed x (exact for a circle after one).
 GUESS_SWEEPS = 6

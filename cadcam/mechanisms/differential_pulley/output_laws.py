@@ -9,7 +9,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ...keys import Key, KeyTable
+from ...keys import GRAVITY, MASS, PART_SIZE, REACH, Key, KeyTable
+from ...physics.springs import CATALOGUE_PRELOADS, CATALOGUE_RATES
 from ...targets import TargetKind, register_target_kind
 from .cable_robot import cable_length, pick_and_place
 
@@ -74,26 +75,27 @@ def slider_cable(x, d: dict):
 
 
 SPRING_BALANCE_KEYS = KeyTable('kind = "spring_balance"', "x_d = slider_zero − e(θ + phase) with e the elongation at which a spring (rate, preload) balances a pendulum (mass, length, g) by energy, zero at the unstable equilibrium (Fedorov2018 Eq. 16–18).", (
-    Key("mass", "kg", "the pendulum's mass", low=0, open_low=True),
-    Key("length", "m", "the distance from the joint to the pendulum's centre of mass", low=0, open_low=True),
-    Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81),
-    Key("rate", "N/m", "the slider spring's rate", low=0, open_low=True),
-    Key("preload", "N", "the slider spring's initial tension", low=0),
+    Key("mass", "kg", "the pendulum's mass", low=0, open_low=True, plausible=MASS),
+    Key("length", "m", "the distance from the joint to the pendulum's centre of mass", low=0, open_low=True,
+        plausible=REACH),
+    Key("g", "m/s²", "the gravity", low=0, open_low=True, default=9.81, plausible=GRAVITY),
+    Key("rate", "N/m", "the slider spring's rate", low=0, open_low=True, plausible=CATALOGUE_RATES),
+    Key("preload", "N", "the slider spring's initial tension", low=0, plausible=CATALOGUE_PRELOADS),
     Key("slider_zero", "m", "the idler's distance from the shaft where the spring's elongation is zero",
-        low=0, open_low=True),
+        low=0, open_low=True, plausible=PART_SIZE),
     Key("phase", "rad", "the joint angle minus the pendulum angle from its stable equilibrium", default=0.0),
 ))
 CABLE_ROBOT_KEYS = KeyTable('kind = "cable_robot"', "x_d = slider_at_shortest + (ℓ(θ) − ℓ_min)/amplification: the idler position that gives one cable of a two-cable robot its length ℓ from anchor to the end effector on a pick-and-place path (cadcam.mechanisms.differential_pulley.cable_robot.pick_and_place at input share (θ − theta_range[0])/(theta_range[1] − theta_range[0])), ℓ_min its least value along the path (Fedorov2018 Sec. 4.1).", (
-    Key("anchor", "m", "[x, y]: this cable's attachment on the frame", "numbers", length=2),
-    Key("start", "m", "[x, y]: the path's pick point", "numbers", length=2),
-    Key("lift", "m", "the height of the vertical moves", low=0, open_low=True),
-    Key("span", "m", "the horizontal move, signed"),
+    Key("anchor", "m", "[x, y]: this cable's attachment on the frame", "numbers", length=2, plausible=REACH),
+    Key("start", "m", "[x, y]: the path's pick point", "numbers", length=2, plausible=REACH),
+    Key("lift", "m", "the height of the vertical moves", low=0, open_low=True, plausible=REACH),
+    Key("span", "m", "the horizontal move, signed", plausible=REACH),
     Key("lift_share", "-", "the share of the input rotation each vertical move takes", low=0, high=0.5,
         open_low=True, open_high=True),
     Key("amplification", "-", "the ratio G of cable to idler travel of the amplification stage (6 for 6:1)",
         low=0, open_low=True),
     Key("slider_at_shortest", "m", "the idler's distance from the shaft where the cable is shortest",
-        low=0, open_low=True),
+        low=0, open_low=True, plausible=PART_SIZE),
     Key("overlap", "-", "the share of the input during which the horizontal move overlaps a vertical one, "
         "below lift_share", low=0, default=0.0),
     Key("theta_range", "rad", "[start, end]: the joint angles over which the path runs, end > start",

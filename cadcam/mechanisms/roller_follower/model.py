@@ -59,7 +59,7 @@ import numpy as np
 
 from ...citations import Paper, register_paper
 from ...physics.profile import profile_function
-from ...keys import Key, KeyTable
+from ...keys import PART_SIZE, Key, KeyTable
 from ..base import Limit, Mechanism, Picture, Quantity, register
 from .file_model import roller_follower_port
 from .geometry import (contact_point, follower_axes, line_coordinates, pitch_curvature_radius,
@@ -87,10 +87,10 @@ SOURCE = register_paper("Norton2009", Paper(
 
 #: Its own keys of a ``[[mechanisms]]`` table.
 SPEC_KEYS = KeyTable('kind = "roller_follower"', "A radial cam turning with its joint and a translating roller follower pressed on it by a spring (port \"follower\"): the roller (radius roller_radius) touches the profile; its centre slides on the line of world direction follower_angle at offset from the axis; the cam's polar axis lies at world angle axis_angle at θ = 0.", (
-    Key("roller_radius", "m", "the roller's radius r", low=0, open_low=True),
+    Key("roller_radius", "m", "the roller's radius r", low=0, open_low=True, plausible=PART_SIZE),
     Key("follower_angle", "rad", "the world direction β of the follower's travel, away from the cam (π/2: vertical)",
         default=np.pi / 2),
-    Key("offset", "m", "the follower line's offset e from the joint axis", default=0.0),
+    Key("offset", "m", "the follower line's offset e from the joint axis", default=0.0, plausible=PART_SIZE),
     Key("max_pressure_angle", "rad", "the largest pressure angle φ_max (0.5236: 30°)", low=0, high=np.pi / 2,
         open_low=True, open_high=True, default=MAX_PRESSURE_ANGLE),
     Key("min_pitch_curvature_ratio", "-", "the pitch curve's least radius of curvature in roller radii (1: "
@@ -98,7 +98,7 @@ SPEC_KEYS = KeyTable('kind = "roller_follower"', "A radial cam turning with its 
     Key("reference_angle", "rad", "the joint angle at which the spring has its pre-deflection", default=None,
         default_text="the range's first angle"),
     Key("initial_radius", "m", "the radius of the NLP's circular start, inside (rho_min, rho_max)", low=0,
-        open_low=True, default=0.0, default_text="mid-range of ρ"),
+        open_low=True, default=0.0, default_text="mid-range of ρ", plausible=PART_SIZE),
     Key("axis_angle", "rad", "the world angle γ₀ of the cam's polar axis at θ = 0", default=None,
         default_text="the contact starts a little after φ = 0"),
 ))

@@ -20,7 +20,7 @@ from .capstan import wire_torque_function
 from .departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
 from .file_model import wire_cam_port
 from ...physics.profile import profile_function
-from ...keys import Key, KeyTable
+from ...keys import PART_SIZE, Key, KeyTable
 from ..base import Mechanism, Quantity, register
 
 #: Circle-solution sweeps of the closed-form guess of α.
@@ -40,8 +40,8 @@ def platform_displacement(qx, qx_ref):
 #: Its own keys of a ``[[mechanisms]]`` table (or of a ``[[cams]]`` entry).
 SPEC_KEYS = KeyTable('kind = "wire_cam"', "Johnston2023's wire cam with its follower idler; ports \"wire\" and \"platform\".", (
     Key("idler", "", "the follower idler", "table", fields=KeyTable("idler", "The follower idler.", (
-        Key("radius", "m", "the idler's radius r", low=0, open_low=True),
-        Key("offset", "m", "the idler's vertical offset a₀ (Johnston2023 Eq. 7)"),
+        Key("radius", "m", "the idler's radius r", low=0, open_low=True, plausible=PART_SIZE),
+        Key("offset", "m", "the idler's vertical offset a₀ (Johnston2023 Eq. 7)", plausible=PART_SIZE),
     ))),
     Key("mu", "-", "the wire–cam friction coefficient (used by the force models only)", low=0),
 ))
