@@ -15,6 +15,7 @@ from .designs import Design, DesignError, default_start, preextensions
 from .errors import SpecError
 from .mechanisms.base import design_methods, kinds_in
 from .verify.evaluate import LIMIT_TOL, MARGINS, evaluate, poses_of, start_samples
+from .verify.remedy import SHAPE_MARGINS, next_step
 from .problem import ACCEPTANCE, Problem, cap
 from .result import Result
 from .solve.builds import built_for
@@ -164,9 +165,10 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
                   z=[u.z for u in on_grid.units])
     solve.trials = [_trial(solve)]
     status, message = verdict(problem, solve, fine, f"{method.name} design")
-    return Result(status=status, message=message, problem=problem,
-                  design=replace(design, poses=poses_of(problem, on_grid.units)),
-                  evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s)
+    result = Result(status=status, message=message, problem=problem,
+                    design=replace(design, poses=poses_of(problem, on_grid.units)),
+                    evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s)
+    return _with_next_step(result, fine)
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,
@@ -242,10 +244,24 @@ def _refuse_other_types(problem, start) -> None:
 
 def _verified(problem: Problem, tr: Transcription, solved: Solve) -> Result:
     """:func:`_checked` of ``solved``, solved again with more check points where its profile
-    broke its shape between them (:func:`_refined`)."""
+    broke its shape between them (:func:`_refined`); where it still fails its re-check, its
+    message ends with the next step (:func:`_with_next_step`)."""
     result = _checked(problem, tr, solved)
-    if result.status == "recheck_failed" and _broken_between_checks(result.recheck):
-        result = _refined(result, tr)
+    if result.status != "recheck_failed":
+        return result
+    last = result  # the re-check the next step is read from: the last one made
+    if _broken_between_checks(result.recheck):
+        result, last = _refined(result, tr)
+    return _with_next_step(result, last.recheck, last.problem.options.convexity_points)
+
+
+def _with_next_step(result: Result, fine, tried: int = 0) -> Result:
+    """``result``, where it failed its re-check, with what to change and by how much
+    (:func:`cadcam.verify.remedy.next_step` of the re-check ``fine``, after solves given
+    ``tried`` check points) ending its message."""
+    step = next_step(fine, tried) if result.status == "recheck_failed" else None
+    if step is not None:
+        result.message += f"; next: {step}"
     return result
 
 
@@ -269,10 +285,6 @@ def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
                   recheck_time_s=recheck_s, functions=tr.functions_used)
 
 
-#: Margins of a profile's shape that the NLP holds at its convexity check points only
-#: (:data:`cadcam.problem.SOLVER` ``convexity_points``), so that a profile may break them
-#: between those points, where the fine re-check looks.
-SHAPE_MARGINS = ("convexity", "curvature_radius", "rho_min", "rho_max")
 #: How many times the check points a design that broke only its shape between them is
 #: solved again with (from its own optimum).
 CHECK_REFINEMENT = 4
@@ -288,20 +300,21 @@ def _broken_between_checks(fine) -> bool:
     return bool(broken) and broken <= set(SHAPE_MARGINS) and not own
 
 
-def _refined(result: Result, tr: Transcription) -> Result:
+def _refined(result: Result, tr: Transcription) -> tuple[Result, Result]:
     """``result``, whose profile broke its shape between the NLP's check points, solved again
     from its own optimum with :data:`CHECK_REFINEMENT` times the points (within their cap); the
-    new result where it passes, else ``result`` with a note of the attempt."""
+    new result where it passes, else ``result`` with a note of the attempt; and the last
+    result made (the new one wherever it was solved)."""
     problem = result.problem
     points = min(CHECK_REFINEMENT * problem.options.convexity_points, cap("convexity_points"))
     if points <= problem.options.convexity_points:
-        return result
+        return result, result
     finer = replace(problem, options=replace(problem.options, convexity_points=points))
     try:
         finer_tr = Transcription(finer)
     except MemoryBudgetError:  # the design stands as it was re-checked
         result.message += f" (not solved again with {points} convexity check points: beyond the memory budget)"
-        return result
+        return result, result
     again = solve(finer_tr, finer, result.design)
     # its multipliers are of the finer NLP's rows: no warm start of the spec's own NLP
     again.multipliers = None
@@ -314,9 +327,9 @@ def _refined(result: Result, tr: Transcription) -> Result:
               f"between them; solved again from it with {points}")
     if refined.status == "success":
         refined.message += f" ({before})"
-        return refined
+        return refined, refined
     result.message += f" ({before}: {refined.status})"
-    return result
+    return result, refined
 
 
 #: A warm-started design whose objective is worse than its start's by more than this fraction
