@@ -184,22 +184,45 @@ class Catalogue:
                 + f"; {unusable} springs have no travel within their wire's stress allowance")
 
 
-def _fail(origin: str, row: int, column: str, value, words: str):
+def fail_at(origin: str, row: int, column: str, value, words: str):
+    """Raise :class:`CatalogueError`: one line naming the file, row and column, the value found
+    and the value ``words`` expected (every CSV table of parts reads its fields through this)."""
     raise CatalogueError(f"{origin}: row {row}, column '{column}' = {short_repr(value)}: expected {words}")
 
 
-def _number(origin: str, row: int, key: Key, text: str) -> float:
+def number_at(origin: str, row: int, key: Key, text: str) -> float:
+    """The number ``text`` of column ``key`` on ``row``, or :func:`fail_at` where the column
+    does not allow it."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
     if not key.ok(value):
-        _fail(origin, row, key.name, text, key.form())
+        fail_at(origin, row, key.name, text, key.form())
     return value
 
 
-def _rows(text: str, origin: str) -> tuple[list[str], list[tuple[int, list[str]]]]:
-    """The header and the (line number, fields) of every non-blank row."""
+def unique_at(origin: str, row: int, key: Key, text: str, seen: dict, noun: str) -> None:
+    """Refuse ``text`` in column ``key`` on ``row`` where the column does not allow it or an
+    earlier row of ``seen`` (value → row, to which it is added) has it, ``noun`` naming it."""
+    if not key.ok(text):
+        fail_at(origin, row, key.name, text, key.form())
+    if text in seen:
+        fail_at(origin, row, key.name, text, f"{noun} not already on row {seen[text]}")
+    seen[text] = row
+
+
+def table_rows(text: str, origin: str, columns: KeyTable, what: str) -> list[tuple[int, dict[str, str]]]:
+    """The rows of CSV ``text`` whose columns ``columns`` declares: for each non-blank row below
+    the header, its line number and its fields by column name (stripped; the declared columns
+    it has, others ignored). ``what`` names a row's contents in plural (``springs``).
+
+    Raises
+    ------
+    CatalogueError
+        Empty, unreadable CSV, a required column missing, no row below the header, or a row
+        whose number of fields is not the header's: one line naming the file and row.
+    """
     reader = csv.reader(io.StringIO(text.removeprefix("\ufeff"), newline=""), strict=True)
     try:
         rows = [(reader.line_num, r) for r in reader if any(f.strip() for f in r)]
@@ -207,8 +230,20 @@ def _rows(text: str, origin: str) -> tuple[list[str], list[tuple[int, list[str]]
         raise CatalogueError(f"{origin}: row {reader.line_num}: not readable CSV ({exc})") from None
     if not rows:
         raise CatalogueError(f"{origin}: empty: expected a header row naming the columns "
-                             f"{', '.join(COLUMNS.names)}")
-    return [h.strip() for h in rows[0][1]], rows[1:]
+                             f"{', '.join(columns.names)}")
+    head = [h.strip() for h in rows[0][1]]
+    missing = [k.name for k in columns.keys if k.required and k.name not in head]
+    if missing:
+        fail_at(origin, 1, missing[0], ",".join(head), f"a header naming the column '{missing[0]}'")
+    if len(rows) == 1:
+        raise CatalogueError(f"{origin}: no {what}: expected a row per {what.removesuffix('s')} below the header")
+    col = {name: head.index(name) for name in columns.names if name in head}
+    out = []
+    for line, fields in rows[1:]:
+        if len(fields) != len(head):
+            raise CatalogueError(f"{origin}: row {line}: {len(fields)} fields, expected {len(head)} (the header's)")
+        out.append((line, {n: fields[i].strip() for n, i in col.items()}))
+    return out
 
 
 def parse_catalogue(text: str, origin: str) -> Catalogue:
@@ -223,41 +258,28 @@ def parse_catalogue(text: str, origin: str) -> Catalogue:
         diameter not above twice its wire, or a duplicate part number: one line naming the
         file, row and column.
     """
-    head, rows = _rows(text, origin)
-    missing = [k.name for k in COLUMNS.keys if k.required and k.name not in head]
-    if missing:
-        _fail(origin, 1, missing[0], ",".join(head), f"a header naming the column '{missing[0]}'")
-    if not rows:
-        raise CatalogueError(f"{origin}: no springs: expected a row per spring below the header")
-    col = {name: head.index(name) for name in COLUMNS.names if name in head}
     values: dict[str, list] = {name: [] for name in COLUMNS.names}
     seen: dict[str, int] = {}
-    for line, fields in rows:
-        if len(fields) != len(head):
-            raise CatalogueError(f"{origin}: row {line}: {len(fields)} fields, expected {len(head)} (the header's)")
-        _row(origin, line, {n: fields[i].strip() for n, i in col.items()}, values, seen)
+    for line, raw in table_rows(text, origin, COLUMNS, "springs"):
+        _row(origin, line, raw, values, seen)
     return _catalogue(origin, values)
 
 
 def _row(origin: str, line: int, raw: dict, values: dict, seen: dict) -> None:
     """Check one row and append its values."""
     part = raw["part_number"]
-    if not COLUMNS["part_number"].ok(part):
-        _fail(origin, line, "part_number", part, COLUMNS["part_number"].form())
-    if part in seen:
-        _fail(origin, line, "part_number", part, f"a part number not already on row {seen[part]}")
-    seen[part] = line
+    unique_at(origin, line, COLUMNS["part_number"], part, seen, "a part number")
     if material_of(raw["material"]) is None:
-        _fail(origin, line, "material", raw["material"],
+        fail_at(origin, line, "material", raw["material"],
               "a material naming one of " + ", ".join(m.name for m in MATERIALS))
-    row = {k.name: _number(origin, line, k, raw[k.name]) for k in COLUMNS.keys
+    row = {k.name: number_at(origin, line, k, raw[k.name]) for k in COLUMNS.keys
            if k.type == "number" and k.name in raw and (k.required or raw[k.name])}
     for above, below, words in (("length_max", "length_natural", "the free length"),
                                 ("load_max", "load_min", "the initial tension"),
                                 ("od", "wire_dia", "twice the wire diameter")):
         floor = row[below] * (2 if above == "od" else 1)
         if not row[above] > floor:
-            _fail(origin, line, above, raw[above], f"a value above {words} ({floor:g})")
+            fail_at(origin, line, above, raw[above], f"a value above {words} ({floor:g})")
     values["part_number"].append(part)
     values["material"].append(raw["material"])
     for k in COLUMNS.keys:
