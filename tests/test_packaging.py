@@ -101,6 +101,7 @@ def test_the_wheel_holds_the_package_its_data_and_licence(wheel):
         for data in ["cadcam/py.typed", "cadcam/result.schema.json",
                      "cadcam/data/springs/mcmaster_extension_springs.csv",
                      "cadcam/data/springs/LICENSE.virtual-counterweight",
+                     "cadcam/data/cables/cables.csv", "cadcam/data/cables/README.md",
                      *(f"cadcam/models/{n}" for n in examples.files())]:
             assert z.read(data) == (ROOT / data).read_bytes(), data
         info = f"cadcam-{VERSION}.dist-info"
