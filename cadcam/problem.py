@@ -15,6 +15,7 @@ import numpy as np
 from .files import env_cap
 from .keys import SHARE, Key, KeyTable, Plausible, is_real
 from .mechanisms.base import ENERGY, Mechanism, Profile
+from .physics.cables import MAX_DIAMETER, Cable
 from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
 
@@ -279,7 +280,8 @@ WORKSHOP_KEYS = KeyTable("[workshop]", "Sizes of the workshop files; each `cadca
     Key("bore_diameter", "m", "the shaft bore of every planar outline", low=1e-4, high=1.0, default=0.006),
     Key("anchor_diameter", "m", "the cable-anchor hole near φ = 0", low=1e-4, high=0.1, default=0.0025),
     Key("cable_diameter", "m", "the cable's diameter (0: an ideal thread); the designed profile is the cable's "
-        "centre line, the cut outline lies its radius inside", low=0.0, high=0.02, default=0.0),
+        "centre line, the cut outline lies its radius inside (a [cable] table sets it)", low=0.0, high=MAX_DIAMETER,
+        default=0.0),
     Key("tolerance", "m", "the loosest fit of the DXF and SVG arcs and the CSV and STL polygons (the files are "
         "fitted tighter where the design's accuracy asks)", low=1e-7, high=1e-3, default=1e-5),
     Key("stl", "m", "the thickness of camN.stl", low=1e-4, high=1.0, default=None, default_text="none: no STL"),
@@ -527,6 +529,10 @@ class Problem:
     #: every catalogue (:meth:`cadcam.keys.Key.implausible`), as its reader found them: told,
     #: not refused (a spec written from this problem is read to the same lines).
     warnings: tuple[str, ...] = field(default=(), compare=False)
+    #: The spec's ``[cable]``: the cable the profiles wrap, whose bend and tension are limits of
+    #: the design (:meth:`curvature_limit`, :meth:`extension_limit`); None: a diameter alone
+    #: (``workshop.cable_diameter``), neither checked.
+    cable: Cable | None = None
 
     def __post_init__(self):
         for mech in self.mechanisms:
@@ -595,12 +601,29 @@ class Problem:
                 out.append((j, port.mechanism, port.name, mech.joint))
         return out
 
+    # -- limits of the parts -------------------------------------------------------------------------
+    def curvature_limit(self, k: int) -> float:
+        """The least radius of curvature [m] of profile ``k`` over its wrapped range: the larger
+        of its own ``min_curvature_radius`` and its cable's least profile radius
+        (:attr:`cadcam.physics.cables.Cable.least_profile_radius`)."""
+        own = self.profiles[k].min_curvature_radius
+        return own if self.cable is None else max(own, self.cable.least_profile_radius)
+
+    def extension_limit(self, j: int) -> float:
+        """The largest extension [m] spring ``j`` may reach: its travel, or less where the force
+        F0 + k·x it puts on its cable would pass the cable's working load
+        (:meth:`cadcam.physics.cables.Cable.extension_limit`)."""
+        s = self.springs[j]
+        return s.travel if self.cable is None else min(s.travel, self.cable.extension_limit(s.rate, s.preload))
+
     # -- acceptance ------------------------------------------------------------------------------
     def spring_energy(self, i: int) -> float:
-        """The energy [J] the springs acting on joint ``i`` store within their travel t_j,
+        """The energy [J] the springs acting on joint ``i`` store within their largest
+        extension t_j (:meth:`extension_limit`: their travel, or their cable's limit),
         Σ_j (½k_j t_j² + F0_j t_j): the most their energy can change along its range."""
         network = self.network()
-        return float(sum(s.energy(s.travel) for j, s in enumerate(self.springs) if i in network.joints_of(j)))
+        return float(sum(s.energy(max(self.extension_limit(j), 0.0)) for j, s in enumerate(self.springs)
+                         if i in network.joints_of(j)))
 
     def spring_torque_scale(self, i: int) -> float:
         """Joint ``i``'s springs' torque scale [N·m]: :meth:`spring_energy` over its range's
@@ -683,4 +706,5 @@ class Problem:
             "springs": [s.to_dict() for s in self.springs],
             "workshop": self.workshop.to_dict(),
             **({"tolerances": dict(self.tolerances)} if self.tolerances else {}),
+            **({"cable": self.cable.to_dict()} if self.cable is not None else {}),
         }

@@ -31,6 +31,7 @@ from .library_files import ipopt_options
 from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Profile, design_methods,
                               legacy_torque_models, mechanism_class, mechanism_kinds, torque_models)
 from .physics.profile import Basis
+from .physics.cables import CABLE_KEYS, FILLED_BY_NAME, Cable, shipped_cables
 from .physics.catalogue import load_catalogue
 from .physics.springs import SPRING_KEYS, Port, Spring
 from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, SOLVER_KEYS, WORKSHOP_KEYS, Joint, Options,
@@ -63,6 +64,8 @@ SPEC_KEYS = KeyTable("top level", "A spec file: its name and source, the joints,
     Key("variants", "", "named tables of dotted-key overrides, chosen by --variant NAME", "table", default={}),
     Key("workshop", "", "sizes of the workshop files (see [workshop])", "table", default={}),
     Key("tolerances", "", "the tolerances of the built part (see [tolerances])", "table", default={}),
+    Key("cable", "", "the cable the profiles wrap, as a part (see [cable])", "table", default=None,
+        default_text="none (a diameter alone: [workshop] cable_diameter)"),
 ))
 
 
@@ -446,6 +449,10 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
     top.read(keys["variants"])
     workshop = _workshop(_Reader(origin, top.read(keys["workshop"]), "workshop"))
     tolerances = _tolerances(_Reader(origin, top.read(keys["tolerances"]), "tolerances"))
+    raw_cable = top.read(keys["cable"])
+    cable = None if raw_cable is None else _cable(_Reader(origin, raw_cable, "cable"))
+    if cable is not None:
+        workshop = _cable_workshop(origin, data, workshop, cable)
     top.done()
 
     read = [_joint(_Reader(origin, raw, f"{joint_label}[{i + 1}]"), i, len(raw_springs), n_joints, arm,
@@ -469,8 +476,8 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
         _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
     try:
         return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
-                       options=options, workshop=workshop, tolerances=tolerances, springs=tuple(springs),
-                       mechanisms=tuple(mechanisms),
+                       options=options, workshop=workshop, tolerances=tolerances, cable=cable,
+                       springs=tuple(springs), mechanisms=tuple(mechanisms),
                        joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
     except ValueError as exc:
         raise SpecError(f"{origin}: torque_model: {exc}") from None
@@ -596,6 +603,39 @@ def _workshop(r: _Reader) -> Workshop:
     sizes = {k.name: r.read(k, None) for k in WORKSHOP_KEYS.keys}
     r.done()
     return Workshop(**{name: float(v) for name, v in sizes.items() if v is not None})
+
+
+def _cable(r: _Reader) -> Cable:
+    """The ``[cable]`` table (:data:`cadcam.physics.cables.CABLE_KEYS`): a cable of the shipped
+    table by name, or one given in full. A resolved problem (:meth:`Problem.to_dict`) gives
+    the values a name fills beside it: they are accepted where they are the row's own."""
+    keys = CABLE_KEYS
+    name = r.read(keys["name"])
+    if name is None:
+        diameter, bend, load = (float(r.read(keys[k].within(default=REQUIRED)))
+                                for k in ("diameter", "min_bend_radius", "breaking_load"))
+        kind = r.read(keys["kind"])
+        r.done()
+        return Cable(diameter=diameter, min_bend_radius=bend, breaking_load=load, kind=kind)
+    try:
+        cable = shipped_cables().cable(name)
+    except KeyError as exc:
+        raise SpecError(f"{r.origin}: {r.key('name')} = {short_repr(name)}: {exc.args[0]}") from None
+    for k in FILLED_BY_NAME:
+        if r.read(keys[k], getattr(cable, k)) != getattr(cable, k):
+            raise SpecError(f"{r.origin}: {r.key(k)} = {short_repr(r.table[k])}: cable {name!r} sets {k} "
+                            f"({getattr(cable, k)!r} {keys[k].unit} from its row); give the name or {k}, not both")
+    r.done()
+    return cable
+
+
+def _cable_workshop(origin: str, data: dict, workshop: Workshop, cable: Cable) -> Workshop:
+    """``workshop`` with the cable's diameter; SpecError where ``[workshop]`` gives another."""
+    given = data.get("workshop", {}).get("cable_diameter")
+    if given is not None and given != cable.diameter:
+        raise SpecError(f"{origin}: workshop.cable_diameter = {short_repr(given)}: the [cable] sets the "
+                        f"diameter ({cable.diameter:g} m, {cable.label()}); remove workshop.cable_diameter")
+    return replace(workshop, cable_diameter=cable.diameter)
 
 
 def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path(".")):

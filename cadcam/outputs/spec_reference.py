@@ -16,6 +16,7 @@ from pathlib import Path
 from ..files import atomic_path
 from ..keys import Key, KeyTable
 from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, mechanism_class
+from ..physics.cables import CABLE_KEYS
 from ..physics.springs import SPRING_KEYS
 from ..problem import IPOPT_OPTIONS, JOINT_KEYS, SOLVER_KEYS, WORKSHOP_KEYS, acceptance_keys, tolerance_keys
 from ..spec import SPEC_KEYS
@@ -100,7 +101,7 @@ def reference() -> str:
     rows += ["", "### Output laws a mechanism brings", "",
              "Kinds of `[mechanisms.output_target]` beside `expression` and `table`.", *_targets(output=True),
              "", *_table(SPRING_KEYS), "", *_table(SOLVER_KEYS), "", *_ipopt(), "", *_table(WORKSHOP_KEYS), "",
-             *_table(tolerance_keys())]
+             *_table(CABLE_KEYS), "", *_table(tolerance_keys())]
     return "\n".join(rows) + "\n"
 
 
@@ -108,7 +109,7 @@ def declared_keys() -> set[tuple[str, str]]:
     """(table path, key name) of every key on the page: what a test holds the reader's keys
     against."""
     tables = [SPEC_KEYS, JOINT_KEYS, acceptance_keys(), ARM_KEYS, MECHANISM_KEYS, SPRING_KEYS, WORKSHOP_KEYS,
-              tolerance_keys(), SOLVER_KEYS]
+              CABLE_KEYS, tolerance_keys(), SOLVER_KEYS]
     tables += [mechanism_class(k).spec_keys for k in built_in_kinds()]
     tables += [target_kind(k).keys for k in dict.fromkeys(target_kinds() + target_kinds(output=True))]
     out = set()

@@ -22,7 +22,7 @@ def structure_key(problem: Problem) -> str:
     return json.dumps([
         problem.torque_model, o.grid, o.quadrature_order, o.convexity_points, o.max_iter, o.tol,
         o.objective, o.functions, [list(x) for x in o.ipopt],
-        [p.min_curvature_radius > 0 for p in problem.profiles],
+        [problem.curvature_limit(k) > 0 for k in range(len(problem.profiles))],
         [[list(c.theta_range), [w > 0 for w in c.sensitivity_weights], c.band_weight > 0] for c in problem.joints],
         [[m.kind, m.joint, [[b.name, b.order, list(b.domain)] for b in m.bases]]
          for m in problem.mechanisms],

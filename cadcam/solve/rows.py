@@ -205,7 +205,8 @@ def _departure_rows(rows: _Rows, problem: Problem, mech: Mechanism, s: _Mechanis
 def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, first_profile: int,
                   s: _MechanismSymbols):
     """Convexity, ρ-bound and curvature rows of the mechanism's profiles (Johnston2023
-    Eq. 40); a profile with a curvature limit adds it as a parameter ``rc``."""
+    Eq. 40); a profile with a curvature limit (its own or its cable's:
+    :meth:`cadcam.problem.Problem.curvature_limit`) adds it as a parameter ``rc``."""
     n, M, L = problem.options.grid, problem.options.convexity_points, LENGTH_SCALE
     # convexity and ρ bounds over each wrapped range [0, α(most wound)] (Johnston2023
     # Eq. 40; a high-degree profile's over [0, φ_c] ⊇ it), and the radius of curvature (ρ² + ρ′²)^{3/2} / margin ≥ r_c where asked
@@ -226,7 +227,7 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
             pr.profiles[pk].rho_max * (1 - pr.options.limit_margin) / L))
         if mech.planar():
             _outline_rows(rows, phi.T, rho, drho, conv)
-        if mech.profiles[k].min_curvature_radius > 0:
+        if problem.curvature_limit(pk) > 0:
             rc = p.add("rc", 1, pk)
             rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv) / L**3, _nonnegative)
 
@@ -342,10 +343,12 @@ def _coupled_travel_rows(rows: _Rows, j: int, joints: list, x0, e: dict) -> dict
 
 
 def _travel(problem: Problem, j: int) -> tuple[float, float]:
-    """Bounds of spring j's extension [mm] with the limit margin kept in reserve (below a
-    fixed pre-extension only down to it: the extension equals it at the reference pose)."""
-    spring, margin = problem.springs[j], problem.options.limit_margin
-    lo = margin * spring.travel
+    """Bounds of spring j's extension [mm] up to its largest (its travel, or its cable's
+    tension limit: :meth:`cadcam.problem.Problem.extension_limit`) with the limit margin kept
+    in reserve (below a fixed pre-extension only down to it: the extension equals it at the
+    reference pose)."""
+    spring, margin, largest = problem.springs[j], problem.options.limit_margin, problem.extension_limit(j)
+    lo = margin * largest
     if spring.preextension is not None:
         lo = min(lo, spring.preextension)
-    return lo / LENGTH_SCALE, (1 - margin) * spring.travel / LENGTH_SCALE
+    return lo / LENGTH_SCALE, (1 - margin) * largest / LENGTH_SCALE

@@ -237,9 +237,9 @@ class Transcription:
                 size = (np.sqrt(np.mean(spread**2)) if problem.options.objective == "minimax"
                         else float(np.dot(ws[mech.joint], spread**2)))
                 p.put(vec, f"xs{u}", OBJECTIVE_SCALE / size if size > 0 else OBJECTIVE_SCALE)
-        for pk, prof in enumerate(problem.profiles):
+        for pk in range(len(problem.profiles)):
             if f"rc{pk}" in p.blocks:
-                p.put(vec, f"rc{pk}", prof.min_curvature_radius * (1 + problem.options.limit_margin))
+                p.put(vec, f"rc{pk}", problem.curvature_limit(pk) * (1 + problem.options.limit_margin))
         p.put(vec, "k", problem.spring_parameters().rate)
         p.put(vec, "F0", problem.spring_parameters().preload)
         if self.banded:

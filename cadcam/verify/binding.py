@@ -59,8 +59,8 @@ def binding_constraints(metrics: Mapping, problem, rtol: float = RTOL) -> list[s
         32.00 mm of 32.00 mm"``; springs first, then profiles, then mechanisms. Values that are
         not finite are left to the evaluation's violations.
     """
-    out = _spring_sentences(metrics, problem.springs, rtol)
-    out += _profile_sentences(metrics, problem.profiles, problem.options.convexity_epsilon, rtol)
+    out = _spring_sentences(metrics, problem, rtol)
+    out += _profile_sentences(metrics, problem, rtol)
     own = metrics.get("margins", {}).get("mechanism", [])
     for mech, margins in zip(problem.mechanisms, own):
         out += _mechanism_sentences(mech, margins, rtol)
@@ -72,14 +72,20 @@ def _measured(values: list, i: int) -> bool:
     return i < len(values) and _finite(values[i])
 
 
-def _spring_sentences(metrics: Mapping, springs, rtol: float) -> list[str]:
-    """The binding sentences of each spring: its travel limit, then its zero extension."""
+def _spring_sentences(metrics: Mapping, problem, rtol: float) -> list[str]:
+    """The binding sentences of each spring: its largest extension (its travel, or its
+    cable's working load where that comes first), then its zero extension."""
     out = []
     xmin, xmax = metrics.get("extension_min", []), metrics.get("extension_max", [])
-    for j, s in enumerate(springs):
+    for j, s in enumerate(problem.springs):
+        largest = problem.extension_limit(j)
         if _measured(xmax, j):
-            state = limit_state(s.travel - xmax[j], s.travel, rtol)
-            if state:
+            state = limit_state(largest - xmax[j], largest, rtol)
+            if state and largest < s.travel:
+                cable, tension = problem.cable, s.rate * xmax[j] + s.preload
+                out.append(f"{s.name} {state} its cable's working load: tension {tension:.4g} N of "
+                           f"{cable.working_load:.4g} N ({cable.breaking_load:.4g} N breaking / {cable.safety_factor:g})")
+            elif state:
                 out.append(f"{s.name} {state} its travel limit: {MM * xmax[j]:.2f} mm of "
                            f"{MM * s.travel:.2f} mm")
         if _measured(xmin, j):
@@ -92,13 +98,15 @@ def _spring_sentences(metrics: Mapping, springs, rtol: float) -> list[str]:
     return out
 
 
-def _profile_sentences(metrics: Mapping, profiles, eps: float, rtol: float) -> list[str]:
+def _profile_sentences(metrics: Mapping, problem, rtol: float) -> list[str]:
     """The binding sentences of each profile: ρ_min, ρ_max, the convexity margin (the NLP
-    asks ≥ ``eps``·ρ_min²) and the minimum radius of curvature."""
+    asks ≥ ``convexity_epsilon``·ρ_min²) and the minimum radius of curvature (its own or its
+    cable's, :meth:`cadcam.problem.Problem.curvature_limit`)."""
     out = []
+    eps = problem.options.convexity_epsilon
     lo, hi = metrics.get("rho_min", []), metrics.get("rho_max", [])
     conv, curv = metrics.get("convexity_min", []), metrics.get("curvature_radius_min", [])
-    for k, p in enumerate(profiles):
+    for k, p in enumerate(problem.profiles):
         if _measured(lo, k):
             state = limit_state(lo[k] - p.rho_min, p.rho_min, rtol)
             if state:
@@ -111,11 +119,16 @@ def _profile_sentences(metrics: Mapping, profiles, eps: float, rtol: float) -> l
                            f"ρ_max {MM * p.rho_max:.2f} mm")
         if _measured(conv, k):
             out += _convexity_sentences(p, conv[k], eps * p.rho_min ** 2, rtol)
-        if p.min_curvature_radius > 0 and _measured(curv, k):
-            state = limit_state(curv[k] - p.min_curvature_radius, p.min_curvature_radius, rtol)
-            if state:
+        least = problem.curvature_limit(k)
+        if least > 0 and _measured(curv, k):
+            state = limit_state(curv[k] - least, least, rtol)
+            if state and least > p.min_curvature_radius:
+                out.append(f"{p.name} {state} its cable's least bend radius: radius of curvature "
+                           f"{MM * curv[k]:.2f} mm of {MM * least:.2f} mm ({MM * problem.cable.min_bend_radius:.2f} mm "
+                           "to the cut outline, plus the cable's radius)")
+            elif state:
                 out.append(f"{p.name} {state} its minimum radius of curvature: {MM * curv[k]:.2f} mm "
-                           f"of {MM * p.min_curvature_radius:.2f} mm")
+                           f"of {MM * least:.2f} mm")
     return out
 
 

@@ -888,8 +888,8 @@ def _margins(ev: Evaluation, ext: np.ndarray) -> dict:
         "tangency": [float(RESIDUAL_TOL - u.residual.max()) for u in ev.units],
         "branch": [float(BRANCH_TOL - u.branch.max()) for u in ev.units],
         "preextension": ev.design.preextension.tolist(),
-        "curvature_radius": [c.curvature_radius_min - pc.min_curvature_radius
-                             for c, pc in zip(ev.profiles, p.profiles)],
+        "curvature_radius": [c.curvature_radius_min - p.curvature_limit(k)
+                             for k, c in enumerate(ev.profiles)],
         "mechanism": [{name: float(row.min()) for name, row in zip(mech.margin_names, u.margins)}
                       for mech, u in zip(p.mechanisms, ev.units)],
     }
@@ -940,10 +940,34 @@ def _fit_violations(ev: "Evaluation") -> list[str]:
     return out
 
 
+def _cable_violations(p: Problem, extension_max) -> list[str]:
+    """One line per spring whose force at its largest extension ``extension_max`` puts more
+    than the working load on the problem's cable, beyond the travel's tolerance."""
+    if p.cable is None:
+        return []
+    return [f"cable tension above its working load: {s.name} pulls {s.rate * x + s.preload:.4g} N on "
+            f"{p.cable.label()} (working load {p.cable.working_load:.4g} N, its breaking load over "
+            f"{p.cable.safety_factor:g})"
+            for s, x in zip(p.springs, extension_max)
+            if not x <= p.cable.extension_limit(s.rate, s.preload) + LENGTH_TOL]
+
+
+def cable_report(problem: Problem, metrics: Metrics) -> dict | None:
+    """The problem's cable and its checks on an evaluation's ``metrics``
+    (:meth:`cadcam.physics.cables.Cable.report`): each spring's largest force F0 + k·x, the
+    tension it puts on the cable, and each profile's least radius of curvature; None without
+    a ``[cable]``."""
+    if problem.cable is None:
+        return None
+    tensions = [s.preload + s.rate * x for s, x in zip(problem.springs, metrics.extension_max)]
+    return problem.cable.report(tensions, metrics.curvature_radius_min)
+
+
 def _violations(p: Problem, margins: dict, extension_max=()) -> list[str]:
     """One line per margin below minus its tolerance (a NaN, not computable, counts as one),
-    then each catalogue spring's body limit passed at its largest extension ``extension_max``."""
-    violations = _body_violations(p, extension_max)
+    then each catalogue spring's body limit passed at its largest extension ``extension_max``
+    and each spring's pull beyond its cable's working load."""
+    violations = _body_violations(p, extension_max) + _cable_violations(p, extension_max)
     for mech, own in zip(p.mechanisms, margins["mechanism"]):
         violations += [f"{lim.name.replace('_', ' ')} below its limit: {mech.name} (margin {own[lim.name]:.3g})"
                        for lim in mech.limits if not own[lim.name] >= -LIMIT_TOL[lim.unit]]

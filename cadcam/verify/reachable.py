@@ -6,7 +6,9 @@ Under the energy torque model the torque is τ_i = ∂V/∂θ_i with V the sprin
 
 * **Energy budget.** Along joint i's range (the other joints held), V can change by at most
   E_i = Σ_j (½k_j t_j² + F0_j t_j) over the springs j on joint i, each kept in its travel
-  0 ≤ x_j ≤ t_j. The target needs the swing S_i = max W − min W of W(θ) = ∫ τ_d dθ, so
+  0 ≤ x_j ≤ t_j (or less, where its force reaches its cable's working load:
+  :meth:`cadcam.problem.Problem.extension_limit`). The target needs the swing
+  S_i = max W − min W of W(θ) = ∫ τ_d dθ, so
   ∫|τ − τ_d| dθ ≥ S_i − E_i over the range, and by Cauchy–Schwarz the RMSE over a range of
   span L is at least (S_i − E_i)/L.
 * **Torque sign.** A spring's force is k x + F0 ≥ 0; where every spring on a joint pulls
@@ -15,7 +17,10 @@ Under the energy torque model the torque is τ_i = ∂V/∂θ_i with V the sprin
   wherever the target has the other sign the error is at least |τ_d|.
 
 :func:`unreachable` compares each bound with the joint's acceptance limits
-(:attr:`cadcam.problem.Joint.limits`) and says, in one line, what to change; :func:`advice`
+(:attr:`cadcam.problem.Joint.limits`) and says, in one line, what to change; before them it
+refuses a planar profile with no room round its hub, and a cable that no profile within its
+limits can bend round or whose springs' initial tension alone passes its working load;
+:func:`advice`
 gathers what the mechanisms know they cannot do exactly (a note, not a refusal).
 """
 from __future__ import annotations
@@ -26,6 +31,7 @@ import numpy as np
 
 from ..designs import default_start
 from ..mechanisms.base import kinds_in
+from ..physics.cables import shipped_cables
 from ..problem import Problem
 from ..spec import implausible_units
 from .evaluate import evaluate
@@ -38,11 +44,14 @@ HELD_SAMPLES = 9
 
 
 def unreachable(problem: Problem) -> str | None:
-    """The first joint whose target no design can meet within its acceptance limits, in one
-    line with what to change; None if neither bound rules the target out (which does not
-    promise that a design meets it)."""
+    """Why no design of ``problem`` can be made or meet its targets, in one line with what to
+    change: no room for a hub, a cable no design can carry (:func:`_cable_refusal`), or the
+    first joint whose target no design can meet within its acceptance limits; None if nothing
+    rules a design out (which does not promise that one meets its targets)."""
     if (no_room := _no_room_for_the_hub(problem)) is not None:
         return no_room
+    if (no_cable := _cable_refusal(problem)) is not None:
+        return no_cable
     if problem.torque_model != "energy":
         return None  # the bounds rest on τ = ∂V/∂θ
     start = _CircularStart(problem)
@@ -70,6 +79,48 @@ def _no_room_for_the_hub(problem: Problem) -> str | None:
                             f"{w.anchor_diameter:g} m, cable {w.cable_diameter:g} m and 1 mm walls): a larger rho_max "
                             "or a smaller workshop.bore_diameter, anchor_diameter or cable_diameter")
     return None
+
+
+def _cable_refusal(problem: Problem) -> str | None:
+    """Why the problem's cable (:attr:`cadcam.problem.Problem.cable`) rules every design out,
+    in one line with what to change: a workshop diameter that is not the cable's (a
+    ``--cable-diameter`` flag), a least profile radius above a profile's rho_max (a convex
+    profile within rho_max bends tighter than rho_max somewhere on a turn), or a spring whose
+    initial tension, or fixed pre-extension, already pulls beyond its working load. None if
+    there is no cable or none of these."""
+    cable = problem.cable
+    if cable is None:
+        return None
+    if problem.workshop.cable_diameter != cable.diameter:
+        return (f"workshop.cable_diameter = {problem.workshop.cable_diameter:g} m is not the diameter of the "
+                f"cable {cable.label()} ({cable.diameter:g} m): drop --cable-diameter (the [cable] sets the "
+                "diameter) or name another cable")
+    need = cable.least_profile_radius
+    for prof in problem.profiles:
+        if need > prof.rho_max:
+            others = _cables_that(lambda c: c.least_profile_radius < prof.rho_max
+                                  and c.working_load >= cable.working_load)
+            return (f"cable {cable.label()} bends round no less than {1e3 * cable.min_bend_radius:.3g} mm, so "
+                    f"its centre line, the designed profile, no tighter than {1e3 * need:.3g} mm: above profile "
+                    f"{prof.name!r}'s rho_max = {1e3 * prof.rho_max:.3g} mm, which no profile within rho_max can "
+                    f"wrap: a rho_max above {1e3 * need:.3g} mm or a cable that bends tighter{others}")
+    for s in problem.springs:
+        pull = s.preload + s.rate * (s.preextension or 0.0)
+        if pull >= cable.working_load:
+            others = _cables_that(lambda c: c.working_load > pull and c.least_profile_radius <= need)
+            what = ("its initial tension pulls" if not s.preextension
+                    else f"its initial tension and fixed pre-extension {1e3 * s.preextension:.3g} mm pull")
+            return (f"spring {s.name!r}: {what} {pull:.4g} N on cable {cable.label()}, whose working load "
+                    f"is {cable.working_load:.4g} N ({cable.breaking_load:.4g} N breaking / "
+                    f"{cable.safety_factor:g}): a spring of less initial tension or a stronger cable{others}")
+    return None
+
+
+def _cables_that(fits) -> str:
+    """", e.g. …" naming up to two cables of the shipped table for which ``fits`` holds, the
+    thinnest first, or "" if none does."""
+    names = [c for c in sorted(shipped_cables().cables, key=lambda c: c.diameter) if fits(c)][:2]
+    return ", e.g. " + " or ".join(f"'{c.name}'" for c in names) if names else ""
 
 
 class _CircularStart:
@@ -137,9 +188,15 @@ def _energy_bound(problem: Problem, i: int):
     if not short.any():
         return None
     worst = int(np.argmax(swing))
+    held = [s.name for j, s in enumerate(problem.springs) if problem.extension_limit(j) < s.travel]
+    within = "their travel and their cable's working load" if held else "their travel"
     why = (f"its target needs {swing[worst]:.4g} J of spring energy over its range, and its springs store at most "
-           f"{store:.4g} J within their travel")
+           f"{store:.4g} J within {within}")
     fix = "give stiffer springs, more travel or more preload, or balance a narrower range"
+    if held:
+        fix = (f"give a stronger cable (its working load {problem.cable.working_load:.4g} N stops "
+               f"{', '.join(map(repr, held))} short of the travel), softer springs of longer travel (under a force "
+               "limit, a spring stores more the further it stretches), or balance a narrower range")
     return float(np.sqrt(np.mean((short / span) ** 2))), float(np.sqrt(np.mean(lines**2))), why, fix
 
 
