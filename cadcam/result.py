@@ -14,7 +14,7 @@ from .citations import cited
 from .verify.binding import binding_constraints
 from .verify.reachable import advice
 from .mechanisms.base import kinds_in
-from .verify.evaluate import Evaluation
+from .verify.evaluate import Evaluation, cable_report
 from .verify.installation import installation_lines, spring_installation
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
@@ -52,6 +52,17 @@ def _band_line(band: Band, ev: Evaluation) -> str:
                  f"re-checked {1e3 * c['recomputed']:.3g})" if peak > 0 and peak >= floor else f"± {1e3 * h.max():.3g} N·mm"
                  for h, c, peak, floor in zip(band.half_width, band.corners, np.abs(ev.tau_d).max(axis=1), floors)]
     return f"  tolerance band ({band.label()}) per joint: {'; '.join(per_joint)}"
+
+
+def _cable_line(report: dict) -> str:
+    """The summary's line on the cable: its least radius of curvature against the one its
+    bend asks, and its peak tension against its working load."""
+    least, need = min(report["curvature_radius_min"], default=float("nan")), report["least_profile_radius"]
+    return (f"  cable {report.get('name') or 'given in full'} (Ø{1e3 * report['diameter']:.3g} mm "
+            f"{report['kind']}): least radius of curvature {1e3 * least:.2f} mm, its bend asks ≥ {1e3 * need:.2f} "
+            f"mm ({1e3 * report['min_bend_radius']:.3g} mm to the cut outline); peak tension "
+            f"{report['peak_tension']:.4g} N, working load {report['working_load']:.4g} N "
+            f"({report['breaking_load']:.4g} N breaking / {report['safety_factor']:g})")
 
 
 def _warnings_line(warnings: list[dict]) -> str:
@@ -201,6 +212,8 @@ class Result:
         if self.band is not None:
             lines.append(_band_line(self.band, self.evaluation))
         lines += installation_lines(self.installation)
+        if (cable := cable_report(self.problem, fine)) is not None:
+            lines.append(_cable_line(cable))
         lines += [f"  violated: {v}" for v in (self.recheck.violations if not self.success else [])]
         if self.warnings:
             lines.append(_warnings_line(self.warnings))
@@ -317,6 +330,8 @@ class Result:
             out["spring_bodies"] = [b for b in bodies if b is not None]
         if self.installation:
             out["spring_installation"] = self.installation
+        if (cable := cable_report(self.problem, fine.metrics)) is not None:
+            out["cable"] = cable
         if self.band is not None:
             out["tolerance_band"] = self.band.to_dict()
         if sol is not None:

@@ -80,7 +80,8 @@ def _sheet_format(path) -> str:
 @matplotlib_defaults()
 def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
                  rho_max: float, title: str, *, spec: str = "", drawing: str = "",
-                 date: str | None = None, words: Picture = Picture()) -> tuple[Figure, int]:
+                 date: str | None = None, words: Picture = Picture(),
+                 cable: tuple[str, ...] = ()) -> tuple[Figure, int]:
     """The workshop sheet of one cam as a Figure, 1 mm of paper per mm of cam when it fits.
 
     The designed (wrapped) arc is drawn thick and red, the closing arc thin and black; the bore,
@@ -108,6 +109,8 @@ def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float,
     words : Picture
         The mechanism's words: the notes call the red arc ``words.arc`` and say
         ``words.runs_on`` of it (a cable's by default).
+    cable : tuple of str
+        Lines of notes on the cable (:func:`cable_notes`); none without a ``[cable]``.
 
     Returns
     -------
@@ -131,7 +134,7 @@ def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float,
     taken = _dimensions(ax, outline, circles, n)
     shown = _draw_limits(ax, centre, half, {"ρ_min": rho_min, "ρ_max": rho_max}, taken)
     _frame(fig)
-    _notes(fig, outline, rho_min, rho_max, shown, words)
+    _notes(fig, outline, rho_min, rho_max, shown, words, cable)
     _title_block(fig, title, spec, drawing, n, date or datetime.date.today().isoformat())
     return fig, n
 
@@ -257,9 +260,23 @@ def _frame(fig):
                              1 - 2 * MARGIN / SHEET[1], transform=fig.transFigure, fill=False, lw=0.8))
 
 
-def _notes(fig, outline, rho_min, rho_max, shown, words):
+def cable_notes(report: dict, k: int) -> tuple[str, ...]:
+    """The sheet's lines on the cable of profile ``k``, from its report
+    (:func:`cadcam.verify.evaluate.cable_report`): its data, its least bend radius against the
+    red arc's (the cut outline's) least radius of curvature, and its peak tension against its
+    working load [mm, N]."""
+    d = report["diameter"] * MM
+    arc = report["curvature_radius_min"][k] * MM - d / 2
+    return (f"Cable: {report.get('name') or 'given in full'}, Ø{d:.2f} {report['kind']}; peak tension "
+            f"{report['peak_tension']:.4g} N, working load {report['working_load']:.4g} N "
+            f"({report['breaking_load']:.4g} N / {report['safety_factor']:g}).",
+            f"The red arc's least radius of curvature {arc:.2f}; the cable's least bend radius "
+            f"{report['min_bend_radius'] * MM:.2f}.")
+
+
+def _notes(fig, outline, rho_min, rho_max, shown, words, cable=()):
     """Notes and a 10 mm scale bar in the band at the foot of the sheet, left of the title
-    block; ``words`` names the red arc and says what runs on it."""
+    block; ``words`` names the red arc and says what runs on it, ``cable`` the cable's lines."""
     lo, hi = outline.rho_range
     off = [name for name in ("ρ_min", "ρ_max") if name not in shown]
     lines = [
@@ -270,6 +287,7 @@ def _notes(fig, outline, rho_min, rho_max, shown, words):
           if outline.offset else []),
         f"Dashed: radius limits ρ_min = {rho_min * MM:.2f}, ρ_max = {rho_max * MM:.2f}"
         + (f" ({', '.join(off)} off the sheet)." if off else "."),
+        *cable,
         "The outline's full definition: camN_points.csv / camN.dxf (this sheet is for checking).",
     ]
     x0 = (MARGIN + 3) / SHEET[0]

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..verify.evaluate import output_error, output_law
+from ..verify.evaluate import cable_report, output_error, output_law
 from ..files import write_csv, write_json
 from ..problem import Workshop
 from .forked import Drawing
@@ -151,9 +151,11 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
               + (" (wound clockwise: the CSV is its mirror image, a helix of the other hand; mirror y)"
                  if _mirrored(ev.problem, i) else "")
               for i, phi_max in grooves.items()]
+    cable = cable_report(result.problem, result.recheck.metrics)
     for i, outline in outlines.items():
         try:
-            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, sheets, owners[i], drawings))
+            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, sheets, owners[i], drawings,
+                                              cable))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     from .verification import cable_clearances, cam_report, groove_report, verdict, write_report
@@ -226,9 +228,11 @@ def _polygon_tolerance(tolerance: float) -> float:
 
 
 def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, sheets: bool, mech,
-                         drawings: list[Drawing] | None) -> str:
+                         drawings: list[Drawing] | None, cable: dict | None = None) -> str:
     """The SVG, points CSV, sheet and STL of profile ``i`` of mechanism ``mech`` (its DXF is
-    written by :func:`_fitted_dxfs`); returns its line of the summary."""
+    written by :func:`_fitted_dxfs`), the sheet noting the ``cable`` report of the fine
+    re-check if any (:func:`cadcam.verify.evaluate.cable_report`); returns its line of the
+    summary."""
     from ..make.workshop import polyline, write_points_csv, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
@@ -238,11 +242,11 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
               _mirrored(ev.problem, i))
     write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon)
     if sheets:
-        from ..make.drawing import save_sheet, sheet_figure
+        from ..make.drawing import cable_notes, save_sheet, sheet_figure
 
         fig, _ = sheet_figure(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max,
                               cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}",
-                              words=mech.picture)
+                              words=mech.picture, cable=cable_notes(cable, i) if cable else ())
         # one figure, drawn into both formats
         _drawn(functools.partial(save_sheet, fig, out / f"cam{i + 1}_sheet.pdf", out / f"cam{i + 1}_sheet.png"),
                drawings)

@@ -2,7 +2,7 @@
 written in the file, and the parts that the declarations hold are generated from them — the
 torque models, the design methods, the ``[solver]`` options, the target kinds and their keys
 (:attr:`TargetKind.keys`), a joint's keys with its acceptance limits, the tolerances, a spring's
-keys, the keys every mechanism has and each mechanism's own (:attr:`Mechanism.spec_keys`).
+keys, the cable's, the keys every mechanism has and each mechanism's own (:attr:`Mechanism.spec_keys`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
 the shipped file is what this module makes of it.
@@ -18,6 +18,7 @@ from pathlib import Path
 from ..files import atomic_path
 from ..keys import KeyTable
 from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, design_methods, mechanism_class, torque_models
+from ..physics.cables import CABLE_KEYS, SAFETY_FACTORS
 from ..physics.springs import SPRING_KEYS
 from ..problem import JOINT_KEYS, SOLVER_KEYS, acceptance_keys, tolerance_keys
 from ..targets import target_kind, target_kinds
@@ -91,6 +92,8 @@ def result_schema(schema: dict) -> dict:
     joint["acceptance"]["properties"] = _properties(acceptance_keys())
     joint["acceptance"]["additionalProperties"] = False
     defs["problem"]["properties"]["tolerances"]["properties"] = _properties(tolerance_keys())
+    defs["problem"]["properties"]["cable"]["properties"] = _properties(CABLE_KEYS)
+    out["properties"]["cable"]["properties"]["kind"]["enum"] = list(SAFETY_FACTORS)
     return out
 
 
