@@ -133,11 +133,10 @@ def cmd_design(args) -> int:
     problem = _problem(args)
     problem = replace(problem, workshop=replace(problem.workshop, **flags))
     _check_output_dir(args.output)
-    # now, before a solve that may take long (the summary repeats them), and before a refusal
-    # they may explain (a 500 kg mass typed for 500 g)
+    refuse_unreachable(problem)  # bad input: one line, exit 2
+    # before a solve that may take long (the summary repeats them)
     for warning in advice(problem):
         _say(f"cadcam: warning: {warning}", err=True)
-    refuse_unreachable(problem)
     try:
         with held_folder(args.output) as out:
             _check_files_are_ours(out, problem, args.figures)
