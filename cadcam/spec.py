@@ -704,6 +704,13 @@ def _spring(r: "_Reader", j: int, mechanisms, base: Path = Path(".")) -> Spring:
 FILLED_BY_PART = ("rate", "preload", "free_length", "travel")
 
 
+def filled_by_part(body) -> dict:
+    """The values a catalogue part's body fills (:data:`FILLED_BY_PART`): its rate, initial
+    tension and free length, and its travel, the least extension its limits allow."""
+    return {"rate": body.rate, "preload": body.preload, "free_length": body.free_length,
+            "travel": min(body.extension_limits().values())}
+
+
 def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
     """The part, catalogue and body of a spring that names a catalogue part, and the values its
     row fills; two empty dicts for one that does not.
@@ -725,9 +732,8 @@ def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
         body = cat.spring_body(cat.index(number))
     except KeyError as exc:
         raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: {exc.args[0]}") from None
-    travel = min(body.extension_limits().values())
-    filled = {"rate": body.rate, "preload": body.preload, "free_length": body.free_length, "travel": travel}
-    if not travel > 0:
+    filled = filled_by_part(body)
+    if not filled["travel"] > 0:
         raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: its initial tension already "
                         "stresses the wire beyond its allowance; choose another part")
     for name in FILLED_BY_PART:
