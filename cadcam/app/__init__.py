@@ -2,6 +2,7 @@
 
 :mod:`cadcam.app.form` generates the form from the spec reader's declarations,
 :mod:`cadcam.app.state` holds the spec, the edits and the designs (no page),
+:mod:`cadcam.app.parts` makes the spring catalogue table and its lights (no page),
 :mod:`cadcam.app.page` shows them, :mod:`cadcam.app.hosts` holds the server to the names it
 serves on; Panel loads only with the page (``pip install cadcam[app]``).
 """

@@ -8,10 +8,16 @@ as the spec says, by default expanded for a structure's first design while they 
 background, then compiled: :meth:`cadcam.solve.transcription.Transcription.adopt_compiled`).
 On the right the verdict line and
 what binds, the torque against its target with the error, the mechanism at one joint angle (a
-player runs it over the range), the springs' extensions against their travel, and the files to
-download. An input error is the command line's one line, shown under the field it names.
+player runs it over the range), the springs' extensions against their travel, the spring
+catalogue with a feasibility light per spring, and the files to download. An input error is the
+command line's one line, shown under the field it names.
 
-Every callback of the page (an edit, a catalogue pick, a template, an upload, the player, a
+The catalogue table (:mod:`cadcam.app.parts`) lights each spring of one spring's catalogue for the
+spec as edited now: by the catalogue's screen, before each design (milliseconds), and by the
+verdict of each design the tab has made with a part under the same edits. Clicking a row makes
+that spring the part and designs with it.
+
+Every callback of the page (an edit, a catalogue pick or row, a template, an upload, the player, a
 download, the first design) runs through one guard (:meth:`DesignPage.guarded`): what it raises
 is shown as one line on the page (:func:`one_line`: control characters escaped, no folder
 named) and logged as one line, never left to the server as a traceback. An uploaded file is
@@ -36,6 +42,8 @@ import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import panel as pn
 from matplotlib.figure import Figure
 
@@ -43,9 +51,11 @@ from .. import examples
 from ..library_files import matplotlib_defaults
 from ..make.step import available as step_available
 from ..outputs.plots import springs_figure, torque_figure
+from ..physics.catalogue import Need
 from ..spec import SpecError
-from .state import INPUT_ERRORS, TEMPLATES, DesignState, Outcome, catalogue, result_json, zipped
+from .state import INPUT_ERRORS, TEMPLATES, DesignState, Outcome, catalogue, part_name, result_json, zipped
 from .form import table_title, value_text
+from .parts import LIGHTS, NUMBERS, columns, count_line, part_lines, titles
 from .frames import Frames
 from .hosts import refuse_other_hosts, served_hosts
 
@@ -63,6 +73,10 @@ MESSAGE_CHARS = 300
 UPLOAD_PREFIX = "cadcam-app-open-"
 #: The verdict line while a design runs.
 DESIGNING = "<span class='solving'>designing…</span>"
+#: Rows of the catalogue table on one page: the table sends the browser that page alone.
+CATALOGUE_ROWS = 15
+#: The spring choice of the form for the spec's own spring.
+OWN_SPRING = "the spec's spring"
 
 #: Upload folders not yet removed (by any tab): the server removes those left when it stops.
 _UPLOADS: set[Path] = set()
@@ -75,6 +89,7 @@ CSS = """
 .verdict-success { color: #1b5e20; font-weight: bold; }
 .verdict-failure { color: #b00020; font-weight: bold; }
 .page-error { color: #b00020; }
+.catalogue-line { font-size: 13px; }
 """
 
 
@@ -140,6 +155,7 @@ class DesignPage:
         self.inputs: dict[str, pn.widgets.TextInput] = {}
         self.errors: dict[str, pn.pane.HTML] = {}
         self.headings: dict[int, pn.pane.HTML] = {}  # each spring's, by its number
+        self.spring_picks: dict[int, pn.widgets.Select] = {}  # each spring's choice, by its number
         self.frames: Frames | None = None
         self._shown = 0  # designs asked for: only the last one's figures are shown
         self._pose = 0  # the player's last value: only its frame is drawn
@@ -164,7 +180,11 @@ class DesignPage:
                                         width=420)
         self.player.param.watch(self.guarded("drawing the mechanism", self._on_pose), "value")
         self.downloads = pn.Row(*self._download_buttons(), css_classes=["downloads"])
+        self.spring_slot = pn.widgets.Select(name="the catalogue of", css_classes=["catalogue-slot"], width=400)
+        self.catalogue_line = pn.pane.HTML("", css_classes=["catalogue-line"], sizing_mode="stretch_width")
+        self.catalogue_table = self._catalogue_table()
         self._build_form()
+        self.spring_slot.param.watch(self.guarded("showing the catalogue", self._on_slot), "value")
 
     # ----------------------------------------------------------------------------- layout
     def view(self) -> pn.Row:
@@ -174,7 +194,10 @@ class DesignPage:
                          self.open_error, self.opened, self.form, width=400)
         right = pn.Column(self.failure, self.verdict, self.details, self.downloads,
                           pn.Tabs(("Torque", self.torque), ("Mechanism", pn.Column(self.player, self.mechanism)),
-                                  ("Springs", self.springs), dynamic=False),
+                                  ("Springs", self.springs),
+                                  ("Spring catalogue", pn.Column(self.spring_slot, self.catalogue_line,
+                                                                 self.catalogue_table, sizing_mode="stretch_width")),
+                                  dynamic=False),
                           sizing_mode="stretch_width")
         return pn.Row(left, right, sizing_mode="stretch_width")
 
@@ -187,6 +210,7 @@ class DesignPage:
         self.inputs.clear()
         self.errors.clear()
         self.headings.clear()
+        self.spring_picks.clear()
         cards: dict[str, list] = {}
         heading = None
         for f in self.state.fields:
@@ -215,33 +239,87 @@ class DesignPage:
             items += [box, error]
         self.form.objects = [pn.Card(*items, title=group, collapsed=group in ("Solver", "Workshop files"),
                                      sizing_mode="stretch_width") for group, items in cards.items()]
-        self._show_method_keys()
+        self._show_set_keys()
+        self._show_slots()
+        self.spring_slot.visible = len(self.state.springs) > 1
 
-    def _show_method_keys(self) -> None:
-        """Disable the fields that the design method now chosen sets itself, saying so in their
-        labels (:meth:`DesignState.set_by_method`)."""
+    def _show_slots(self) -> None:
+        """The springs the catalogue table may be of, each named as the form names it."""
+        numbers = sorted(self.state.springs)
+        self.spring_slot.param.update(  # both at once, the choice kept where it still is one
+            options={_numbered(n, self.state.table_names()[f"springs.{n}"]): n for n in numbers},
+            value=self.spring_slot.value if self.spring_slot.value in numbers else next(iter(numbers), None))
+
+    def _show_set_keys(self) -> None:
+        """Disable the fields that the design method now chosen, or a spring's catalogue part,
+        sets itself, saying so in their labels (:meth:`DesignState.set_by_method`,
+        :meth:`DesignState.set_by_part`)."""
         for f in self.state.fields:
-            method = self.state.set_by_method(f.key)
+            method, part = self.state.set_by_method(f.key), self.state.set_by_part(f.key)
             box = self.inputs[f.key]
-            box.disabled = method is not None
-            box.name = f.label if method is None else f"{f.label}: set by method {method}"
+            box.disabled = method is not None or part is not None
+            box.name = (f"{f.label}: set by method {method}" if method is not None
+                        else f"{f.label}: set by part {part}" if part is not None else f.label)
 
     def _catalogue_pick(self, number: int) -> pn.widgets.Select:
-        """A choice of spring ``number`` from the catalogue."""
-        own = "the spec's spring"
-        pick = pn.widgets.Select(name="from the catalogue", options=[own, *(s["name"] for s in catalogue())],
-                                 value=self.state.picks.get(number, {}).get("name", own),
-                                 css_classes=[f"catalogue-springs-{number}"], sizing_mode="stretch_width")
+        """A choice of spring ``number``: the spec's, one of the papers' catalogue, or the part
+        picked in the catalogue table (chosen there)."""
+        pick = pn.widgets.Select(name="from the catalogue", options=self._spring_options(number),
+                                 value=self._spring_option(number), css_classes=[f"catalogue-springs-{number}"],
+                                 sizing_mode="stretch_width")
 
         async def picked(event):
-            self.state.pick_spring(number, None if event.new == own else event.new)
-            self.headings[number].object = _heading(self.state.table_names()[f"springs.{number}"])
-            for key, box in self.inputs.items():  # the fields show the spring now chosen
-                box.value = value_text(self.state.value(key))
-            await self.design()
+            if event.new == self._spring_option(number):
+                return  # what the spring is already (the page showing a part picked in the table)
+            self.state.pick_spring(number, None if event.new == OWN_SPRING else event.new)
+            await self._spring_changed(number)
 
         pick.param.watch(self.guarded(f"picking spring {number}", picked), "value")
+        self.spring_picks[number] = pick
         return pick
+
+    def _spring_options(self, number: int) -> list[str]:
+        part = self.state.parts.get(number)
+        return [OWN_SPRING, *(s["name"] for s in catalogue()), *([_part_option(part)] if part else [])]
+
+    def _spring_option(self, number: int) -> str:
+        """What spring ``number`` is now, as its choice names it."""
+        if number in self.state.parts:
+            return _part_option(self.state.parts[number])
+        return self.state.picks.get(number, {}).get("name", OWN_SPRING)
+
+    async def _spring_changed(self, number: int) -> None:
+        """Show spring ``number`` as now chosen (its heading, choice and fields, the catalogue
+        table's name for it) and design."""
+        self.headings[number].object = _heading(self.state.table_names()[f"springs.{number}"])
+        # both at once: a choice left out of the new options would otherwise be replaced by the first
+        self.spring_picks[number].param.update(options=self._spring_options(number),
+                                               value=self._spring_option(number))
+        for key, box in self.inputs.items():  # the fields show the spring now chosen
+            box.value = value_text(self.state.value(key))
+        self._show_set_keys()
+        self._show_slots()
+        await self.design()
+
+    def _catalogue_table(self) -> pn.widgets.Tabulator:
+        """The catalogue table: one page of rows in the browser, sorted and filtered by the
+        server; the best light first; a click on a row designs with its spring."""
+        lights = {"type": "traffic", "min": 0, "max": len(LIGHTS) - 1, "color": [v.colour for v in LIGHTS.values()]}
+        filters = {"part": {"type": "input", "func": "like", "placeholder": "part"},
+                   "verdict": {"type": "list", "values": list(LIGHTS), "func": "=", "clearable": True},
+                   "reason": {"type": "input", "func": "like", "placeholder": "words"},
+                   **{c.name: {"type": "number", "func": c.test, "placeholder": "≥" if c.test == ">=" else "≤"}
+                      for c in NUMBERS}}
+        # the columns fit the page, the reason in the width left (all of it on hovering), titles wrapped
+        widths = {"light": 34, "part": 90, "verdict": 84, **{c.name: 76 for c in NUMBERS}}
+        table = pn.widgets.Tabulator(
+            pd.DataFrame(columns=columns()), pagination="remote", page_size=CATALOGUE_ROWS, selectable=1,
+            show_index=False, disabled=True, titles=titles(), formatters={"light": lights}, header_filters=filters,
+            sorters=[{"field": "light", "dir": "asc"}], layout="fit_columns", widths=widths,
+            configuration={"columnDefaults": {"headerWordWrap": True, "tooltip": True}},
+            css_classes=["catalogue-table"], sizing_mode="stretch_width")
+        table.on_click(self.guarded("designing with a catalogue spring", self._on_row))
+        return table
 
     # ----------------------------------------------------------------------------- guard
     def guarded(self, action: str, callback):
@@ -289,23 +367,30 @@ class DesignPage:
             self._show_error(key, error)
             return
         if key == "solver.method":
-            self._show_method_keys()
+            self._show_set_keys()
         await self.design(edited=key)
 
     async def design(self, edited: str | None = None) -> None:
-        """Design the state in the worker and show what it gave: the verdict and the torque
-        first, then the springs and the mechanism (each figure drawn in the worker too)."""
+        """Design the state in the worker and show what it gave: the verdict, the catalogue
+        table with the verdict of a part designed with, and the torque first, then the springs
+        and the mechanism (each figure drawn in the worker too). The table's screen comes before
+        the design, from the parse the design then uses."""
         self._shown += 1
         shown = self._shown
         self.failure.visible = False
         self.verdict.object = DESIGNING
+        await self._show_catalogue()
         outcome = await self._in_worker(self.state.design, edited)
         if shown != self._shown:  # a later edit is being designed: show that one
             return
         self._show(outcome)
-        result = outcome.result
-        if result is None:
-            return
+        await self._show_catalogue()
+        if outcome.result is not None and shown == self._shown:
+            await self._show_figures(outcome.result, shown)
+
+    async def _show_figures(self, result, shown: int) -> None:
+        """The figures of ``result``, the design asked for ``shown``-th, unless a later one was
+        asked for meanwhile."""
         ev = result.evaluation
         frames = Frames(ev)
         self.frames = frames
@@ -318,6 +403,41 @@ class DesignPage:
                 return
             pane.object = image
         self.player.end = max(frames.count - 1, 1)
+
+    async def _show_catalogue(self) -> None:
+        """The catalogue table of the spring chosen above it, for the spec as edited now (the
+        rows made in the worker); the spring's part selected."""
+        number = self.spring_slot.value
+        if number is None:
+            self.catalogue_line.object = "<span class='catalogue-count'>This spec has no springs.</span>"
+            return
+        view = await self._in_worker(self.state.catalogue_view, number, self._public)
+        if view is None or number != self.spring_slot.value:
+            return  # a spec that cannot be read (its design says why), or another spring chosen meanwhile
+        rows = view.rows
+        part = self.state.part(number)
+        if not _same_rows(self.catalogue_table.value, rows):  # most edits change no light: nothing is sent
+            self.catalogue_table.value = rows
+        self.catalogue_table.selection = [int(i) for i in np.flatnonzero(rows["part"] == part)]
+        now = f"part {part}" if part else "the spec's own spring"
+        untested = (" (the screen tests a spring alone on its joint: this one shares the work with another)"
+                    if view.need == Need() else "")
+        line = (f"{self._public(view.origin)} for spring {number}: {count_line(rows)}"
+                f"{untested}. Spring {number} is {now}; click a row to design with that spring instead.")
+        self.catalogue_line.object = f"<span class='catalogue-count'>{_escape(line)}</span>"
+
+    def _public(self, message: str) -> str:
+        """``message`` as the page shows it (:func:`public`)."""
+        return public(message, self.state.path, self.name)
+
+    async def _on_slot(self, event) -> None:
+        await self._show_catalogue()
+
+    async def _on_row(self, event) -> None:
+        """Design with the spring of the row clicked as the part of the spring chosen above the table."""
+        number = self.spring_slot.value
+        self.state.pick_part(number, str(self.catalogue_table.value["part"].iloc[event.row]))
+        await self._spring_changed(number)
 
     async def _in_worker(self, fn, *args):
         """``fn(*args)`` in the worker, whose thread designs and draws one thing at a time."""
@@ -411,7 +531,7 @@ class DesignPage:
         style = "verdict-success" if result.success else "verdict-failure"
         self.verdict.object = (f"<span class='{style}'>{_escape(result.status)}: {_escape(result.message)}</span>"
                                f" <small>(designed in {outcome.seconds:.2f} s, functions {result.functions})</small>")
-        lines = result.summary().splitlines()[1:]
+        lines = [f"  {line}" for line in part_lines(result.problem)] + result.summary().splitlines()[1:]
         self.details.object = "<pre style='white-space: pre-wrap; font-size: 12px'>" + _escape("\n".join(lines)) + "</pre>"
         if not result.problem.springs:
             self.torque.object = self.springs.object = None
@@ -454,6 +574,23 @@ class DesignPage:
 
     def _result_files(self, figures: bool, solids: bool = False) -> dict[str, bytes]:
         return self.state.result_files(self._result(), figures=figures, solids=solids)
+
+
+def _same_rows(shown: pd.DataFrame | None, rows: pd.DataFrame) -> bool:
+    """Whether the catalogue table ``shown`` has ``rows`` already (the same parts, lights and
+    reasons: the other columns are the catalogue's)."""
+    return shown is not None and shown.shape == rows.shape and all(
+        shown[c].equals(rows[c]) for c in ("part", "verdict", "reason"))
+
+
+def _numbered(number: int, name: str) -> str:
+    """Spring ``number`` named ``name``, as the catalogue table's choice of spring shows it."""
+    return name if name == f"spring {number}" else f"spring {number}: {name}"
+
+
+def _part_option(part: str) -> str:
+    """The choice of a spring naming the part picked in the catalogue table."""
+    return f"{part_name(part)} (picked in the catalogue table)"
 
 
 def _heading(title: str) -> str:

@@ -1,11 +1,13 @@
 """What the design page holds and does, without the page: the spec opened (a template, a spec
 file or a result.json), the user's edits as dotted-key overrides, the designs of a
-:class:`cadcam.Session` (each from the last answer of its structure) and the files to download.
+:class:`cadcam.Session` (each from the last answer of its structure), the catalogue table of
+each spring with its lights (:mod:`cadcam.app.parts`) and the files to download.
 
 The page (:mod:`cadcam.app.page`) only shows this state; the tests drive it directly too.
 """
 from __future__ import annotations
 
+import copy
 import functools
 import io
 import json
@@ -18,16 +20,22 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
 
+import pandas as pd
+
 from .. import examples
-from ..api import Session
+from ..api import Session, load_problem
 from ..designs import DesignError
 from ..files import MANIFEST
+from ..physics.catalogue import Catalogue, Need, Screen, load_catalogue, screen
+from ..problem import Problem
 from ..result import Result
 from ..solve.compiled import CompileError
-from ..spec import SpecError, apply_override, read_keys, read_spec_data
+from ..spec import FILLED_BY_PART, SpecError, apply_override, filled_by_part, read_keys, read_spec_data
+from ..sweep.springs import part_spec, slot_need, verdict
 from ..sweep.study import read_catalogue
 from ..targets import ExpressionError
 from .form import Field, field_of_error, fields_of
+from .parts import catalogue_numbers, table as catalogue_table
 
 
 class Template(NamedTuple):
@@ -58,6 +66,16 @@ PICKED = ("name", "rate", "travel", "preload")
 INPUT_ERRORS = (SpecError, ExpressionError, DesignError, CompileError)
 
 
+class CatalogueView(NamedTuple):
+    """The catalogue table of one spring (:meth:`DesignState.catalogue_view`)."""
+
+    rows: pd.DataFrame
+    #: What the screen asked of the spring (nothing: ``Need()``, where it shares its joint's work)
+    need: Need
+    #: The catalogue, as messages name it
+    origin: str
+
+
 @dataclass
 class Outcome:
     """What one design attempt gave: a result, or the one-line error and the field it names."""
@@ -85,6 +103,8 @@ class DesignState:
     session: Session = field(default_factory=Session)
     overrides: dict = field(default_factory=dict)
     picks: dict[int, dict] = field(default_factory=dict)
+    #: The catalogue part picked for a spring (by its number, from 1), in its catalogue table
+    parts: dict[int, str] = field(default_factory=dict)
     fields: list[Field] = field(init=False)
     names: dict[str, str] = field(init=False)
     absent: set[str] = field(init=False)
@@ -92,12 +112,29 @@ class DesignState:
     methods: dict[str, dict] = field(init=False)
     #: The spec's design method (``solver.method``, its variant applied), before any edit
     spec_method: str = field(init=False)
+    #: Each spring's table as the spec gives it (its variant applied), by its number
+    springs: dict[int, dict] = field(init=False)
+    #: Each spring's catalogue (the file its spec names, None: the shipped one) and the part the
+    #: spec itself names (or None), by its number
+    catalogues: dict[int, str | None] = field(init=False)
+    spec_parts: dict[int, str | None] = field(init=False)
     last: Outcome = field(default_factory=Outcome)
     result: Result | None = None  # the last design made (the last outcome may be an error)
+    #: The verdict of each part designed with, by (the other edits, spring number, part)
+    #: (:meth:`_context`): a part's light is its design's while those edits stand
+    verdicts: dict[tuple[str, int, str], tuple[str, str]] = field(default_factory=dict)
+    #: The spec with the edits, parsed, and its screens, kept while the edits are the same
+    _parsed: tuple[str, Problem, dict] | None = field(default=None, repr=False)
+    #: Each catalogue's columns that no edit changes (:func:`cadcam.app.parts.catalogue_numbers`), by its origin
+    _numbers: dict[str, tuple[Catalogue, pd.DataFrame]] = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
         self.path = Path(self.path)
-        problem, reads = read_keys(read_spec_data(self.path, self.variant), str(self.path), self.path.parent)
+        data = read_spec_data(self.path, self.variant)
+        problem, reads = read_keys(copy.deepcopy(data), str(self.path), self.path.parent)
+        self.springs = {j + 1: s for j, s in enumerate(data.get("springs", []))}
+        self.catalogues = {j + 1: s.catalogue for j, s in enumerate(problem.springs)}
+        self.spec_parts = {j + 1: s.part for j, s in enumerate(problem.springs)}
         self.fields = [replace(f, value=getattr(problem.workshop, f.key.split(".")[1]))
                        if f.key.startswith("workshop.") and f.value is None else f for f in fields_of(reads)]
         self.absent = {r.key for r in reads if isinstance(r.value, dict) and not r.given}
@@ -117,7 +154,8 @@ class DesignState:
     def table_names(self) -> dict[str, str]:
         """The numbered tables' names (:attr:`names`), a spring picked from the catalogue named
         as the catalogue names it."""
-        return self.names | {f"springs.{n}": pick["name"] for n, pick in self.picks.items()}
+        return (self.names | {f"springs.{n}": pick["name"] for n, pick in self.picks.items()}
+                | {f"springs.{n}": part_name(part) for n, part in self.parts.items()})
 
     def field(self, key: str) -> Field:
         return next(f for f in self.fields if f.key == key)
@@ -129,9 +167,14 @@ class DesignState:
         return self._unedited(key)
 
     def _unedited(self, key: str):
-        """Field ``key``'s value without the user's edit: its picked spring's, else the spec's."""
+        """Field ``key``'s value without the user's edit: its picked spring's or part's, else the
+        spec's."""
         match = re.fullmatch(r"springs\.(\d+)\.([a-z_]+)", key)
-        pick = self.picks.get(int(match.group(1)), {}) if match else {}
+        number = int(match.group(1)) if match else 0
+        pick = self.picks.get(number, {})
+        if number in self.parts:
+            cat = self.catalogue_of(number)
+            pick = filled_by_part(cat.spring_body(cat.index(self.parts[number])))
         return pick[match.group(2)] if match and match.group(2) in pick else self.field(key).value
 
     def set_by_method(self, key: str) -> str | None:
@@ -141,6 +184,21 @@ class DesignState:
         table, _, name = key.rpartition(".")
         method = self.methods.get(table, {}).get(self.overrides.get("solver.method", self.spec_method))
         return method.name if method is not None and name in method.sets else None
+
+    def set_by_part(self, key: str) -> str | None:
+        """The part of field ``key``'s spring where the part sets the field's value
+        (:data:`cadcam.spec.FILLED_BY_PART`), so that it is no edit; else None."""
+        match = re.fullmatch(r"springs\.(\d+)\.([a-z_]+)", key)
+        if match is None or match.group(2) not in FILLED_BY_PART:
+            return None
+        return self.part(int(match.group(1)))
+
+    def part(self, number: int) -> str | None:
+        """The catalogue part spring ``number`` is now: the one picked in its table, else the
+        spec's own (unless a spring of the papers' catalogue replaced it); None if none."""
+        if number in self.parts:
+            return self.parts[number]
+        return None if number in self.picks else self.spec_parts.get(number)
 
     def edit(self, key: str, text: str) -> str | None:
         """Set field ``key`` to ``text`` (empty: its value in the spec); the one-line error of
@@ -160,34 +218,126 @@ class DesignState:
         """Spring ``number`` (from 1) becomes the catalogue's spring ``name`` (None: the spec's
         own again): its name, rate, travel and preload, the edits of those dropped."""
         self.picks.pop(number, None)
+        self.parts.pop(number, None)
         if name is not None:
             self.picks[number] = next(s for s in catalogue() if s["name"] == name)
         for key in PICKED:
             self.overrides.pop(f"springs.{number}.{key}", None)
 
+    def pick_part(self, number: int, part: str) -> None:
+        """Spring ``number`` (from 1) becomes part ``part`` of its catalogue
+        (:meth:`catalogue_of`), named after it: the spec gets ``part = "…"`` and loses the keys the
+        part fills (:func:`cadcam.sweep.springs.part_spec`), the edits of those dropped."""
+        self.catalogue_of(number).index(part)  # a KeyError naming the nearest parts, for a part not in it
+        self.picks.pop(number, None)
+        self.parts[number] = part
+        for key in FILLED_BY_PART:
+            self.overrides.pop(f"springs.{number}.{key}", None)
+
     def override_pairs(self) -> list[tuple[str, object]]:
         """The edits as ``--set`` pairs; a key whose table the spec leaves out (its
         ``[workshop]``, a joint's ``acceptance``) sets that table, which then holds it."""
-        pairs: list[tuple[str, object]] = [(f"springs.{j}", dict(spring)) for j, spring in self.picks.items()]
+        pairs: list[tuple[str, object]] = [("springs", self._springs_with_parts())] if self.parts else []
+        pairs += [(f"springs.{j}", dict(spring)) for j, spring in self.picks.items()]
         for key, value in self.overrides.items():
             table, _, name = key.rpartition(".")
             pairs.append((table, {name: value}) if table in self.absent else (key, value))
         return pairs
 
+    def _springs_with_parts(self) -> list[dict]:
+        """The spec's springs, each with a part picked made that part and named after it."""
+        data = {"springs": [self.springs[n] for n in sorted(self.springs)]}
+        for number, part in self.parts.items():
+            data = part_spec(data, number - 1, part, self.springs[number].get("catalogue"))
+            spring = data["springs"][number - 1]
+            data["springs"][number - 1] = {"name": part_name(part), **{k: v for k, v in spring.items() if k != "name"}}
+        return data["springs"]
+
+    def problem(self) -> Problem:
+        """The spec with the edits, parsed once for the same edits (the screen and the design
+        share it).
+
+        Raises
+        ------
+        SpecError
+            As :func:`cadcam.load_problem`.
+        """
+        pairs = self.override_pairs()
+        key = repr(pairs)
+        if self._parsed is None or self._parsed[0] != key:
+            self._parsed = (key, load_problem(self.path, variant=self.variant, overrides=pairs), {})
+        return self._parsed[1]
+
     def design(self, edited: str | None = None) -> Outcome:
         """Design the spec with the edits through the session; a spec error names its field
-        (the one it names, else ``edited``)."""
+        (the one it names, else ``edited``). The verdict of each catalogue part designed with
+        is kept for its light (:meth:`catalogue_view`)."""
         start = time.perf_counter()
         try:
-            result = self.session.design(self.path, variant=self.variant, overrides=self.override_pairs())
+            result = self.session.design(self.problem())
         except INPUT_ERRORS as exc:
             message = str(exc)
             self.last = Outcome(error=message, field=field_of_error(message, [f.key for f in self.fields], edited),
                                 seconds=time.perf_counter() - start)
+            for number, part in self.parts.items():
+                self.verdicts[self._context(number), number, part] = ("infeasible", message)
         else:
             self.last = Outcome(result=result, seconds=time.perf_counter() - start)
             self.result = result
+            for j, spring in enumerate(result.problem.springs):
+                if spring.part is not None:
+                    self.verdicts[self._context(j + 1), j + 1, spring.part] = verdict(_verdict_row(result, j))
         return self.last
+
+    # ---------------------------------------------------------------- the catalogue table
+    def catalogue_of(self, number: int) -> Catalogue:
+        """The catalogue spring ``number``'s parts come from: the one its spec names, else the
+        shipped one."""
+        return load_catalogue(self.catalogues[number])
+
+    def screen(self, number: int) -> tuple[Need, Screen]:
+        """What spring ``number`` must at least do in the spec as edited now and its catalogue
+        screened for that (:func:`cadcam.sweep.springs.screen_slot`), kept while the edits are
+        the same.
+
+        Raises
+        ------
+        SpecError
+            The spec as edited cannot be read (:meth:`problem`).
+        """
+        problem = self.problem()
+        assert self._parsed is not None  # set by problem()
+        screens = self._parsed[2]
+        if number not in screens:
+            need = slot_need(problem, number - 1)
+            screens[number] = need, screen(self.catalogue_of(number), need)
+        return screens[number]
+
+    def catalogue_view(self, number: int, say=str) -> "CatalogueView | None":
+        """The catalogue table of spring ``number`` (:func:`cadcam.app.parts.table`) for the spec
+        as edited now: each part's light is its verdict where it was designed with under the
+        same edits (:meth:`design`; its reason as ``say`` gives it), else the screen's; None
+        where the spec as edited cannot be read (its design says why)."""
+        try:
+            need, screened = self.screen(number)
+        except INPUT_ERRORS:
+            return None
+        cat = self.catalogue_of(number)
+        kept = self._numbers.get(cat.origin)
+        if kept is None or kept[0] is not cat:
+            kept = self._numbers[cat.origin] = (cat, catalogue_numbers(cat))
+        context = self._context(number)
+        designed = {part: (word, say(reason)) for (c, n, part), (word, reason) in self.verdicts.items()
+                    if n == number and c == context}
+        return CatalogueView(catalogue_table(kept[1], screened, designed), need, cat.origin)
+
+    def _context(self, number: int) -> str:
+        """The edits a design with a part as spring ``number`` depends on: all but that spring's
+        own pick and the keys its part fills."""
+        own = {f"springs.{number}.{k}" for k in FILLED_BY_PART}
+        return repr((sorted((k, v) for k, v in self.overrides.items() if k not in own),
+                     sorted((n, p["name"]) for n, p in self.picks.items() if n != number),
+                     sorted((n, p) for n, p in self.parts.items() if n != number)))
 
     # -------------------------------------------------------------------- the files to download
     def spec_toml(self) -> str:
@@ -218,6 +368,20 @@ class DesignState:
                 pass
             # without the folder's record of what cadcam wrote (cadcam.files.MANIFEST): not an output
             return {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file() and p.name != MANIFEST}
+
+
+def part_name(part: str) -> str:
+    """The name a spring made catalogue part ``part`` on the page is given."""
+    return f"part {part}"
+
+
+def _verdict_row(result: Result, j: int) -> dict:
+    """What :func:`cadcam.sweep.springs.verdict` reads of ``result`` for its spring ``j``
+    (0-based), as a catalogue search's row gives it (:func:`cadcam.sweep.springs.design_part`)."""
+    spring = result.problem.springs[j]
+    return {"status": result.status, "message": result.message,
+            "violations": list(result.recheck.violations) if not result.success else [],
+            "body": spring.body_report(result.recheck.metrics.extension_max[j])}
 
 
 @functools.cache

@@ -232,3 +232,90 @@ def _check_dxf(data: bytes, rho_max: float) -> None:
     assert len(points) > 50 and 0 < radii.min() and radii.max() <= 1e3 * rho_max * (1 + 1e-6)
     bores = [c.dxf.radius for c in doc.modelspace().query("CIRCLE[layer=='HOLES']")]
     assert any(abs(2 * r - 6.0) < 1e-9 for r in bores)
+
+
+def _rgb(colour: str) -> str:
+    """A CSS colour ``#rrggbb`` as the browser computes it."""
+    return "rgb({}, {}, {})".format(*(int(colour[i:i + 2], 16) for i in (1, 3, 5)))
+
+
+def _shown_rows(page) -> list[dict]:
+    """The catalogue table's rows on its page now: part, verdict, reason and the light's colour
+    (read at once: the table may be drawn again meanwhile)."""
+    rows = page.locator(".catalogue-table .tabulator-row").evaluate_all("""rows => rows.map(row => {
+        const text = f => row.querySelector(`.tabulator-cell[tabulator-field=${f}]`)?.innerText;
+        const light = row.querySelector(".tabulator-traffic-light");
+        return {part: text("part"), verdict: text("verdict"), reason: text("reason"),
+                light: light ? getComputedStyle(light).backgroundColor : null};
+    })""")
+    return [r for r in rows if r["part"] is not None]  # a row still being drawn has no cells yet
+
+
+def _wait_rows(page, check, what: str, seconds: float = 20.0) -> list[dict]:
+    """The table's rows once ``check(rows)`` holds; fails saying ``what`` did not come."""
+    deadline = time.monotonic() + seconds
+    while True:
+        rows = _shown_rows(page)
+        if rows and check(rows):
+            return rows
+        assert time.monotonic() < deadline, f"{what}: the table shows {rows[:3]}"
+        page.wait_for_timeout(100)
+
+
+def test_the_catalogue_table_lights_the_screen_and_a_row_designs_with_its_part(browser_page, tmp_path):
+    """The tutorial's balancer opened: the catalogue table lights each spring as the screen of
+    its spring does; a row clicked designs with that part, which the summary, the form and the
+    spec name and the row's light then gives the verdict of."""
+    from cadcam import load_problem
+    from cadcam.app.parts import LIGHTS
+    from cadcam.physics.catalogue import shipped
+    from cadcam.sweep.springs import design_order, screen_slot
+
+    page, _ = browser_page
+    spec = ROOT / "docs" / "first_balancer.toml"
+    problem = load_problem(spec)
+    screened = screen_slot(problem, 0, shipped())
+    reasons = dict(zip(shipped().parts, screened.reasons))
+    shown = _torque_image(page)
+    page.locator(".open-file input[type=file]").set_input_files(str(spec))
+    page.get_by_text("open first_balancer.toml").wait_for(timeout=10_000)
+    deadline = time.monotonic() + CURVE_WAIT_S
+    while _torque_image(page) == shown:
+        assert time.monotonic() < deadline, "the tutorial's balancer was not designed"
+        page.wait_for_timeout(100)
+    page.wait_for_selector(".verdict-success", timeout=10_000)
+    page.get_by_text("Spring catalogue", exact=True).click()
+    count = (f"the shipped catalogue (McMaster-Carr) for spring 1: {screened.passed.sum()} untried, "
+             f"{(~screened.passed).sum()} infeasible.")
+    page.locator(".catalogue-count").get_by_text(count).wait_for(timeout=10_000)
+
+    # sorted best light first: springs the screen passes, grey; the other way round, those it
+    # rejects, red, each with the screen's reason
+    rows = _wait_rows(page, lambda rows: rows[0]["part"] in reasons, "the tutorial's catalogue")
+    assert [(r["verdict"], r["light"], r["reason"]) for r in rows] == \
+        [("untried", _rgb(LIGHTS["untried"].colour), "")] * len(rows)
+    assert all(reasons[r["part"]] == "" for r in rows)
+    page.screenshot(path=str(SCREENS / "8_catalogue.png"))
+    page.locator(".catalogue-table .tabulator-col[tabulator-field=light] .tabulator-col-title-holder").click()
+    rows = _wait_rows(page, lambda rows: rows[0]["verdict"] == "infeasible", "the springs screened out")
+    assert [(r["verdict"], r["light"]) for r in rows] == [("infeasible", _rgb(LIGHTS["infeasible"].colour))] * len(rows)
+    assert all(r["reason"] == reasons[r["part"]] != "" for r in rows)
+    page.screenshot(path=str(SCREENS / "9_screened_out.png"))
+
+    # the spring a catalogue search designs first, found by its part number and clicked
+    part = shipped().parts[design_order(shipped(), screened.passed, problem.springs[0].rate)[0]]
+    page.locator(".catalogue-table .tabulator-col[tabulator-field=part] input").press_sequentially(part)
+    _wait_rows(page, lambda rows: [r["part"] for r in rows] == [part], f"part {part} alone")
+    page.locator(".catalogue-table .tabulator-row .tabulator-cell[tabulator-field=rate]").click()
+    page.locator(".details pre").get_by_text(f"spring 1 is part {part} of the shipped catalogue").wait_for(
+        timeout=CURVE_WAIT_S * 1000)
+    page.wait_for_selector(".verdict-success", timeout=10_000)
+    (row,) = _wait_rows(page, lambda rows: rows[0]["verdict"] != "untried", f"the verdict of part {part}")
+    assert (row["verdict"], row["light"]) == ("feasible", _rgb(LIGHTS["feasible"].colour))
+    assert row["reason"].startswith("binding: its ")
+    assert page.locator(".heading-springs-1 b").inner_text() == f"part {part}"
+    rate = page.locator(".field-springs-1-rate")
+    assert rate.locator("input").is_disabled() and f"set by part {part}" in rate.locator("label").inner_text()
+    page.screenshot(path=str(SCREENS / "10_part_designed.png"), full_page=True)
+    written = tomllib.loads(_download(page, "spec", tmp_path).read_text())["springs"][0]
+    assert written["part"] == part and "rate" not in written and "travel" not in written
