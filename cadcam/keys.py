@@ -76,6 +76,11 @@ class Plausible:
         return f"is outside {self.what} ({span}): {fix}"
 
 
+def _literal(value) -> str:
+    """A value as a spec writes it: TOML's ``true`` and ``false``, else its repr."""
+    return str(value).lower() if isinstance(value, bool) else repr(value)
+
+
 def _shown(unit: str) -> str:
     """A unit as it follows a number in words: `` kg``, or nothing for a ratio."""
     return "" if unit in ("", "-", "ratio") else f" {unit}"
@@ -250,7 +255,7 @@ class Key:
         if self.type == "string":
             return "a non-empty string" if self.min_length else "a string"
         if self.type == "choice":
-            return "one of " + ", ".join(repr(c) for c in self.choices)
+            return "one of " + ", ".join(_literal(c) for c in self.choices)
         if self.type in ("numbers", "strings"):
             size = f"{self.length} " if self.length is not None else (
                 f"at least {self.min_length} " if self.min_length else "")
@@ -275,7 +280,7 @@ class Key:
             return "required"
         if self.default_text:
             return self.default_text
-        return "none" if self.default is None else repr(self.default)
+        return "none" if self.default is None else _literal(self.default)
 
     # -- schema --------------------------------------------------------------------------------------
     def schema(self) -> dict:
