@@ -16,6 +16,7 @@ from .files import env_cap
 from .keys import SHARE, Key, KeyTable, Plausible, is_real
 from .mechanisms.base import ENERGY, Mechanism, Profile
 from .physics.cables import MAX_DIAMETER, Cable
+from .physics.friction import Friction
 from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
 
@@ -533,6 +534,9 @@ class Problem:
     #: the design (:meth:`curvature_limit`, :meth:`extension_limit`); None: a diameter alone
     #: (``workshop.cable_diameter``), neither checked.
     cable: Cable | None = None
+    #: The spec's ``[friction]``: where the cables slide and the joints' bearings, which split each
+    #: joint's torque into a band (:mod:`cadcam.verify.friction`); None: frictionless.
+    friction: Friction | None = None
 
     def __post_init__(self):
         for mech in self.mechanisms:
@@ -571,7 +575,12 @@ class Problem:
         """The spring network over the global ports."""
         ports = self.ports
         return Network(list(self.springs), [self.mechanisms[u].joint for u, _ in ports],
-                       {p: g for g, p in enumerate(ports)}, len(self.joints))
+                       {p: g for g, p in enumerate(ports)}, len(self.joints), self.arm_scales())
+
+    def arm_scales(self) -> dict:
+        """The weights of the cable paths' arms in every torque: the friction band's centre's
+        where the spec tracks it (:meth:`cadcam.physics.friction.Friction.arm_scales`), else none."""
+        return {} if self.friction is None else self.friction.arm_scales()
 
     def spring_parameters(self) -> SpringParameters:
         """The springs' rates k [N/m], preloads F0 [N] and travels [m], each a vector in spring
@@ -707,4 +716,5 @@ class Problem:
             "workshop": self.workshop.to_dict(),
             **({"tolerances": dict(self.tolerances)} if self.tolerances else {}),
             **({"cable": self.cable.to_dict()} if self.cable is not None else {}),
+            **({"friction": self.friction.to_dict()} if self.friction is not None else {}),
         }

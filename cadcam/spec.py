@@ -33,6 +33,7 @@ from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Pro
 from .physics.profile import Basis
 from .physics.cables import CABLE_KEYS, FILLED_BY_NAME, Cable, shipped_cables
 from .physics.catalogue import load_catalogue
+from .physics.friction import BEARING_KEYS, FRICTION_KEYS, GUIDE_KEYS, IDLER_KEYS, Friction, Guide, Idler, JointBearing
 from .physics.springs import SPRING_KEYS, Port, Spring
 from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, SOLVER_KEYS, WORKSHOP_KEYS, Joint, Options,
                       Problem, Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
@@ -66,6 +67,8 @@ SPEC_KEYS = KeyTable("top level", "A spec file: its name and source, the joints,
     Key("tolerances", "", "the tolerances of the built part (see [tolerances])", "table", default={}),
     Key("cable", "", "the cable the profiles wrap, as a part (see [cable])", "table", default=None,
         default_text="none (a diameter alone: [workshop] cable_diameter)"),
+    Key("friction", "", "friction where it acts: guides, idlers on bearings, joints' bearings (see [friction])",
+        "table", default=None, default_text="none (frictionless)"),
 ))
 
 
@@ -453,6 +456,7 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
     cable = None if raw_cable is None else _cable(_Reader(origin, raw_cable, "cable"))
     if cable is not None:
         workshop = _cable_workshop(origin, data, workshop, cable)
+    raw_friction = top.read(keys["friction"])
     top.done()
 
     read = [_joint(_Reader(origin, raw, f"{joint_label}[{i + 1}]"), i, len(raw_springs), n_joints, arm,
@@ -468,6 +472,8 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
                for j, raw in enumerate(raw_springs)]
     _check_output_laws(origin, mechanisms)
     _check_method(origin, options.method, mechanisms)
+    friction = None if raw_friction is None else _friction(_Reader(origin, raw_friction, "friction"), springs,
+                                                           len(joints))
     if not springs and any(c["tracking_weight"] > 0 for c in joints):
         raise SpecError(f"{origin}: missing key 'springs': a torque target needs [[springs]] "
                         "tables (or kind = \"none\" on every joint's target, for output laws only)")
@@ -477,7 +483,7 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
     try:
         return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
                        options=options, workshop=workshop, tolerances=tolerances, cable=cable,
-                       springs=tuple(springs), mechanisms=tuple(mechanisms),
+                       friction=friction, springs=tuple(springs), mechanisms=tuple(mechanisms),
                        joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
     except ValueError as exc:
         raise SpecError(f"{origin}: torque_model: {exc}") from None
@@ -636,6 +642,57 @@ def _cable_workshop(origin: str, data: dict, workshop: Workshop, cable: Cable) -
         raise SpecError(f"{origin}: workshop.cable_diameter = {short_repr(given)}: the [cable] sets the "
                         f"diameter ({cable.diameter:g} m, {cable.label()}); remove workshop.cable_diameter")
     return replace(workshop, cable_diameter=cable.diameter)
+
+
+def _friction(r: _Reader, springs: list[Spring], n_joints: int) -> Friction:
+    """The ``[friction]`` table (:data:`cadcam.physics.friction.FRICTION_KEYS`): its guides and
+    idlers, each on a spring's cable to one of its ports, and its joints' bearings, one a joint."""
+    keys = FRICTION_KEYS
+    centre = r.read(keys["centre"])
+    tables = {name: [_Reader(r.origin, raw, f"{r.key(name)}[{n + 1}]") for n, raw in enumerate(r.read(keys[name]))]
+              for name in ("guides", "idlers", "joints")}
+    r.done()
+    guides = []
+    for g in tables["guides"]:
+        spring, port = _cable_path(g, springs)
+        guides.append(Guide(spring, port, float(g.read(GUIDE_KEYS["mu"])), math.radians(g.read(GUIDE_KEYS["wrap_deg"]))))
+        g.done()
+    idlers = []
+    for i in tables["idlers"]:
+        spring, port = _cable_path(i, springs)
+        idlers.append(Idler(spring, port, float(i.read(IDLER_KEYS["coefficient"])),
+                            math.radians(i.read(IDLER_KEYS["wrap_deg"]))))
+        i.done()
+    bearings: dict[int, JointBearing] = {}
+    for b in tables["joints"]:
+        joint = b.read(BEARING_KEYS["joint"].within(high=n_joints)) - 1
+        if joint in bearings:
+            b.fail(b.key("joint"), joint + 1, "one [[friction.joints]] table per joint (joint "
+                   f"{joint + 1} has one already: add its torques in one table)")
+        bearings[joint] = JointBearing(joint, *(float(b.read(BEARING_KEYS[k])) for k in ("torque", "coefficient",
+                                                                                         "radius")))
+        b.done()
+    return Friction(tuple(guides), tuple(idlers), tuple(bearings.values()), centre)
+
+
+def _cable_path(r: _Reader, springs: list[Spring]) -> tuple[int, Port]:
+    """A guide's or idler's spring (0-based) and the port of its cable: the table's ``port`` as
+    the spring's ports write it, with or without its sign, or the spring's only port."""
+    j = r.read(GUIDE_KEYS["spring"].within(high=max(len(springs), 1))) - 1
+    if not springs:
+        r.fail(r.key("spring"), j + 1, "a spring's number, and the spec has no [[springs]]")
+    ports = springs[j].ports
+    given = r.read(GUIDE_KEYS["port"])
+    labels = [p.label() for p in ports]
+    if given is None:
+        if len(ports) > 1:
+            raise SpecError(f"{r.origin}: missing key '{r.key('port')}': spring {j + 1} joins several ports "
+                            f"({', '.join(labels)}); name the one whose cable runs over it")
+        return j, ports[0]
+    match = next((p for p, label in zip(ports, labels) if given in (label, label.lstrip("-"))), None)
+    if match is None:
+        r.fail(r.key("port"), given, f"one of spring {j + 1}'s ports: {', '.join(labels)}")
+    return j, match
 
 
 def _mechanism(r: "_Reader", u: int, joints: list[dict], base: Path = Path(".")):

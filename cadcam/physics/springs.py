@@ -256,15 +256,22 @@ class Network:
     port_index : dict
         (mechanism, port name) → global port index.
     n_joints : int
+    arm_scales : dict, optional
+        (spring, mechanism, port name) → a weight of that path's arm in the torques (not in the
+        extensions): the friction band's centre (:meth:`cadcam.physics.friction.Friction.arm_scales`).
     """
 
-    def __init__(self, springs, port_joint, port_index: dict, n_joints: int):
+    def __init__(self, springs, port_joint, port_index: dict, n_joints: int, arm_scales: dict | None = None):
         self.S, self.m = len(springs), n_joints
         self.port_joint = np.asarray(port_joint, dtype=int)
         self.P = np.zeros((self.S, len(port_joint)))
         for j, s in enumerate(springs):
             for p in s.ports:
                 self.P[j, port_index[p.mechanism, p.name]] += p.sign
+        #: The incidence the torques read: P with each weighted path's entry scaled.
+        self.W = self.P.copy()
+        for (j, u, name), scale in (arm_scales or {}).items():
+            self.W[j, port_index[u, name]] *= scale
         self.joint_ports = [np.flatnonzero(self.port_joint == i) for i in range(n_joints)]
 
     def joints_of(self, j: int) -> list[int]:
@@ -275,15 +282,23 @@ class Network:
         """Σ over joint ``c``'s ports of P_jp · values_p (``values`` in joint c's port order).
 
         With port displacements it is joint c's share of spring j's extension, e_jc(θ_c), so
-        that x_j = x₀_j + Σ_c e_jc(θ_c) (Johnston2023 Eq. 14, 16, 17). With moment arms it is
-        the arm a_cj(θ_c) of spring j's force on joint c, so that τ_c = Σ_j (k_j x_j + F0_j)
-        a_cj and ∂τ_c/∂k_j = x_j a_cj (Eq. 36, 43). Either way it depends on joint c's angle
-        only.
+        that x_j = x₀_j + Σ_c e_jc(θ_c) (Johnston2023 Eq. 14, 16, 17); the torques' arms are
+        :meth:`arm_term`'s. Either way it depends on joint c's angle only.
         """
+        return self._sum(self.P, j, c, values)
+
+    def arm_term(self, j: int, c: int, arms):
+        """The arm a_cj(θ_c) [m] of spring j's force on joint c from joint c's port ``arms``, so
+        that τ_c = Σ_j (k_j x_j + F0_j) a_cj and ∂τ_c/∂k_j = x_j a_cj (Johnston2023 Eq. 36, 43):
+        :meth:`term` with each path weighted as the torques weigh it (:attr:`W`, which is P
+        unless friction's band centre is tracked)."""
+        return self._sum(self.W, j, c, arms)
+
+    def _sum(self, incidence, j: int, c: int, values):
         out = 0
         for k, p in enumerate(self.joint_ports[c]):
-            if self.P[j, p]:
-                out = out + self.P[j, p] * values[k]
+            if incidence[j, p]:
+                out = out + incidence[j, p] * values[k]
         return out
 
     def torque_terms(self, i: int, k, preload, x0, arm_i, shares: dict):
@@ -297,7 +312,7 @@ class Network:
         for j in range(self.S):
             if i not in self.joints_of(j):
                 continue
-            a = self.term(j, i, arm_i)
+            a = self.arm_term(j, i, arm_i)
             U = U + (k[j] * (x0[j] + shares[j, i]) + preload[j]) * a
             V.update({(j, c): k[j] * a for c in self.joints_of(j) if c != i})
         return U, V

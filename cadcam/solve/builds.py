@@ -28,7 +28,8 @@ def structure_key(problem: Problem) -> str:
          for m in problem.mechanisms],
         [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs],
         [s.free_length is not None for s in problem.springs],
-        [sorted(m.placement_region()) for m in problem.mechanisms]])
+        [sorted(m.placement_region()) for m in problem.mechanisms],
+        sorted(problem.arm_scales().items())])
 
 
 def built_for(problem: Problem) -> tuple[Transcription, bool]:

@@ -115,7 +115,7 @@ def _sensitivity_rows(rows: _Rows, p: _Vars, net: Network, pairs: list, x0, e: d
         n = w[i].numel()
         sp, sn = rows.v.add("sp", n, i, j), rows.v.add("sn", n, i, j)
         others = [c for c in range(net.m) if c != i]
-        s_ij = _mean_extension(x0, e, w, span, i, j) * net.term(j, i, arm[i]) / SENSITIVITY_SCALE
+        s_ij = _mean_extension(x0, e, w, span, i, j) * net.arm_term(j, i, arm[i]) / SENSITIVITY_SCALE
         rows.constrain(sp - sn - s_ij, _equal)
         sens.append(s_ij)
         integral = SENSITIVITY_SCALE * ca.dot(w[i], sp + sn)
@@ -183,10 +183,10 @@ def _band_rows(rows: _Rows, p: _Vars, problem: Problem, banded: list, x0, e: dic
 def _band_spring_parts(p: _Vars, net, i: int, x0, e: dict, arm: list, w: list, span: list) -> list:
     """The band's parts of joint ``i`` from each spring j on it: ∂τ_i/∂k_j = x_j a_ij,
     ∂τ_i/∂F0_j = a_ij and ∂τ_i/∂x₀_j = k_j a_ij (Johnston2023 Eq. 36, 43;
-    :meth:`cadcam.physics.springs.Network.term`), whose sum over the three tolerances is
+    :meth:`cadcam.physics.springs.Network.arm_term`), whose sum over the three tolerances is
     |a_ij| (Δk_j x_j + ΔF0_j + k_j Δx₀), x_j ≥ 0 being a row: one split (family ``bs``) of
     (Δk_j x̄_j + ΔF) a_ij, x̄_j averaged over the other joints' angles (exact in the integral)."""
-    return [("bs", (j,), (p["dk"][j] * _mean_extension(x0, e, w, span, i, j) + p["dF"][j]) * net.term(j, i, arm[i]))
+    return [("bs", (j,), (p["dk"][j] * _mean_extension(x0, e, w, span, i, j) + p["dF"][j]) * net.arm_term(j, i, arm[i]))
             for j in range(net.S) if i in net.joints_of(j)]
 
 

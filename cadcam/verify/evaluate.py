@@ -409,7 +409,7 @@ class TensorGrid:
         #: Per joint (U_i [N·m], {(j, c): V_ij [N/m·m]}) on its own grid.
         self.terms = [net.torque_terms(i, k, F0, self.x0, arm[i], self.shares) for i in range(m)]
         #: (i, j) → a_ij [m], the arm of spring j's force on joint i, for the springs on joint i.
-        self.arms = {(i, j): np.asarray(net.term(j, i, arm[i]), dtype=float)
+        self.arms = {(i, j): np.asarray(net.arm_term(j, i, arm[i]), dtype=float)
                      for j in range(net.S) for i in net.joints_of(j)}
         self.targets = [TensorFunction(joint.target.function(m, i))
                         for i, joint in enumerate(problem.joints)]

@@ -88,8 +88,9 @@ def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
     all have a file model (:meth:`cadcam.mechanisms.base.Mechanism.has_file_model`), from their
     file outlines (mechanism index → its profiles' FileOutlines).
 
-    τ_i = Σ_j (k_j x_j + F0_j) Σ_p P_jp dL_p/dθ_i, x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref))
-    (the energy V = Σ ½k x² + F0 x differentiated, Johnston2023 Eq. 14, 36).
+    τ_i = Σ_j (k_j x_j + F0_j) Σ_p W_jp dL_p/dθ_i, x_j = x₀_j + Σ_p P_jp (L_p(θ) − L_p(θ_ref))
+    (the energy V = Σ ½k x² + F0 x differentiated, Johnston2023 Eq. 14, 36; W = P unless the
+    friction band's centre is tracked, :attr:`cadcam.physics.springs.Network.W`).
     """
     network = problem.network()
     P = thetas.shape[1]
@@ -106,7 +107,7 @@ def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
     tau = np.zeros(thetas.shape)
     for i in range(thetas.shape[0]):
         on = network.port_joint == i
-        tau[i] = np.sum(force * (network.P[:, on] @ dd[on]), axis=0)
+        tau[i] = np.sum(force * (network.W[:, on] @ dd[on]), axis=0)
     return tau
 
 

@@ -218,7 +218,7 @@ def _sign_bound(problem: Problem, i: int, start: _CircularStart):
     fine = start.fine
     arms = np.vstack([fine.units[u].arm[problem.mechanisms[u].ports.index(name)]
                       for u, name in (ports[g] for g in network.joint_ports[i])])
-    signs = np.sign([network.term(j, i, arms) for j in springs])
+    signs = np.sign([network.arm_term(j, i, arms) for j in springs])
     if not (np.all(signs == 1) or np.all(signs == -1)):
         return None
     s = signs.flat[0]
