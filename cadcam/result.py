@@ -16,6 +16,7 @@ from .verify.reachable import advice
 from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation, cable_report
 from .verify.installation import installation_lines, spring_installation
+from .verify.friction import FrictionBand, friction_band
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
 from .version import __version__
@@ -167,6 +168,14 @@ class Result:
         return tolerance_band(self.evaluation) if self.problem.springs and finite else None
 
     @cached_property
+    def friction(self) -> FrictionBand | None:
+        """The band of torques the built device holds still in under the spec's ``[friction]``
+        (:func:`cadcam.verify.friction.friction_band`, on the design grid, as :attr:`band`);
+        None without friction, without springs, or where the torque is not finite."""
+        finite = bool(np.all(np.isfinite(self.evaluation.tau)))
+        return friction_band(self.evaluation) if self.problem.friction and self.problem.springs and finite else None
+
+    @cached_property
     def installation(self) -> list[dict]:
         """How each spring is installed, from the fine re-check: force and length ranges, and
         for a spring hung from a mount on its cable the mount and the cable's cut length
@@ -211,6 +220,8 @@ class Result:
             lines += kind.summary_lines(self.recheck)
         if self.band is not None:
             lines.append(_band_line(self.band, self.evaluation))
+        if self.friction is not None:
+            lines.append(self.friction.summary_line([j.name for j in self.problem.joints]))
         lines += installation_lines(self.installation)
         if (cable := cable_report(self.problem, fine)) is not None:
             lines.append(_cable_line(cable))
@@ -238,7 +249,7 @@ class Result:
         dict of str to matplotlib.figure.Figure, or one Figure if ``which`` is given.
         """
         from .outputs.plots import figures
-        figs = figures(self.evaluation, self.history or None, self.band, self.recheck)
+        figs = figures(self.evaluation, self.history or None, self.band, self.recheck, self.friction)
         if which is None:
             return figs
         if which not in figs:
@@ -334,6 +345,8 @@ class Result:
             out["cable"] = cable
         if self.band is not None:
             out["tolerance_band"] = self.band.to_dict()
+        if self.friction is not None:
+            out["friction_band"] = self.friction.to_dict(target_samples_grid(ev)["indices"])
         if sol is not None:
             out["solver"] = {
                 "name": "ipopt" if self.problem.options.method == "nlp" else self.problem.options.method,

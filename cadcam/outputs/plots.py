@@ -26,6 +26,7 @@ from matplotlib.ticker import FuncFormatter
 
 from ..verify.binding import limit_state
 from ..verify.evaluate import METRICS, Evaluation, output_error, output_law
+from ..verify.friction import FrictionBand
 from ..verify.tolerance import Band
 from ..files import atomic_path
 from ..library_files import matplotlib_defaults
@@ -480,12 +481,14 @@ def _profile_legend(pairs: int, seen: set[str], words: Picture) -> list[Line2D]:
 
 # -------------------------------------------------------------------------------------- torque
 @matplotlib_defaults()
-def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
+def torque_figure(ev: Evaluation, band: Band | None = None, friction: FrictionBand | None = None) -> Figure:
     """Torque against target and the error [N·mm]: lines for one joint, with the tolerance
-    ``band`` shaded around the torque (:mod:`cadcam.verify.tolerance`) and the error its
+    ``band`` shaded around the torque (:mod:`cadcam.verify.tolerance`), the ``friction`` band
+    [τ⁻, τ⁺] shaded between its edges (:mod:`cadcam.verify.friction`) and the error its
     acceptance's max_abs_error allows (when it has one) around the error, which stays at the
     design's own scale; error maps over the first two joints' angles for several (further joints
-    at the first angle of their grid), the band's widest half-width in each title."""
+    at the first angle of their grid), the band's widest half-width in each title, and under
+    them with friction a map of the friction band's width τ⁺ − τ⁻."""
     m = len(ev.tau)
     metrics = ev.metrics
     if m == 1:
@@ -493,13 +496,22 @@ def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
         a1, a2 = fig.subplots(2, 1, sharex=True)
         th = np.degrees(ev.theta[0])
         a1.plot(th, MM * ev.tau_d[0], "k--", label="target τ_d")
-        a1.plot(th, MM * ev.tau[0], color="tab:blue", label=f"τ ({ev.problem.torque_model} model)")
+        centre = ", band centre" if friction is not None and friction.friction.centre else ""
+        a1.plot(th, MM * ev.tau[0], color="tab:blue", label=f"τ ({ev.problem.torque_model} model{centre})")
         if band is not None:
             w = MM * band.half_width[0]
             a1.fill_between(th, MM * ev.tau[0] - w, MM * ev.tau[0] + w, color="tab:blue", alpha=0.18, lw=0,
                             label=f"built part, to first order:\n{band.label()}")
+        if friction is not None:
+            a1.fill_between(th, MM * friction.minus[0], MM * friction.plus[0], facecolor="none", edgecolor="tab:orange",
+                            hatch="////", lw=0.8, label="friction band: held still between\nτ⁻ (turning to −θ) and τ⁺ (to +θ)")
         a1.set_ylabel("torque [N·mm]")
-        a1.legend(fontsize=8, loc="best")
+        if friction is None:
+            a1.legend(fontsize=8, loc="best")
+        else:  # a wide band leaves no room inside the axes
+            handles, labels = a1.get_legend_handles_labels()
+            fig.legend(handles, ["\n".join(textwrap.fill(line, 44) for line in t.split("\n")) for t in labels], fontsize=8,
+                       loc="outside upper center", ncols=2)
         accepted = ev.problem.joints[0].limits.get("max_abs_error")
         if accepted is not None:
             a2.axhspan(-MM * accepted, MM * accepted, color="tab:green", alpha=0.15, lw=0,
@@ -510,24 +522,39 @@ def torque_figure(ev: Evaluation, band: Band | None = None) -> Figure:
         a2.set_ylabel("τ − τ_d [N·mm]")
         a2.set_xlabel("θ [deg]")
         a1.set_title(f"{ev.problem.joints[0].name}: RMSE {MM * metrics.rmse[0]:.3g} N·mm, "
-                     f"max |τ − τ_d| {MM * metrics.max_abs_error[0]:.3g} N·mm", fontsize=10)
+                     f"max |τ − τ_d| {MM * metrics.max_abs_error[0]:.3g} N·mm"
+                     + ("" if friction is None else f"; friction band ≤ {MM * friction.width[0].max():.3g} N·mm wide"),
+                     fontsize=10)
         return fig
-    n = ev.grid
-    fig = Figure(figsize=(5.4 * m, 4.6), layout="constrained")
-    axes = fig.subplots(1, m, squeeze=False)[0]
+    return _torque_maps(ev, band, friction)
+
+
+def _torque_maps(ev: Evaluation, band: Band | None, friction: FrictionBand | None) -> Figure:
+    """:func:`torque_figure` for several joints: each joint's error map over the first two joints'
+    angles, and under it with ``friction`` its band's width τ⁺ − τ⁻."""
+    m, n, metrics = len(ev.tau), ev.grid, ev.metrics
+    rows = 1 if friction is None else 2
+    fig = Figure(figsize=(5.4 * m, 4.6 * rows), layout="constrained")
+    axes = fig.subplots(rows, m, squeeze=False)
     t1, t2 = (np.degrees(np.linspace(*ev.problem.joints[i].theta_range, n)) for i in (0, 1))
-    for i, ax in enumerate(axes):
-        err = MM * (ev.tau[i] - ev.tau_d[i]).reshape((n,) * m)
-        err = err[(slice(None), slice(None)) + (0,) * (m - 2)]
+    first = lambda values: (MM * values).reshape((n,) * m)[(slice(None), slice(None)) + (0,) * (m - 2)]  # noqa: E731
+    for i, ax in enumerate(axes[0]):
+        err = first(ev.tau[i] - ev.tau_d[i])
         top = float(np.abs(err).max()) or 1.0
         im = ax.pcolormesh(t2, t1, err, shading="nearest", cmap="RdBu_r", vmin=-top, vmax=top)
         fig.colorbar(im, ax=ax, label="τ − τ_d [N·mm]")
-        ax.set_xlabel("θ₂ [deg]")
-        ax.set_ylabel("θ₁ [deg]")
         ax.set_title(f"{ev.problem.joints[i].name}: RMSE {MM * metrics.rmse[i]:.3g}, "
                      f"max {MM * metrics.max_abs_error[i]:.3g} N·mm"
                      + ("" if band is None else f"\nbuilt part: ± {MM * band.half_width[i].max():.3g} N·mm at most"),
                      fontsize=10)
+    for i, ax in enumerate(axes[1] if friction is not None else []):
+        im = ax.pcolormesh(t2, t1, first(friction.width[i]), shading="nearest", cmap="Oranges", vmin=0)
+        fig.colorbar(im, ax=ax, label="τ⁺ − τ⁻ [N·mm]")
+        ax.set_title(f"{ev.problem.joints[i].name}: friction band τ⁺ − τ⁻ ≤ {MM * friction.width[i].max():.3g} N·mm",
+                     fontsize=10)
+    for ax in axes.ravel():
+        ax.set_xlabel("θ₂ [deg]")
+        ax.set_ylabel("θ₁ [deg]")
     fig.suptitle(f"torque error ({ev.problem.torque_model} model)", fontsize=10)
     return fig
 
@@ -783,14 +810,14 @@ def convergence_figure(history: dict) -> Figure:
 
 # ------------------------------------------------------------------------------- all of a run
 def figures(ev: Evaluation, history: dict | None = None, band: Band | None = None,
-            recheck: Evaluation | None = None) -> dict[str, Figure]:
+            recheck: Evaluation | None = None, friction: FrictionBand | None = None) -> dict[str, Figure]:
     """The figures of a design run by name: ``profile``; ``torque`` (with the tolerance
-    ``band`` where given) and ``springs`` (only with springs: without them there is no torque);
+    ``band`` and the ``friction`` band where given) and ``springs`` (only with springs: without them there is no torque);
     ``output`` (only for mechanisms with an output law; its error on the ``recheck`` grid where
     given); ``convergence`` (only when IPOPT's ``history`` is given)."""
     out = {"profile": profile_figure(ev)}
     if ev.problem.springs:
-        out["torque"] = torque_figure(ev, band)
+        out["torque"] = torque_figure(ev, band, friction)
         out["springs"] = springs_figure(ev)
     if any(mech.output_target is not None for mech in ev.problem.mechanisms):
         out["output"] = output_figure(ev, recheck)

@@ -112,7 +112,7 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     if figures:
         from .plots import figures as run_figures, save_figure
 
-        figs = run_figures(ev, result.history, result.band, result.recheck)  # the figures this run has: NAME.png
+        figs = run_figures(ev, result.history, result.band, result.recheck, result.friction)  # the figures this run has: NAME.png
         # the longest to draw first (three axes of logarithmic ticks: 0.8 s on the 1-DOF spec,
         # against 0.3–0.5 s for the others), so that workers drawing side by side end together
         for name in sorted(figs, key=lambda name: name != "convergence"):

@@ -2,7 +2,8 @@
 written in the file, and the parts that the declarations hold are generated from them — the
 torque models, the design methods, the ``[solver]`` options, the target kinds and their keys
 (:attr:`TargetKind.keys`), a joint's keys with its acceptance limits, the tolerances, a spring's
-keys, the cable's, the keys every mechanism has and each mechanism's own (:attr:`Mechanism.spec_keys`).
+keys, the cable's, the friction's, the keys every mechanism has and each mechanism's own
+(:attr:`Mechanism.spec_keys`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
 the shipped file is what this module makes of it.
@@ -19,6 +20,7 @@ from ..files import atomic_path
 from ..keys import KeyTable
 from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, design_methods, mechanism_class, torque_models
 from ..physics.cables import CABLE_KEYS, SAFETY_FACTORS
+from ..physics.friction import BEARING_KEYS, FRICTION_KEYS, GUIDE_KEYS, IDLER_KEYS
 from ..physics.springs import SPRING_KEYS
 from ..problem import JOINT_KEYS, SOLVER_KEYS, acceptance_keys, tolerance_keys
 from ..targets import target_kind, target_kinds
@@ -94,6 +96,10 @@ def result_schema(schema: dict) -> dict:
     defs["problem"]["properties"]["tolerances"]["properties"] = _properties(tolerance_keys())
     defs["problem"]["properties"]["cable"]["properties"] = _properties(CABLE_KEYS)
     out["properties"]["cable"]["properties"]["kind"]["enum"] = list(SAFETY_FACTORS)
+    friction = defs["problem"]["properties"]["friction"]["properties"] = _properties(FRICTION_KEYS)
+    for name, table in (("guides", GUIDE_KEYS), ("idlers", IDLER_KEYS), ("joints", BEARING_KEYS)):
+        friction[name]["items"] = {"type": "object", "additionalProperties": False,
+                                   "required": list(table.names), "properties": _properties(table)}
     return out
 
 
