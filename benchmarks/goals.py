@@ -4,9 +4,9 @@ after its tables)."""
 from __future__ import annotations
 
 
-def print_goals(rows: list[tuple[str, str, bool]]) -> None:
-    """Print ``rows`` (goal, measured value, met) as a table headed "goals"."""
-    print("\nGoals (issues 12 and 30), this run on this machine\n")
+def print_goals(rows: list[tuple[str, str, bool]], issues: str = "issues 12 and 30") -> None:
+    """Print ``rows`` (goal, measured value, met) as a table headed "goals" of ``issues``."""
+    print(f"\nGoals ({issues}), this run on this machine\n")
     print("| goal | measured | verdict |")
     print("|---|---|---|")
     for goal, measured, met in rows:
