@@ -105,6 +105,108 @@ def arc_distance(points, a, b, bulge) -> np.ndarray:
     return np.where(straight, segment_distance(points, a, b), np.where(within, circle, ends))
 
 
+def chain_segments(vertices, bulges):
+    """Starts, ends (N, 2) and bulges (N,) of the closed chain ``vertices``/``bulges``: segment
+    i runs from vertex i to vertex i + 1, the last back to vertex 0."""
+    vertices = np.asarray(vertices, dtype=float)
+    return vertices, np.roll(vertices, -1, axis=0), np.asarray(bulges, dtype=float)
+
+
+def winding_number(points, vertices, bulges) -> np.ndarray:
+    """How many times the closed chain ``vertices``/``bulges`` [m] winds counter-clockwise round
+    each of ``points`` (k, 2) [m]: 1 inside a counter-clockwise outline, 0 outside.
+
+    The chain's region is the polygon of its vertices with each arc's circular segment (the
+    lens between the arc and its chord) added where the arc bulges out of it (turning
+    counter-clockwise, to the right of its chord) and taken away where it bulges in: the
+    polygon's winding number (Sunday's crossing rule) ± 1 inside each lens."""
+    a, b, bulges = chain_segments(vertices, bulges)
+    p = np.asarray(points, dtype=float).reshape(-1, 1, 2)
+    side = (b - a)[None, :, 0] * (p - a)[..., 1] - (b - a)[None, :, 1] * (p - a)[..., 0]  # > 0: left
+    y = p[..., 1]
+    up = (a[None, :, 1] <= y) & (b[None, :, 1] > y) & (side > 0)
+    down = (a[None, :, 1] > y) & (b[None, :, 1] <= y) & (side < 0)
+    winding = up.sum(axis=1) - down.sum(axis=1)
+    arc = np.abs(bulges) >= STRAIGHT
+    if arc.any():
+        centre, radius, sweep = arc_geometry(a[arc], b[arc], bulges[arc])
+        lens = (np.linalg.norm(p - centre, axis=-1) < np.abs(radius)) & (-np.sign(sweep) * side[:, arc] > 0)
+        winding = winding + np.sum(np.sign(sweep) * lens, axis=1).astype(int)
+    return winding
+
+
+def signed_distance(points, vertices, bulges) -> np.ndarray:
+    """Distance [m] from each of ``points`` (k, 2) [m] to the closed chain ``vertices``/
+    ``bulges``, measured to its exact arcs and lines: positive inside the region it bounds,
+    negative outside (:func:`winding_number`)."""
+    a, b, bulges = chain_segments(vertices, bulges)
+    p = np.asarray(points, dtype=float).reshape(-1, 1, 2)
+    distance = arc_distance(p, a[None], b[None], bulges[None]).min(axis=1)
+    return np.where(winding_number(p[:, 0], vertices, bulges) != 0, distance, -distance)
+
+
+def support(normals, vertices, bulges) -> np.ndarray:
+    """The closed chain's support function h(n) = max n·x over its points x [m], at the unit
+    ``normals`` (K, 2): the largest of n·v over its vertices and, for each arc whose angular
+    span seen from its centre holds n, n·centre + radius (the arc's own point of normal n)."""
+    a, b, bulges = chain_segments(vertices, bulges)
+    n = np.asarray(normals, dtype=float).reshape(-1, 2)
+    h = (n @ a.T).max(axis=1)
+    arc = np.abs(bulges) >= STRAIGHT
+    if arc.any():
+        centre, radius, sweep = arc_geometry(a[arc], b[arc], bulges[arc])
+        start = np.arctan2(*(a[arc] - centre).T[::-1])
+        turn = np.mod((np.arctan2(n[:, 1:], n[:, :1]) - start) * np.sign(sweep), TWO_PI)
+        reach = np.where(turn <= np.abs(sweep), n @ centre.T + np.abs(radius), -np.inf)
+        h = np.maximum(h, reach.max(axis=1))
+    return h
+
+
+def tangent_angles(vertices, bulges) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Angles [rad] of the tangent of each segment of the closed chain ``vertices``/``bulges``
+    where it leaves its start and where it arrives at its end, and its sweep (0 for a line):
+    an arc's chord lies half its sweep from either."""
+    a, b, bulges = chain_segments(vertices, bulges)
+    chord = b - a
+    sweep = 4 * np.arctan(bulges)
+    angle = np.arctan2(chord[:, 1], chord[:, 0])
+    return angle - sweep / 2, angle + sweep / 2, sweep
+
+
+def concavity(vertices, bulges) -> float:
+    """How far [m] the closed chain ``vertices``/``bulges`` turns inwards, from its exact arcs:
+    0 for a convex outline, whose tangent turns counter-clockwise all the way round, once.
+
+    At each place where it turns clockwise — a joint whose tangent turns clockwise, the middle
+    of an arc that does — the distance by which the whole chain reaches beyond its tangent
+    line there, h(n) − n·x (:func:`support`), the lesser of the two one-sided tangents at a
+    joint. The distance from such a place to the chain's convex hull, the depth of the notch a
+    cable or a straight edge laid on the part bridges, is the least of h(n) − n·x over every
+    n, so this is never less than the deepest notch, and it is 0 exactly where the chain is
+    convex (its tangent lines are its support lines). At a joint turning clockwise by δ onto
+    an arc of radius R the chain dips beyond the tangent by about δ²R/2. A chain whose tangent
+    turns other than once round is infinitely concave."""
+    a, b, bulges = chain_segments(vertices, bulges)
+    leave, arrive, sweep = tangent_angles(vertices, bulges)
+    angle = leave + sweep / 2  # the chord's
+    turn = np.angle(np.exp(1j * (np.roll(leave, -1) - arrive)))  # at the joint after segment i
+    if abs(sweep.sum() + turn.sum() - TWO_PI) > np.pi:
+        return float("inf")
+    joint = turn < 0
+    inward = sweep < 0
+    places = np.concatenate([np.roll(a, -1, axis=0)[joint], np.roll(a, -1, axis=0)[joint],
+                             np.array([arc_points(p, q, k, [0.5])[0] for p, q, k in
+                                       zip(a[inward], b[inward], bulges[inward])]).reshape(-1, 2)])
+    if not len(places):
+        return 0.0
+    tangents = np.concatenate([arrive[joint], np.roll(leave, -1)[joint], angle[inward]])
+    normals = np.column_stack([np.sin(tangents), -np.cos(tangents)])  # the tangent turned by −90°
+    depth = support(normals, vertices, bulges) - np.sum(normals * places, axis=1)
+    count = int(joint.sum())
+    return float(max(np.minimum(depth[:count], depth[count:2 * count]).max(initial=0.0),
+                     depth[2 * count:].max(initial=0.0)))
+
+
 def segment_distance(points, a, b) -> np.ndarray:
     """Distance from ``points`` to the segments from ``a`` to ``b`` (broadcast, last axis x, y)."""
     ab = b - a
@@ -170,16 +272,21 @@ def _fit_piece(outline: Outline, start: float, stop: float, closing: bool, toler
 def biarc_fit(outline: Outline, tolerance: float) -> ArcChain:
     """The closed outline as biarcs within ``tolerance`` [m] of it, from φ = 0 counter-clockwise.
 
-    The designed arc [0, φ_end] and the closing arc [φ_end, 2π] are fitted on their own, so
-    that both ends of the designed arc are vertices and a corner of a hull closure stays a
-    corner. Intervals start at :data:`START_DENSITY` per radian and are halved until the
-    largest distance from the outline, measured at :data:`ERROR_SAMPLES` points of each, is
-    within ``tolerance`` and no biarc is S-shaped, so that a convex outline stays convex.
+    The designed arc [0, φ_end] and each piece of the closing arc [φ_end, 2π] (a hull
+    closure's lines and the hub's arc between them, :attr:`Outline.closing_joints`) are fitted
+    on their own, so that both ends of the designed arc are vertices, a corner of a hull
+    closure stays a corner, and its lines and the hub's arc are written exactly (a biarc
+    between two points of a circle along its tangents is that circle): the bore's wall is the
+    hub's, not the hub's less the fit's tolerance. Intervals start at :data:`START_DENSITY` per
+    radian and are halved until the largest distance from the outline, measured at
+    :data:`ERROR_SAMPLES` points of each, is within ``tolerance`` and no biarc is S-shaped, so
+    that a convex outline stays convex.
     """
     if not (np.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"tolerance must be a positive length [m], got {tolerance!r}")
-    pieces = [_fit_piece(outline, 0.0, outline.phi_end, False, tolerance),
-              _fit_piece(outline, outline.phi_end, TWO_PI, True, tolerance)]
+    ends = np.concatenate([[outline.phi_end], outline.closing_joints, [TWO_PI]])
+    pieces = [_fit_piece(outline, 0.0, outline.phi_end, False, tolerance)] + [
+        _fit_piece(outline, start, stop, True, tolerance) for start, stop in zip(ends[:-1], ends[1:])]
     vertices = np.concatenate([np.stack([p0, joint], axis=1).reshape(-1, 2) for p0, joint, _, _ in pieces])
     bulges = np.concatenate([bulge.ravel() for _, _, bulge, _ in pieces])
     bulges[np.abs(bulges) < STRAIGHT] = 0.0  # a straight stretch (a hull closure's) as lines

@@ -21,7 +21,7 @@ from ..files import atomic_path
 from ..library_files import matplotlib_defaults
 from ..mechanisms.base import Picture
 from ..version import __version__
-from .workshop import MM, Outline, holes
+from .workshop import DEFAULT_TOLERANCE, MM, Outline, holes
 
 SHEET = (297.0, 210.0)
 """A4 landscape [mm of paper]."""
@@ -81,7 +81,7 @@ def _sheet_format(path) -> str:
 def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
                  rho_max: float, title: str, *, spec: str = "", drawing: str = "",
                  date: str | None = None, words: Picture = Picture(),
-                 cable: tuple[str, ...] = ()) -> tuple[Figure, int]:
+                 cable: tuple[str, ...] = (), tolerance: float = DEFAULT_TOLERANCE) -> tuple[Figure, int]:
     """The workshop sheet of one cam as a Figure, 1 mm of paper per mm of cam when it fits.
 
     The designed (wrapped) arc is drawn thick and red, the closing arc thin and black; the bore,
@@ -111,13 +111,16 @@ def sheet_figure(outline: Outline, bore_diameter: float, anchor_diameter: float,
         ``words.runs_on`` of it (a cable's by default).
     cable : tuple of str
         Lines of notes on the cable (:func:`cable_notes`); none without a ``[cable]``.
+    tolerance : float
+        The fit [m] of the arcs the part's files hold, against which the holes are placed
+        (:func:`cadcam.make.workshop.holes`): the files' own, for the sheet to show their holes.
 
     Returns
     -------
     (Figure, int)
         The sheet and n of the scale 1:n.
     """
-    circles = holes(outline, bore_diameter, anchor_diameter)
+    circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
     points = outline.points * MM
     lo, hi = points.min(axis=0), points.max(axis=0)
     area = np.array([SHEET[0] - 2 * MARGIN, SHEET[1] - 2 * MARGIN - NOTES])

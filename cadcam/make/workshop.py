@@ -16,9 +16,11 @@ from numpy.polynomial import Legendre, Polynomial
 
 from ..files import atomic_path, write_csv as write_table, write_text
 from ..library_files import libraries_imported
+from ..physics.outline import NOTCH
 from ..physics.profile import Basis, convexity_margin, curvature, profile_function
 from ..problem import MIN_WALL
-from .biarc import ArcChain, arc_geometry, biarc_fit, segment_distance
+from .biarc import (ArcChain, arc_geometry, biarc_fit, concavity, segment_distance, signed_distance, support,
+                    tangent_angles)
 
 with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
     import ezdxf
@@ -145,6 +147,16 @@ class Outline:
         polar = np.unwrap(np.arctan2(self.points[:, 1], self.points[:, 0]))
         return float(np.interp(np.mod(angle - polar[0], TWO_PI) + polar[0], polar, np.hypot(*self.points.T),
                                period=TWO_PI))
+
+    @property
+    def closing_joints(self) -> np.ndarray:
+        """Parameters φ [rad] inside (φ_end, 2π) where the closing arc passes from one piece to
+        the next (a hull closure's line to the hub's arc and on: its curvature jumps there);
+        none for a smooth closure."""
+        if not isinstance(self.closing, HullClosing):
+            return np.zeros(0)
+        start, stop = self.closing_angles
+        return self.phi_end + (self.closing.starts[1:] - start) * self.closing_span / (stop - start)
 
     def _psi(self, phi) -> np.ndarray:
         """Polar angle ψ [rad] of the closing arc at parameter φ ∈ [φ_end, 2π]."""
@@ -403,14 +415,17 @@ class SmoothClosing:
         return np.array([p(x), p.deriv(1)(x) / span, p.deriv(2)(x) / span**2])
 
 
-def cut_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float, cable_radius: float = 0.0) -> Outline:
+def cut_outline(basis: Basis, coefficients, phi_max: float, hub_radius: float, cable_radius: float = 0.0,
+                fit: float = 0.0) -> Outline:
     """The outline a workshop cuts: the designed arc, the centre line of a cable of
     ``cable_radius`` [m], cut that far inside it and closed round the hub of ``hub_radius`` [m]:
-    by the smoothest convex C2 arc that keeps the cut outline clear of the hub and bends no
+    by the smoothest convex C2 arc that keeps the cut outline ``fit`` [m] clear of the hub (the
+    loosest tolerance of the files' arcs, which may stray that far inside it) and bends no
     tighter than the cable (:func:`closed_outline`) where one exists, else by the hull of the
-    cut arc and the hub (:func:`hull_outline`), which the design NLP's outline rows guarantee."""
+    cut arc and the hub (:func:`hull_outline`), which the design NLP's outline rows guarantee
+    (its lines and hub arc are written exactly: :func:`cadcam.make.biarc.biarc_fit`)."""
     try:
-        return closed_outline(basis, coefficients, phi_max, rho_bounds=(hub_radius + cable_radius, np.inf),
+        return closed_outline(basis, coefficients, phi_max, rho_bounds=(hub_radius + cable_radius + fit, np.inf),
                               offset=cable_radius)
     except ValueError:
         return hull_outline(basis, coefficients, phi_max, hub_radius, cable_radius)
@@ -584,55 +599,143 @@ def chord_sag(outline: Outline, knots) -> np.ndarray:
 
 # ---------------------------------------------------------------------------------------- holes
 
-def anchor_centre(outline: Outline, anchor_diameter: float) -> np.ndarray:
-    """Centre [m] of the wire's anchor hole.
+#: Support lines, at evenly spread normals round the circle, that bound the part where the
+#: anchor hole's first place does not fit (:func:`_nearest_place`), beside those at the ends of
+#: each segment: 0.25° apart, so that between them an arc of radius R is bounded within
+#: R(1 − cos 0.125°) ≈ 2.4e-6 R of it (a line, whose normal is among the ends', exactly); the
+#: place found is then measured against the exact arcs, and the program asked the shortfall more.
+PLACEMENT_DIRECTIONS = 1440
+#: Programs :func:`_nearest_place` solves, each asking the last one's shortfall more, before it
+#: gives up.
+PLACEMENT_ROUNDS = 4
 
-    On the inward normal of the outline at the anchor point φ = 0, deep enough to leave
-    MIN_WALL of material between the hole and the profile (deeper where a corner of the
-    outline, such as a hull closure's, comes near).
+
+def hole_walls(chain, centre, diameter: float, bore_diameter: float) -> tuple[float, float]:
+    """Material [m] between a hole of ``diameter`` about ``centre`` [m] and the outline
+    ``chain`` (closed, with ``vertices`` and ``bulges``: an ArcChain written, a FileOutline read
+    back) — its signed distance to the exact arcs less its radius, negative where the hole's
+    edge lies outside the part — and between it and the bore of ``bore_diameter`` about the axis."""
+    centre = np.asarray(centre, dtype=float)
+    to_outline = signed_distance(centre[None], chain.vertices, chain.bulges)[0] - diameter / 2
+    return float(to_outline), float(np.hypot(*centre) - (diameter + bore_diameter) / 2)
+
+
+def anchor_centre(outline: Outline, chain: ArcChain, anchor_diameter: float, bore_diameter: float) -> np.ndarray:
+    """Centre [m] of the wire's anchor hole: where it leaves MIN_WALL of material to the cut
+    outline and to the bore, measured with a sign against ``chain``, the outline's arcs as its
+    files hold them (its biarc fit).
+
+    A wall and the hole's radius inside the anchor point φ = 0 along the outline's inward
+    normal there, where that fits (the place the NLP's anchor row makes room for:
+    :attr:`cadcam.problem.Workshop.anchor_radius`); else the place nearest the anchor point
+    that leaves both walls (:func:`_nearest_place`), such as into the sharp corner a hull
+    closure makes at the anchor, where the normal runs out of the part.
+
+    Raises
+    ------
+    ValueError
+        Naming ``anchor_diameter`` where no place in the part leaves both walls, with the
+        largest hole that would fit.
     """
+    radius = _positive("anchor_diameter", anchor_diameter) / 2
     point = outline.xy(0.0)[0]
     tx, ty = outline.unit_tangents(0.0, closing=False)[0]
-    outward = np.array([ty, -tx])  # the tangent turned by −90°
-    radius = anchor_diameter / 2
-    depths = radius + MIN_WALL + np.linspace(0.0, max(np.hypot(*point) - radius - MIN_WALL, 0.0), 200)
-    for depth in depths:  # the first depth that leaves the wall to the whole outline
-        centre = point - depth * outward
-        if np.min(np.hypot(*(outline.points - centre).T)) - radius >= MIN_WALL - ROUNDING:
+    centre = point - (radius + MIN_WALL) * np.array([ty, -tx])  # the tangent turned by −90°: outward
+    if min(hole_walls(chain, centre, anchor_diameter, bore_diameter)) >= MIN_WALL - ROUNDING:
+        return centre
+    centre = _nearest_place(chain, point, radius, bore_diameter / 2)
+    if centre is None:
+        largest = 2 * _widest_place(chain, point, bore_diameter / 2)
+        raise ValueError(f"anchor_diameter = {_length(anchor_diameter)} does not fit: no place in the part leaves "
+                         f"{_length(MIN_WALL)} of wall to the profile and to the bore; "
+                         + (f"the largest hole that does is {_length(largest)}" if largest > 0 else
+                            "no hole does (a smaller bore_diameter or a larger rho_min makes room)"))
+    return centre
+
+
+def _support_lines(chain: ArcChain) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (K, 2) — :data:`PLACEMENT_DIRECTIONS` round the circle and the outward
+    normals at both ends of each of the convex chain's segments — and its support h(n) [m] at
+    each: the part lies within n·x ≤ h(n) for every one."""
+    leave, arrive, _ = tangent_angles(chain.vertices, chain.bulges)
+    angle = np.concatenate([np.linspace(0.0, TWO_PI, PLACEMENT_DIRECTIONS, endpoint=False),
+                            leave - np.pi / 2, arrive - np.pi / 2])  # the tangents turned by −90°
+    normals = np.column_stack([np.cos(angle), np.sin(angle)])
+    return normals, support(normals, chain.vertices, chain.bulges)
+
+
+def _nearest_place(chain: ArcChain, point, radius: float, bore_radius: float) -> np.ndarray | None:
+    """The centre [m] nearest ``point`` (the anchor) of a hole of ``radius`` [m] that leaves
+    MIN_WALL to the convex chain's exact arcs and to the bore of ``bore_radius``; None where the
+    program finds none.
+
+    A quadratic program in millimetres: min |x − point|² with x a wall and the radius inside
+    each support line of :func:`_support_lines` (their polygon holds the part's inner parallel
+    body at that depth, a convex set) and beyond the bore's wall along the anchor's direction u
+    (u·x ≥ bore radius + wall + radius, which keeps |x| so too). The polygon reaches a little
+    outside the part, so the place is measured against the exact arcs and the program solved
+    again asking its shortfall more, up to :data:`PLACEMENT_ROUNDS` times."""
+    normals, h = _support_lines(chain)
+    depth, u = radius + MIN_WALL, point / np.hypot(*point)
+    rows = np.vstack([normals, u])
+    extra = 0.0
+    for _ in range(PLACEMENT_ROUNDS):
+        x = _solve_qp(2 * np.eye(2), -2 * point * MM, rows, np.r_[np.full(len(h), -np.inf), (bore_radius + depth) * MM],
+                      np.r_[(h - depth - extra) * MM, np.inf])
+        if x is None:
+            return None
+        centre = x / MM
+        to_outline = signed_distance(centre[None], chain.vertices, chain.bulges)[0] - depth
+        if to_outline >= 0 and np.hypot(*centre) - bore_radius - depth >= -ROUNDING:
             return centre
-    return point - depths[0] * outward  # none: holes() names the shortfall
+        extra += max(-to_outline, ROUNDING)
+    return None
 
 
-def holes(outline: Outline, bore_diameter: float,
-          anchor_diameter: float) -> list[tuple[np.ndarray, float]]:
-    """The bore and the anchor hole as (centre [m], diameter [m]) pairs, checked to fit.
+def _widest_place(chain: ArcChain, point, bore_radius: float) -> float:
+    """The radius [m] of the largest hole that leaves MIN_WALL to the support lines of
+    :func:`_support_lines` and to the bore (along the anchor's direction, as
+    :func:`_nearest_place`): a linear program in the centre and the radius (0 if none)."""
+    normals, h = _support_lines(chain)
+    u = point / np.hypot(*point)
+    rows = np.vstack([np.column_stack([normals, np.ones(len(h))]), [u[0], u[1], -1.0]])
+    x = _solve_qp(np.zeros((3, 3)), np.array([0.0, 0.0, -1.0]), rows,
+                  np.r_[np.full(len(h), -np.inf), (bore_radius + MIN_WALL) * MM], np.r_[(h - MIN_WALL) * MM, np.inf])
+    return 0.0 if x is None else max(float(x[2]) / MM, 0.0)
+
+
+def holes(outline: Outline, bore_diameter: float, anchor_diameter: float,
+          tolerance: float = DEFAULT_TOLERANCE) -> list[tuple[np.ndarray, float]]:
+    """The bore and the anchor hole as (centre [m], diameter [m]) pairs, each leaving MIN_WALL
+    of material to the cut outline and to the other hole, measured with a sign against the arcs
+    its files hold (the biarc fit within ``tolerance`` [m]), whose convexity is checked first
+    (:func:`cadcam.make.biarc.concavity`: the anchor's place is found in a convex part).
 
     Raises
     ------
     ValueError
         Naming ``bore_diameter`` or ``anchor_diameter`` when a size is not positive or a hole
-        leaves less than MIN_WALL of material to the profile or to the other hole.
+        leaves less than MIN_WALL of material to the profile or to the other hole; saying so
+        when the outline's arcs are not convex.
     """
-    _check_bore(outline, bore_diameter)
-    anchor = anchor_centre(outline, _positive("anchor_diameter", anchor_diameter))
-    to_bore = np.hypot(*anchor) - (anchor_diameter + bore_diameter) / 2
-    to_profile = np.min(np.hypot(*(outline.points - anchor).T)) - anchor_diameter / 2
-    if min(to_bore, to_profile) < MIN_WALL - ROUNDING:
-        raise ValueError(f"anchor_diameter = {_length(anchor_diameter)} does not fit near the "
-                         f"anchor point: it leaves {_length(min(to_bore, to_profile))} of wall "
-                         f"to the {'bore' if to_bore < to_profile else 'profile'}; at least "
-                         f"{_length(MIN_WALL)} is needed")
-    return [(np.zeros(2), bore_diameter), (anchor, anchor_diameter)]
+    chain = biarc_fit(outline, tolerance)
+    inwards = concavity(chain.vertices, chain.bulges)
+    if inwards > NOTCH:
+        raise ValueError(f"the cut outline is not convex: its arcs turn inwards, reaching {_length(inwards)} "
+                         "beyond their tangent (the closure or the fit failed: please report it)")
+    _check_bore(signed_distance(np.zeros((1, 2)), chain.vertices, chain.bulges)[0], bore_diameter)
+    return [(np.zeros(2), bore_diameter), (anchor_centre(outline, chain, anchor_diameter, bore_diameter),
+                                           anchor_diameter)]
 
 
-def _check_bore(outline, bore_diameter):
-    """ValueError naming ``bore_diameter`` unless the bore leaves MIN_WALL inside ρ_min."""
-    rho_min = outline.rho_range[0]
-    if _positive("bore_diameter", bore_diameter) / 2 + MIN_WALL > rho_min + ROUNDING:
+def _check_bore(least_radius: float, bore_diameter):
+    """ValueError naming ``bore_diameter`` unless the bore leaves MIN_WALL inside the outline's
+    ``least_radius`` [m] (its distance from the axis)."""
+    if _positive("bore_diameter", bore_diameter) / 2 + MIN_WALL > least_radius + ROUNDING:
         raise ValueError(f"bore_diameter = {_length(bore_diameter)} is too large: with a "
                          f"{_length(MIN_WALL)} wall inside the least outline radius ρ_min = "
-                         f"{_length(rho_min)} it may be at most "
-                         f"{_length(2 * (rho_min - MIN_WALL))}")
+                         f"{_length(least_radius)} it may be at most "
+                         f"{_length(2 * (least_radius - MIN_WALL))}")
 
 
 def _length(value: float) -> str:
@@ -667,7 +770,7 @@ def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
     anchor hole (:func:`anchor_centre`) as CIRCLEs on layer HOLES; where ``mirrored`` (a
     clockwise-wound part), :data:`MIRRORED_NOTE` as TEXT on layer NOTES. Returns the fitted chain.
     """
-    circles = holes(outline, bore_diameter, anchor_diameter)
+    circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
     chain = biarc_fit(outline, tolerance)
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add("PROFILE", color=7)
@@ -713,7 +816,7 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
     ``tolerance``), as SVG arcs — and one circle per hole, as hairlines for a laser cutter;
     where ``mirrored``, :data:`MIRRORED_NOTE` as the drawing's title (not cut).
     """
-    circles = holes(outline, bore_diameter, anchor_diameter)
+    circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
     flip = np.array([MM, -MM])
     chain = biarc_fit(outline, tolerance)
     points = chain.sample(SVG_BOX_SAMPLES) * flip + 0.0
@@ -817,7 +920,7 @@ def write_stl(path, outline: Outline, thickness: float, bore_diameter: float,
 def _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width):
     """ValueError naming the parameter unless the solid of :func:`write_stl` can be made."""
     thickness = _positive("thickness", thickness)
-    _check_bore(outline, bore_diameter)
+    _check_bore(outline.rho_range[0], bore_diameter)
     if groove_depth == 0 and groove_width == 0:
         return
     depth, width = _positive("groove_depth", groove_depth), _positive("groove_width", groove_width)

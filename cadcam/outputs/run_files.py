@@ -173,11 +173,12 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
 
 def _outline(ev, i: int, args: Workshop):
     """Profile ``i`` cut and closed into the planar outline a workshop cuts, round the hub and
-    a cable's radius inside the designed arc (:func:`cadcam.make.workshop.cut_outline`)."""
+    a cable's radius inside the designed arc, a smooth closure clear of the hub by the files'
+    loosest tolerance (:func:`cadcam.make.workshop.cut_outline`)."""
     from ..make.workshop import cut_outline
 
     return cut_outline(ev.design.bases[i], ev.design.coefficients[i], float(ev.profiles[i].alpha.max()),
-                       args.hub_radius, args.cable_radius)
+                       args.hub_radius, args.cable_radius, args.tolerance)
 
 
 def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict):
@@ -246,7 +247,8 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
 
         fig, _ = sheet_figure(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max,
                               cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}",
-                              words=mech.picture, cable=cable_notes(cable, i) if cable else ())
+                              words=mech.picture, cable=cable_notes(cable, i) if cable else (),
+                              tolerance=tolerance)
         # one figure, drawn into both formats
         _drawn(functools.partial(save_sheet, fig, out / f"cam{i + 1}_sheet.pdf", out / f"cam{i + 1}_sheet.png"),
                drawings)
@@ -269,7 +271,8 @@ def _write_step(path: Path, outline, args: Workshop, tolerance: float) -> str:
 
     if not step.available():
         return ", no STEP (pip install -e '.[step]')"
-    volume = step.write_step(path, biarc_fit(outline, tolerance), holes(outline, args.bore_diameter, args.anchor_diameter),
+    volume = step.write_step(path, biarc_fit(outline, tolerance),
+                             holes(outline, args.bore_diameter, args.anchor_diameter, tolerance),
                              args.stl, args.groove_depth, args.groove_width)
     return f", STEP {volume * 1e9:.0f} mm³"
 

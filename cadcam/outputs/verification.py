@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from ..files import write_json, write_text
-from ..make.biarc import arc_distance, segment_distance
-from ..make.workshop import cut_points
+from ..make.biarc import arc_distance, concavity, segment_distance
+from ..make.workshop import ROUNDING, cut_points, hole_walls
 from ..mechanisms.base import ENERGY
 from ..physics.outline import NOTCH, FileOutline
 from ..physics.profile import profile_function
+from ..problem import MIN_WALL
 from ..verify.file_model import MILLIMETRES, file_torque, outline_points, span_clearance
 
 #: Share of the design's own largest error the file may add (issue 31).
@@ -53,14 +54,26 @@ FIELDS = {
     "cam": ("-", "the cam's number (camN.dxf, or camN_groove.csv for a helical groove)"),
     "units": ("-", "the DXF's units ($INSUNITS 4: mm; a groove's columns are in mm)"),
     "closed": ("-", "the profile polyline is closed (a groove's centre line is open: it winds on, turn after turn)"),
-    "convex": ("-", "no arc or corner of the profile (of a groove's centre line) turns inwards more than 1 nm deep"),
+    "convex": ("-", "concavity_m ≤ 1 nm: the cut outline turns counter-clockwise all the way round, once, to "
+                    "rounding (a groove's centre line: no chord turns inwards more than 1 nm deep)"),
+    "concavity_m": ("m", "how far the profile's exact arcs, read from the DXF, reach beyond their own tangent where "
+                         "they turn inwards (cadcam.make.biarc.concavity: never less than the deepest notch, 0 for a "
+                         "convex outline); blank for a groove"),
     "vertices": ("-", "vertices of the profile polyline (each segment an arc or a line); a groove's rows, "
                       "joined by straight chords"),
     "fit_tolerance_m": ("m", "the biarc fit's tolerance (a groove's: its chords' sag), from the design's accuracy"),
     "file_error_m": ("m", "largest distance from the designed outline (a groove: the designed spiral) to the "
                           "outline read back from the DXF (the chord of the groove's CSV across its polar angle)"),
     "points_csv_tolerance_m": ("m", "chordal tolerance of camN_points.csv (and camN.stl)"),
-    "clearance_m": ("m", "least material between the bore, the anchor hole and the profile, from the DXF"),
+    "bore_wall_m": ("m", "material between the bore and the cut outline, measured with a sign from the DXF's exact "
+                         "arcs: negative where the bore's edge lies outside the part"),
+    "anchor_wall_m": ("m", "material between the anchor hole and the cut outline, measured with a sign from the DXF's "
+                           "exact arcs: negative where the hole's edge lies outside the part (below minus its radius "
+                           "where its centre does)"),
+    "holes_wall_m": ("m", "material between the anchor hole and the bore, from the DXF"),
+    "wall_rule_m": ("m", "the least material every hole must leave (cadcam.problem.MIN_WALL)"),
+    "walls_hold": ("-", "bore_wall_m, anchor_wall_m and holes_wall_m ≥ wall_rule_m less 1 nm of rounding; a file "
+                        "without its bore or its anchor hole fails"),
     "cable_radius_m": ("m", "the cable's radius: the clearance its free spans keep from the part"),
     "cable_clearance_m": ("m", "least distance from the centre line of the cable's free span to the cut outline "
                                "read from the DXF (its anchor and closure included) over the fine re-check grid; "
@@ -207,29 +220,41 @@ def _groove_error(basis, coefficients, phi_max: float, chain: FileOutline) -> fl
     return float(segment_distance(points, chain.vertices[k], chain.vertices[k + 1]).max())
 
 
-def _clearance(chain: FileOutline) -> float:
-    """Least material [m] between the file's holes and its profile and between the holes."""
-    a, b, bulges = _segments(chain)
-    centres = np.array([c for c, _ in chain.circles]).reshape(-1, 2)
-    radii = np.array([d / 2 for _, d in chain.circles])
-    walls = list(arc_distance(centres[:, None], a, b, bulges).min(axis=1) - radii)
-    for i in range(len(radii)):
-        walls += [np.hypot(*(centres[i] - centres[j])) - radii[i] - radii[j] for j in range(i)]
-    return float(min(walls)) if walls else float("nan")
+#: The walls of :data:`FIELDS` that ``walls_hold`` judges, each printed to six digits.
+WALLS = ("bore_wall_m", "anchor_wall_m", "holes_wall_m")
+
+
+def _walls(chain: FileOutline) -> dict:
+    """The walls of the file's holes (its bore: the circle about the axis; its anchor hole: the
+    other) measured with a sign against its exact arcs (:func:`cadcam.make.workshop.hole_walls`),
+    and whether each keeps the rule: a file without its one bore and one anchor hole (whose
+    walls are then left out) fails."""
+    bores = [d for c, d in chain.circles if np.hypot(*c) <= ROUNDING]
+    anchors = [(c, d) for c, d in chain.circles if np.hypot(*c) > ROUNDING]
+    walls = {}
+    if bores:
+        walls["bore_wall_m"] = hole_walls(chain, np.zeros(2), bores[0], 0.0)[0]
+    if bores and anchors:
+        walls["anchor_wall_m"], walls["holes_wall_m"] = hole_walls(chain, anchors[0][0], anchors[0][1], bores[0])
+    whole = len(bores) == len(anchors) == 1
+    return {**walls, "wall_rule_m": MIN_WALL,
+            "walls_hold": whole and all(w >= MIN_WALL - ROUNDING for w in walls.values())}
 
 
 def _chain_fields(cam: int, chain: FileOutline, tolerance: float, cable_radius: float) -> dict:
     """The fields every file read back has (see :data:`FIELDS`)."""
     return {"cam": cam, "units": "mm" if chain.units == MILLIMETRES else f"$INSUNITS {chain.units}",
-            "closed": chain.closed, "convex": chain.reflex == 0 and bool(np.all(chain.bulges >= 0)),
-            "vertices": len(chain.vertices), "fit_tolerance_m": tolerance, "cable_radius_m": cable_radius}
+            "closed": chain.closed, "vertices": len(chain.vertices), "fit_tolerance_m": tolerance,
+            "cable_radius_m": cable_radius}
 
 
 def groove_report(cam: int, basis, coefficients, phi_max: float, chain: FileOutline, tolerance: float,
                   cable_radius: float) -> dict:
     """The file fields of one helical groove's centre line read back (see :data:`FIELDS`):
-    those of :func:`cam_report` that a groove has (no holes, no polygon files, no clearance)."""
-    return {**_chain_fields(cam, chain, tolerance, cable_radius),
+    those of :func:`cam_report` that a groove has (no holes, no polygon files, no clearance);
+    it is convex where no chord turns inwards more than :data:`NOTCH` deep (its chords are
+    straight: the depth of each joint is exact)."""
+    return {**_chain_fields(cam, chain, tolerance, cable_radius), "convex": chain.reflex == 0,
             "file_error_m": _groove_error(basis, coefficients, phi_max, chain)}
 
 
@@ -239,8 +264,10 @@ def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_
     from :func:`cable_clearances`."""
     spans = {} if cable_clearance is None else {
         "cable_clearance_m": cable_clearance, "spans_clear": bool(cable_clearance >= cable_radius - NOTCH)}
-    return {**_chain_fields(cam, chain, tolerance, cable_radius), "file_error_m": _file_error(outline, chain),
-            "points_csv_tolerance_m": polygon_tolerance, "clearance_m": _clearance(chain), **spans}
+    inwards = concavity(chain.vertices, chain.bulges)
+    return {**_chain_fields(cam, chain, tolerance, cable_radius), "convex": bool(inwards <= NOTCH),
+            "concavity_m": inwards, "file_error_m": _file_error(outline, chain),
+            "points_csv_tolerance_m": polygon_tolerance, **_walls(chain), **spans}
 
 
 def _profiles_of(problem) -> list[list[int]]:
@@ -312,10 +339,13 @@ def _judged(check: dict, error: float, unresolved: int) -> dict:
 
 
 def passed(checks: list[dict], cams: list[dict]) -> bool | None:
-    """Every recomputed check met its requirement (those not recomputed do not count) and every
-    free span measured kept its clearance; None when none could be recomputed."""
+    """Every file keeps the rules of its own — convex, its holes' walls, its free spans' clearance
+    — and every recomputed check met its requirement (those not recomputed do not count); None
+    when none could be recomputed and no file broke a rule of its own (False where one did)."""
+    if not all(c["convex"] and c.get("walls_hold", True) and c.get("spans_clear", True) for c in cams):
+        return False
     judged = [c["passed"] for c in checks if "passed" in c]
-    return all(judged) and all(c.get("spans_clear", True) for c in cams) if judged else None
+    return all(judged) if judged else None
 
 
 def verdict(checks: list[dict], cams: list[dict]) -> str:
@@ -332,11 +362,11 @@ def write_report(out: Path, cams: list[dict], checks: list[dict]) -> None:
 
 def _table(rows: list[dict], names: list[str]) -> list[str]:
     """A markdown table of ``rows`` over the fields ``names`` (their units in the header)."""
-    def cell(v):
-        return f"{v:.3g}" if isinstance(v, float) else str(v)
+    def cell(name, v):
+        return (f"{v:.6g}" if name in WALLS else f"{v:.3g}") if isinstance(v, float) else str(v)
     head = [f"{n} [{FIELDS[n][0]}]" if FIELDS[n][0] != "-" else n for n in names]
     return (["| " + " | ".join(head) + " |", "|" + "---|" * len(names)]
-            + ["| " + " | ".join(cell(r.get(n, "")) for n in names) + " |" for r in rows])
+            + ["| " + " | ".join(cell(n, r.get(n, "")) for n in names) + " |" for r in rows])
 
 
 def _markdown(cams: list[dict], checks: list[dict]) -> str:
@@ -344,14 +374,15 @@ def _markdown(cams: list[dict], checks: list[dict]) -> str:
     lines = [f"# Workshop files against the design: {verdict(checks, cams)}", "",
              "Read `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
              "recomputed from the written DXF outlines (and helical grooves' centre lines) by plane geometry, "
-             "against the design's; and, under Files, `cable_clearance_m` against `cable_radius_m`: how near the "
-             "free cable comes to the part.",
+             "against the design's; and, under Files, each hole's wall against `wall_rule_m`, measured with a sign "
+             "(negative: outside the part), whether the outline is convex, and `cable_clearance_m` against "
+             "`cable_radius_m`: how near the free cable comes to the part.",
              ""]
     lines += _table(checks, ["quantity", "where", "file_max_abs_error", "required", "passed", "unresolved_points",
                              "design_max_abs_error", "peak", "note"])
     lines += ["", "## Files", ""]
-    lines += _table(cams, ["cam", "units", "closed", "convex", "vertices", "fit_tolerance_m", "file_error_m",
-                           "points_csv_tolerance_m", "clearance_m", "cable_radius_m", "cable_clearance_m",
-                           "spans_clear"])
+    lines += _table(cams, ["cam", "units", "closed", "convex", "concavity_m", "vertices", "fit_tolerance_m",
+                           "file_error_m", "points_csv_tolerance_m", *WALLS, "wall_rule_m", "walls_hold",
+                           "cable_radius_m", "cable_clearance_m", "spans_clear"])
     lines += ["", "## Fields", ""] + [f"- `{k}` [{u}]: {d}" for k, (u, d) in FIELDS.items()] + [""]
     return "\n".join(lines)

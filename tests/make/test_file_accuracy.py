@@ -242,10 +242,10 @@ def test_every_design_writes_its_verification_report(tmp_path, pendulum, random_
     assert set(report["fields"]) == set(FIELDS)
     assert report["passed"] and all(c["passed"] for c in report["checks"])
     for cam in report["cams"]:
-        assert cam["units"] == "mm" and cam["closed"] and cam["convex"]
+        assert cam["units"] == "mm" and cam["closed"] and cam["convex"] and cam["concavity_m"] <= 1e-9
         assert cam["vertices"] <= 2000
         assert cam["file_error_m"] <= cam["fit_tolerance_m"]
-        assert cam["clearance_m"] >= MIN_WALL - 1e-9
+        assert cam["walls_hold"] and min(cam["bore_wall_m"], cam["anchor_wall_m"], cam["holes_wall_m"]) >= MIN_WALL - 1e-9
         # each free span tangent to the centre line, the cable's radius off the part
         assert cam["spans_clear"] and cam["cable_clearance_m"] == pytest.approx(cam["cable_radius_m"], abs=1e-12)
     assert "file_max_abs_error" in (tmp_path / "verification.md").read_text()
