@@ -180,7 +180,18 @@ def _design_into(args, problem, out: Path) -> int:
          f"{' output.csv' if output else ''}{pngs}",
          f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
          f"or cam*_groove.csv{' cam*.stl' if problem.workshop.stl is not None else ''} ({'; '.join(notes)})")
+    if _files_failed_verification(out):
+        _say(f"cadcam: error: the written files miss what the design claims: see {out / 'verification.md'}",
+             err=True)
+        return 1
     return 0 if result.success else 1
+
+
+def _files_failed_verification(out: Path) -> bool:
+    """Whether the workshop files written in ``out`` failed their verification, read back from
+    its ``verification.json`` (``passed`` false; a design without workshop files has none)."""
+    path = out / "verification.json"
+    return path.is_file() and json.loads(path.read_text(encoding="utf-8")).get("passed") is False
 
 
 #: First words of ``cadcam design``'s output when its files could not all be written: its first
