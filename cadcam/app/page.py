@@ -133,7 +133,7 @@ def png(fig: Figure, dpi: int = PAGE_DPI) -> bytes:
 
 def torque_png(result) -> bytes:
     """The torque figure of ``result`` (a design with springs) as the page shows it."""
-    return png(torque_figure(result.evaluation, result.band))
+    return png(torque_figure(result.evaluation, result.band, result.friction))
 
 
 class Download(pn.widgets.FileDownload):
