@@ -16,6 +16,7 @@ evaluated there; the band is trustworthy to first order where the two agree.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -45,6 +46,8 @@ class Band:
     half_width: np.ndarray
     parts: dict
     corners: list
+    #: The derivatives the band is made of (what :mod:`cadcam.verify.builds` samples).
+    sensitivity: "Sensitivity | None" = None
 
     def label(self) -> str:
         """The tolerances in words: ``rate ± 10 %, …, profile ± 0.05 mm``."""
@@ -64,22 +67,61 @@ class Band:
         return {"tolerances": dict(self.tolerance), "joints": joints}
 
 
-def tolerance_band(evaluation) -> Band:
-    """The band of an evaluated design (:class:`cadcam.verify.evaluate.Evaluation`) at its grid
-    points, about the poses the evaluation solved (see the module)."""
+@dataclass
+class Sensitivity:
+    """The torque's derivatives with respect to every parameter of a design at its grid points,
+    and the parameter steps each tolerance allows.
+
+    Attributes
+    ----------
+    model : casadi.Function
+        The torque model with its derivatives (:func:`cadcam.verify.model.parameter_model`).
+    layout : _Layout
+        Where each parameter sits in p = [c; k; x0; F0; q], and the design's values p₀.
+    z : ndarray
+        The solved unknowns at every grid point (:func:`_unknowns`).
+    jacobian : ndarray
+        dτ/dp (m, N, P) [N·m per unit of p], the poses re-solved (implicit function theorem).
+    directions : dict
+        For each tolerance, its parameter steps (P × steps), each its Δp (:func:`_directions`).
+    labels : dict
+        For each tolerance, each step's part in words (``spring 1's rate``).
+    """
+
+    model: Any
+    layout: "_Layout"
+    z: np.ndarray
+    jacobian: np.ndarray
+    directions: dict
+    labels: dict
+
+
+def sensitivity(evaluation, model=None) -> Sensitivity:
+    """The :class:`Sensitivity` of an evaluated design (:class:`cadcam.verify.evaluate.Evaluation`)
+    at its grid points, about the poses the evaluation solved; ``model``: its
+    :func:`cadcam.verify.model.parameter_model`, built here if not given (it depends on the
+    problem's structure only, not on its targets or parameter values)."""
     problem, design, theta = evaluation.problem, evaluation.design, evaluation.theta
     layout = _Layout(problem, design)
-    model = parameter_model(problem, design.bases)
+    model = parameter_model(problem, design.bases) if model is None else model
     z = _unknowns(evaluation)
-    directions = _directions(problem, design, layout)
     N = theta.shape[1]
     # the N blocks (m × P) side by side → (m, N, P)
     J = np.stack(np.hsplit(np.asarray(model.map(N)(theta, *layout.split(layout.nominal), z)[3]), N), axis=1)
-    parts = {key: np.abs(J @ D).sum(axis=2) for key, D in directions.items()}
+    return Sensitivity(model, layout, z, J, *_directions(problem, design, layout))
+
+
+def tolerance_band(evaluation) -> Band:
+    """The band of an evaluated design (:class:`cadcam.verify.evaluate.Evaluation`) at its grid
+    points, about the poses the evaluation solved (see the module)."""
+    problem, theta = evaluation.problem, evaluation.theta
+    sens = sensitivity(evaluation)
+    model, layout, z, J = sens.model, sens.layout, sens.z, sens.jacobian
+    parts = {key: np.abs(J @ D).sum(axis=2) for key, D in sens.directions.items()}
     half = sum(parts.values())
-    D = np.concatenate(list(directions.values()), axis=1)
+    D = np.concatenate(list(sens.directions.values()), axis=1)
     corners = [_worst_corner(model, layout, theta, z, D, J, half, i) for i in range(theta.shape[0])]
-    return Band(problem.tolerance, half, parts, corners)
+    return Band(problem.tolerance, half, parts, corners, sens)
 
 
 class _Layout:
@@ -118,28 +160,34 @@ def _unknowns(evaluation) -> np.ndarray:
     return np.vstack(rows)
 
 
-def _directions(problem: Problem, design: Design, layout: _Layout) -> dict[str, np.ndarray]:
+def _directions(problem: Problem, design: Design, layout: _Layout) -> tuple[dict, dict]:
     """For each tolerance, the parameter steps it allows (P × steps): one column per spring,
-    placed parameter or profile, each its Δp."""
+    placed parameter or profile, each its Δp; and each column's part in words."""
     tol = problem.tolerance
     cols: dict[str, list] = {key: [] for key in TOLERANCES}
+    labels: dict[str, list] = {key: [] for key in TOLERANCES}
+
+    def add(key: str, label: str, column: np.ndarray) -> None:
+        cols[key].append(column)
+        labels[key].append(label)
     for j, spring in enumerate(problem.springs):
-        cols["rate"].append(layout.step(layout.start["k"] + j, tol["rate"] * spring.rate))
-        cols["preload"].append(layout.step(layout.start["F0"] + j, tol["preload"] * spring.preload))
-        cols["placement"].append(layout.step(layout.start["x0"] + j, tol["placement"]))
+        add("rate", f"{spring.name}'s rate", layout.step(layout.start["k"] + j, tol["rate"] * spring.rate))
+        add("preload", f"{spring.name}'s preload", layout.step(layout.start["F0"] + j, tol["preload"] * spring.preload))
+        add("placement", f"{spring.name}'s pre-extension", layout.step(layout.start["x0"] + j, tol["placement"]))
     first = layout.start["q"]
     for mech in problem.mechanisms:
         steps = mech.placement_steps(tol["placement"])
-        cols["placement"] += [layout.step(first + index, step)
-                              for index, (quantity, step) in enumerate(zip(mech.parameters, steps)) if quantity.placed]
+        for index, (quantity, step) in enumerate(zip(mech.parameters, steps)):
+            if quantity.placed:
+                add("placement", f"{mech.name}'s {quantity.name}", layout.step(first + index, step))
         first += len(mech.parameters)
     start = layout.start["c"]
-    for basis in design.bases:  # a uniform offset of ρ, in the profile's basis
+    for k, basis in enumerate(design.bases):  # a uniform offset of ρ, in the profile's basis
         offset = np.zeros(layout.size)
         offset[start:start + basis.size] = basis.offset(tol["profile"])
-        cols["profile"].append(offset)
+        add("profile", f"cam {k + 1}'s offset", offset)
         start += basis.size
-    return {key: np.stack(c, axis=1) if c else np.zeros((layout.size, 0)) for key, c in cols.items()}
+    return ({key: np.stack(c, axis=1) if c else np.zeros((layout.size, 0)) for key, c in cols.items()}, labels)
 
 
 #: Newton steps that re-solve the poses at the worst corner from the nominal ones.
