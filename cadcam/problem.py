@@ -13,7 +13,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .files import env_cap
-from .keys import SHARE, Key, KeyTable, Plausible, is_real
+from .keys import PART_SIZE, SHARE, Key, KeyTable, Plausible, is_real
 from .mechanisms.base import ENERGY, Mechanism, Profile
 from .physics.cables import MAX_DIAMETER, Cable
 from .physics.friction import Friction
@@ -440,6 +440,47 @@ def tolerance_keys() -> KeyTable:
                           for name, t in TOLERANCES.items()))
 
 
+#: How a built part's deviation is drawn within its ± tolerance (``[builds] distribution``).
+DISTRIBUTIONS = {
+    "uniform": "uniform within ± the tolerance: a tolerance is a limit, and nothing says where within it a part "
+               "falls (a batch of springs is often all off the same way), so no value inside is likelier than "
+               "another",
+    "normal": "normal with the tolerance as 3σ, cut at ± the tolerance: a centred process whose parts outside the "
+              "limit are rejected",
+}
+#: Most builds ``[builds] count`` may ask for.
+MAX_BUILDS = 1_000_000
+
+#: The ``[builds]`` keys: the Monte Carlo of built devices (:mod:`cadcam.verify.builds`).
+BUILD_KEYS = KeyTable("[builds]", "Builds, not corners: every design with springs simulates this many devices, each "
+                      "part drawn within its [tolerances], and reports the P50 and P95 of each joint's largest "
+                      "torque error (`builds` in `result.json`, the summary).", (
+    Key("count", "", "the number of builds simulated", "integer", low=0, high=MAX_BUILDS, default=10_000,
+        details="0 simulates none"),
+    Key("seed", "", "the seed of the random draws: the same seed draws the same builds", "integer", low=0,
+        default=0),
+    Key("distribution", "", "how each part's deviation is drawn within its ± tolerance", "choice",
+        choices=tuple(DISTRIBUTIONS), default="uniform",
+        details="; ".join(f"{name}: {words}" for name, words in DISTRIBUTIONS.items())),
+))
+
+#: The ``[adjustment]`` keys: what the builder sets after the build (:mod:`cadcam.verify.builds`).
+ADJUSTMENT_KEYS = KeyTable("[adjustment]", "A designed-in adjustment the builder sets after the build, each with "
+                           "its range as a limit: each simulated build is set back as the adjustment table "
+                           "(`adjustment.csv`) tells, and the P50 and P95 after adjusting are reported beside "
+                           "those before.", (
+    Key("preload_travel", "m", "± how far each spring's tensioning screw shifts its pre-extension (its extension "
+        "at the reference angle, that is, the cable's length)", low=0, default=0.0, plausible=PART_SIZE,
+        details="0: no screw"),
+    Key("slot", "", "the placed parameter of the mechanisms that a slot lets the spring end move along", "string",
+        default="", default_text="none",
+        details="a parameter a mechanism places (anchored_pulley: `chi0`, an arc around the joint through the "
+                "spring end; `ell`, a radial slot); every mechanism that has it gets its own slot"),
+    Key("slot_travel", "m", "± how far the spring end moves along its slot (along the arc, for an angle)", low=0,
+        default=0.0, plausible=PART_SIZE, details="0: no slot"),
+))
+
+
 #: A joint's ``band_weight``: the weight of its tolerance band in the NLP's objective
 #: (:func:`cadcam.solve.objective._band_rows`); 0, the default, leaves the band out.
 BAND_WEIGHT = Key(
@@ -537,6 +578,10 @@ class Problem:
     #: The spec's ``[friction]``: where the cables slide and the joints' bearings, which split each
     #: joint's torque into a band (:mod:`cadcam.verify.friction`); None: frictionless.
     friction: Friction | None = None
+    #: The spec's ``[builds]`` and ``[adjustment]`` (pairs key, value); :attr:`build_options`
+    #: and :attr:`adjustment` add the defaults.
+    builds: tuple = ()
+    adjustments: tuple = ()
 
     def __post_init__(self):
         for mech in self.mechanisms:
@@ -546,6 +591,16 @@ class Problem:
     def tolerance(self) -> dict[str, float]:
         """Every :data:`TOLERANCES` key's value: the spec's, else its default."""
         return {**{key: t.default for key, t in TOLERANCES.items()}, **dict(self.tolerances)}
+
+    @property
+    def build_options(self) -> dict[str, Any]:
+        """Every :data:`BUILD_KEYS` key's value: the spec's, else its default."""
+        return {**{k.name: k.default for k in BUILD_KEYS.keys}, **dict(self.builds)}
+
+    @property
+    def adjustment(self) -> dict[str, Any]:
+        """Every :data:`ADJUSTMENT_KEYS` key's value: the spec's, else its default."""
+        return {**{k.name: k.default for k in ADJUSTMENT_KEYS.keys}, **dict(self.adjustments)}
 
     # -- structure -----------------------------------------------------------------------------
     @property
@@ -715,6 +770,8 @@ class Problem:
             "springs": [s.to_dict() for s in self.springs],
             "workshop": self.workshop.to_dict(),
             **({"tolerances": dict(self.tolerances)} if self.tolerances else {}),
+            **({"builds": dict(self.builds)} if self.builds else {}),
+            **({"adjustment": dict(self.adjustments)} if self.adjustments else {}),
             **({"cable": self.cable.to_dict()} if self.cable is not None else {}),
             **({"friction": self.friction.to_dict()} if self.friction is not None else {}),
         }

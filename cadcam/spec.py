@@ -35,10 +35,11 @@ from .physics.cables import CABLE_KEYS, FILLED_BY_NAME, Cable, shipped_cables
 from .physics.catalogue import load_catalogue
 from .physics.friction import BEARING_KEYS, FRICTION_KEYS, GUIDE_KEYS, IDLER_KEYS, Friction, Guide, Idler, JointBearing
 from .physics.springs import SPRING_KEYS, Port, Spring
-from .problem import (BAND_WEIGHT, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, SOLVER_KEYS, WORKSHOP_KEYS, Joint, Options,
-                      Problem, Workshop, acceptance_keys, count_error, size_error, tolerance_keys)
-from .targets import (ANGLE_UNITS, ARM_JOINT, ARM_KEYS, EXPRESSION_KEYS, FIVE_BAR_KEYS, KIND, TABLE_KEYS,
-                      ExpressionError, Target, read_table, target_kind, target_kinds)
+from .problem import (ADJUSTMENT_KEYS, BAND_WEIGHT, BUILD_KEYS, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, SOLVER_KEYS,
+                      WORKSHOP_KEYS, Joint, Options, Problem, Workshop, acceptance_keys, count_error, size_error,
+                      tolerance_keys)
+from .targets import (ANGLE_UNITS, ARM_JOINT, ARM_KEYS, EXPRESSION_KEYS, FIVE_BAR_KEYS, KIND, PENDULUM_KEYS,
+                      TABLE_KEYS, ExpressionError, Target, read_table, target_kind, target_kinds)
 
 #: ``default`` of :meth:`_Reader.read`: the key's declared default.
 _DECLARED = object()
@@ -65,6 +66,9 @@ SPEC_KEYS = KeyTable("top level", "A spec file: its name and source, the joints,
     Key("variants", "", "named tables of dotted-key overrides, chosen by --variant NAME", "table", default={}),
     Key("workshop", "", "sizes of the workshop files (see [workshop])", "table", default={}),
     Key("tolerances", "", "the tolerances of the built part (see [tolerances])", "table", default={}),
+    Key("builds", "", "the builds simulated under the tolerances (see [builds])", "table", default={}),
+    Key("adjustment", "", "what the builder sets after the build, and its range (see [adjustment])", "table",
+        default={}),
     Key("cable", "", "the cable the profiles wrap, as a part (see [cable])", "table", default=None,
         default_text="none (a diameter alone: [workshop] cable_diameter)"),
     Key("friction", "", "friction where it acts: guides, idlers on bearings, joints' bearings (see [friction])",
@@ -230,6 +234,8 @@ def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: boo
         data = _five_bar(r, n_joints)
     elif kind == "table":
         data = _table(r, base, output)
+    elif kind == "pendulum":
+        data = _pendulum(r)
     elif kind == "expression":  # its value's unit is the law's: N·m for a torque, m for an output
         keys = EXPRESSION_KEYS
         data = {"expression": r.read(keys["expression"].within(unit="m" if output else "N·m")),
@@ -238,6 +244,18 @@ def _target(r: _Reader, base: Path, n_joints: int, arm: dict | None, output: boo
         data = {k.name: r.read(k) for k in (declared.keys.keys if declared.keys is not None else ())}
     r.done()
     return Target(kind, data)
+
+
+def _pendulum(r: _Reader) -> dict:
+    """A ``pendulum`` target's keys (:data:`cadcam.targets.PENDULUM_KEYS`), its ``mass_range``
+    only where given, and holding its ``mass``: the design is for that mass."""
+    data = {k.name: r.read(k) for k in PENDULUM_KEYS.keys if k.name != "mass_range"}
+    if "mass_range" in r.table:
+        low, high = data["mass_range"] = r.read(PENDULUM_KEYS["mass_range"])
+        if not low <= data["mass"] <= high:
+            r.fail(r.key("mass_range"), data["mass_range"], f"a range holding mass = {data['mass']:g}, the mass "
+                   "the design is for")
+    return data
 
 
 def _arm_target(r: _Reader, n_joints: int, arm: dict | None) -> dict:
@@ -452,6 +470,9 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
     top.read(keys["variants"])
     workshop = _workshop(_Reader(origin, top.read(keys["workshop"]), "workshop"))
     tolerances = _tolerances(_Reader(origin, top.read(keys["tolerances"]), "tolerances"))
+    builds = _given(_Reader(origin, top.read(keys["builds"]), "builds"), BUILD_KEYS)
+    adjustment = _Reader(origin, top.read(keys["adjustment"]), "adjustment")
+    adjustments = _given(adjustment, ADJUSTMENT_KEYS)
     raw_cable = top.read(keys["cable"])
     cable = None if raw_cable is None else _cable(_Reader(origin, raw_cable, "cable"))
     if cable is not None:
@@ -468,6 +489,7 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
         if too_many:
             raise SpecError(f"{origin}: {mech_label}: the mechanisms on {joint_label}[{i + 1}]: {too_many}")
     _check_spans(origin, joints, mechanisms, joint_label)
+    _check_slot(adjustment, dict(adjustments).get("slot", ""), mechanisms)
     springs = [_spring(_Reader(origin, raw, f"springs[{j + 1}]"), j, mechanisms, base)
                for j, raw in enumerate(raw_springs)]
     _check_output_laws(origin, mechanisms)
@@ -482,8 +504,8 @@ def _parsed(data: dict, origin: str, base: Path) -> Problem:
         _check_target(origin, f"{joint_label}[{i + 1}].target", t, ranges, i)
     try:
         return Problem(name=name, source=source, notes=notes, torque_model=torque_model,
-                       options=options, workshop=workshop, tolerances=tolerances, cable=cable,
-                       friction=friction, springs=tuple(springs), mechanisms=tuple(mechanisms),
+                       options=options, workshop=workshop, tolerances=tolerances, cable=cable, builds=builds,
+                       adjustments=adjustments, friction=friction, springs=tuple(springs), mechanisms=tuple(mechanisms),
                        joints=tuple(Joint(target=t, **c) for c, t in zip(joints, targets)))
     except ValueError as exc:
         raise SpecError(f"{origin}: torque_model: {exc}") from None
@@ -601,6 +623,26 @@ def _tolerances(r: _Reader) -> tuple:
     out = tuple((k.name, float(r.read(k))) for k in tolerance_keys().keys if k.name in r.table)
     r.done()
     return out
+
+
+def _given(r: _Reader, table: KeyTable) -> tuple:
+    """The keys of ``table`` (``[builds]``, ``[adjustment]``) the spec gives, as pairs (key,
+    value), each read as its declaration says."""
+    out = tuple((k.name, r.read(k)) for k in table.keys if k.name in r.table)
+    r.done()
+    return out
+
+
+def _check_slot(r: _Reader, slot: str, mechanisms) -> None:
+    """Refuse an ``[adjustment] slot`` that no mechanism of the problem places
+    (:attr:`cadcam.mechanisms.base.Quantity.placed`)."""
+    placed = list(dict.fromkeys(q.name for m in mechanisms for q in m.parameters if q.placed))
+    if slot and slot not in placed:
+        r.fail(r.key("slot"), slot, "a parameter the problem's mechanisms place, one of "
+               + (", ".join(repr(name) for name in placed) or "none: no mechanism here has one"))
+    if not slot and r.table.get("slot_travel", 0.0) > 0:
+        r.fail(r.key("slot_travel"), r.table["slot_travel"], "0 without a slot: name the parameter it moves, "
+               "[adjustment] slot, one of " + (", ".join(repr(name) for name in placed) or "none here"))
 
 
 def _workshop(r: _Reader) -> Workshop:

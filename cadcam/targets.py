@@ -434,6 +434,11 @@ PENDULUM_KEYS = KeyTable('kind = "pendulum"', "A pendulum's gravity torque m g l
     Key("length", "m", "the distance l from the joint to the centre of mass", low=0, open_low=True, plausible=REACH),
     G,
     Key("phase", "rad", "the phase added to the joint angle", default=0.0),
+    Key("mass_range", "kg", "the least and greatest mass m the pendulum has in use (an arm whose payload changes)",
+        "numbers", length=2, low=0, open_low=True, default=None, default_text="none: mass alone",
+        check=lambda v: v[0] < v[1], words="least < greatest", plausible=MASS,
+        details="the design is for `mass`, within the range; the adjustment ([adjustment]) is set for each mass, "
+                "and its table (adjustment.csv) maps the mass to the setting"),
 ))
 TABLE_KEYS = KeyTable('kind = "table"', "A law sampled in a table, interpolated by a cubic B-spline: inline "
                       "samples, or a CSV file with header theta_rad,<value> or theta_deg,<value> (torque_Nm "

@@ -1,9 +1,9 @@
 """The JSON Schema of ``result.json`` (``cadcam/result.schema.json``): its generic parts are
 written in the file, and the parts that the declarations hold are generated from them — the
 torque models, the design methods, the ``[solver]`` options, the target kinds and their keys
-(:attr:`TargetKind.keys`), a joint's keys with its acceptance limits, the tolerances, a spring's
-keys, the cable's, the friction's, the keys every mechanism has and each mechanism's own
-(:attr:`Mechanism.spec_keys`).
+(:attr:`TargetKind.keys`), a joint's keys with its acceptance limits, the tolerances, the builds and
+the adjustment, a spring's keys, the cable's, the friction's, the keys every mechanism has and each
+mechanism's own (:attr:`Mechanism.spec_keys`).
 
 ``python -m cadcam.outputs.schema`` writes the file anew (``make generated``); the tests check that
 the shipped file is what this module makes of it.
@@ -22,7 +22,7 @@ from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, design_methods, me
 from ..physics.cables import CABLE_KEYS, SAFETY_FACTORS
 from ..physics.friction import BEARING_KEYS, FRICTION_KEYS, GUIDE_KEYS, IDLER_KEYS
 from ..physics.springs import SPRING_KEYS
-from ..problem import JOINT_KEYS, SOLVER_KEYS, acceptance_keys, tolerance_keys
+from ..problem import ADJUSTMENT_KEYS, BUILD_KEYS, JOINT_KEYS, SOLVER_KEYS, acceptance_keys, tolerance_keys
 from ..targets import target_kind, target_kinds
 
 #: The shipped schema.
@@ -94,6 +94,8 @@ def result_schema(schema: dict) -> dict:
     joint["acceptance"]["properties"] = _properties(acceptance_keys())
     joint["acceptance"]["additionalProperties"] = False
     defs["problem"]["properties"]["tolerances"]["properties"] = _properties(tolerance_keys())
+    defs["problem"]["properties"]["builds"]["properties"] = _properties(BUILD_KEYS)
+    defs["problem"]["properties"]["adjustment"]["properties"] = _properties(ADJUSTMENT_KEYS)
     defs["problem"]["properties"]["cable"]["properties"] = _properties(CABLE_KEYS)
     out["properties"]["cable"]["properties"]["kind"]["enum"] = list(SAFETY_FACTORS)
     friction = defs["problem"]["properties"]["friction"]["properties"] = _properties(FRICTION_KEYS)

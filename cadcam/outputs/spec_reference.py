@@ -2,8 +2,8 @@
 declarations (:class:`cadcam.keys.KeyTable`) — the top level, ``[[joints]]`` with their
 acceptance limits and every target kind, ``[arm]``, ``[[mechanisms]]`` with each mechanism's
 own keys and output laws, ``[[springs]]``, ``[solver]`` with the IPOPT options cadcam passes
-on, ``[workshop]``, ``[cable]``, ``[tolerances]`` and ``[friction]`` with its guides, idlers and
-joints' bearings.
+on, ``[workshop]``, ``[cable]``, ``[tolerances]``, ``[builds]``, ``[adjustment]`` and
+``[friction]`` with its guides, idlers and joints' bearings.
 
 ``python -m cadcam.outputs.spec_reference`` writes it (``make generated``); the tests check
 that the committed page is what this module makes, and that every key the reader reads of any
@@ -20,7 +20,8 @@ from ..mechanisms.base import MECHANISM_KEYS, built_in_kinds, mechanism_class
 from ..physics.cables import CABLE_KEYS
 from ..physics.friction import BEARING_KEYS, FRICTION_KEYS, GUIDE_KEYS, IDLER_KEYS
 from ..physics.springs import SPRING_KEYS
-from ..problem import IPOPT_OPTIONS, JOINT_KEYS, SOLVER_KEYS, WORKSHOP_KEYS, acceptance_keys, tolerance_keys
+from ..problem import (ADJUSTMENT_KEYS, BUILD_KEYS, IPOPT_OPTIONS, JOINT_KEYS, SOLVER_KEYS, WORKSHOP_KEYS, acceptance_keys,
+                       tolerance_keys)
 from ..spec import SPEC_KEYS
 from ..targets import ARM_KEYS, target_kind, target_kinds
 
@@ -107,8 +108,8 @@ def reference() -> str:
     rows += ["", "### Output laws a mechanism brings", "",
              "Kinds of `[mechanisms.output_target]` beside `expression` and `table`.", *_targets(output=True),
              "", *_table(SPRING_KEYS), "", *_table(SOLVER_KEYS), "", *_ipopt(), "", *_table(WORKSHOP_KEYS), "",
-             *_table(CABLE_KEYS), "", *_table(tolerance_keys()), "", *_table(FRICTION_KEYS),
-             *[row for table in FRICTION_TABLES for row in ("", *_table(table, "###"))]]
+             *_table(CABLE_KEYS), "", *_table(tolerance_keys()), "", *_table(BUILD_KEYS), "", *_table(ADJUSTMENT_KEYS),
+             "", *_table(FRICTION_KEYS), *[row for table in FRICTION_TABLES for row in ("", *_table(table, "###"))]]
     return "\n".join(rows) + "\n"
 
 
@@ -116,7 +117,7 @@ def declared_keys() -> set[tuple[str, str]]:
     """(table path, key name) of every key on the page: what a test holds the reader's keys
     against."""
     tables = [SPEC_KEYS, JOINT_KEYS, acceptance_keys(), ARM_KEYS, MECHANISM_KEYS, SPRING_KEYS, WORKSHOP_KEYS,
-              CABLE_KEYS, tolerance_keys(), SOLVER_KEYS, FRICTION_KEYS, *FRICTION_TABLES]
+              CABLE_KEYS, tolerance_keys(), BUILD_KEYS, ADJUSTMENT_KEYS, SOLVER_KEYS, FRICTION_KEYS, *FRICTION_TABLES]
     tables += [mechanism_class(k).spec_keys for k in built_in_kinds()]
     tables += [target_kind(k).keys for k in dict.fromkeys(target_kinds() + target_kinds(output=True))]
     out = set()
