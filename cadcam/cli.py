@@ -157,7 +157,7 @@ def _check_files_are_ours(out: Path, problem, figures: bool) -> None:
 def _design_into(args, problem, out: Path) -> int:
     """Design ``problem``, print its summary and write its files into ``out`` (held)."""
     from .optimize import optimize
-    from .outputs.run_files import WorkshopError
+    from .outputs.run_files import ADJUSTMENT_FILE, WorkshopError
 
     writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
@@ -177,7 +177,8 @@ def _design_into(args, problem, out: Path) -> int:
             f"{' output.png' if output else ''}" if args.figures else "")
     _say(*result.summary().split("\n"),
          f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv"
-         f"{' output.csv' if output else ''}{pngs}",
+         f"{' output.csv' if output else ''}{' ' + ADJUSTMENT_FILE if result.builds and result.builds.chosen else ''}"
+         f"{pngs}",
          f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
          f"or cam*_groove.csv{' cam*.stl' if problem.workshop.stl is not None else ''} ({'; '.join(notes)})")
     if _files_failed_verification(out):

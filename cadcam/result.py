@@ -17,12 +17,14 @@ from .mechanisms.base import kinds_in
 from .verify.evaluate import Evaluation, cable_report
 from .verify.installation import installation_lines, spring_installation
 from .verify.friction import FrictionBand, friction_band
+from .verify.builds import Builds, simulate_builds
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
 from .version import __version__
 from .outputs.forked import Drawing, draw
 from .solve.messages import count
-from .outputs.run_files import WorkshopError, run_file_names, torque_table, write_outputs, write_workshop_files
+from .outputs.run_files import (ADJUSTMENT_FILE, WorkshopError, run_file_names, torque_table, write_outputs,
+                                 write_workshop_files)
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -53,6 +55,47 @@ def _band_line(band: Band, ev: Evaluation) -> str:
                  f"re-checked {1e3 * c['recomputed']:.3g})" if peak > 0 and peak >= floor else f"± {1e3 * h.max():.3g} N·mm"
                  for h, c, peak, floor in zip(band.half_width, band.corners, np.abs(ev.tau_d).max(axis=1), floors)]
     return f"  tolerance band ({band.label()}) per joint: {'; '.join(per_joint)}"
+
+
+def _errors_text(values: np.ndarray, scales: np.ndarray, floors: list, peaks: np.ndarray) -> str:
+    """P50 / P95 per joint [N·mm] (``values`` (2, m) [N·m]) and, where the target's peak is not
+    below the joint's torque floor, as shares of it; a joint without a torque goal left out."""
+    out = []
+    for (p50, p95), scale, floor, peak in zip(values.T, scales, floors, peaks):
+        if np.isfinite(scale):
+            share = f" ({100 * p50 / peak:.2g} / {100 * p95 / peak:.2g} % of the target's peak)" \
+                if peak > 0 and peak >= floor else ""
+            out.append(f"{1e3 * p50:.3g} / {1e3 * p95:.3g} N·mm{share}")
+    return "; ".join(out)
+
+
+def _builds_lines(builds: Builds, ev: Evaluation) -> list[str]:
+    """The summary's lines on the builds: P50 / P95 of each joint's largest torque error as
+    built and, with an adjustment, as set by the table and at best, the ranges' violations
+    and each payload's error."""
+    options, problem = builds.options, ev.problem
+    floors = [problem.torque_floor(i) for i in range(len(problem.joints))]
+    peaks = np.abs(ev.tau_d).max(axis=1)
+
+    def text(stage: str) -> str:
+        return _errors_text(builds.percentiles(stage), builds.scales, floors, peaks)
+    lines = [f"  builds: {options['count']} (seed {options['seed']}, each part {options['distribution']} within ± its "
+             f"tolerance), largest torque error P50 / P95 per joint: {text('before')}"]
+    if builds.chosen:
+        how = [f"{s.name} ± {1e3 * s.travel:g} mm" for s in builds.chosen]
+        hold = "" if builds.pose is None else (
+            f"; then the screw{'s' * (sum(s.screw for s in builds.chosen) > 1)} until the arm holds still at "
+            + ", ".join(f"{np.degrees(t):.3g}°" for t in builds.pose))
+        lines.append(f"  adjusted ({', '.join(how)}) as {ADJUSTMENT_FILE} says{hold}: {text('set')}; at best "
+                     f"{text('best')}; builds at an end of a range: {100 * builds.at_end['set']:.2g} % as set, "
+                     f"{100 * builds.at_end['best']:.2g} % at best")
+    lines += [f"  adjustment's range violated: {v}" for v in builds.limits]
+    if builds.payloads:
+        per = ", ".join(f"{p['mass']:.3g} kg {100 * p['relative_rmse']:.2g} %" + (" (range end)" * p["at_range_end"])
+                        + (f" (violates {len(p['violations'])} limits)" if p["violations"] else "")
+                        for p in builds.payloads)
+        lines.append(f"  payloads, each adjusted: RMS error as a share of its target's RMS: {per}")
+    return lines
 
 
 def _cable_line(report: dict) -> str:
@@ -176,6 +219,13 @@ class Result:
         return friction_band(self.evaluation) if self.problem.friction and self.problem.springs and finite else None
 
     @cached_property
+    def builds(self) -> Builds | None:
+        """The simulated builds under the problem's tolerances and their adjustment
+        (:func:`cadcam.verify.builds.simulate_builds`, on the design grid); None where there is
+        no band, or ``[builds] count`` is 0."""
+        return None if self.band is None else simulate_builds(self.evaluation, self.band.sensitivity)
+
+    @cached_property
     def installation(self) -> list[dict]:
         """How each spring is installed, from the fine re-check: force and length ranges, and
         for a spring hung from a mount on its cable the mount and the cable's cut length
@@ -222,6 +272,8 @@ class Result:
             lines.append(_band_line(self.band, self.evaluation))
         if self.friction is not None:
             lines.append(self.friction.summary_line([j.name for j in self.problem.joints]))
+        if self.builds is not None:
+            lines += _builds_lines(self.builds, self.evaluation)
         lines += installation_lines(self.installation)
         if (cable := cable_report(self.problem, fine)) is not None:
             lines.append(_cable_line(cable))
@@ -347,6 +399,8 @@ class Result:
             out["tolerance_band"] = self.band.to_dict()
         if self.friction is not None:
             out["friction_band"] = self.friction.to_dict(target_samples_grid(ev)["indices"])
+        if self.builds is not None:
+            out["builds"] = self.builds.to_dict()
         if sol is not None:
             out["solver"] = {
                 "name": "ipopt" if self.problem.options.method == "nlp" else self.problem.options.method,

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..verify.builds import adjusts, table_rows
 from ..verify.evaluate import cable_report, output_error, output_law
 from ..files import write_csv, write_json
 from ..problem import Workshop
@@ -28,6 +29,9 @@ class WorkshopError(ValueError):
 
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
+#: The adjustment table (:func:`cadcam.verify.builds.table_rows`): how the builder sets the
+#: adjustment from the spring's measured rate (and, with a payload range, the mass).
+ADJUSTMENT_FILE = "adjustment.csv"
 
 
 def torque_table(ev) -> tuple[list[str], np.ndarray]:
@@ -66,7 +70,8 @@ def run_file_names(problem, figures: bool, workshop: Workshop | None) -> list[st
     any work (:func:`cadcam.files.refuse_files_of_others`). A profile comes out as an outline or
     a helical groove, and IPOPT's iterates may be missing: the names of either are given."""
     output = any(mech.output_target is not None for mech in problem.mechanisms)
-    names = ["result.json", "torque.csv", "torque_recheck.csv", "profile.csv", *(["output.csv"] if output else [])]
+    names = ["result.json", "torque.csv", "torque_recheck.csv", "profile.csv", *(["output.csv"] if output else []),
+             *([ADJUSTMENT_FILE] if adjusts(problem) else [])]
     if figures:
         names += [f"{name}.png" for name in ("profile", "convergence", *(("torque", "springs") if problem.springs else ()),
                                               *(("output",) if output else ()))]
@@ -86,8 +91,9 @@ def write_torque_csv(path: Path, ev) -> None:
 def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawing] | None = None,
                   workshop: dict | None = None) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
-    grid), ``profile.csv``, with ``figures`` the PNG figures (torque and springs only if there
-    are springs, ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
+    grid), ``profile.csv``, for adjusted builds the adjustment table :data:`ADJUSTMENT_FILE`,
+    with ``figures`` the PNG figures (torque and springs only if there are springs,
+    ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
     ``output.png``) in ``out``. With a list ``drawings``, the figures are built here and
     appended to it, the convergence figure (the longest to draw) first, to be drawn by
@@ -101,6 +107,8 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     rows = [[float(i + 1), p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
             for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
     write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
+    if result.builds is not None and result.builds.chosen:
+        write_csv(out / ADJUSTMENT_FILE, *table_rows(result.builds))
     outputs = [(u, mech) for u, mech in enumerate(ev.problem.mechanisms) if mech.output_target is not None]
     if outputs:  # x(θ) of mechanisms with an output law, against it
         header, cols = ["theta_rad"], [ev.units[outputs[0][0]].theta]
