@@ -1,4 +1,4 @@
-"""The speed goals (issues 12 and 30) as ``make bench`` reports them: one row per goal with the value this
+"""The goals (issues 12 and 30, and those of later issues) as ``make bench`` reports them: one row per goal with the value this
 run measured and whether it met the goal (each benchmark script prints the goals it measures,
 after its tables)."""
 from __future__ import annotations

@@ -100,6 +100,8 @@ class Setting:
         for an angle.
     travel : float
         ± its range [m].
+    what : str
+        What it moves, and which way is +.
     """
 
     kind: str
@@ -107,6 +109,7 @@ class Setting:
     index: int
     per_metre: float
     travel: float
+    what: str
 
     @property
     def name(self) -> str:
@@ -138,15 +141,18 @@ def settings(problem: Problem, layout) -> list[Setting]:
     places the ``slot`` parameter; none where their travel is 0."""
     adjust, out = problem.adjustment, []
     if adjust["preload_travel"] > 0:
-        out += [Setting("screw", j + 1, int(layout.start["x0"]) + j, 1.0, adjust["preload_travel"])
-                for j in range(len(problem.springs))]
+        out += [Setting("screw", j + 1, int(layout.start["x0"]) + j, 1.0, adjust["preload_travel"],
+                        f"{spring.name}'s pre-extension, its extension at the reference angle (+: longer)")
+                for j, spring in enumerate(problem.springs)]
     first = int(layout.start["q"])
     for u, mech in enumerate(problem.mechanisms):
         names = list(mech.parameter_names)
         if adjust["slot"] in names and adjust["slot_travel"] > 0:
             at = names.index(adjust["slot"])
+            quantity = mech.parameters[at]
             out.append(Setting("slot", u + 1, first + at, float(mech.placement_steps(1.0)[at]),
-                               adjust["slot_travel"]))
+                               adjust["slot_travel"], f"{mech.name}'s {quantity.name}, {quantity.description} "
+                               f"(+: larger)"))
         first += len(names)
     return out
 
@@ -515,7 +521,7 @@ class Builds:
                "sources": self.sources, "joints": joints, "seconds": self.seconds}
         if self.chosen:
             out["adjustment"] = {
-                "settings": [{"name": s.name, "parameter_index": s.index, "travel": s.travel,
+                "settings": [{"name": s.name, "what": s.what, "parameter_index": s.index, "travel": s.travel,
                               "per_metre": s.per_metre} for s in self.chosen],
                 "hold_pose": None if self.pose is None else [float(t) for t in self.pose],
                 "at_range_end": self.at_end, "limits": self.limits, "table": table_rows(self)[1]}
@@ -667,13 +673,28 @@ def table_rows(builds: Builds) -> tuple[list[str], list[list[float]]]:
     for j in range(S):
         for r in range(TABLE_ROWS):
             rates = [table.rates[jj, TABLE_ROWS // 2] if jj != j else table.rates[j, r] for jj in range(S)]
-            rows.append(mass + [float(v) for v in rates]
-                        + [1e3 * table.slots[j, u, r] / s.per_metre for u, s in enumerate(slots)]
-                        + [1e3 * table.screws[j, u, r] for u in range(len(screws))])
+            rows.append(mass + [_shown(v) for v in rates]
+                        + [_mm(table.slots[j, u, r] / s.per_metre) for u, s in enumerate(slots)]
+                        + [_mm(table.screws[j, u, r]) for u in range(len(screws))])
     for p in builds.payloads:
-        rows.append([p["mass"]] + [float(v) for v in table.rates[:, TABLE_ROWS // 2]]
-                    + [1e3 * p["settings"][s.name] / s.per_metre for s in slots + screws])
+        rows.append([_shown(p["mass"])] + [_shown(v) for v in table.rates[:, TABLE_ROWS // 2]]
+                    + [_mm(p["settings"][s.name] / s.per_metre) for s in slots + screws])
     return header, rows
+
+
+#: Decimals [mm] of the table's settings: a micrometre, finer than any screw is turned.
+TABLE_DECIMALS = 3
+
+
+def _mm(metres: float) -> float:
+    """A setting [m] in millimetres as the table gives it (:data:`TABLE_DECIMALS`)."""
+    return round(1e3 * float(metres), TABLE_DECIMALS) + 0.0  # + 0.0: no −0.0
+
+
+def _shown(value: float) -> float:
+    """A rate or a mass as the table gives it: to ten digits, without the rounding of its
+    sum (919.9999999999999 is 920.0)."""
+    return float(f"{float(value):.10g}")
 
 
 # -- payloads -------------------------------------------------------------------------------------
