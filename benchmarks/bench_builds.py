@@ -132,7 +132,7 @@ def exact_check(result) -> tuple[float, float, float, float]:
     model = B.build_model(ev, sens, B.mixed_function(sens.model), [s for s in chosen if not s.screw])[0]
     D = np.concatenate(list(sens.directions.values()), axis=1)
     step = D @ B.draws(1, EXACT_BUILDS, D.shape[1], "uniform")
-    adjusted = B._with(step, chosen, B.best_settings(model, step, chosen))
+    adjusted = B.with_settings(step, chosen, B.best_settings(model, step, chosen))
     peak = np.abs(ev.tau_d).max()
     out = []
     for steps in (step, adjusted):

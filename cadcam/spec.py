@@ -635,14 +635,23 @@ def _given(r: _Reader, table: KeyTable) -> tuple:
 
 def _check_slot(r: _Reader, slot: str, mechanisms) -> None:
     """Refuse an ``[adjustment] slot`` that no mechanism of the problem places
-    (:attr:`cadcam.mechanisms.base.Quantity.placed`)."""
-    placed = list(dict.fromkeys(q.name for m in mechanisms for q in m.parameters if q.placed))
+    (:attr:`cadcam.mechanisms.base.Quantity.placed`) and can move (:meth:`Mechanism.placed`)."""
+    placed = list(dict.fromkeys(q.name for m in mechanisms for q in m.parameters if q.placed and _movable(m, q.name)))
+    options = (f"one of {', '.join(repr(name) for name in placed)}" if placed
+               else "but no mechanism here has one: leave the slot out")
     if slot and slot not in placed:
-        r.fail(r.key("slot"), slot, "a parameter the problem's mechanisms place, one of "
-               + (", ".join(repr(name) for name in placed) or "none: no mechanism here has one"))
+        r.fail(r.key("slot"), slot, f"a parameter the problem's mechanisms place and can move, {options}")
     if not slot and r.table.get("slot_travel", 0.0) > 0:
         r.fail(r.key("slot_travel"), r.table["slot_travel"], "0 without a slot: name the parameter it moves, "
-               "[adjustment] slot, one of " + (", ".join(repr(name) for name in placed) or "none here"))
+               f"[adjustment] slot, {options}")
+
+
+def _movable(mech, name: str) -> bool:
+    """Whether ``mech`` moves its parameter ``name`` when asked to (:meth:`Mechanism.placed`):
+    a slot must move what it names."""
+    value = dict(zip(mech.parameter_names, mech.parameter_values()))[name]
+    moved = mech.placed({name: value + 1e-3})
+    return dict(zip(moved.parameter_names, moved.parameter_values()))[name] != value
 
 
 def _workshop(r: _Reader) -> Workshop:

@@ -164,7 +164,8 @@ def built(problem: Problem, design: Design, layout, step: np.ndarray) -> tuple[P
     rates and preloads, pre-extensions, placed parameters and profile coefficients — what
     :func:`cadcam.verify.evaluate.evaluate` evaluates exactly.
 
-    Raises ValueError for a step in a mechanism's parameter that is not placed (no build moves it).
+    Raises ValueError for a step in a mechanism's parameter that is not placed (no build moves
+    it), or that its :meth:`~cadcam.mechanisms.base.Mechanism.placed` does not move.
     """
     c, k, x0, F0, q = layout.split(layout.nominal + step)
     springs = tuple(replace(s, rate=float(k[j]), preload=float(F0[j])) for j, s in enumerate(problem.springs))
@@ -175,12 +176,29 @@ def built(problem: Problem, design: Design, layout, step: np.ndarray) -> tuple[P
                  if dv != 0}
         if any(not quantity.placed for quantity in mech.parameters if quantity.name in moved):
             raise ValueError(f"{mech.name}: only placed parameters move in a build, not {sorted(moved)}")
-        mechanisms.append(mech.placed(moved) if moved else mech)
+        placed = mech.placed(moved) if moved else mech
+        if not _moved_to(mech, placed, moved):
+            raise ValueError(f"{mech.name}: {mech.kind} cannot move {sorted(moved)} (Mechanism.placed)")
+        mechanisms.append(placed)
         first += n
     sizes = np.cumsum([b.size for b in design.bases])[:-1]
     coefficients = [np.asarray(v, dtype=float) for v in np.split(c, sizes)]
     return (replace(problem, springs=springs, mechanisms=tuple(mechanisms)),
             Design(design.bases, coefficients, np.asarray(x0, dtype=float), design.poses))
+
+
+def _moved_to(mech, placed, moved: dict) -> bool:
+    """Whether ``placed`` (``mech`` moved) has the parameters ``moved`` asks for (angles up to
+    whole turns: a spring end's angle is read back from its position)."""
+    now = dict(zip(placed.parameter_names, placed.parameter_values()))
+    for quantity in mech.parameters:
+        if quantity.name in moved:
+            off = now[quantity.name] - moved[quantity.name]
+            if quantity.unit == "rad":
+                off = (off + np.pi) % (2 * np.pi) - np.pi
+            if abs(off) > 1e-12 * max(1.0, abs(moved[quantity.name])):
+                return False
+    return True
 
 
 # -- the model --------------------------------------------------------------------------------
@@ -362,7 +380,7 @@ def best_settings(model: BuildModel, step: np.ndarray, chosen: list[Setting]) ->
     a = np.zeros((len(chosen), step.shape[1]))
     bound = np.array([s.bound for s in chosen])[:, None]
     for _ in range(SETTING_STEPS):
-        full = _with(step, chosen, a)
+        full = with_settings(step, chosen, a)
         r = model.weights[:, None] * model.error(full)
         K = np.stack([model.weights[:, None] * model.tangent(full, s.index) for s in chosen])  # (A, rows, B)
         M = np.einsum("arb,crb->bac", K, K)
@@ -371,7 +389,7 @@ def best_settings(model: BuildModel, step: np.ndarray, chosen: list[Setting]) ->
     return a
 
 
-def _with(step: np.ndarray, chosen: list[Setting], a: np.ndarray) -> np.ndarray:
+def with_settings(step: np.ndarray, chosen: list[Setting], a: np.ndarray) -> np.ndarray:
     """The builds' steps (P, B) with the settings ``a`` (A, B) added."""
     out = step.copy()
     for s, value in zip(chosen, a):
@@ -435,7 +453,7 @@ def as_set(model: BuildModel, step: np.ndarray, chosen: list[Setting], table: "T
     screws = [i for i, s in enumerate(chosen) if s.screw]
     if screws and pose is not None:
         picked = [chosen[i] for i in screws]
-        a[screws] = held_screws(model, *screw_terms(model, _with(step, chosen, a), picked), picked, pose)
+        a[screws] = held_screws(model, *screw_terms(model, with_settings(step, chosen, a), picked), picked, pose)
     return a
 
 
@@ -556,10 +574,10 @@ def simulate_builds(ev: Evaluation, sens: Sensitivity) -> Builds | None:
         step = D @ xi[:, first:first + block]
         before.append(largest_errors(model, step))
         if chosen:
-            rates = _rates(step, layout, len(problem.springs))
+            rates = rates_of(step, layout, len(problem.springs))
             for name, a, out in (("best", best_settings(model, step, chosen), best),
                                  ("set", as_set(model, step, chosen, table, rates, pose), set_)):
-                out.append(largest_errors(model, _with(step, chosen, a)))
+                out.append(largest_errors(model, with_settings(step, chosen, a)))
                 ends[name] += int(_at_end(a, chosen).sum())
     at_end = {name: n / options["count"] for name, n in ends.items()}
     theta = None if pose is None else ev.theta[:, kept_points(ev.grid, len(problem.joints))[pose]]
@@ -569,7 +587,7 @@ def simulate_builds(ev: Evaluation, sens: Sensitivity) -> Builds | None:
                   time.perf_counter() - start)
 
 
-def _rates(step: np.ndarray, layout, S: int) -> np.ndarray:
+def rates_of(step: np.ndarray, layout, S: int) -> np.ndarray:
     """The springs' rates (S, B) [N/m] of the builds ``step`` (P, B)."""
     k = layout.start["k"]
     return layout.nominal[k:k + S, None] + step[k:k + S]
@@ -647,7 +665,7 @@ def hold_pose(model: BuildModel, step: np.ndarray, chosen: list[Setting], table:
     screws = [s for s in chosen if s.screw]
     if not screws:
         return None
-    slotted = _with(step, chosen, slots_as_set(step, chosen, table, _rates(step, layout, len(table.rates))))
+    slotted = with_settings(step, chosen, slots_as_set(step, chosen, table, rates_of(step, layout, len(table.rates))))
     error, K = screw_terms(model, slotted, screws)
     candidates = np.unique(np.linspace(0, model.points - 1, min(HOLD_CANDIDATES, model.points)).round().astype(int))
     scores = []
@@ -737,7 +755,7 @@ def _payload(ev: Evaluation, sens: Sensitivity, chosen: list[Setting], joint: in
     scales = joint_scales(ev)
     weights = np.repeat(np.where(np.isfinite(scales), 1.0 / scales, 0.0), ev.tau.shape[1])
     for _ in range(PAYLOAD_STEPS):
-        here = _payload_evaluation(problem, ev, layout, chosen, a)
+        here = payload_evaluation(problem, ev, layout, chosen, a)
         J = sensitivity(here, sens.model).jacobian
         r = weights * (here.tau - here.tau_d).ravel()
         K = weights[:, None] * J[:, :, [s.index for s in chosen]].reshape(r.size, len(chosen))
@@ -745,7 +763,7 @@ def _payload(ev: Evaluation, sens: Sensitivity, chosen: list[Setting], joint: in
         a = a + d
         if np.all(np.abs(d) <= PAYLOAD_TOL * bound):
             break
-    here = _payload_evaluation(problem, ev, layout, chosen, a, profile=True)
+    here = payload_evaluation(problem, ev, layout, chosen, a, profile=True)
     metrics = here.metrics
     return a, {"mass": mass, "settings": {s.name: float(v) for s, v in zip(chosen, a)},
                "at_range_end": bool(np.any(np.abs(a) >= bound * (1 - 1e-9))),
@@ -753,7 +771,7 @@ def _payload(ev: Evaluation, sens: Sensitivity, chosen: list[Setting], joint: in
                "max_abs_error": float(metrics.max_abs_error[joint]), "violations": here.violations}
 
 
-def _payload_evaluation(problem: Problem, ev: Evaluation, layout, chosen: list[Setting], a: np.ndarray,
+def payload_evaluation(problem: Problem, ev: Evaluation, layout, chosen: list[Setting], a: np.ndarray,
                         profile: bool = False) -> Evaluation:
     """``problem`` (a payload's) with ``ev``'s design set as ``a`` says, evaluated exactly on
     ``ev``'s grid (``profile``: with the profile's scans, whose limits it then checks)."""

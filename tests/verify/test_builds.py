@@ -73,7 +73,7 @@ def test_the_build_model_is_the_exact_torque_of_thirty_builds(arm, model):
     model, chosen = model
     D = np.concatenate(list(arm.band.sensitivity.directions.values()), axis=1)
     step = D @ B.draws(1, 30, D.shape[1], "uniform")
-    adjusted = B._with(step, chosen, B.best_settings(model, step, chosen))
+    adjusted = B.with_settings(step, chosen, B.best_settings(model, step, chosen))
     peak = np.abs(arm.evaluation.tau_d).max()
     for steps, bound, first_order in ((step, 1e-5, 1e-3), (adjusted, 1e-3, 1e-2)):
         exact = np.column_stack([_exact(arm, s) for s in steps.T])
@@ -112,7 +112,7 @@ def test_the_best_settings_minimise_the_error_within_their_ranges(arm, model):
     best = B.best_settings(model, step, chosen)
 
     def cost(step, a):
-        return ((model.weights[:, None] * model.error(B._with(step, chosen, a))) ** 2).sum(axis=0)
+        return ((model.weights[:, None] * model.error(B.with_settings(step, chosen, a))) ** 2).sum(axis=0)
     grid = np.vstack([g.ravel() for g in np.meshgrid(*[np.linspace(-s.bound, s.bound, 161) for s in chosen])])
     for b in range(2):
         scanned = cost(np.repeat(step[:, [b]], grid.shape[1], axis=1), grid)
@@ -127,8 +127,8 @@ def test_holding_still_nulls_the_error_at_the_stated_pose(arm, model):
     sens = arm.band.sensitivity
     D = np.concatenate(list(sens.directions.values()), axis=1)
     step = D @ B.draws(0, 50, D.shape[1], "uniform")
-    a = B.as_set(model, step, chosen, builds.table, B._rates(step, sens.layout, 1), pose)
-    error = model.error(B._with(step, chosen, a))
+    a = B.as_set(model, step, chosen, builds.table, B.rates_of(step, sens.layout, 1), pose)
+    error = model.error(B.with_settings(step, chosen, a))
     assert np.abs(error[pose]).max() < 1e-12
     assert np.abs(error).max() > 1e-3  # but not elsewhere
 
@@ -178,7 +178,7 @@ def test_every_payload_is_met_within_five_percent_and_its_row_is_a_best_setting(
     a = np.array([light["settings"][s.name] for s in arm.builds.chosen])
     rmse = []
     for nudge in (0.0, 0.01, -0.01):
-        at = B._payload_evaluation(B.with_mass(ev.problem, 0, 0.3), ev, sens.layout, arm.builds.chosen,
+        at = B.payload_evaluation(B.with_mass(ev.problem, 0, 0.3), ev, sens.layout, arm.builds.chosen,
                                    a + [0.0, nudge])
         rmse.append(at.metrics.rmse[0])
     assert rmse[0] == pytest.approx(light["rmse"], rel=1e-9)
@@ -229,8 +229,8 @@ def test_the_same_seed_gives_the_same_numbers_and_count_zero_none(arm):
 
 
 @pytest.mark.parametrize("change,message", [
-    ({"adjustment": {"slot": "phi"}}, "adjustment.slot = 'phi': expected a parameter the problem's mechanisms place, "
-                                      "one of 'ell', 'chi0'"),
+    ({"adjustment": {"slot": "phi"}}, "adjustment.slot = 'phi': expected a parameter the problem's mechanisms place "
+                                      "and can move, one of 'ell', 'chi0'"),
     ({"adjustment": {"slot_travel": 0.01}}, "adjustment.slot_travel = 0.01: expected 0 without a slot"),
     ({"builds": {"distribution": "gauss"}}, "builds.distribution = 'gauss': expected"),
     ({"mass_range": [0.6, 0.8]}, r"target.mass_range = \[0.6, 0.8\]: expected a range holding mass = 0.5"),
