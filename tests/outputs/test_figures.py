@@ -166,7 +166,7 @@ def test_convergence_figure_draws_every_iterate():
 
 def test_write_outputs_adds_convergence_only_with_a_history(tmp_path, ev_1dof):
     for name, history in (("with", HISTORY), ("without", None)):
-        result = SimpleNamespace(evaluation=ev_1dof, recheck=ev_1dof, history=history or {}, band=None, friction=None,
+        result = SimpleNamespace(evaluation=ev_1dof, recheck=ev_1dof, history=history or {}, band=None, friction=None, builds=None,
                                  to_dict=lambda h=history: {"solver": {"history": h} if h else {}})
         write_outputs(result, tmp_path / name)
     assert (tmp_path / "with" / "convergence.png").is_file()
