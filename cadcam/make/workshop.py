@@ -761,14 +761,16 @@ MIRRORED_NOTE = ("SEEN FROM THE BACK: the cable winds clockwise on this part, so
 
 
 def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: float,
-              tolerance: float = DEFAULT_TOLERANCE, mirrored: bool = False) -> ArcChain:
+              tolerance: float = DEFAULT_TOLERANCE, mirrored: bool = False, mark=None) -> ArcChain:
     """Write the cam as a DXF drawing in millimetres ($INSUNITS = 4), atomically.
 
     The outline as a closed LWPOLYLINE of circular arcs (bulges) on layer PROFILE, the biarc fit
     of :func:`cadcam.make.biarc.biarc_fit` within ``tolerance`` [m], its first vertex the anchor
     point φ = 0 on the +x axis; the bore (centred on the rotation axis, the origin) and the
     anchor hole (:func:`anchor_centre`) as CIRCLEs on layer HOLES; where ``mirrored`` (a
-    clockwise-wound part), :data:`MIRRORED_NOTE` as TEXT on layer NOTES. Returns the fitted chain.
+    clockwise-wound part), :data:`MIRRORED_NOTE` as TEXT on layer NOTES; a datum ``mark`` (its
+    ends [m], shape (2, 2): :attr:`cadcam.make.datum.Datum.segment`), to be engraved, as a LINE on
+    layer MARK, which no check of the cut part reads. Returns the fitted chain.
     """
     circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
     chain = biarc_fit(outline, tolerance)
@@ -780,6 +782,9 @@ def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
                        dxfattribs={"layer": "PROFILE"})
     for centre, diameter in circles:
         msp.add_circle(tuple(centre * MM), diameter * MM / 2, dxfattribs={"layer": "HOLES"})
+    if mark is not None:
+        doc.layers.add("MARK", color=5)
+        msp.add_line(*(tuple(end * MM) for end in mark), dxfattribs={"layer": "MARK"})
     if mirrored:
         doc.layers.add("NOTES", color=3)
         low = chain.sample(SVG_BOX_SAMPLES).min(axis=0) * MM
