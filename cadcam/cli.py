@@ -157,7 +157,7 @@ def _check_files_are_ours(out: Path, problem, figures: bool) -> None:
 def _design_into(args, problem, out: Path) -> int:
     """Design ``problem``, print its summary and write its files into ``out`` (held)."""
     from .optimize import optimize
-    from .outputs.run_files import ADJUSTMENT_FILE, WorkshopError
+    from .outputs.run_files import ADJUSTMENT_FILE, SHEET_FILES, WorkshopError
 
     writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
     result = optimize(problem)
@@ -175,11 +175,12 @@ def _design_into(args, problem, out: Path) -> int:
     output = any(m.output_target is not None for m in problem.mechanisms)
     pngs = (f" profile.png{' torque.png springs.png' if problem.springs else ''} convergence.png"
             f"{' output.png' if output else ''}" if args.figures else "")
+    sheets = "".join(f" cam*{kind}" for kind in SHEET_FILES) if args.figures else ""
     _say(*result.summary().split("\n"),
          f"  outputs in {out}/: result.json torque.csv torque_recheck.csv profile.csv"
          f"{' output.csv' if output else ''}{' ' + ADJUSTMENT_FILE if result.builds and result.builds.chosen else ''}"
          f"{pngs}",
-         f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{' cam*_sheet.pdf/.png' if args.figures else ''} "
+         f"  workshop files: cam*.dxf cam*.svg cam*_points.csv{sheets} "
          f"or cam*_groove.csv{' cam*.stl' if problem.workshop.stl is not None else ''} ({'; '.join(notes)})")
     if _files_failed_verification(out):
         _say(f"cadcam: error: the written files miss what the design claims: see {out / 'verification.md'}",

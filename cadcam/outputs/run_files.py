@@ -27,6 +27,10 @@ class WorkshopError(ValueError):
     groove leaves too little material (the message names the cam and the size)."""
 
 
+#: A planar part's drawing sheets (:func:`cadcam.make.drawing.part_sheets`), each name after
+#: ``camN``: one PDF of both sheets, then a PNG of each, sheet 1 (the workshop drawing) first.
+SHEET_FILES = ("_sheet.pdf", "_sheet.png", "_sheet2.png")
+
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
 #: The adjustment table (:func:`cadcam.verify.builds.table_rows`): how the builder sets the
@@ -77,7 +81,7 @@ def run_file_names(problem, figures: bool, workshop: Workshop | None) -> list[st
                                               *(("output",) if output else ()))]
     if workshop is None:
         return names
-    kinds = (".dxf", ".svg", "_points.csv", "_groove.csv", *(("_sheet.pdf", "_sheet.png") if figures else ()),
+    kinds = (".dxf", ".svg", "_points.csv", "_groove.csv", *(SHEET_FILES if figures else ()),
              *((".stl", ".step") if workshop.stl is not None else ()))
     return names + [f"cam{i + 1}{kind}" for i in range(len(problem.profiles)) for kind in kinds] \
         + ["verification.json", "verification.md"]
@@ -129,7 +133,7 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
 
 def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                          drawings: list[Drawing] | None = None) -> list[str]:
-    """Per profile: DXF, SVG, CSV points and, with ``sheets``, a drawing sheet (PDF and PNG); STL
+    """Per profile: DXF, SVG, CSV points and, with ``sheets``, its drawing sheets (:data:`SHEET_FILES`); STL
     on request; then ``verification.json`` and ``verification.md``. A profile whose cable wraps
     a turn or more (a helical groove) gets the groove's centre line ``cam{i}_groove.csv``
     instead: no planar outline holds it. WorkshopError when a profile's files cannot be made.
@@ -143,7 +147,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     from ..make.workshop import TWO_PI
 
     ev = result.evaluation
-    notes, outlines, grooves = [], {}, {}
+    notes, outlines, grooves, datums = [], {}, {}, {}
     owners = [mech for mech in ev.problem.mechanisms for _ in mech.profiles]
     for i, cs in enumerate(ev.profiles):
         try:
@@ -151,9 +155,10 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                 grooves[i] = float(cs.alpha.max())
             else:
                 outlines[i] = _outline(ev, i, args)
+                datums[i] = _datum(ev.problem, i, outlines[i], args)
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
-    tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves)
+    tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves, datums)
     notes += [f"cam{i + 1}: helical groove centre line, {len(chains[i].vertices)} points within "
               f"{1e3 * tolerance:.3g} mm, {phi_max / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch"
               + (" (wound clockwise: the CSV is its mirror image, a helix of the other hand; mirror y)"
@@ -161,9 +166,9 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
               for i, phi_max in grooves.items()]
     cable = cable_report(result.problem, result.recheck.metrics)
     for i, outline in outlines.items():
+        part = _part_notes(ev.problem, i, args, tolerance, datums[i], cable, result.installation) if sheets else None
         try:
-            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, sheets, owners[i], drawings,
-                                              cable))
+            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, part, owners[i], drawings))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     from .verification import cable_clearances, cam_report, groove_report, verdict, write_report
@@ -189,8 +194,47 @@ def _outline(ev, i: int, args: Workshop):
                        args.hub_radius, args.cable_radius, args.tolerance)
 
 
-def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict):
-    """Write every outline's DXF and every groove's centre line (profile index → its most-wound
+def _owner(problem, i: int) -> tuple[int, int]:
+    """The mechanism profile ``i`` belongs to and its index among that mechanism's profiles."""
+    u, sl = next((u, sl) for u, sl in enumerate(problem.profile_slices()) if sl.start <= i < sl.stop)
+    return u, i - sl.start
+
+
+def _datum(problem, i: int, outline, args: Workshop):
+    """The datum mark of profile ``i``'s part (:func:`cadcam.make.datum.datum_mark`), from where
+    its mechanism puts the outline's +x axis (φ = 0) in the world with the joint at θ = 0 and
+    which way the profile winds."""
+    from ..make.datum import datum_mark
+    from ..make.workshop import holes
+
+    u, k = _owner(problem, i)
+    mech = problem.mechanisms[u]
+    x, y = mech.world_points(0.0, 0.0, 1.0, k)
+    return datum_mark(outline, holes(outline, args.bore_diameter, args.anchor_diameter), float(np.arctan2(y, x)),
+                      mech.windings[k])
+
+
+def _part_notes(problem, i: int, args: Workshop, tolerance: float, datum, cable: dict | None,
+                installation: list[dict]):
+    """What profile ``i``'s workshop sheet states beyond its outline
+    (:class:`cadcam.make.drawing.PartNotes`): the springs on its mechanism, each mounted
+    spring's cable cut length on the mechanism's first profile only, where the cable is
+    anchored (:func:`cadcam.verify.installation.spring_installation`)."""
+    from ..make.drawing import PartNotes
+
+    u, k = _owner(problem, i)
+    springs = tuple({key: value for key, value in row.items() if key != "cable_length" or k == 0}
+                    for row, spring in zip(installation, problem.springs)
+                    if any(port.mechanism == u for port in spring.ports))
+    return PartNotes(thickness=args.with_solids().stl, thickness_given=args.stl is not None,
+                     profile_tolerance=problem.tolerance["profile"], fit_tolerance=tolerance, datum=datum,
+                     dxf=f"cam{i + 1}.dxf", mirrored=_mirrored(problem, i), springs=springs, cable=cable, profile=i,
+                     cable_diameter=args.cable_diameter)
+
+
+def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict, datums: dict):
+    """Write every outline's DXF (with its datum mark, profile index → Datum) and every groove's
+    centre line (profile index → its most-wound
     departure [rad]) at the tolerance the design asks for, read them back and recompute; write
     them tighter while a check misses (at most ``REFITS`` times). Returns the tolerance [m], the
     files read back (profile index → FileOutline) and the checks."""
@@ -205,7 +249,7 @@ def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: di
         for i, outline in outlines.items():
             try:
                 write_dxf(out / f"cam{i + 1}.dxf", outline, args.bore_diameter, args.anchor_diameter, tolerance,
-                          _mirrored(result.evaluation.problem, i))
+                          _mirrored(result.evaluation.problem, i), datums[i].segment)
             except ValueError as exc:
                 raise WorkshopError(f"cam{i + 1}: {exc}") from exc
             chains[i] = read_dxf(out / f"cam{i + 1}.dxf")
@@ -236,12 +280,11 @@ def _polygon_tolerance(tolerance: float) -> float:
     return max(tolerance, WORKSHOP_LIMITS["tolerance"][0])
 
 
-def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, sheets: bool, mech,
-                         drawings: list[Drawing] | None, cable: dict | None = None) -> str:
-    """The SVG, points CSV, sheet and STL of profile ``i`` of mechanism ``mech`` (its DXF is
-    written by :func:`_fitted_dxfs`), the sheet noting the ``cable`` report of the fine
-    re-check if any (:func:`cadcam.verify.evaluate.cable_report`); returns its line of the
-    summary."""
+def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, part, mech,
+                         drawings: list[Drawing] | None) -> str:
+    """The SVG, points CSV, sheets and STL of profile ``i`` of mechanism ``mech`` (its DXF is
+    written by :func:`_fitted_files`), the sheets (:data:`SHEET_FILES`) stating ``part`` (a
+    :class:`cadcam.make.drawing.PartNotes`; None: no sheets); returns its line of the summary."""
     from ..make.workshop import polyline, write_points_csv, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
@@ -250,16 +293,16 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance,
               _mirrored(ev.problem, i))
     write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon)
-    if sheets:
-        from ..make.drawing import cable_notes, save_sheet, sheet_figure
+    if part is not None:
+        from ..make.drawing import part_sheets, save_pdf, save_sheet
 
-        fig, _ = sheet_figure(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max,
-                              cam.name, spec=ev.problem.name, drawing=f"cam{i + 1}",
-                              words=mech.picture, cable=cable_notes(cable, i) if cable else (),
-                              tolerance=tolerance)
-        # one figure, drawn into both formats
-        _drawn(functools.partial(save_sheet, fig, out / f"cam{i + 1}_sheet.pdf", out / f"cam{i + 1}_sheet.png"),
-               drawings)
+        figures = part_sheets(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
+                              part, spec=ev.problem.name, drawing=f"cam{i + 1}", words=mech.picture)
+        pdf, *pngs = (out / f"cam{i + 1}{kind}" for kind in SHEET_FILES)
+        # each file a drawing of its own, to be drawn side by side
+        _drawn(functools.partial(save_pdf, figures, pdf), drawings)
+        for fig, png in zip(figures, pngs):
+            _drawn(functools.partial(save_sheet, fig, png), drawings)
     note = (f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, "
             f"{len(polyline(outline, polygon))} points at {1e3 * polygon:.3g} mm")
     if args.stl is not None:
