@@ -447,7 +447,7 @@ def part_sheets(outline: Outline, bore_diameter: float, anchor_diameter: float, 
     second, _ = sheet_figure(outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, spec=spec,
                              drawing=drawing, date=date, words=words,
                              cable=cable_notes(part.cable, part.profile) if part.cable else (),
-                             sheet=f"2 of {SHEETS} · A4")
+                             sheet=f"2 of {SHEETS} · A4", tolerance=part.fit_tolerance)
     return first, second
 
 
@@ -479,7 +479,7 @@ def workshop_figure(outline: Outline, bore_diameter: float, anchor_diameter: flo
     (Figure, float)
         The sheet and n of the scale 1:n (below 1 for an enlargement 1/n:1).
     """
-    circles = holes(outline, bore_diameter, anchor_diameter)
+    circles = holes(outline, bore_diameter, anchor_diameter, part.fit_tolerance)
     pts = outline.points * MM
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     t = part.thickness * MM
