@@ -13,10 +13,11 @@ Orders: each spec's own and twice it, at most its basis's cap (the row says wher
 order back). Grids: the spec's grid is replaced by each of
 ``--grids``; specs with several joints solve on the tensor grid of all their joints, so they
 run at the grids up to :data:`MAX_COUPLED_GRID` only (the larger cells are listed as not run).
-A spec's variants that design by a mechanism's own method (``solver.method``, such as the
-cable robot's ``envelope`` and the generic torque's ``moment_arm``) are cells too, at the same
-grids and orders: a method has no start to vary, so such a cell is one design, judged like the
-others by its fine re-check. ``--specs`` runs only the rows of the specs (or variants) it names.
+A spec's variants that design by another method than the spec (``solver.method``: a
+mechanism's own, such as the cable robot's ``envelope``, or the NLP where the spec designs by
+one, as the generic torque's variant ``nlp``) are cells too, at the same grids and orders: a
+method has no start to vary, so such a cell is one design, judged like the others by its fine
+re-check. ``--specs`` runs only the rows of the specs (or variants) it names.
 
 Budgets are CPU time, not wall time, so that the matrix judges the solver rather than how busy
 the machine was: each start's IPOPT solve stops at ``--budget`` CPU seconds (times
@@ -95,11 +96,12 @@ def _orders(data: dict, factor: int) -> str:
 
 
 def cases(spec: Path):
-    """(name, data) of ``spec`` as it stands and of each of its variants that designs by a
-    method of its own (no NLP)."""
-    yield spec.stem, read_spec_data(spec)
+    """(name, data) of ``spec`` as it stands and of each of its variants that designs by
+    another method than the spec."""
+    data = read_spec_data(spec)
+    yield spec.stem, data
     for name, variant in tomllib.loads(spec.read_text(encoding="utf-8")).get("variants", {}).items():
-        if variant.get("solver.method", "nlp") != "nlp":
+        if variant.get("solver.method", _method(data)) != _method(data):
             yield f"{spec.stem} --variant {name}", read_spec_data(spec, name)
 
 
@@ -196,7 +198,7 @@ def main(argv=None) -> None:
     parser.add_argument("--budget", type=float, default=20.0, help="CPU time of one start's IPOPT solve [s]")
     parser.add_argument("--specs", nargs="+", metavar="NAME",
                         help="only these rows' specs, named as the table names them ('ludovico2021_pendulum', "
-                             "'ludovico2021_generic --variant moment_arm')")
+                             "'ludovico2021_generic --variant nlp')")
     parser.add_argument("--cell", type=int, help=argparse.SUPPRESS)  # one cell: spec data on stdin
     args = parser.parse_args(argv)
     if args.cell is not None:
