@@ -75,7 +75,7 @@ SPEC_KEYS = KeyTable('kind = "anchored_pulley"', "Ludovico2021 / Endo2010's pull
         default=0.0, plausible=PART_SIZE),
     Key("mount_distance", "m", "a range [least, largest] of the spring end's distance from the joint: the design "
         "places the spring end there (starting from spring_end, which must lie in it) and states where",
-        "numbers", length=2, default=None, default_text="none (the spring end is fixed)"),
+        "numbers", length=2, default=None, default_text="none (the spring end is fixed)", plausible=PART_SIZE),
     Key("mount_angle", "rad", "a range [least, largest] of the spring end's world angle at θ = 0: the design "
         "places the spring end there (starting from spring_end, which must lie in it) and states where",
         "numbers", length=2, default=None, default_text="none (the spring end is fixed)"),
