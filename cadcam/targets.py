@@ -544,6 +544,16 @@ def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
 
     Returns sorted [θ [rad], value] pairs. Raises ValueError with a reason.
     """
+    unit, rows = read_table_rows(path, value)
+    data = np.array(rows, dtype=float)
+    data[:, 0] *= ANGLE_UNITS[unit]
+    return data.tolist()
+
+
+def read_table_rows(path: Path, value: str = "torque_Nm") -> tuple[str, list[list[float]]]:
+    """The CSV of target samples at ``path`` as written: the unit its header names for the
+    angles (a key of :data:`ANGLE_UNITS`) and its [angle, value] rows sorted by angle
+    (:func:`read_table` gives them in radians). Raises ValueError with a reason."""
     try:  # a byte order mark (spreadsheets write one) is not part of the header; strict: an
         # unclosed quote would otherwise swallow the rest of the file as one cell
         rows = list(csv.reader(io.StringIO(read_input(path).removeprefix("\ufeff"), newline=""), strict=True))
@@ -563,9 +573,8 @@ def read_table(path: Path, value: str = "torque_Nm") -> list[list[float]]:
     if not np.all(np.isfinite(data)):
         raise ValueError(f"data row {1 + int(np.argmin(np.all(np.isfinite(data), axis=1)))} holds nan or inf; "
                          "every number must be finite")
-    if head[0] == "theta_deg":
-        data[:, 0] = np.radians(data[:, 0])
+    unit = head[0].removeprefix("theta_")
     data = data[np.argsort(data[:, 0])]
-    if np.any(np.diff(data[:, 0]) <= 0):
+    if np.any(np.diff(data[:, 0] * ANGLE_UNITS[unit]) <= 0):  # distinct in radians too (no two round to one)
         raise ValueError("angles must be distinct")
-    return data.tolist()
+    return unit, data.tolist()
