@@ -190,13 +190,14 @@ class Session:
 
     def design(self, spec, **options) -> Result:
         """:func:`design` of ``spec`` (``options`` as for :func:`load_problem`), through the
-        NLP kept for its structure and from the last answer of that structure."""
+        NLP kept for its structure and from the last answer of that structure; its
+        ``build_time_s`` is what this design built (0 through an NLP kept)."""
         problem = load_problem(spec, **options)
         refuse_unreachable(problem)
         if problem.options.method != "nlp":
             return optimize(problem)
         completed, start = default = start_design(problem)
-        transcription, _ = built_for(completed)
+        transcription, built = built_for(completed)
         key = structure_key(completed)
         last = self._last.get(key)
         if last is not None and completed is not problem and \
@@ -207,6 +208,8 @@ class Session:
         else:
             result = warm_optimize(problem, transcription, last.design, last.evaluation.metrics.objective,
                                    "the last design", last.solve.multipliers if last.solve else None, default)
+        if not built:  # the NLP kept from an earlier design: this design built none of it
+            result.build_time_s -= transcription.build_time_s
         if result.success:
             self._last[key] = result
             self._last.move_to_end(key)
