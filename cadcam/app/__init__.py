@@ -3,7 +3,8 @@
 :mod:`cadcam.app.form` generates the form from the spec reader's declarations,
 :mod:`cadcam.app.state` holds the spec, the edits and the designs (no page),
 :mod:`cadcam.app.parts` makes the spring catalogue table and its lights (no page),
-:mod:`cadcam.app.page` shows them, :mod:`cadcam.app.hosts` holds the server to the names it
+:mod:`cadcam.app.tables` reads and edits a tabulated target (no page), :mod:`cadcam.app.uploads`
+writes an upload of a spec with its CSV files (no page), :mod:`cadcam.app.page` shows them, :mod:`cadcam.app.hosts` holds the server to the names it
 serves on; Panel loads only with the page (``pip install cadcam[app]``).
 """
 from __future__ import annotations

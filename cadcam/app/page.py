@@ -9,8 +9,12 @@ background, then compiled: :meth:`cadcam.solve.transcription.Transcription.adopt
 On the right the verdict line and
 what binds, the torque against its target with the error, the mechanism at one joint angle (a
 player runs it over the range), the springs' extensions against their travel, the spring
-catalogue with a feasibility light per spring, and the files to download. An input error is the
-command line's one line, shown under the field it names.
+catalogue with a feasibility light per spring, and the files to download, each named after the
+file open (:func:`cadcam.app.state.download_stem`). An input error is the command line's one
+line, shown under the field it names. A joint's tabulated target has an editor of its own
+(:mod:`cadcam.app.tables`): its angles' unit, its rows edited in place or pasted from a
+spreadsheet, each change designed at once. A field that is another's quantity (Fedorov2018's
+output law repeats its pendulum and springs) follows that other, and says so.
 
 The catalogue table (:mod:`cadcam.app.parts`) lights each spring of one spring's catalogue for the
 spec as edited now: by the catalogue's screen, before each design (milliseconds), and by the
@@ -20,10 +24,13 @@ that spring the part and designs with it.
 Every callback of the page (an edit, a catalogue pick or row, a template, an upload, the player, a
 download, the first design) runs through one guard (:meth:`DesignPage.guarded`): what it raises
 is shown as one line on the page (:func:`one_line`: control characters escaped, no folder
-named) and logged as one line, never left to the server as a traceback. An uploaded file is
-written, under a name of the page's own, to a folder of its own, removed once another file or a
-template replaces it and when the tab's session ends or the server stops. The server answers
-only to the address it serves on (:mod:`cadcam.app.hosts`).
+named) and logged as one line, never left to the server as a traceback; what the page shows
+names no folder of the server, and an uploaded file by the browser's name for it
+(:func:`scrubbed`). An upload, a spec with the CSV files it names (:mod:`cadcam.app.uploads`), is
+written under names of the page's own to a folder of its own, removed once another file or a
+template replaces it and when the tab's session ends or the server stops; the names the spec
+gives are looked up among the files uploaded with it, never on the server's disk. The server
+answers only to the address it serves on (:mod:`cadcam.app.hosts`).
 
 Everything the page loads comes from this server: Bokeh's and Panel's scripts are served from it
 (``resources="server"``) and the figures are PNG images sent over its socket.
@@ -53,8 +60,12 @@ from ..make.step import available as step_available
 from ..outputs.plots import springs_figure, torque_figure
 from ..physics.catalogue import Need
 from ..spec import SpecError
-from .state import INPUT_ERRORS, TEMPLATES, DesignState, Outcome, catalogue, part_name, result_json, zipped
+from ..targets import ANGLE_UNITS
+from .state import (INPUT_ERRORS, TEMPLATES, DesignState, Outcome, catalogue, download_stem, part_name, result_json,
+                    zipped)
 from .form import table_title, value_text
+from .tables import TORQUE_UNIT
+from .uploads import save as save_upload, shown as shown_name
 from .parts import LIGHTS, NUMBERS, columns, count_line, part_lines, titles
 from .frames import Frames
 from .hosts import refuse_other_hosts, served_hosts
@@ -77,6 +88,11 @@ DESIGNING = "<span class='solving'>designing…</span>"
 CATALOGUE_ROWS = 15
 #: The spring choice of the form for the spec's own spring.
 OWN_SPRING = "the spec's spring"
+#: Height of a table target's rows in its editor [px]: about eight rows, the others scrolled to.
+TABLE_HEIGHT = 250
+#: What the box a table is pasted into says while empty.
+PASTE_HINT = ("paste two columns from a spreadsheet: angle, torque [N·m]; a header naming deg or rad sets the "
+              "angles' unit")
 
 #: Upload folders not yet removed (by any tab): the server removes those left when it stops.
 _UPLOADS: set[Path] = set()
@@ -104,18 +120,37 @@ def one_line(text: str, limit: int = MESSAGE_CHARS) -> str:
     return text if len(text) <= limit else text[:limit - 1] + "…"
 
 
-def public(message: str, path: Path, name: str) -> str:
-    """``message`` as one line (:func:`one_line`), the file at ``path`` named ``name`` (what
-    the page shows for it: an upload by the browser's name for it)."""
-    return one_line(message.replace(str(path), name))
+def public(message: str, names: dict[str, str], folders=()) -> str:
+    """``message`` as one line (:func:`one_line`) naming no folder of the server
+    (:func:`scrubbed`)."""
+    return one_line(scrubbed(message, names, folders))
 
 
-def failure_line(action: str, exc: BaseException) -> str:
+def scrubbed(text: str, names: dict[str, str], folders=()) -> str:
+    """``text`` with each file of ``names`` (path → name) named by its name (what the page
+    shows for it: an upload by the browser's name for it), and the server's folders and those of
+    ``folders`` left out (each with the folders under it: a folder's name may hold blanks, which
+    :func:`one_line` stops at), its lines kept."""
+    for path in sorted(names, key=len, reverse=True):
+        text = text.replace(path, names[path])
+    for folder in sorted({str(f) for f in (*server_folders(), *folders)}, key=len, reverse=True):
+        text = re.sub(re.escape(folder) + r"[\\/](?:[^\\/'\"\n:]*[\\/])*", "", text)
+    return text
+
+
+def server_folders() -> list[Path]:
+    """The folders of the server a message may name: where cadcam is, where it runs, the
+    user's home and the temporary folder (as given and resolved)."""
+    folders = [Path(__file__).resolve().parents[2], Path.cwd(), Path.home(), Path(tempfile.gettempdir())]
+    return [f for folder in folders for f in (folder, folder.resolve()) if len(f.parts) > 1]
+
+
+def failure_line(action: str, exc: BaseException, line=one_line) -> str:
     """The one line saying that ``action`` failed with ``exc``: an input error's own words (they
-    name what is wrong), else the action and the kind of error."""
+    name what is wrong), else the action and the kind of error; made a line by ``line``."""
     if isinstance(exc, (*INPUT_ERRORS, PageError)):
-        return one_line(str(exc))
-    return one_line(f"{action} failed: {type(exc).__name__}: {exc}")
+        return line(str(exc))
+    return line(f"{action} failed: {type(exc).__name__}: {exc}")
 
 
 def slug(key: str) -> str:
@@ -152,22 +187,25 @@ class DesignPage:
         self.state = state
         self.name = state.path.name  # what the page calls the file open: an upload by the browser's name
         self.folder: Path | None = None  # the upload folder of the file open, if uploaded
+        self.given_tables: tuple[str, ...] = ()  # the names of the CSV files uploaded with it
         self.inputs: dict[str, pn.widgets.TextInput] = {}
         self.errors: dict[str, pn.pane.HTML] = {}
         self.headings: dict[int, pn.pane.HTML] = {}  # each spring's, by its number
         self.spring_picks: dict[int, pn.widgets.Select] = {}  # each spring's choice, by its number
+        self.table_widgets: dict[str, tuple] = {}  # each table target's unit and rows, by its key
         self.frames: Frames | None = None
         self._shown = 0  # designs asked for: only the last one's figures are shown
         self._pose = 0  # the player's last value: only its frame is drawn
         self._error_key: str | None = None  # the field whose error is shown
-        names = [t.title for t in TEMPLATES]
-        self.template = pn.widgets.Select(name="Template", options=names, value=self._template_title(),
-                                          css_classes=["template"], sizing_mode="stretch_width")
+        self.template = pn.widgets.Select(name="Template", options=self._template_options(),
+                                          value=self._template_option(), css_classes=["template"],
+                                          sizing_mode="stretch_width")
         self.template.param.watch(self.guarded("opening the template", self._on_template), "value")
-        self.upload = pn.widgets.FileInput(accept=".toml,.json", css_classes=["open-file"], sizing_mode="stretch_width")
+        self.upload = pn.widgets.FileInput(accept=".toml,.json,.csv", multiple=True, css_classes=["open-file"],
+                                           sizing_mode="stretch_width")
         self.upload.param.watch(self.guarded("opening the file", self._on_upload), ["value", "filename"])
         self.open_error = pn.pane.HTML("", css_classes=["field-error", "open-error"])
-        self.opened = pn.pane.HTML(self._opened(), css_classes=["opened"])
+        self.opened = pn.pane.HTML("", css_classes=["opened"])
         self.failure = pn.pane.HTML("", css_classes=["page-error"], visible=False, sizing_mode="stretch_width")
         self.form = pn.Column(sizing_mode="stretch_width")
         self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
@@ -179,18 +217,21 @@ class DesignPage:
                                         loop_policy="loop", show_loop_controls=False, css_classes=["pose-player"],
                                         width=420)
         self.player.param.watch(self.guarded("drawing the mechanism", self._on_pose), "value")
+        self._named: list[tuple[Download, str]] = []  # each download button and the end of its file's name
         self.downloads = pn.Row(*self._download_buttons(), css_classes=["downloads"])
         self.spring_slot = pn.widgets.Select(name="the catalogue of", css_classes=["catalogue-slot"], width=400)
         self.catalogue_line = pn.pane.HTML("", css_classes=["catalogue-line"], sizing_mode="stretch_width")
         self.catalogue_table = self._catalogue_table()
         self._build_form()
+        self._show_opened()
         self.spring_slot.param.watch(self.guarded("showing the catalogue", self._on_slot), "value")
 
     # ----------------------------------------------------------------------------- layout
     def view(self) -> pn.Row:
         """The page."""
         left = pn.Column(pn.pane.HTML("<h2>cadcam design page</h2>"), self.template,
-                         pn.pane.HTML("<small>or open a spec (TOML) or a result.json:</small>"), self.upload,
+                         pn.pane.HTML("<small>or open a spec (TOML) or a result.json, with the CSV files it names "
+                                      "(choose them together):</small>"), self.upload,
                          self.open_error, self.opened, self.form, width=400)
         right = pn.Column(self.failure, self.verdict, self.details, self.downloads,
                           pn.Tabs(("Torque", self.torque), ("Mechanism", pn.Column(self.player, self.mechanism)),
@@ -203,7 +244,16 @@ class DesignPage:
 
     def _template_title(self) -> str | None:
         here = (self.state.path.stem, self.state.variant)
-        return next((t.title for t in TEMPLATES if (t.spec, t.variant) == here), None)
+        return next((t.title for t in TEMPLATES if (t.spec, t.variant) == here and self.folder is None), None)
+
+    def _template_options(self) -> list[str]:
+        """The templates, after the file open where it is none of them."""
+        titles = [t.title for t in TEMPLATES]
+        return titles if self._template_title() else [self._template_option(), *titles]
+
+    def _template_option(self) -> str:
+        """The choice of template naming what is open: its title, else the file's name."""
+        return self._template_title() or f"{one_line(self.name)} (the file open)"
 
     def _build_form(self) -> None:
         """One card per group of fields, the fields of each numbered table under its name."""
@@ -211,6 +261,7 @@ class DesignPage:
         self.errors.clear()
         self.headings.clear()
         self.spring_picks.clear()
+        self.table_widgets.clear()
         cards: dict[str, list] = {}
         heading = None
         for f in self.state.fields:
@@ -224,6 +275,8 @@ class DesignPage:
                     number = int(f.key.split(".")[1])
                     self.headings[number] = head
                     items.append(self._catalogue_pick(number))
+                if f.group == "Target and range" and f"{table}.target" in self.state.tables:
+                    items.append(self._table_editor(f"{table}.target"))
             heading = title
             box = pn.widgets.TextInput(name=f.label, value=f.text, description=f.help,
                                        placeholder="default", css_classes=["field", f"field-{slug(f.key)}"],
@@ -252,14 +305,89 @@ class DesignPage:
 
     def _show_set_keys(self) -> None:
         """Disable the fields that the design method now chosen, or a spring's catalogue part,
-        sets itself, saying so in their labels (:meth:`DesignState.set_by_method`,
-        :meth:`DesignState.set_by_part`)."""
+        sets itself, and those in step with another field, saying so in their labels
+        (:meth:`DesignState.set_by_method`, :meth:`DesignState.set_by_part`,
+        :attr:`DesignState.links`)."""
         for f in self.state.fields:
             method, part = self.state.set_by_method(f.key), self.state.set_by_part(f.key)
+            leader = self.state.links.get(f.key)
             box = self.inputs[f.key]
-            box.disabled = method is not None or part is not None
+            box.disabled = method is not None or part is not None or leader is not None
             box.name = (f"{f.label}: set by method {method}" if method is not None
-                        else f"{f.label}: set by part {part}" if part is not None else f.label)
+                        else f"{f.label}: set by part {part}" if part is not None
+                        else f"{f.label}: kept equal to {self._named_field(leader)}" if leader is not None
+                        else f.label)
+
+    def _named_field(self, key: str) -> str:
+        """Field ``key`` as another field's label names it: its key within its table (no unit)
+        and the table, a joint by its name, a spring by its number (its name may be long):
+        ``target.mass of pendulum``, ``rate of spring 1``."""
+        label = self.state.field(key).label.split(" [")[0]
+        table, number = key.split(".")[:2]
+        return f"{label} of {f'spring {number}' if table == 'springs' else table_title(key, self.state.table_names())}"
+
+    def _show_values(self, keys=None) -> None:
+        """Fields ``keys`` (default: all) show their values now (a spring chosen, a field in step
+        with one edited)."""
+        for key in self.inputs if keys is None else keys:
+            self.inputs[key].value = value_text(self.state.value(key))
+
+    # ----------------------------------------------------------------------- table targets
+    def _table_editor(self, key: str) -> pn.Column:
+        """The editor of table target ``key`` (``joints.1.target``): the unit of its angles, its
+        rows (a cell edited in place) and a box to paste rows into from a spreadsheet; each
+        change is designed at once. Its error shows under it."""
+        name = slug(key)
+        unit = pn.widgets.RadioButtonGroup(options=list(ANGLE_UNITS), css_classes=[f"table-unit-{name}"],
+                                           margin=(4, 10))
+        rows = pn.widgets.Tabulator(pd.DataFrame(columns=["angle", "torque"]), show_index=False,
+                                    layout="fit_columns", height=TABLE_HEIGHT, sizing_mode="stretch_width",
+                                    css_classes=["target-table", f"table-{name}"])
+        paste = pn.widgets.TextAreaInput(placeholder=PASTE_HINT, height=70, sizing_mode="stretch_width",
+                                         css_classes=[f"table-paste-{name}"])
+        use = pn.widgets.Button(label="use the rows pasted", css_classes=[f"table-use-{name}"], margin=(4, 10))
+        self.table_widgets[key] = (unit, rows)
+        self._show_table(key)
+
+        async def unit_chosen(event):
+            if event.new != self.state.table(key).unit:  # not the page showing a table's own unit
+                await self._table_changed(key, self.state.edit_table(key, unit=event.new))
+
+        async def cell_edited(event):
+            now = rows.value
+            await self._table_changed(key, self.state.edit_table(key, rows=list(zip(now["angle"], now["torque"]))))
+
+        async def pasted(event):
+            error = self.state.paste_table(key, paste.value_input or paste.value or "", unit.value)
+            if error is None:
+                paste.param.update(value="", value_input="")
+            await self._table_changed(key, error)
+
+        unit.param.watch(self.guarded(f"setting the unit of {key}", unit_chosen), "value")
+        rows.on_edit(self.guarded(f"editing {key}", cell_edited))
+        use.on_click(self.guarded(f"pasting {key}", pasted))
+        self.errors[key] = pn.pane.HTML("", css_classes=["field-error", f"error-{name}"], visible=False,
+                                        sizing_mode="stretch_width")
+        return pn.Column(pn.pane.HTML("<small>target table: the angles in</small>", margin=(6, 10, 0, 10)), unit,
+                         rows, paste, use, self.errors[key], sizing_mode="stretch_width",
+                         css_classes=[f"table-editor-{name}"])
+
+    def _show_table(self, key: str) -> None:
+        """Table target ``key``'s editor shows its rows and unit now."""
+        unit, rows = self.table_widgets[key]
+        table = self.state.table(key)
+        unit.value = table.unit
+        rows.param.update(value=pd.DataFrame(list(table.rows), columns=["angle", "torque"]),
+                          titles={"angle": f"angle [{table.unit}]", "torque": f"torque [{TORQUE_UNIT}]"})
+
+    async def _table_changed(self, key: str, error: str | None) -> None:
+        """Show table target ``key`` as edited and design; or show ``error``, the edit's."""
+        if error is not None:
+            self._show_error(key, error)
+            return
+        self._show_error(None, None)
+        self._show_table(key)
+        await self.design(edited=key)
 
     def _catalogue_pick(self, number: int) -> pn.widgets.Select:
         """A choice of spring ``number``: the spec's, one of the papers' catalogue, or the part
@@ -295,8 +423,7 @@ class DesignPage:
         # both at once: a choice left out of the new options would otherwise be replaced by the first
         self.spring_picks[number].param.update(options=self._spring_options(number),
                                                value=self._spring_option(number))
-        for key, box in self.inputs.items():  # the fields show the spring now chosen
-            box.value = value_text(self.state.value(key))
+        self._show_values()
         self._show_set_keys()
         self._show_slots()
         await self.design()
@@ -348,7 +475,7 @@ class DesignPage:
         """Show and log the one line of ``action``'s failure ``exc`` (:func:`failure_line`); a
         design it stopped is no longer said to be under way. The traceback of an error that is
         not the input's goes to the log's debug level, for a report."""
-        line = failure_line(action, exc)
+        line = failure_line(action, exc, self._public)
         self.failure.object, self.failure.visible = _escape(line), True
         if self.verdict.object == DESIGNING:
             self.verdict.object = "<span class='verdict-failure'>not designed: the error is above</span>"
@@ -368,6 +495,7 @@ class DesignPage:
             return
         if key == "solver.method":
             self._show_set_keys()
+        self._show_values([k for k, leader in self.state.links.items() if leader == key])
         await self.design(edited=key)
 
     async def design(self, edited: str | None = None) -> None:
@@ -427,8 +555,15 @@ class DesignPage:
         self.catalogue_line.object = f"<span class='catalogue-count'>{_escape(line)}</span>"
 
     def _public(self, message: str) -> str:
-        """``message`` as the page shows it (:func:`public`)."""
-        return public(message, self.state.path, self.name)
+        """``message`` as the page shows it: one line naming no folder of the server (:func:`public`)."""
+        return one_line(self._scrubbed(message))
+
+    def _scrubbed(self, text: str) -> str:
+        """``text`` naming the file open and the files uploaded with it by the names the user
+        knows them by, and no folder of the server (:func:`scrubbed`)."""
+        path = self.state.path
+        names = {**self.state.aliases, str(path): self.name, str(path.resolve()): self.name}
+        return scrubbed(text, names, [path.parent.resolve()])
 
     async def _on_slot(self, event) -> None:
         await self._show_catalogue()
@@ -449,40 +584,48 @@ class DesignPage:
             await self._open(examples.path(chosen.spec), variant=chosen.variant)
 
     async def _on_upload(self, *events) -> None:
-        """Open the file uploaded, judged by its content (a result JSON opens with ``{``, which
-        no TOML does), written under a name of the page's own: the browser's name for it is
-        only shown."""
-        data, name = self.upload.value, self.upload.filename
-        if data is None or name is None:
+        """Open the spec uploaded with the CSV files it names (:func:`cadcam.app.uploads.save`),
+        written under names of the page's own: the browser's names are only shown."""
+        data, names = self.upload.value, self.upload.filename
+        if data is None or names is None:
             return  # the upload widget cleared, or half set
+        data, names = (data, names) if isinstance(data, list) else ([data], [names])
+        if not isinstance(names, list) or len(names) != len(data) or not data:
+            return  # half set: the names follow
         folder = Path(tempfile.mkdtemp(prefix=UPLOAD_PREFIX))
         _UPLOADS.add(folder)
-        path = folder / ("upload.json" if data.lstrip()[:1] == b"{" else "upload.toml")
-        await self._open(path, name=name, folder=folder, data=data)
+        await self._open(folder=folder, files=list(zip(names, data)))
 
-    async def _open(self, path: Path, variant: str | None = None, name: str | None = None,
-                    folder: Path | None = None, data: bytes | None = None) -> None:
-        """Open spec ``path`` (its ``variant``; an upload's ``data`` written to it first in its
-        folder ``folder``), shown by ``name`` (default: its file name), and design it; the
-        folder of the file it replaces is removed. A file that cannot be opened leaves no folder
-        and the file open as it was; a spec error is shown under the upload."""
-        name = name or path.name
+    async def _open(self, path: Path | None = None, variant: str | None = None, folder: Path | None = None,
+                    files: list[tuple[str, bytes]] | None = None) -> None:
+        """Open spec ``path`` (its ``variant``), or the upload ``files`` ((name, content) pairs)
+        written to their folder ``folder``, and design it; the folder of the file it replaces is
+        removed. A file that cannot be opened leaves no folder and the file open as it was; a
+        spec error is shown under the upload."""
+        names: dict[str, str] = {} if path is None else {str(path): path.name}
         try:
-            if data is not None:
-                path.write_bytes(data)
-            state = DesignState(path, variant=variant)
+            if files is not None:
+                uploaded = save_upload(files, folder)
+                names = uploaded.aliases
+                path, name, given = uploaded.path, uploaded.name, uploaded.tables
+                state = DesignState(path, original=uploaded.original, aliases=uploaded.aliases)
+            else:
+                name, given = path.name, ()
+                state = DesignState(path, variant=variant)
         except Exception as exc:
             _discard(folder)
             if not isinstance(exc, SpecError):
                 raise
-            self.open_error.object = _escape(public(str(exc), path, name))
+            self.open_error.object = _escape(public(str(exc), names))
             return
         self.open_error.object = ""
         state.session = self.state.session  # the builds and last answers stay with the tab
-        self.state, self.name = state, name
+        self.state, self.name, self.given_tables = state, name, given
         _discard(self.folder)
         self.folder = folder
-        self.opened.object = self._opened()
+        if files is None:  # the browser's file box names the file open, or none
+            self.upload.clear()
+        self._show_opened()
         self._build_form()
         await self.design()
 
@@ -506,21 +649,32 @@ class DesignPage:
 
     # ------------------------------------------------------------------------------- views
     def _opened(self) -> str:
-        """The line naming the file open (and its variant)."""
+        """The line naming the file open (and its variant, or the CSV files uploaded with it)."""
         variant = f" (variant {self.state.variant})" if self.state.variant else ""
-        return f"<small>open {_escape(one_line(self.name + variant))}</small>"
+        tables = f" with {', '.join(shown_name(n) for n in self.given_tables)}" if self.given_tables else ""
+        return f"<small>open {_escape(one_line(self.name + variant + tables))}</small>"
+
+    def _show_opened(self) -> None:
+        """Name the file open: in the line above the form, in the choice of template and in the
+        names of the files to download."""
+        self.opened.object = self._opened()
+        # both at once: the choice kept in the options (the file's, then a template's)
+        self.template.param.update(options=self._template_options(), value=self._template_option())
+        stem = download_stem(self.name, self.state.variant)
+        for button, end in self._named:
+            button.filename = stem + end
 
     def _show_error(self, key: str | None, message: str | None) -> None:
         self._error_key = key
         for k, pane in self.errors.items():
             shown = k == key
-            pane.object, pane.visible = _escape(public(message, self.state.path, self.name)) if shown else "", shown
+            pane.object, pane.visible = _escape(self._public(message)) if shown else "", shown
 
     def _show(self, outcome: Outcome) -> None:
         if outcome.error is not None:
             self._show_error(outcome.field, outcome.error)
             self.verdict.object = (f"<span class='verdict-failure'>not designed: "
-                                   f"{_escape(public(outcome.error, self.state.path, self.name))}</span>")
+                                   f"{_escape(self._public(outcome.error))}</span>")
             if self.state.result is not None:
                 self.details.object = ("<small>The figures, result.json and workshop files below are those of the "
                                        "last design made; the spec (TOML) has the edits as they are.</small>")
@@ -529,10 +683,12 @@ class DesignPage:
         result = outcome.result
         assert result is not None
         style = "verdict-success" if result.success else "verdict-failure"
-        self.verdict.object = (f"<span class='{style}'>{_escape(result.status)}: {_escape(result.message)}</span>"
+        message = self._scrubbed(result.message)
+        self.verdict.object = (f"<span class='{style}'>{_escape(result.status)}: {_escape(message)}</span>"
                                f" <small>(designed in {outcome.seconds:.2f} s, functions {result.functions})</small>")
         lines = [f"  {line}" for line in part_lines(result.problem)] + result.summary().splitlines()[1:]
-        self.details.object = "<pre style='white-space: pre-wrap; font-size: 12px'>" + _escape("\n".join(lines)) + "</pre>"
+        self.details.object = ("<pre style='white-space: pre-wrap; font-size: 12px'>"
+                               + _escape(self._scrubbed("\n".join(lines))) + "</pre>")
         if not result.problem.springs:
             self.torque.object = self.springs.object = None
 
@@ -542,7 +698,7 @@ class DesignPage:
             return io.BytesIO(self.state.spec_toml().encode("utf-8"))
 
         def result():
-            return io.BytesIO(result_json(self._result()).encode("utf-8"))
+            return io.BytesIO(self.state.own_names(result_json(self._result())).encode("utf-8"))
 
         def dxf():
             files = self._result_files(False)
@@ -556,15 +712,19 @@ class DesignPage:
             files = self._result_files(True, solids=True)
             return io.BytesIO(zipped({**files, "summary.txt": (self._result().summary() + "\n").encode("utf-8")}))
 
-        def button(make, filename: str, label: str, kind: str) -> Download:
-            return Download(callback=self.guarded(f"downloading {filename}", make), filename=filename, label=label,
+        def button(make, end: str, label: str, kind: str) -> Download:
+            """A download of the file ``make`` gives, named after the design and ending in ``end``."""
+            made = Download(callback=self.guarded(f"downloading {label}", make), label=label,
+                            filename=download_stem(self.name, self.state.variant) + end,
                             css_classes=[f"download-{kind}"], button_type="primary")
+            self._named.append((made, end))
+            return made
 
-        return [button(spec, "spec.toml", "spec (TOML)", "spec"),
-                button(result, "result.json", "result.json", "result"),
-                button(dxf, "dxf.zip", "DXF outlines (zip)", "dxf"),
-                *([button(solids, "step.zip", "STEP solids (zip)", "step")] if step_available() else []),
-                button(everything, "outputs.zip", "every file: SVG, solids, sheets, figures, summary (zip)", "all")]
+        return [button(spec, ".toml", "spec (TOML)", "spec"),
+                button(result, "_result.json", "result.json", "result"),
+                button(dxf, "_dxf.zip", "DXF outlines (zip)", "dxf"),
+                *([button(solids, "_step.zip", "STEP solids (zip)", "step")] if step_available() else []),
+                button(everything, "_outputs.zip", "every file: SVG, solids, sheets, figures, summary (zip)", "all")]
 
     def _result(self):
         result = self.state.result

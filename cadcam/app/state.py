@@ -1,5 +1,6 @@
 """What the design page holds and does, without the page: the spec opened (a template, a spec
-file or a result.json), the user's edits as dotted-key overrides, the designs of a
+file, an upload or a result.json), the user's edits as dotted-key overrides (a tabulated target's
+rows among them, :mod:`cadcam.app.tables`), the designs of a
 :class:`cadcam.Session` (each from the last answer of its structure), the catalogue table of
 each spring with its lights (:mod:`cadcam.app.parts`) and the files to download.
 
@@ -17,7 +18,7 @@ import tempfile
 import time
 import zipfile
 from dataclasses import dataclass, field, replace
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import NamedTuple
 
 import pandas as pd
@@ -36,6 +37,7 @@ from ..sweep.study import read_catalogue
 from ..targets import ExpressionError
 from .form import Field, field_of_error, fields_of
 from .parts import catalogue_numbers, table as catalogue_table
+from .tables import TargetTable, checked, pasted, spec_table
 
 
 class Template(NamedTuple):
@@ -60,6 +62,11 @@ TEMPLATES = (
 CATALOGUE = "spring_catalogue.csv"
 #: The keys of a spring a catalogue pick sets.
 PICKED = ("name", "rate", "travel", "preload")
+
+#: The name of the files downloaded where the file opened gives none (:func:`download_stem`).
+DOWNLOAD_STEM = "design"
+#: Longest start of a file downloaded's name [characters].
+STEM_CHARS = 80
 
 #: Errors of a design that are the input's: shown as one line, like the command line's (a
 #: spec's or an edit's ``solver.functions = "compiled"`` without a compiler among them).
@@ -96,10 +103,19 @@ class DesignState:
         A spec (TOML) or a cadcam ``result.json``; its tables resolve against its folder.
     variant : str, optional
         The spec's ``[variants.NAME]`` applied under the edits.
+    original : Path, optional
+        The spec as the user gave it, where ``path`` is the page's copy of an upload naming the
+        page's copies of its CSV files (:func:`cadcam.app.uploads.save`): the spec to download
+        is written from it.
+    aliases : dict, optional
+        The name the user knows each of the page's copies by, by the copy's path
+        (:attr:`cadcam.app.uploads.Uploaded.aliases`).
     """
 
     path: Path
     variant: str | None = None
+    original: Path | None = None
+    aliases: dict[str, str] = field(default_factory=dict)
     session: Session = field(default_factory=Session)
     overrides: dict = field(default_factory=dict)
     picks: dict[int, dict] = field(default_factory=dict)
@@ -118,6 +134,11 @@ class DesignState:
     #: spec itself names (or None), by its number
     catalogues: dict[int, str | None] = field(init=False)
     spec_parts: dict[int, str | None] = field(init=False)
+    #: Each tabulated torque target (``joints.1.target``) as the spec gives it, and as edited
+    tables: dict[str, TargetTable] = field(init=False)
+    table_edits: dict[str, TargetTable] = field(default_factory=dict)
+    #: The fields that are another field's quantity, with that field (:func:`in_step`)
+    links: dict[str, str] = field(init=False)
     last: Outcome = field(default_factory=Outcome)
     result: Result | None = None  # the last design made (the last outcome may be an error)
     #: The verdict of each part designed with, by (the other edits, spring number, part)
@@ -139,6 +160,14 @@ class DesignState:
                        if f.key.startswith("workshop.") and f.value is None else f for f in fields_of(reads)]
         self.absent = {r.key for r in reads if isinstance(r.value, dict) and not r.given}
         label = "cams" if any(f.key.startswith("cams.") for f in self.fields) else "joints"
+        self.tables = {f"{label}.{i + 1}.target": spec_table(j["target"], self.path.parent)
+                       for i, j in enumerate(data.get(label, []))
+                       if isinstance(j.get("target"), dict) and j["target"].get("kind") == "table"}
+        # the table editor sets a table target's keys (its file and angle unit): no field does;
+        # nor does one name a file, which comes with an upload (cadcam.app.uploads), never typed
+        owned = tuple(f"{key}." for key in self.tables)
+        self.fields = [f for f in self.fields if not f.key.startswith(owned) and not f.key.endswith(".file")]
+        self.links = in_step(reads, problem, label, {f.key for f in self.fields})
         self.names = {f"springs.{j + 1}": s.name for j, s in enumerate(problem.springs)}
         self.names |= {f"mechanisms.{u + 1}": m.name for u, m in enumerate(problem.mechanisms)}
         self.names |= {f"{label}.{i + 1}": j.name for i, j in enumerate(problem.joints)}
@@ -161,7 +190,9 @@ class DesignState:
         return next(f for f in self.fields if f.key == key)
 
     def value(self, key: str):
-        """Field ``key``'s value now: the user's, else the catalogue spring's, else the spec's."""
+        """Field ``key``'s value now: the user's, else the catalogue spring's, else the spec's
+        (a field in step with another, that other's)."""
+        key = self.links.get(key, key)
         if key in self.overrides:
             return self.overrides[key]
         return self._unedited(key)
@@ -201,8 +232,9 @@ class DesignState:
         return None if number in self.picks else self.spec_parts.get(number)
 
     def edit(self, key: str, text: str) -> str | None:
-        """Set field ``key`` to ``text`` (empty: its value in the spec); the one-line error of
-        text that is no value, else None."""
+        """Set field ``key`` to ``text`` (empty: its value in the spec; a field in step with
+        another sets that other); the one-line error of text that is no value, else None."""
+        key = self.links.get(key, key)
         f = self.field(key)
         try:
             value = f.parse(text)
@@ -235,14 +267,56 @@ class DesignState:
             self.overrides.pop(f"springs.{number}.{key}", None)
 
     def override_pairs(self) -> list[tuple[str, object]]:
-        """The edits as ``--set`` pairs; a key whose table the spec leaves out (its
-        ``[workshop]``, a joint's ``acceptance``) sets that table, which then holds it."""
+        """The edits as ``--set`` pairs (:meth:`_field_pairs`), each table target edited
+        replacing its joint's target: ``("joints.1", {"target": {...}})``."""
+        return self._field_pairs() + [(key.rpartition(".")[0], {"target": table.target()})
+                                      for key, table in self.table_edits.items()]
+
+    def _field_pairs(self) -> list[tuple[str, object]]:
+        """The edits of the fields and springs as ``--set`` pairs; a key whose table the spec
+        leaves out (its ``[workshop]``, a joint's ``acceptance``) sets that table, which then
+        holds it; a field in step with another takes that other's value."""
         pairs: list[tuple[str, object]] = [("springs", self._springs_with_parts())] if self.parts else []
         pairs += [(f"springs.{j}", dict(spring)) for j, spring in self.picks.items()]
         for key, value in self.overrides.items():
             table, _, name = key.rpartition(".")
             pairs.append((table, {name: value}) if table in self.absent else (key, value))
+        pairs += [(key, self.value(key)) for key in self.links if self.value(key) != self.field(key).value]
         return pairs
+
+    # ------------------------------------------------------------------ the table targets
+    def table(self, key: str) -> TargetTable:
+        """Table target ``key``'s (``joints.1.target``) table now: the user's, else the spec's."""
+        return self.table_edits.get(key, self.tables[key])
+
+    def edit_table(self, key: str, rows=None, unit: str | None = None) -> str | None:
+        """Table target ``key`` becomes ``rows`` of (angle, torque [N·m]) (default: its rows
+        now) with angles in ``unit`` (default: its unit now); the one-line error of rows that
+        are no table (:func:`cadcam.app.tables.checked`), else None."""
+        now = self.table(key)
+        try:
+            table = checked(now.rows if rows is None else rows, unit or now.unit, _bracketed(key))
+        except SpecError as exc:
+            return str(exc)
+        self._set_table(key, table)
+        return None
+
+    def paste_table(self, key: str, text: str, unit: str | None = None) -> str | None:
+        """Table target ``key`` becomes the rows of ``text`` pasted from a spreadsheet
+        (:func:`cadcam.app.tables.pasted`; angles in the unit its header names, else ``unit``,
+        else its unit now); the one-line error of text that is no table, else None."""
+        try:
+            table = pasted(text, unit or self.table(key).unit, _bracketed(key))
+        except SpecError as exc:
+            return str(exc)
+        self._set_table(key, table)
+        return None
+
+    def _set_table(self, key: str, table: TargetTable) -> None:
+        if table.same(self.tables[key]):
+            self.table_edits.pop(key, None)
+        else:
+            self.table_edits[key] = table
 
     def _springs_with_parts(self) -> list[dict]:
         """The spec's springs, each with a part picked made that part and named after it."""
@@ -277,7 +351,8 @@ class DesignState:
             result = self.session.design(self.problem())
         except INPUT_ERRORS as exc:
             message = str(exc)
-            self.last = Outcome(error=message, field=field_of_error(message, [f.key for f in self.fields], edited),
+            keys = [f.key for f in self.fields] + list(self.tables)
+            self.last = Outcome(error=message, field=field_of_error(message, keys, edited),
                                 seconds=time.perf_counter() - start)
             for number, part in self.parts.items():
                 self.verdicts[self._context(number), number, part] = ("infeasible", message)
@@ -337,23 +412,36 @@ class DesignState:
         own = {f"springs.{number}.{k}" for k in FILLED_BY_PART}
         return repr((sorted((k, v) for k, v in self.overrides.items() if k not in own),
                      sorted((n, p["name"]) for n, p in self.picks.items() if n != number),
-                     sorted((n, p) for n, p in self.parts.items() if n != number)))
+                     sorted((n, p) for n, p in self.parts.items() if n != number),
+                     sorted(self.table_edits.items())))
 
     # -------------------------------------------------------------------- the files to download
     def spec_toml(self) -> str:
         """The spec with its variant and the edits, as TOML: a spec file keeps its comments and
-        layout; a result.json's resolved problem is written out."""
+        layout; a result.json's resolved problem is written out. A table target edited, or read
+        from a CSV file, is written inline (:func:`_inlined`): the spec needs no other file."""
         import tomlkit
 
-        if self.path.suffix == ".toml":
-            doc = tomlkit.parse(self.path.read_text(encoding="utf-8").removeprefix("\ufeff"))
+        source = self.original or self.path
+        if source.suffix == ".toml":
+            doc = tomlkit.parse(source.read_text(encoding="utf-8").removeprefix("\ufeff"))
         else:
             doc = tomlkit.document()
-            doc.update(_without_none(read_spec_data(self.path)))
+            doc.update(_without_none(read_spec_data(source)))
         variant = list(doc["variants"][self.variant].unwrap().items()) if self.variant else []
-        for key, value in variant + self.override_pairs():
+        for key, value in variant + self._field_pairs():
             apply_override(doc, key, value, "the page's edits")
+        for key, spec in self.tables.items():
+            if key in self.table_edits or spec.file is not None:
+                _inlined(doc, key, self.table(key), spec.file)
         return tomlkit.dumps(doc)
+
+    def own_names(self, text: str) -> str:
+        """``text`` (a result.json) naming each of the page's copies of an upload's files
+        (:attr:`aliases`) by the user's name for it, not by its path on the server."""
+        for path in sorted(self.aliases, key=len, reverse=True):
+            text = text.replace(json.dumps(path)[1:-1], json.dumps(self.aliases[path])[1:-1])
+        return text
 
     def result_files(self, result: Result, figures: bool = False, solids: bool = False) -> dict[str, bytes]:
         """What ``cadcam design`` writes for ``result`` (:meth:`Result.save`: result.json, the
@@ -367,7 +455,74 @@ class DesignState:
             except ValueError:  # a workshop file that cannot be made: the others are written
                 pass
             # without the folder's record of what cadcam wrote (cadcam.files.MANIFEST): not an output
-            return {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file() and p.name != MANIFEST}
+            files = {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir()) if p.is_file() and p.name != MANIFEST}
+        if "result.json" in files:
+            files["result.json"] = self.own_names(files["result.json"].decode("utf-8")).encode("utf-8")
+        return files
+
+
+def download_stem(name: str, variant: str | None = None) -> str:
+    """The start of the names of the files downloaded of the design opened as ``name`` (the
+    file's name as the page shows it): its stem, without the ``_result`` of a result.json's
+    name, its ``variant`` added; characters other than letters, digits, ``.``, ``-`` and ``_``
+    made ``_``; :data:`DOWNLOAD_STEM` where nothing is left."""
+    stem = PurePath(name.replace("\\", "/")).stem if name not in ("", ".", "..") else ""
+    stem = stem.removesuffix("_result") + (f"_{variant}" if variant else "")
+    stem = re.sub(r"[^\w.-]+", "_", stem, flags=re.ASCII).strip("._-")[:STEM_CHARS].rstrip("._-")
+    return stem or DOWNLOAD_STEM
+
+
+def _bracketed(key: str) -> str:
+    """A dotted key as the spec reader's messages write it (``joints[1].target``)."""
+    return re.sub(r"\.(\d+)", r"[\1]", key)
+
+
+def _inlined(doc, key: str, table: TargetTable, file: str | None) -> None:
+    """Write table target ``key`` (``joints.1.target``) of TOML document ``doc`` as ``table``'s
+    rows inline, in place of its rows or its CSV ``file`` (named in a comment); an inline
+    table's rows stay on its one line, as TOML asks."""
+    import tomlkit
+    from tomlkit.items import InlineTable
+
+    label, number, name = key.split(".")
+    target = doc[label][int(number) - 1][name]
+    for k in ("file", "angle_unit", "samples"):
+        target.pop(k, None)
+    rows = tomlkit.array()
+    rows.extend(table.target()["samples"])
+    if not isinstance(target, InlineTable):
+        rows.multiline(True)
+        if file is not None:
+            target.add(tomlkit.comment(f"the rows the design page had, in place of {PurePath(file).name}"))
+    target["angle_unit"] = table.unit
+    target["samples"] = rows
+
+
+def in_step(reads, problem: Problem, label: str, keys: set[str]) -> dict[str, str]:
+    """The fields among ``keys`` that are another field's quantity, each with that other: a key
+    of a mechanism's output law that its joint's torque target (``label`` names the joints'
+    tables) or the one spring on the mechanism's ports also has, of the same unit and equal in
+    the spec. Fedorov2018's balancer gives its output law the pendulum's mass and length and its
+    springs' rate and initial tension (the law balances that pendulum with those springs), so
+    that an edit of one must be an edit of both."""
+    by_key = {r.key: r for r in reads}
+    links = {}
+    for u, mechanism in enumerate(problem.mechanisms, 1):
+        law = f"mechanisms.{u}.output_target."
+        springs = [s for s, spring in enumerate(problem.springs, 1) if any(p.mechanism == u - 1 for p in spring.ports)]
+        for key in sorted(k for k in keys if k.startswith(law)):
+            name = key.removeprefix(law)
+            others = [f"{label}.{mechanism.joint + 1}.target.{name}", *(f"springs.{s}.{name}" for s in springs)]
+            same = [k for k in others if k in keys and _same_quantity(by_key[k], by_key[key])]
+            if len(same) == 1:
+                links[key] = same[0]
+    return links
+
+
+def _same_quantity(a, b) -> bool:
+    """Whether key reads ``a`` and ``b`` give one number of one unit."""
+    return (a.declaration.unit == b.declaration.unit and isinstance(a.value, (int, float))
+            and not isinstance(a.value, bool) and a.value == b.value)
 
 
 def part_name(part: str) -> str:

@@ -137,11 +137,18 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     message.wait_for(state="hidden", timeout=10_000)
     page.wait_for_selector(".verdict-success", timeout=10_000)
 
-    spec = tomllib.loads(_download(page, "spec", tmp_path).read_text())
+    # each download is named after the design open (the template's spec)
+    edited = _download(page, "spec", tmp_path)
+    assert edited.name == "johnston2023_1dof.toml"
+    spec = tomllib.loads(edited.read_text())
     assert spec["springs"][0]["rate"] == 1200
-    result = __import__("json").loads(_download(page, "result", tmp_path).read_text())
+    downloaded = _download(page, "result", tmp_path)
+    assert downloaded.name == "johnston2023_1dof_result.json"
+    result = __import__("json").loads(downloaded.read_text())
     assert result["status"] == "success" and result["problem"]["springs"][0]["rate"] == 1200
-    with zipfile.ZipFile(_download(page, "dxf", tmp_path)) as z:
+    downloaded = _download(page, "dxf", tmp_path)
+    assert downloaded.name == "johnston2023_1dof_dxf.zip"
+    with zipfile.ZipFile(downloaded) as z:
         assert z.namelist() == ["cam1.dxf"]
         dxf_bytes = z.read("cam1.dxf")
     _check_dxf(dxf_bytes, spec["cams"][0]["rho_max"])
@@ -165,10 +172,11 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     # the spec downloaded, edited in a text editor, opens again with the edit in its form and is
     # designed (another rate: another torque curve; the same spec could draw the same one)
     shown = _torque_image(page)
-    edited = tmp_path / "spec.toml"
     edited.write_text(edited.read_text().replace("rate = 1200", "rate = 1250", 1))
     page.locator(".open-file input[type=file]").set_input_files(str(edited))
-    page.get_by_text("open spec.toml").wait_for(timeout=10_000)
+    # the choice of template names the file open (the line above the form named it already)
+    playwright_api.expect(page.locator(".template select")).to_have_value("johnston2023_1dof.toml (the file open)",
+                                                                          timeout=10_000)
     deadline = time.monotonic() + 20
     rate = page.locator(".field-springs-1-rate input")
     while rate.input_value() != "1250" and time.monotonic() < deadline:
@@ -201,6 +209,9 @@ def test_the_page_designs_on_each_edit_shows_errors_and_downloads(browser_page, 
     shown = _torque_image(page)
     page.locator(".template select").select_option(label=template.title)
     page.get_by_text(f"open {template.spec}.toml (variant {template.variant})").wait_for(timeout=20_000)
+    # the file box no longer names the file uploaded before, nor the choice of template it
+    assert page.locator(".open-file input[type=file]").evaluate("box => box.files.length") == 0
+    assert "(the file open)" not in page.locator(".template select").inner_text()
     deadline = time.monotonic() + CURVE_WAIT_S
     while _torque_image(page) == shown and time.monotonic() < deadline:
         page.wait_for_timeout(100)
@@ -319,3 +330,115 @@ def test_the_catalogue_table_lights_the_screen_and_a_row_designs_with_its_part(b
     page.screenshot(path=str(SCREENS / "10_part_designed.png"), full_page=True)
     written = tomllib.loads(_download(page, "spec", tmp_path).read_text())["springs"][0]
     assert written["part"] == part and "rate" not in written and "travel" not in written
+
+
+#: The knee assist of the docs (a torque table inline), its rows in a CSV file of their own.
+KNEE = ROOT / "docs" / "knee_assist.toml"
+
+
+def _knee_with_csv(folder: Path) -> tuple[Path, Path, list[list[float]]]:
+    """The knee assist's spec naming its torque table as the CSV file ``tables/knee.csv`` (in
+    degrees), both written under ``folder``; and the table's rows."""
+    spec = tomllib.loads(KNEE.read_text())
+    target = spec["joints"][0]["target"]
+    assert target["angle_unit"] == "deg"
+    rows = target["samples"]
+    text = KNEE.read_text()
+    inline = next(line for line in text.splitlines() if line.startswith("samples = "))
+    path = folder / "knee_assist.toml"
+    (folder / "tables").mkdir(parents=True)
+    path.write_text(text.replace('angle_unit = "deg"\n', "").replace(inline, 'file = "tables/knee.csv"'))
+    table = folder / "tables" / "knee.csv"
+    table.write_text("theta_deg,torque_Nm\n" + "".join(f"{a},{t}\n" for a, t in rows))
+    return path, table, rows
+
+
+def _table_rows(page, key: str = "joints-1-target") -> list[list[float]]:
+    """The rows the editor of a table target shows (read at once)."""
+    rows = page.locator(f".table-{key} .tabulator-row").evaluate_all("""rows => rows.map(row => {
+        const text = f => row.querySelector(`.tabulator-cell[tabulator-field=${f}]`)?.innerText;
+        return [text("angle"), text("torque")];
+    })""")
+    return [[float(a), float(t)] for a, t in rows if a is not None and t is not None]
+
+
+def _wait_new_curve(page, shown: str, what: str) -> None:
+    """Wait for a torque curve other than ``shown`` and the verdict of its design."""
+    deadline = time.monotonic() + CURVE_WAIT_S
+    while _torque_image(page) == shown:
+        assert time.monotonic() < deadline, f"{what}: no new torque curve"
+        page.wait_for_timeout(100)
+    page.wait_for_selector(".verdict-success", timeout=20_000)
+
+
+def test_a_spec_opens_with_its_csv_a_table_pasted_or_edited_is_designed_and_downloaded(browser_page, tmp_path):
+    """The knee assist naming its torque table as a CSV file: opened alone, the page names the
+    file missing; opened with it, the table editor shows the CSV's rows; rows pasted from a
+    spreadsheet (a decimal comma, a header naming degrees) and a cell edited are each designed;
+    the spec downloaded, named after the file, carries the table inline and designs the same
+    problem on the command line."""
+    import json
+
+    page, _ = browser_page
+    spec, table, rows = _knee_with_csv(tmp_path / "mine")
+    upload = page.locator(".open-file input[type=file]")
+    upload.set_input_files(str(spec))  # without its table: one line under the upload naming it
+    page.locator(".open-error").get_by_text("'knee.csv' is not among the files opened").wait_for(timeout=20_000)
+    assert "\n" not in page.locator(".open-error").inner_text()
+    page.screenshot(path=str(SCREENS / "11_csv_missing.png"))
+
+    shown = _torque_image(page)
+    upload.set_input_files([str(spec), str(table)])
+    page.get_by_text("open knee_assist.toml with 'knee.csv'").wait_for(timeout=20_000)
+    _wait_new_curve(page, shown, "the knee assist opened with its CSV")
+    assert page.locator(".open-error").inner_text() == ""
+    assert page.locator(".template select").input_value() == "knee_assist.toml (the file open)"
+    assert _table_rows(page) == rows
+    assert page.locator(".table-unit-joints-1-target .bk-active").inner_text() == "deg"
+    page.screenshot(path=str(SCREENS / "12_csv_opened.png"), full_page=True)
+
+    # rows pasted from a spreadsheet: tabs, decimal commas, a header in degrees; the design follows
+    pasted = [[0.0, 0.6], [20.0, 3.0], [40.0, 5.2], [60.0, 6.9], [75.0, 7.8], [90.0, 8.2]]
+    text = "knee angle [deg]\ttorque [N·m]\n" + "".join(f"{a:g}\t{t:g}\n".replace(".", ",") for a, t in pasted)
+    shown = _torque_image(page)
+    page.locator(".table-paste-joints-1-target textarea").fill(text)
+    page.locator(".table-use-joints-1-target button").click()
+    _wait_new_curve(page, shown, "the table pasted")
+    assert _table_rows(page) == pasted
+    page.screenshot(path=str(SCREENS / "13_table_pasted.png"), full_page=True)
+
+    # a cell edited in place: the design follows
+    shown = _torque_image(page)
+    page.locator(".table-joints-1-target .tabulator-row").nth(3).locator(".tabulator-cell[tabulator-field=torque]").click()
+    editor = page.locator(".table-joints-1-target .tabulator-cell input")
+    editor.fill("7.1")
+    editor.press("Enter")
+    _wait_new_curve(page, shown, "the cell edited")
+    edited = [*pasted[:3], [60.0, 7.1], *pasted[4:]]
+    assert _table_rows(page) == edited
+    page.screenshot(path=str(SCREENS / "14_cell_edited.png"), full_page=True)
+
+    # too few rows pasted: one line under the table, the design as it was
+    page.locator(".table-paste-joints-1-target textarea").fill("0\t1\n45\t2\n90\t3\n")
+    page.locator(".table-use-joints-1-target button").click()
+    page.locator(".error-joints-1-target").get_by_text("3 rows; a table takes at least 4").wait_for(timeout=10_000)
+    assert _table_rows(page) == edited
+    page.screenshot(path=str(SCREENS / "15_table_error.png"), full_page=True)
+
+    # the downloads are named after the file open; the spec carries its table inline and designs
+    # the page's problem on the command line
+    written = _download(page, "spec", tmp_path)
+    assert written.name == "knee_assist.toml"
+    target = tomllib.loads(written.read_text())["joints"][0]["target"]
+    assert target == {"kind": "table", "angle_unit": "deg", "samples": edited}
+    result = _download(page, "result", tmp_path)
+    assert result.name == "knee_assist_result.json"
+    assert _download(page, "dxf", tmp_path).name == "knee_assist_dxf.zip"
+    out = tmp_path / "cli"
+    run = subprocess.run([sys.executable, "-m", "cadcam", "design", str(written), "-o", str(out)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    cli = json.loads((out / "result.json").read_text())
+    page_result = json.loads(result.read_text())
+    assert cli["status"] == page_result["status"] == "success"
+    assert cli["problem"] == page_result["problem"]
