@@ -423,6 +423,8 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
         return 1
     problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
     result = optimize(problem, start=Design.from_dict(found.designed[best]["design"], problem))
+    if not result.success:  # solved again on another path (a fresh library, no cache) it may not pass
+        result = optimize(problem)
     try:
         result.save(out / "best", figures=args.figures, workers=os.cpu_count() or 1)
     except WorkshopError as exc:

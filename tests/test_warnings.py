@@ -206,7 +206,7 @@ def test_the_design_page_shows_the_warnings(warned):
     from cadcam.app.state import Outcome
 
     view = DesignPage.__new__(DesignPage)
-    view.errors, view.state = {}, SimpleNamespace(path=FIRST, result=None)
+    view.errors, view.state, view.name = {}, SimpleNamespace(path=FIRST, result=None, aliases={}), FIRST.name
     view.verdict, view.details, view.torque, view.springs = (SimpleNamespace(object=None) for _ in range(4))
     view._show(Outcome(result=warned, seconds=1.0))
     assert f"warning: {warned.spec_warnings[0]}" in view.details.object

@@ -9,6 +9,9 @@ import pytest
 from cadcam import load_problem
 from cadcam.app.state import DesignState
 
+#: A full design per module fixture and more: too heavy for make test's five minutes.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 SPEC_1DOF = ROOT / "models" / "johnston2023_1dof.toml"
 #: Fedorov2018's output law balances the pendulum of the joint's target with the slider springs:

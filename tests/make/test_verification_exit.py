@@ -12,7 +12,7 @@ from cadcam.outputs import verification
 SPEC = Path(__file__).resolve().parents[2] / "docs" / "first_balancer.toml"
 
 
-@pytest.mark.parametrize("verdict, code", [(False, 1), (True, 0)])
+@pytest.mark.parametrize("verdict, code", [(False, 1), pytest.param(True, 0, marks=pytest.mark.slow)])
 def test_the_exit_follows_the_files_verification(tmp_path, monkeypatch, capsys, verdict, code):
     monkeypatch.setattr(verification, "passed", lambda checks, cams: verdict)
     out = tmp_path / "out"

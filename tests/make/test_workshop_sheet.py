@@ -34,6 +34,9 @@ from cadcam.verify.file_model import read_dxf
 
 from ..conftest import check_output_file
 
+#: A full design per module fixture and more: too heavy for make test's five minutes.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 TUTORIAL = tomllib.loads((ROOT / "docs" / "first_balancer.toml").read_text())
 #: A free length [m] the tutorial's spring fits with, hung 0.2 m from the joint.

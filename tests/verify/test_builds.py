@@ -17,6 +17,9 @@ from cadcam.spec import SpecError, parse_spec, read_spec_data
 from cadcam.verify import builds as B
 from cadcam.verify.evaluate import evaluate
 
+#: A full design per module fixture and more: too heavy for make test's five minutes.
+pytestmark = pytest.mark.slow
+
 TUTORIAL = Path(__file__).resolve().parents[2] / "docs" / "first_balancer.toml"
 #: docs/tutorial.md's "Build it, and set it back": the tutorial's arm with 44° of cable wound at
 #: the range's start (its anchor turned back, so that its spring end may turn back along the

@@ -47,6 +47,7 @@ def test_the_fit_binds_and_holds_on_the_fine_grid(bound):
     assert -1e-9 <= row["least_free_cable"] <= limit + 1e-6  # at its limit: the row is active
 
 
+@pytest.mark.slow
 def test_without_the_row_the_design_would_not_fit():
     free = optimize(parse_spec(_tutorial(None)))
     judged = evaluate(parse_spec(_tutorial(LONG)), free.design, grid=free.problem.options.recheck_grid)
@@ -97,6 +98,7 @@ def placed():
     return optimize(parse_spec(_placed_spec(mount_distance=[0.1, 0.35])))
 
 
+@pytest.mark.slow
 def test_the_mount_moves_out_until_the_spring_fits(placed):
     assert placed.status == "success", placed.message
     mech = placed.problem.mechanisms[0]
@@ -107,6 +109,7 @@ def test_the_mount_moves_out_until_the_spring_fits(placed):
     assert row["least_free_cable"] >= 0
 
 
+@pytest.mark.slow
 def test_the_placed_mount_is_the_spec_the_result_reads_back(placed):
     """result.json's problem holds the placed spring end: evaluated from it, the design gives
     the torque the result states."""
