@@ -223,7 +223,9 @@ class Result:
         """The simulated builds under the problem's tolerances and their adjustment
         (:func:`cadcam.verify.builds.simulate_builds`, on the design grid); None where there is
         no band, or ``[builds] count`` is 0."""
-        return None if self.band is None else simulate_builds(self.evaluation, self.band.sensitivity)
+        if self.band is None or self.band.sensitivity is None:
+            return None
+        return simulate_builds(self.evaluation, self.band.sensitivity)
 
     @cached_property
     def installation(self) -> list[dict]:
