@@ -177,7 +177,8 @@ class Session:
 
     Where the default start completes the problem's numbers (a differential pair's cable length
     from Fedorov's envelope of its output law), the last answer starts the next design only if
-    the numbers completed are the same (an edit of a spring, not of the law): an answer made for
+    the numbers completed are the same (an edit of a limit or a spring's travel, not of the law
+    or of a quantity it shares with the target or the springs): an answer made for
     another cable length is a poor start, and the new envelope a close one.
 
     >>> session = cadcam.Session()

@@ -284,27 +284,27 @@ def test_balancer_files_give_its_torque_and_x(balancer, tmp_path):
 
 
 @pytest.mark.slow  # the balancer's design takes minutes on two cores
-@pytest.mark.xfail(strict=True, reason="a known regression, to mend first: the page now keeps the output "
-                   "law's spring rate equal to spring 1's, so this spring edit changes the output law and "
-                   "its envelope's cable length, and the page designs cold instead of warm")
 def test_a_warm_redesign_of_the_differential_balancer_is_no_worse_than_a_cold_one(balancer):
-    """Fedorov's balancer on the design page's path: a spring's edit leaves the envelope's cable
-    length as it was, so the last answer and its multipliers start the design; it succeeds, in
-    fewer iterations than the default start takes and to no worse an objective. The page
-    designs the spec with spring 1 2 % stiffer first, then the spec itself warm from that
-    answer; the cold design of the spec to compare with is this module's ``balancer`` (a
-    design from the default start, through the same kept NLP), not designed a third time."""
+    """Fedorov's balancer on the design page's path: an edit of the spring's travel leaves the
+    output law, and so the envelope's cable length, as it was (its rate and preload are the
+    law's own, :func:`cadcam.app.state.in_step`, and move it), so the last answer and its
+    multipliers start the design; it succeeds, in fewer iterations than the default start takes
+    and to no worse an objective. The page designs the spec with spring 1's travel 2 % shorter
+    first, then the spec itself warm from that answer; the cold design of the spec to compare
+    with is this module's ``balancer`` (a design from the default start, through the same kept
+    NLP), not designed a third time."""
     from cadcam.app.state import DesignState
 
     state = DesignState.template("fedorov2018_balancer")
-    rate = state.field("springs.1.rate").value
-    assert rate == load_spec(BALANCER).springs[0].rate
-    state.edit("springs.1.rate", repr(1.02 * rate))
+    travel = state.field("springs.1.travel").value
+    assert travel == load_spec(BALANCER).springs[0].travel
+    state.edit("springs.1.travel", repr(0.98 * travel))
     first = state.design()
     assert first.result.success
-    state.edit("springs.1.rate", repr(rate))
+    assert first.result.problem.mechanisms[0].cable_length == balancer.problem.mechanisms[0].cable_length
+    state.edit("springs.1.travel", repr(travel))
     assert state.overrides == {}  # the spec itself
-    warm = state.design("springs.1.rate").result
+    warm = state.design("springs.1.travel").result
     cold = balancer
     assert warm.success and cold.success
     assert warm.message.endswith("(warm start from the last design)")
