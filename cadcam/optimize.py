@@ -16,7 +16,7 @@ from .errors import SpecError
 from .mechanisms.base import design_methods, kinds_in
 from .verify.evaluate import LIMIT_TOL, MARGINS, evaluate, poses_of, start_samples
 from .verify.remedy import SHAPE_MARGINS, next_step
-from .problem import ACCEPTANCE, Problem, cap
+from .problem import ACCEPTANCE, SOLVER, Problem, cap
 from .result import Result
 from .solve.builds import built_for
 from .solve.memory import MemoryBudgetError
@@ -172,7 +172,8 @@ def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Resul
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,
-             start: Design | None = None, warm: Multipliers | None = None) -> Result:
+             start: Design | None = None, warm: Multipliers | None = None, refine: str = "points",
+             margins: dict | None = None) -> Result:
     """Solve ``problem`` and re-check the optimum.
 
     Parameters
@@ -187,6 +188,13 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         lowest objective is kept, or, where it fails its re-check, the next that passes.
     warm : Multipliers, optional
         The multipliers of the answer ``start`` is, to solve from it warm (the first start).
+    refine : str
+        How an optimum that broke only its profile's shape between the NLP's check points is
+        solved again: one of :data:`REFINEMENTS`.
+    margins : dict, optional
+        Options of :data:`MARGIN_KEYS` to solve the NLP with, raised above ``problem``'s (the
+        margins the answer ``start`` needed, :func:`_margin_refined`); every answer is
+        re-checked and judged against ``problem`` itself.
 
     Returns
     -------
@@ -210,21 +218,22 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     rng = np.random.default_rng(problem.options.seed)
     starts = [start]
     starts += [random_start(problem, rng) for _ in range(problem.options.multistart)]
+    solved = problem.with_options(**margins) if margins else problem
     solves = []
     for k, s in enumerate(starts):
-        sol = solve(tr, problem, s, warm if k == 0 else None)
-        sol.start = k
+        sol = solve(tr, solved, s, warm if k == 0 else None)
+        sol.start, sol.margins = k, dict(margins or {})
         solves.append(sol)
     converged = [s for s in solves if s.status == "converged"]
     ranked = sorted(converged or solves, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
     trials, warnings = [_trial(s) for s in solves], merged([s.warnings for s in solves])
     for candidate in ranked:  # each keeps the run's trials and warnings, every start's
         candidate.trials, candidate.warnings = trials, warnings
-    best = _verified(problem, tr, ranked[0])
+    best = _verified(problem, tr, ranked[0], refine)
     if best.status == "success" or not converged:
         return best
     for other in ranked[1:]:
-        result = _verified(problem, tr, other)
+        result = _verified(problem, tr, other, refine)
         if result.status == "success":
             result.message += (f" (from start {other.start}: the lowest objective, start "
                                f"{best.solve.start}'s, ended {best.status})")
@@ -242,16 +251,16 @@ def _refuse_other_types(problem, start) -> None:
                           f"file) or None, not {type(start).__name__}")
 
 
-def _verified(problem: Problem, tr: Transcription, solved: Solve) -> Result:
-    """:func:`_checked` of ``solved``, solved again with more check points where its profile
-    broke its shape between them (:func:`_refined`); where it still fails its re-check, its
-    message ends with the next step (:func:`_with_next_step`)."""
+def _verified(problem: Problem, tr: Transcription, solved: Solve, refine: str = "points") -> Result:
+    """:func:`_checked` of ``solved``, solved again as ``refine`` says (:data:`REFINEMENTS`)
+    where its profile broke its shape between the check points; where it still fails its
+    re-check, its message ends with the next step (:func:`_with_next_step`)."""
     result = _checked(problem, tr, solved)
     if result.status != "recheck_failed":
         return result
     last = result  # the re-check the next step is read from: the last one made
     if _broken_between_checks(result.recheck):
-        result, last = _refined(result, tr)
+        result, last = REFINEMENTS[refine](result, tr)
     return _with_next_step(result, last.recheck, last.problem.options.convexity_points)
 
 
@@ -277,6 +286,8 @@ def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
     on_grid = evaluate(problem, best.design, seeds=seeds)
     fine, recheck_s = _recheck(problem, best.design, seeds)
     status, message = verdict(problem, best, fine, "converged")
+    if best.margins:
+        message += f" (solved with {_margin_words(best.margins)})"
     # the result's design keeps the poses it was checked at: re-evaluated from result.json, it
     # starts the rootfinder there and finds the same roots
     return Result(status=status, message=message, problem=problem,
@@ -332,6 +343,85 @@ def _refined(result: Result, tr: Transcription) -> tuple[Result, Result]:
     return result, refined
 
 
+#: The solver options :func:`_margin_refined` raises: the reserves the NLP keeps from a shape's
+#: limits at its check points.
+MARGIN_KEYS = ("convexity_epsilon", "limit_margin")
+#: How many times :func:`_margin_refined` raises the margins, each time from the last answer.
+MARGIN_ATTEMPTS = 3
+#: Each attempt of :func:`_margin_refined` raises a broken margin's reserve in the NLP by this
+#: many times the depth the re-check found it broken by.
+MARGIN_STEP = 2.0
+
+
+def _raised_margins(problem: Problem, solved: Problem, fine) -> Problem | None:
+    """``solved`` (``problem`` with its margins as its last answer was solved with) with the
+    reserves of the shape margins the fine re-check ``fine`` found broken raised by
+    :data:`MARGIN_STEP` times their depth: ``convexity_epsilon`` for a convexity margin, the
+    ``limit_margin`` for a radius (ρ bounds and radius of curvature; it also keeps the springs'
+    travel further inside). None where nothing is broken or the limit margin would reach its cap."""
+    margins, eps, limit = fine.metrics.margins, solved.options.convexity_epsilon, solved.options.limit_margin
+    for k, prof in enumerate(problem.profiles):
+        depths = {"convexity": -margins["convexity"][k] / prof.rho_min**2,
+                  "rho_min": -margins["rho_min"][k] / prof.rho_min,
+                  "rho_max": -margins["rho_max"][k] / prof.rho_max,
+                  "curvature_radius": (-margins["curvature_radius"][k] / prof.min_curvature_radius
+                                       if prof.min_curvature_radius > 0 else 0.0)}
+        if depths["convexity"] > 0:
+            eps = max(eps, solved.options.convexity_epsilon + MARGIN_STEP * depths["convexity"])
+        radius = max(depths["rho_min"], depths["rho_max"], depths["curvature_radius"])
+        if radius > 0:
+            limit = max(limit, solved.options.limit_margin + MARGIN_STEP * radius)
+    unchanged = (eps, limit) == (solved.options.convexity_epsilon, solved.options.limit_margin)
+    if unchanged or not limit < SOLVER["limit_margin"].high:
+        return None
+    return solved.with_options(convexity_epsilon=eps, limit_margin=limit)
+
+
+def _margin_refined(result: Result, tr: Transcription) -> tuple[Result, Result]:
+    """``result``, whose profile broke its shape between the NLP's check points, solved again
+    in the same build, warm from its own optimum, with the broken margins' reserves raised
+    (:func:`_raised_margins`), up to :data:`MARGIN_ATTEMPTS` times: the answer re-checked
+    against ``result``'s own problem where it passes, else ``result`` with a note of the
+    attempts; and the last of those re-checked (as :func:`_refined`). A fraction of a second where :func:`_refined` builds a larger NLP and solves it
+    cold (on the tutorial's catalogue springs: 3–25 s, and for half of them to the iteration
+    limit)."""
+    problem, last = result.problem, result
+    solved = problem.with_options(**result.solve.margins)
+    for _ in range(MARGIN_ATTEMPTS):
+        raised = _raised_margins(problem, solved, last.recheck)
+        if raised is None:
+            break
+        solved = raised
+        again = solve(tr, solved, last.design, last.solve.multipliers)
+        again.start, again.margins = result.solve.start, {k: getattr(solved.options, k) for k in MARGIN_KEYS}
+        again.trials = last.solve.trials + [_trial(again)]
+        again.warnings = merged([last.solve.warnings, again.warnings])
+        last = _checked(problem, tr, again)
+        if last.status == "success" or not (last.status == "recheck_failed" and _broken_between_checks(last.recheck)):
+            break
+    before = (f"the design with {problem.options.convexity_points} convexity check points broke its shape "
+              "between them; solved again from it with its margins raised")
+    if last is not result and last.status == "success":
+        last.message += f" ({before})"
+        return last, last
+    result.message += f" ({before}: {last.status})" if last is not result else \
+        " (its shape margins could not be raised further to mend it)"
+    return result, last
+
+
+def _margin_words(margins: dict) -> str:
+    """Raised margins (:data:`MARGIN_KEYS`) in words."""
+    return (f"the convexity margin ε = {margins['convexity_epsilon']:.3g} ρ_min² and the limit margin "
+            f"{margins['limit_margin']:.3g}")
+
+
+#: The ways :func:`optimize` solves again an optimum that broke only its profile's shape
+#: between the NLP's check points (``refine``): ``points``, with :data:`CHECK_REFINEMENT` times
+#: the check points (:func:`_refined`, ``cadcam design``'s); ``margin``, with the broken
+#: margins' reserves raised in the same NLP (:func:`_margin_refined`, a catalogue search's).
+REFINEMENTS = {"points": _refined, "margin": _margin_refined}
+
+
 #: A warm-started design whose objective is worse than its start's by more than this fraction
 #: is solved again from the default start, and the better of the two kept: a warm start can
 #: lead IPOPT into a worse basin (measured on the 1-DOF bench sweep: up to +79 %).
@@ -340,7 +430,8 @@ WARM_GUARD = 0.10
 
 def warm_optimize(problem: Problem, transcription: Transcription, start: Design | None,
                   start_objective: float | None, start_name: str, warm: Multipliers | None = None,
-                  default: tuple[Problem, Design] | None = None) -> Result:
+                  default: tuple[Problem, Design] | None = None, refine: str = "points",
+                  margins: dict | None = None) -> Result:
     """:func:`optimize` from ``start``, the design of a neighbouring problem named
     ``start_name`` whose objective was ``start_objective`` (a sweep's nearest case, a design
     session's last answer), with that answer's multipliers ``warm`` if given; and again from
@@ -351,18 +442,22 @@ def warm_optimize(problem: Problem, transcription: Transcription, start: Design 
     The problem solved, warm or cold, is the one the default start completes
     (:func:`start_design`: a differential pair's cable length from the envelope of this
     problem's output law), so that a warm design answers the problem a cold one would;
-    ``default`` is what :func:`start_design` gives for ``problem``, if the caller has it.
+    ``default`` is what :func:`start_design` gives for ``problem``, if the caller has it;
+    ``refine`` as :func:`optimize`'s; ``margins`` those ``start`` was solved with, for the warm
+    solve alone (:func:`optimize`).
     """
     problem, cold_start = default or start_design(problem)
     if start is None:
-        return optimize(problem, transcription=transcription, start=cold_start)
-    result = optimize(problem, transcription=transcription, start=start, warm=warm)
+        return optimize(problem, transcription=transcription, start=cold_start, refine=refine)
+    result = optimize(problem, transcription=transcription, start=start, warm=warm, refine=refine,
+                      margins=margins)
     if not result.success:  # a warm start that did not help: start afresh
-        result = optimize(problem, transcription=transcription, start=cold_start)
+        result = optimize(problem, transcription=transcription, start=cold_start, refine=refine)
         result.message += " (from the default start, after a failed warm start)"
     elif start_objective is not None and \
             result.evaluation.metrics.objective > (1 + WARM_GUARD) * start_objective:
-        cold = optimize(problem, transcription=transcription, start=cold_start)  # a worse basin? compare
+        # a worse basin? compare
+        cold = optimize(problem, transcription=transcription, start=cold_start, refine=refine)
         warm_objective = result.evaluation.metrics.objective
         if cold.success and cold.evaluation.metrics.objective < warm_objective:
             result = cold

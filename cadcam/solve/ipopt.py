@@ -94,6 +94,10 @@ class Solve:
     #: Per mechanism, the parameters the NLP placed (its spring end within the spec's
     #: region, :meth:`cadcam.mechanisms.base.Mechanism.placement_region`) by name [SI]
     placements: list[dict] = field(default_factory=list)
+    #: The solver options the NLP was solved with where raised above the problem's own (the
+    #: convexity and limit margins of :func:`cadcam.optimize._margin_refined`; empty: the
+    #: problem's), for a warm start from it
+    margins: dict = field(default_factory=dict)
 
 
 def _ipopt_solver(nlp: dict, opt: Options, split=None, extra: dict | None = None,
