@@ -32,9 +32,9 @@ from .mechanisms.base import (ENERGY, LINK_ANGLE, MAX_ORDER, MECHANISM_KEYS, Pro
                               legacy_torque_models, mechanism_class, mechanism_kinds, torque_models)
 from .physics.profile import Basis
 from .physics.cables import CABLE_KEYS, FILLED_BY_NAME, Cable, shipped_cables
-from .physics.catalogue import load_catalogue
+from .physics.catalogue import Catalogue, load_catalogue
 from .physics.friction import BEARING_KEYS, FRICTION_KEYS, GUIDE_KEYS, IDLER_KEYS, Friction, Guide, Idler, JointBearing
-from .physics.springs import SPRING_KEYS, Port, Spring
+from .physics.springs import SPRING_KEYS, Port, Spring, SpringBody
 from .problem import (ADJUSTMENT_KEYS, BAND_WEIGHT, BUILD_KEYS, IPOPT_OPTIONS, JOINT_KEYS, SOLVER, SOLVER_KEYS,
                       WORKSHOP_KEYS, Joint, Options, Problem, Workshop, acceptance_keys, count_error, size_error,
                       tolerance_keys)
@@ -812,11 +812,29 @@ def _spring(r: "_Reader", j: int, mechanisms, base: Path = Path(".")) -> Spring:
 FILLED_BY_PART = ("rate", "preload", "free_length", "travel")
 
 
-def filled_by_part(body) -> dict:
+def filled_by_part(body: SpringBody) -> dict:
     """The values a catalogue part's body fills (:data:`FILLED_BY_PART`): its rate, initial
     tension and free length, and its travel, the least extension its limits allow."""
     return {"rate": body.rate, "preload": body.preload, "free_length": body.free_length,
             "travel": min(body.extension_limits().values())}
+
+
+def part_values(catalogue: Catalogue, number: str) -> tuple[SpringBody, dict]:
+    """The body of part ``number`` of ``catalogue`` and the values it fills
+    (:func:`filled_by_part`).
+
+    Raises
+    ------
+    KeyError
+        No such part (the message names the nearest).
+    ValueError
+        A part whose initial tension already stresses its wire beyond its allowance.
+    """
+    body = catalogue.spring_body(catalogue.index(number))
+    filled = filled_by_part(body)
+    if not filled["travel"] > 0:
+        raise ValueError("its initial tension already stresses the wire beyond its allowance; choose another part")
+    return body, filled
 
 
 def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
@@ -835,15 +853,10 @@ def _part(r: "_Reader", base: Path) -> tuple[dict, dict]:
                             "only for a part; add part = \"...\" or remove catalogue")
         return {}, {}
     path = None if given is None else (Path(given) if Path(given).is_absolute() else base / given)
-    cat = load_catalogue(path)
     try:
-        body = cat.spring_body(cat.index(number))
-    except KeyError as exc:
+        body, filled = part_values(load_catalogue(path), number)
+    except (KeyError, ValueError) as exc:
         raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: {exc.args[0]}") from None
-    filled = filled_by_part(body)
-    if not filled["travel"] > 0:
-        raise SpecError(f"{r.origin}: {r.key('part')} = {short_repr(number)}: its initial tension already "
-                        "stresses the wire beyond its allowance; choose another part")
     for name in FILLED_BY_PART:
         if name in r.table and not (is_real(r.table[name]) and float(r.table[name]) == filled[name]):
             raise SpecError(f"{r.origin}: {r.key(name)} = {short_repr(r.table[name])}: part {number!r} sets "
