@@ -12,6 +12,7 @@ import json
 import os
 import sys
 import threading
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -362,6 +363,7 @@ def cmd_springs(args) -> int:
     :mod:`cadcam.sweep.springs`); exit 0 when a feasible spring is found, 1 otherwise."""
     from .physics.catalogue import load_catalogue
     from .spec import parse_spec, read_spec_data
+    from .sweep.runner import check_dask_address
     from .sweep.springs import search
 
     data = read_spec_data(args.spec)
@@ -374,6 +376,8 @@ def cmd_springs(args) -> int:
         if value is not None and not low <= value <= cap(name):
             raise InputError(f"{flag} {value}: expected {low} to {cap(name)} (CADCAM_CAP_{name.upper()} "
                              "raises the cap)")
+    if args.dask:
+        check_dask_address(args.dask)
     given = args.catalogue or data["springs"][args.slot - 1].get("catalogue")
     path = None if given is None else str(Path(given) if args.catalogue or Path(given).is_absolute()
                                           else base / given)
@@ -382,34 +386,42 @@ def cmd_springs(args) -> int:
     with held_folder(args.output) as out:
         _check_files_are_ours(out / "best", problem, args.figures)
         part_path = None if path is None else str(Path(path).resolve())
-        found = search(data, origin, base, args.slot - 1, catalogue, part_path,
+        found = search((data, origin, str(base)), args.slot - 1, catalogue, part_path,
                        os.cpu_count() or 1 if args.workers is None else args.workers,
-                       args.limit or cap("cases"), _springs_progress)
+                       args.limit or cap("cases"), _springs_progress(), args.dask, args.rank == "band")
         return _write_search(found, (data, origin, base), args, part_path, out)
 
 
-def _springs_progress(row: dict, found) -> None:
-    """One line on stderr per spring designed: its part, verdict and rmse, and the best so far."""
+def _springs_progress():
+    """A report of each spring designed, one line on stderr: its count and part, verdict and
+    rmse, the best so far and the time since the first."""
     from .sweep.springs import verdict
 
-    word, reason = verdict(row)
-    best = found.best()
-    what = f"rmse {row['rmse']:.4g} N·m" if row.get("rmse") is not None else reason
-    so_far = f"{best} (rmse {found.designed[best]['rmse']:.4g} N·m)" if best else "none"
-    print(f"[{len(found.designed)}/{found.planned}] {row['part']}: {word}, {what} "
-          f"({row['wall_time_s']:.1f} s); best so far: {so_far}", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+
+    def line(row: dict, found) -> None:
+        word, reason = verdict(row)
+        best = found.best()
+        what = f"rmse {row['rmse']:.4g} N·m" if row.get("rmse") is not None else reason
+        so_far = f"{best} (rmse {found.designed[best]['rmse']:.4g} N·m)" if best else "none"
+        done = len(found.designed)
+        elapsed = time.perf_counter() - t0
+        eta = elapsed / done * (found.planned - done)
+        _say(f"[{done}/{found.planned}] {row['part']}: {word}, {what} ({row['wall_time_s']:.1f} s); best so far: "
+             f"{so_far}; {elapsed:.0f} s, ETA {eta:.0f} s", err=True)
+    return line
 
 
 def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) -> int:
     """Write ``springs.csv`` and the best design's folder ``best/`` (its design solved again here
-    from the search's answer, then written as ``cadcam design`` writes it); print the summary;
-    return the exit code."""
+    from the search's answer with the spec's own solver options, then written as ``cadcam
+    design`` writes it); print the summary; return the exit code."""
     from .designs import Design
     from .files import write_csv
     from .optimize import optimize
     from .outputs.run_files import WorkshopError
     from .spec import parse_spec
-    from .sweep.springs import TABLE_COLUMNS, part_spec
+    from .sweep.springs import SEARCH_REFINE, TABLE_COLUMNS, part_spec
 
     data, origin, base = spec
     table = found.table(args.rank)
@@ -422,7 +434,11 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
         print(summary + f"no feasible spring; the table in {out / 'springs.csv'}")
         return 1
     problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
-    result = optimize(problem, start=Design.from_dict(found.designed[best]["design"], problem))
+    row = found.designed[best]
+    # warm from the search's answer (its multipliers and any margins it was solved with): the
+    # same design, re-checked, in a few iterations
+    result = optimize(problem, start=Design.from_dict(row["design"], problem), warm=row["multipliers"],
+                      refine=SEARCH_REFINE, margins=row["margins"])
     if not result.success:  # solved again on another path (a fresh library, no cache) it may not pass
         result = optimize(problem)
     try:
@@ -635,6 +651,8 @@ def _add_springs_command(sub) -> None:
     p.add_argument("-o", "--output", required=True, help="output folder: springs.csv and best/")
     p.add_argument("--workers", type=int, help="worker processes (default: the machine's cores; 0 designs "
                    "in this process)")
+    p.add_argument("--dask", metavar="ADDRESS", help="design on a Dask cluster: a scheduler address, or 'local' "
+                   "for a LocalCluster of --workers processes on this machine")
     p.add_argument("--rank", choices=tuple(RANKS), default="error", help="the table's order within each "
                    "verdict (ties by rmse): " + "; ".join(f"{k}: {v}" for k, v in RANKS.items()))
     p.add_argument("--slot", type=int, default=1, help="the spring searched for, 1-based (default 1)")

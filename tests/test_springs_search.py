@@ -103,7 +103,7 @@ def test_a_limit_designs_the_nearest_rate_only(tmp_path, capsys):
 
 def _fake_search(seed: int) -> Search:
     """A search of the shipped catalogue's first 40 rows with made-up designs: the ranking alone."""
-    rng = random.Random(seed)
+    rng, bands = random.Random(seed), random.Random(-1 - seed)
     cat = load_catalogue(None)
     need = slot_need(parse_spec(read_spec_data(TUTORIAL)), 0)
     screened = screen(cat, need)
@@ -113,6 +113,7 @@ def _fake_search(seed: int) -> Search:
         status = rng.choice(["success", "recheck_failed", "max_iterations"])
         designed[part] = {"part": part, "status": status, "message": "m", "violations": ["v"],
                           "rmse": rng.choice([1e-6, 2e-6, rng.uniform(0, 1e-3)]), "relative_rmse": 0.1,
+                          "band": bands.choice([None, 1e-4, bands.uniform(0, 1e-3)]),
                           "body": {"max_length": b.length_max * 0.9, "length_max": b.length_max,
                                    "peak_force": b.load_max * 0.5, "load_max": b.load_max,
                                    "peak_stress": b.allowed_stress * 0.5, "allowed_stress": b.allowed_stress}}
@@ -128,8 +129,8 @@ def test_every_rank_orders_verdicts_then_its_key_then_rmse(rank, seed):
     col = dict(zip(TABLE_COLUMNS, range(len(TABLE_COLUMNS))))
 
     def key(row):
-        value = {"error": row[col["rmse"]], "size": row[col["od"]] * row[col["free_length"]],
-                 "cost": row[col["pack_price"]]}[rank]
+        value = {"error": row[col["rmse"]], "band": row[col["band"]],
+                 "size": row[col["od"]] * row[col["free_length"]], "cost": row[col["pack_price"]]}[rank]
         return value if value is not None else math.inf
     for a, b in zip(table, table[1:]):
         va, vb = list(VERDICTS).index(a[1]), list(VERDICTS).index(b[1])
@@ -175,7 +176,8 @@ def test_a_bad_catalogue_is_one_line_exit_2_and_nothing_written(tmp_path, capsys
     (["--slot", "2"], "--slot 2: the spec has 1 spring"),
     (["--limit", "0"], "--limit 0: expected 1 to"),
     (["--workers", "-1"], "--workers -1: expected 0 to"),
-    (["--rank", "band"], "invalid choice: 'band'"),
+    (["--rank", "volume"], "invalid choice: 'volume'"),
+    (["--dask", "::x"], "--dask '::x': expected 'local' or a scheduler address"),
 ])
 def test_bad_flags_are_one_line_exit_2_and_nothing_written(tmp_path, capsys, flags, words):
     out = tmp_path / "out"

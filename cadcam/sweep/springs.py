@@ -1,19 +1,32 @@
 """A spec's spring slot searched over a whole spring catalogue: what the slot asks of a spring
 (:func:`slot_need`), the catalogue's screen for it (:func:`screen_slot`) before any solve, and
-the survivors designed on a process pool (:func:`search`), each warm-started from the solved
-spring nearest in rate, each given a verdict (:data:`VERDICTS`).
+the survivors designed on a process pool or a Dask cluster (:func:`search`), each warm-started
+from the solved spring nearest in rate and initial tension, each given a verdict
+(:data:`VERDICTS`).
+
+Fast enough for a whole catalogue: each worker parses the spec once and swaps each part's
+spring into it (:func:`with_part`: the NLP's numbers change, not its graph, so one build serves
+every part); a spring starts from its neighbour's design with the spring's pre-extension
+matched (:func:`force_matched`), its IPOPT multipliers and the margins it needed; a profile
+that breaks its shape between the check points is mended by raising those margins in the same
+NLP (:data:`SEARCH_REFINE`); a spring with no solved neighbour near it starts from the default
+start once (:data:`NEIGHBOUR_SPAN`).
 """
 from __future__ import annotations
 
 import copy
+import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from ..designs import Design
+from ..errors import SpecError
 from ..physics.catalogue import Catalogue, Need, Screen, screen
+from ..physics.springs import Spring
 from ..problem import Problem
 
 #: The (mechanism kind, port) pairs whose moment arm on their joint is at most the mechanism's
@@ -67,10 +80,18 @@ def screen_slot(problem: Problem, j: int, catalogue: Catalogue) -> Screen:
 #: for a spring that fits).
 SEARCH_MAX_ITER = 150
 
+#: How a search solves again a design whose profile broke its shape between the NLP's check
+#: points (:data:`cadcam.optimize.REFINEMENTS`): its margins raised in the same NLP, warm, in a
+#: fraction of a second, where ``cadcam design``'s four times the check points took 3–25 s a
+#: spring on the tutorial (a third of its catalogue) and ended at the iteration limit for half.
+SEARCH_REFINE = "margin"
+
 #: The orders ``cadcam springs --rank`` offers: within each verdict (feasible, near, then the
 #: rest), rows by this key, ties by rmse.
 RANKS = {
     "error": "the design's rmse [N·m]",
+    "band": "the design's first-order tolerance band, its largest half-width [N·m] (computed for every design "
+            "with this rank, some 25 ms each)",
     "size": "the spring's outside diameter × free length [m²]",
     "cost": "the pack price [USD]",
 }
@@ -83,9 +104,10 @@ VERDICTS = {
     "not_designed": "passed the screen but beyond --limit",
 }
 
-#: The columns of ``springs.csv`` (SI units; the price in the catalogue's currency).
+#: The columns of ``springs.csv`` (SI units; the price in the catalogue's currency; ``band``
+#: only with ``--rank band``).
 TABLE_COLUMNS = ("part_number", "verdict", "reason", "rmse", "relative_rmse", "peak_force", "max_length",
-                 "od", "free_length", "pack_price")
+                 "band", "od", "free_length", "pack_price")
 
 
 def part_spec(data: dict, j: int, part: str, catalogue: str | None) -> dict:
@@ -102,33 +124,105 @@ def part_spec(data: dict, j: int, part: str, catalogue: str | None) -> dict:
     return out
 
 
-def design_part(data: dict, origin: str, base: str, part: str, start: tuple | None) -> dict:
-    """Design the spec ``data`` (read from ``origin``, relative paths from folder ``base``)
-    whose spring names ``part``, warm from ``start`` = (design dict, objective, part) of a
-    neighbour if given; a row for :func:`verdict`. Never raises: a failure is a row."""
-    from ..designs import Design
+def with_part(problem: Problem, j: int, part: str, catalogue: str | None) -> Problem:
+    """``problem`` with spring ``j`` (0-based) made catalogue part ``part`` (of the catalogue
+    file ``catalogue``, None: the shipped one): the problem :func:`part_spec`'s data parses to,
+    made without parsing the spec again.
+
+    Raises
+    ------
+    SpecError
+        An unknown part, one without travel, or a spring whose fixed pre-extension is beyond
+        the part's travel (one line).
+    """
+    from ..physics.catalogue import load_catalogue
+    from ..spec import part_values
+
+    spring = problem.springs[j]
+    try:
+        body, filled = part_values(load_catalogue(catalogue), part)
+    except (KeyError, ValueError) as exc:
+        raise SpecError(f"part {part!r}: {exc.args[0]}") from None
+    if spring.preextension is not None and spring.preextension > filled["travel"]:
+        raise SpecError(f"part {part!r}: {spring.name}'s preextension {spring.preextension:g} m is beyond its "
+                        f"travel {filled['travel']:.6g} m")
+    where = None if catalogue is None else str(Path(catalogue).resolve())
+    springs = list(problem.springs)
+    springs[j] = replace(spring, **filled, part=part, catalogue=where, body=body)
+    return replace(problem, springs=tuple(springs))
+
+
+#: A worker's spec of the search under way, parsed once: (its key, the problem).
+_PARSED: dict = {}
+
+
+def _spec_problem(spec: tuple) -> Problem:
+    """The problem of ``spec`` = (data, origin, base folder) with the search's iteration cap
+    (:data:`SEARCH_MAX_ITER`), parsed once per worker and search."""
+    from ..spec import parse_spec
+
+    data, origin, base = spec
+    key = json.dumps([data, origin, base], sort_keys=True, default=str)
+    if _PARSED.get("key") != key:
+        problem = parse_spec(data, origin, Path(base))
+        _PARSED.update(key=key, problem=problem.with_options(max_iter=min(problem.options.max_iter,
+                                                                           SEARCH_MAX_ITER)))
+    return _PARSED["problem"]
+
+
+def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: dict | None,
+                band: bool = False) -> dict:
+    """Design the spec ``spec`` = (data, origin, base folder) with spring ``j`` made catalogue
+    part ``part`` (:func:`with_part`), warm from ``start`` if given (:func:`nearest_start`: a
+    solved neighbour's design, its multipliers and the margins it was solved with, its part,
+    its spring's (k, F0) and middle extension for :func:`force_matched`); a row for
+    :func:`verdict`, with the design's tolerance band where ``band``. Never raises: a failure
+    is a row."""
     from ..optimize import warm_optimize
     from ..solve.builds import built_for
-    from ..spec import parse_spec
 
     t0 = time.perf_counter()
     row = {"part": part}
     try:
-        problem = parse_spec(data, origin, Path(base))
-        problem = problem.with_options(max_iter=min(problem.options.max_iter, SEARCH_MAX_ITER))
+        problem = with_part(_spec_problem(spec), j, part, catalogue)
         tr, _ = built_for(problem)
-        design, objective, name = start or (None, None, None)
-        result = warm_optimize(problem, tr, Design.from_dict(design, problem) if design else None,
-                               objective, f"part {name}")
-        d = result.to_dict()
-        (body,) = [b for b in d["spring_bodies"] if b["part"] == part][:1]
-        row.update(status=result.status, message=result.message, violations=d["violations"],
-                   rmse=max(d["metrics"]["rmse"]), relative_rmse=_largest(d["metrics"]["relative_rmse"]),
-                   objective=d["metrics"]["objective"], design=d["design"], body=body)
+        start = start or {}
+        design = (force_matched(Design.from_dict(start["design"], problem), j, start["spring"], problem.springs[j],
+                                start["extension"]) if start else None)
+        result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", start.get("multipliers"),
+                               refine=SEARCH_REFINE, margins=start.get("margins"))
+        row.update(status=result.status, message=result.message, iterations=result.solve.iterations,
+                   violations=result.recheck.violations if not result.success else [],
+                   rmse=max(result.evaluation.metrics.rmse),
+                   relative_rmse=_largest(result.evaluation.metrics.relative_rmse),
+                   objective=result.evaluation.metrics.objective, design=result.design.to_dict(),
+                   multipliers=result.solve.multipliers, margins=result.solve.margins,
+                   extension=float(np.mean([result.recheck.metrics.extension_min[j],
+                                            result.recheck.metrics.extension_max[j]])),
+                   body=problem.springs[j].body_report(result.recheck.metrics.extension_max[j]))
+        if band and result.band is not None:
+            row["band"] = float(result.band.half_width.max())
     except Exception as exc:  # noqa: BLE001 - any failure of one spring is its row, the search goes on
         row.update(status="error", message=f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}")
     row["wall_time_s"] = time.perf_counter() - t0
     return row
+
+
+def force_matched(design: Design, j: int, was: tuple[float, float], spring: Spring, extension: float) -> Design:
+    """``design``, a neighbour's solved with spring ``j`` of rate and initial tension ``was`` =
+    (k [N/m], F0 [N]) and extended by ``extension`` [m] in the middle of its range, with that
+    spring's pre-extension moved so that ``spring`` pulls as hard there: the design's torque
+    then starts close to the target the neighbour's met, where a neighbour of another initial
+    tension would start it off by the difference times the moment arm (measured on the
+    tutorial: from a neighbour of the same rate, 3 iterations instead of 11). Unchanged where
+    that would take a pre-extension below zero, or the spring's is fixed."""
+    k, f0 = was
+    moved = (f0 + k * extension - spring.preload) / spring.rate - (extension - design.preextension[j])
+    if spring.preextension is not None or not moved > 0:
+        return design
+    pre = np.array(design.preextension, dtype=float)
+    pre[j] = moved
+    return replace(design, preextension=pre)
 
 
 def _largest(values) -> float | None:
@@ -157,7 +251,10 @@ def verdict(row: dict) -> tuple[str, str]:
         return "infeasible", f"{row['status']}: {row['message']}"
     words, ratio = binding_limit(row["body"])
     if row["status"] == "success":
-        return "feasible", f"binding: {words}, {100 * -ratio:.3g} % to spare"
+        raised = row.get("margins") or {}
+        mended = (f"; solved with its shape margins raised (convexity ε = {raised['convexity_epsilon']:.3g} ρ_min², "
+                  f"limit margin {raised['limit_margin']:.3g})" if raised else "")
+        return "feasible", f"binding: {words}, {100 * -ratio:.3g} % to spare{mended}"
     if row["status"] in ("recheck_failed", "target_missed"):
         if ratio > 0:
             return "near", f"{words} passed by {100 * ratio:.3g} %"
@@ -173,11 +270,33 @@ def design_order(catalogue: Catalogue, passed, nominal_rate: float) -> list[int]
     return [int(i) for i in rows[np.argsort(gap, kind="stable")]]
 
 
-def nearest_start(rate: float, solved: list[tuple[float, dict, float, str]]):
-    """(design, objective, part) of the solved spring nearest in log rate to ``rate``, or None."""
-    if not solved:
+def spring_scales(catalogue: Catalogue, rows) -> tuple[float, float]:
+    """The spans of log rate and of initial tension [N] over catalogue ``rows`` (those that
+    passed the screen; 1 where one is zero): the scales of :func:`nearest_start`'s distance."""
+    b = catalogue.body
+    spans = (float(np.ptp(np.log(b.rate[rows]))), float(np.ptp(b.preload[rows]))) if len(rows) else (0.0, 0.0)
+    return tuple(v or 1.0 for v in spans)
+
+
+#: The farthest a solved spring may be from the one to design for its design to start it
+#: (:func:`nearest_start`), in spans of log rate and initial tension over the springs searched.
+#: On the tutorial, 99 % of the springs designed had a solved one within 0.045; of the 22 whose
+#: design failed, 16 had none within 0.05, and started again from the default start after their
+#: warm start failed, none converged: a second attempt that doubled their time for nothing.
+NEIGHBOUR_SPAN = 0.05
+
+
+def nearest_start(spring: tuple[float, float], solved: list[tuple[tuple[float, float], dict]],
+                  scales: tuple[float, float]) -> dict | None:
+    """The start (:func:`design_part`'s) of the solved spring nearest to ``spring`` =
+    (rate k [N/m], initial tension F0 [N]), in log k and F0, each over its span ``scales``
+    (:func:`spring_scales`); None if none is solved within :data:`NEIGHBOUR_SPAN` (the spring
+    is then designed from the default start alone). ``solved`` holds ((k, F0), start) pairs."""
+    (k, f0), (sk, sf) = spring, scales
+    distance = [math.hypot(math.log(s[0][0] / k) / sk, (s[0][1] - f0) / sf) for s in solved]
+    if not solved or min(distance) > NEIGHBOUR_SPAN:
         return None
-    return min(solved, key=lambda s: abs(math.log(s[0] / rate)))[1:]
+    return solved[int(np.argmin(distance))][1]
 
 
 @dataclass
@@ -220,13 +339,15 @@ class Search:
             body = d.get("body") or {}
             price = float(cat.pack_price[i])
             rows.append([part, word, reason, d.get("rmse"), d.get("relative_rmse"), body.get("peak_force"),
-                         body.get("max_length"), float(b.coil_diameter[i] + b.wire_diameter[i]),
+                         body.get("max_length"), d.get("band"), float(b.coil_diameter[i] + b.wire_diameter[i]),
                          float(b.free_length[i]), None if math.isnan(price) else price])
-        order = list(VERDICTS)
+        order, col = list(VERDICTS), {name: k for k, name in enumerate(TABLE_COLUMNS)}
+        rmse = col["rmse"]
 
         def key(row):
-            value = {"error": row[3], "size": row[7] * row[8], "cost": row[9]}[rank]
-            return (order.index(row[1]), value is None, value or 0.0, row[3] is None, row[3] or 0.0)
+            value = (row[col["od"]] * row[col["free_length"]] if rank == "size"
+                     else row[col[{"error": "rmse", "band": "band", "cost": "pack_price"}[rank]]])
+            return (order.index(row[1]), value is None, value or 0.0, row[rmse] is None, row[rmse] or 0.0)
         return sorted(rows, key=key)
 
     def best(self) -> str | None:
@@ -235,36 +356,75 @@ class Search:
         return min(ok)[1] if ok else None
 
 
-def search(data: dict, origin: str, base: Path, j: int, catalogue: Catalogue, catalogue_path: str | None,
-           workers: int, limit: int | None = None, report=None) -> Search:
-    """Screen ``catalogue`` for spring ``j`` (0-based) of the spec ``data`` and design the
-    survivors, at most ``limit`` of them (those nearest the spec's own rate), on ``workers``
-    processes (0: in this process). ``catalogue_path`` is the file a part is read from (None:
-    the shipped catalogue); ``report(row, search)`` is called as each spring is done.
-    """
-    from ..spec import parse_spec
-    from .runner import _Local, _Serial
+#: The fewest springs a search designs for it to compile the NLP's functions before it starts
+#: (:func:`prepare_functions`; with ``solver.functions = "compiled"`` it always does, rather
+#: than have each worker compile them at the same time): the compile takes some 3–13 s on 2
+#: cores, and compiled functions design a spring about 0.25 s faster than expanded ones (the
+#: tutorial: 0.16 s against 0.42 s for its solve).
+COMPILE_FIRST = 40
 
-    problem = parse_spec(data, origin, base)
+
+def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None) -> None:
+    """Compile the NLP's functions of ``problem`` with spring ``j`` made ``part`` (of the
+    catalogue file ``catalogue``; :func:`with_part`: a catalogue part may give the NLP more
+    than the spec's own spring) into the cache now, where its ``solver.functions`` would
+    otherwise solve with expanded ones until a background compile is done (``auto``) or have
+    each worker compile them at once (``compiled``). A machine without a C compiler keeps
+    expanded functions; a part that cannot be used or a compile that fails leaves the workers
+    to build their own (each row of theirs then says why it failed, if it does)."""
+    from ..solve import compiled
+    from ..solve.transcription import Transcription
+
+    if problem.options.functions in ("auto", "compiled") and compiled.available():
+        try:
+            Transcription(with_part(problem, j, part, catalogue).with_options(functions="compiled"))
+        except (compiled.CompileError, SpecError):
+            pass
+
+
+def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None, workers: int,
+           limit: int | None = None, report=None, dask: str | None = None, band: bool = False) -> Search:
+    """Screen ``catalogue`` for spring ``j`` (0-based) of the spec ``spec`` = (data, origin,
+    base folder) and design the survivors, at most ``limit`` of them (those nearest the spec's
+    own rate), on ``workers`` processes (0: in this process) or the Dask cluster ``dask``
+    (``local`` or a scheduler address), each warm from the solved spring nearest in rate and
+    initial tension (:func:`nearest_start`); with each design's tolerance band where ``band``.
+    ``catalogue_path`` is the file a part is read from (None: the shipped catalogue);
+    ``report(row, search)`` is called as each spring is done.
+    """
+    from .runner import _Dask, _Local, _Serial
+
+    problem = _spec_problem(spec)
     screened = screen_slot(problem, j, catalogue)
-    todo = design_order(catalogue, screened.passed, problem.springs[j].rate)[:limit]
+    todo = design_order(catalogue, screened.passed, problem.springs[j].rate)
+    scales, body = spring_scales(catalogue, todo), catalogue.body
+    todo = todo[:limit]
     found = Search(catalogue, screened, {}, len(todo))
-    executor = _Local(workers, design_part) if workers else _Serial(design_part)
-    room, pending, solved = 2 * max(workers, 1) if workers else 1, {}, []
+    if not todo:
+        return found
+    if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
+        prepare_functions(problem, j, catalogue.parts[todo[0]], catalogue_path)
+    executor = (_Dask(dask, max(workers, 1), design_part) if dask else
+                _Local(workers, design_part) if workers else _Serial(design_part))
+    # two springs per worker keep a pool busy; serially a spring is designed when submitted, so
+    # one at a time lets the next start from it
+    room, pending, solved = 2 * max(workers, 1) if workers or dask else 1, {}, []
     interrupted = True
     try:
         while todo or pending:
             while todo and len(pending) < room:
                 i = todo.pop(0)
-                rate, part = float(catalogue.body.rate[i]), catalogue.parts[i]
-                fut = executor.submit(part_spec(data, j, part, catalogue_path), origin, str(base), part,
-                                      nearest_start(rate, solved))
-                pending[fut] = rate
+                spring = (float(body.rate[i]), float(body.preload[i]))
+                fut = executor.submit(spec, j, catalogue.parts[i], catalogue_path,
+                                      nearest_start(spring, solved, scales), band)
+                pending[fut] = spring
             for fut in executor.wait(list(pending)):
-                rate, row = pending.pop(fut), fut.result()
+                spring, row = pending.pop(fut), fut.result()
                 found.designed[row["part"]] = row
                 if row["status"] == "success":
-                    solved.append((rate, row["design"], row["objective"], row["part"]))
+                    solved.append((spring, {"design": row["design"], "multipliers": row["multipliers"],
+                                            "margins": row["margins"], "part": row["part"], "spring": spring,
+                                            "extension": row["extension"]}))
                 if report is not None:
                     report(row, found)
         interrupted = False
