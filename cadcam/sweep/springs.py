@@ -365,19 +365,21 @@ COMPILE_FIRST = 40
 
 
 def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None) -> None:
-    """Compile the NLP's functions of ``problem`` with spring ``j`` made ``part`` (of the
+    """Compile the functions of ``problem``'s NLP with spring ``j`` made ``part`` (of the
     catalogue file ``catalogue``; :func:`with_part`: a catalogue part may give the NLP more
-    than the spec's own spring) into the cache now, where its ``solver.functions`` would
-    otherwise solve with expanded ones until a background compile is done (``auto``) or have
-    each worker compile them at once (``compiled``). A machine without a C compiler keeps
-    expanded functions; a part that cannot be used or a compile that fails leaves the workers
-    to build their own (each row of theirs then says why it failed, if it does)."""
+    than the spec's own spring), and of that NLP with its deferred outline rows (most designs
+    need them), into the cache now, where its ``solver.functions`` would otherwise solve with
+    expanded ones until a background compile is done (``auto``) or have each worker compile
+    them at once (``compiled``). A machine without a C compiler keeps expanded functions; a
+    part that cannot be used or a compile that fails leaves the workers to build their own
+    (each row of theirs then says why it failed, if it does)."""
     from ..solve import compiled
     from ..solve.transcription import Transcription
 
     if problem.options.functions in ("auto", "compiled") and compiled.available():
         try:
-            Transcription(with_part(problem, j, part, catalogue).with_options(functions="compiled"))
+            tr = Transcription(with_part(problem, j, part, catalogue).with_options(functions="compiled"))
+            compiled.library(tr.whole_nlp)
         except (compiled.CompileError, SpecError):
             pass
 
