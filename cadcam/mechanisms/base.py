@@ -476,6 +476,12 @@ class Mechanism(ABC):
     #: span (:meth:`spring_room`); empty: the mechanism bounds no spring's length.
     mounted_ports: ClassVar[tuple[str, ...]] = ()
 
+    def mount_reach(self, port: str) -> float | None:
+        """The largest distance [m] from the joint to the mount of a spring on ``port`` (one of
+        :attr:`mounted_ports`) over every placement the spec allows, for screening springs by
+        length before any design; None where the port mounts no spring. Default: no port does."""
+        return None
+
     @classmethod
     def spring_room(cls, bases, theta, z, c, q, port: str):
         """The straight length [m] a spring on ``port`` (one of :attr:`mounted_ports`) has at

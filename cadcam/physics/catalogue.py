@@ -343,7 +343,12 @@ SCREEN_TESTS = {
     "force": "its largest force times the largest moment arm reaches the target's peak torque",
     "stroke": "the energy it stores over the last r_max·Δθ of its travel (the most cable the largest "
               "radius winds over the range) covers the target's work",
+    "room": "for some moment arm h up to r_max, its free length plus the extension at which it pulls "
+            "the peak torque over h fits in the longest straight line from its mount to where a cable of "
+            "arm h leaves a profile within r_max: √(ℓ² − h²) + √(r_max² − h²), ℓ the mount's reach",
 }
+#: How many moment arms the room test tries, spaced evenly up to the largest.
+ROOM_ARMS = 64
 
 
 @dataclass(frozen=True)
@@ -361,12 +366,16 @@ class Need:
         The largest moment arm the mechanism allows [m]; None: no force or stroke test.
     angle : float or None
         The joint's range Δθ [rad]; None: no stroke test.
+    reach : float or None
+        The largest distance from the joint to the spring's mount [m]
+        (:meth:`cadcam.mechanisms.base.Mechanism.mount_reach`); None: no room test.
     """
 
     energy: float | None = None
     torque: float | None = None
     arm: float | None = None
     angle: float | None = None
+    reach: float | None = None
 
 
 @dataclass(frozen=True)
@@ -394,6 +403,18 @@ class Screen:
     force: np.ndarray
 
 
+def _room_spare(body, need: Need) -> np.ndarray:
+    """The room test (:data:`SCREEN_TESTS`): at each of :data:`ROOM_ARMS` moment arms h, the
+    longest straight line from a mount at ``need.reach`` to where a cable of arm h leaves a
+    profile within r_max = ``need.arm`` (the foot of the joint on the cable line splits it into
+    √(ℓ² − h²) and at most √(r_max² − h²)), and per spring the most that line exceeds the
+    spring's free length plus its extension at force τ_peak / h, the best over the arms [m]."""
+    h = need.arm * np.arange(1, ROOM_ARMS + 1) / ROOM_ARMS
+    room = np.sqrt(np.maximum(need.reach**2 - h**2, 0.0)) + np.sqrt(need.arm**2 - h**2)
+    stretch = np.maximum((need.torque / h[None, :] - body.preload[:, None]) / body.rate[:, None], 0.0)
+    return (room[None, :] - body.free_length[:, None] - stretch).max(axis=1)
+
+
 def screen(catalogue: Catalogue, need: Need) -> Screen:
     """Every spring of ``catalogue`` tested against ``need`` by :data:`SCREEN_TESTS`, vectorised.
 
@@ -412,6 +433,9 @@ def screen(catalogue: Catalogue, need: Need) -> Screen:
     if need.energy is not None and need.arm is not None and need.angle is not None:
         start = np.maximum(travel - need.arm * need.angle, 0.0)
         fails["stroke"] = energy - (0.5 * b.rate * start**2 + b.preload * start) < need.energy
+    if need.reach is not None and need.torque is not None and need.arm is not None:
+        spare = _room_spare(b, need)
+        fails["room"] = spare < 0
     binding = tuple(BODY_LIMITS[k] for k in which)
     words = {
         "energy": lambda i: (f"energy: stores {energy[i]:.3g} J within its {1e3 * travel[i]:.3g} mm travel "
@@ -420,6 +444,9 @@ def screen(catalogue: Catalogue, need: Need) -> Screen:
                             f"{force[i] * need.arm:.3g} N·m < the peak {need.torque:.3g} N·m"),
         "stroke": lambda i: (f"stroke: over the {1e3 * need.arm * need.angle:.3g} mm of cable the largest "
                              f"radius winds it stores less than the {need.energy:.3g} J needed"),
+        "room": lambda i: (f"room: its {1e3 * b.free_length[i]:.3g} mm free length and its stretch at the peak "
+                           f"torque exceed the room its mount leaves at every moment arm, by "
+                           f"{-1e3 * spare[i]:.3g} mm at best"),
     }
     reasons = [""] * len(catalogue)
     for name in SCREEN_TESTS:

@@ -62,9 +62,10 @@ def slot_need(problem: Problem, j: int) -> Need:
     arms = [max(f.rho_max for f in problem.mechanisms[p.mechanism].profiles) for p in spring.ports
             if (problem.mechanisms[p.mechanism].kind, p.name) in ARM_BOUNDED]
     bounded = len(arms) == len(spring.ports) == 1
+    reach = problem.mechanisms[spring.ports[0].mechanism].mount_reach(spring.ports[0].name) if bounded else None
     return Need(energy=float(work.max() - work.min()), torque=float(np.abs(tau).max()),
                 arm=float(arms[0]) if bounded else None,
-                angle=float(np.ptp(theta)) if bounded else None)
+                angle=float(np.ptp(theta)) if bounded else None, reach=reach)
 
 
 def screen_slot(problem: Problem, j: int, catalogue: Catalogue) -> Screen:

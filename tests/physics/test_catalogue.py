@@ -4,6 +4,7 @@ column, and the body formulas (EN 13906-2) checked against hand computations."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 import time
 
 import numpy as np
@@ -150,3 +151,22 @@ def test_the_screen_of_the_whole_catalogue_is_fast_and_gives_one_reason_each():
     assert weak.any() and all(result.reasons[i].startswith("force:") for i in np.flatnonzero(weak))
     assert all(bool(r) != p for r, p in zip(result.reasons, result.passed))
     assert np.all(screen(cat, Need()).passed)  # no need asked: nothing rejected
+
+
+def test_a_spring_too_long_for_its_mount_at_every_arm_is_screened_out_for_room():
+    """The room test against a brute-force maximum over moment arms h of the longest line from
+    a mount at reach ℓ to a cable of arm h leaving a profile within r_max, less the stretch at
+    which the spring pulls the peak torque over h: a free length 2 mm shorter than that passes,
+    2 mm longer fails, and the one with the reason "room"."""
+    need = Need(torque=0.98, arm=0.06, reach=0.2)
+    k, f0 = 1000.0, 20.0
+    h = np.linspace(1e-6, need.arm, 200_001)
+    line = np.sqrt(need.reach**2 - h**2) + np.sqrt(need.arm**2 - h**2)
+    longest = np.max(line - np.maximum((need.torque / h - f0) / k, 0.0))
+    rows = [f"{length:.6f},0.012,0.0015,{length + 0.2:.6f},{f0},{f0 + 0.2 * k},{k},Music-Wire Steel,5,{name},9.5"
+            for name, length in (("SHORT", longest - 0.002), ("LONG", longest + 0.002))]
+    cat = parse_catalogue(_rows(*rows), "mine.csv")
+    result = screen(cat, need)
+    assert result.passed.tolist() == [True, False]
+    assert result.reasons[1].startswith("room:")
+    assert np.all(screen(cat, replace(need, reach=None)).passed)  # no mount: no test

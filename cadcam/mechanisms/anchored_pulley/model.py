@@ -214,6 +214,12 @@ class AnchoredPulley(Mechanism):
         psi = self.anchor_angle + WINDING[self.winding] * chi0
         return replace(self, spring_end_x=float(ell * np.cos(psi)), spring_end_y=float(ell * np.sin(psi)))
 
+    def mount_reach(self, port: str) -> float | None:
+        """ℓ, or the largest of ``mount_distance`` where the NLP places the spring end."""
+        if port not in self.mounted_ports:
+            return None
+        return float(self.mount_distance[1] if self.mount_distance is not None else self.ell)
+
     def parameter_values(self) -> tuple[float, ...]:
         w = WINDING[self.winding]
         chi0 = w * (np.arctan2(self.spring_end_y, self.spring_end_x) - self.anchor_angle)
