@@ -192,6 +192,21 @@ def _directions(problem: Problem, design: Design, layout: _Layout) -> tuple[dict
 
 #: Newton steps that re-solve the poses at the worst corner from the nominal ones.
 CORNER_NEWTON_STEPS = 8
+#: How many times a Newton step at the worst corner is halved before it is given up.
+CORNER_HALVINGS = 20
+
+
+def _damped(z: np.ndarray, step: np.ndarray, now: float, residual) -> np.ndarray:
+    """The pose ``z`` less ``step``, halved until its largest ``residual`` is below ``now`` (a
+    full Newton step from a pose far from the root, or across a branch of a root-finding
+    function, can throw the pose far away and the torque with it); ``z`` itself where no
+    halving does better."""
+    for k in range(CORNER_HALVINGS):
+        trial = z - step / 2**k
+        value = np.abs(residual(trial)).max()
+        if np.isfinite(value) and value < now:
+            return trial
+    return z
 
 
 def _worst_corner(model, layout, theta, z, D, J, half, i: int) -> dict:
@@ -202,11 +217,17 @@ def _worst_corner(model, layout, theta, z, D, J, half, i: int) -> dict:
     n = int(np.argmax(half[i]))
     corner = layout.nominal + D @ np.sign(J[i, n] @ D)
     at, zc = theta[:, n], z[:, n].copy()
+
+    def residual(pose):
+        return np.asarray(model(at, *layout.split(corner), pose)[1]).ravel()
+
     for _ in range(CORNER_NEWTON_STEPS):
         _, R, Rz, _ = model(at, *layout.split(corner), zc)
+        R = np.asarray(R).ravel()
         # least squares: a pose where the residual's Jacobian is singular (a cable leaving at
         # a flat stretch) takes the least step; the residual reported says how far it got
-        zc -= np.linalg.lstsq(np.asarray(Rz), np.asarray(R).ravel(), rcond=None)[0]
+        step = np.linalg.lstsq(np.asarray(Rz), R, rcond=None)[0]
+        zc = _damped(zc, step, np.abs(R).max(), residual)
     tau_corner, R = (np.asarray(v).ravel() for v in model(at, *layout.split(corner), zc)[:2])
     tau = np.asarray(model(at, *layout.split(layout.nominal), z[:, n])[0]).ravel()
     return {"theta": [float(t) for t in at], "predicted": float(half[i, n]),

@@ -94,3 +94,19 @@ def test_a_problem_without_springs_has_no_band():
     assert not problem.springs
     result = replace(cadcam.design(problem), problem=problem)
     assert result.band is None and "tolerance_band" not in result.to_dict()
+
+
+def test_the_worst_corners_newton_steps_never_throw_the_pose_away():
+    """R(z) = atan(z) from z = 1.5: a full Newton step overshoots to a larger residual, and
+    repeated it diverges (|z| grows each step past 1.39); each damped step lowers the residual
+    and the steps reach the root."""
+    from cadcam.verify.tolerance import CORNER_NEWTON_STEPS, _damped
+
+    z = full = np.array([1.5])
+    for _ in range(CORNER_NEWTON_STEPS):
+        full = full - np.arctan(full) * (1 + full**2)
+        step = np.arctan(z) * (1 + z**2)
+        before = np.abs(np.arctan(z)).max()
+        z = _damped(z, step, before, np.arctan)
+        assert np.abs(np.arctan(z)).max() <= before
+    assert abs(full[0]) > 1e3 and abs(z[0]) < 1e-12
