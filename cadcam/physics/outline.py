@@ -263,6 +263,13 @@ def follower_contact(outline: FileOutline, rotation, direction: float, offset: f
         below = centre(mid)[1] <= offset
         lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
     lean = (lo + hi) / 2
-    position, _, wrapped, psi = centre(lean)
+    # on a straight segment (a polygon's chord) the normal stands still while the contact runs
+    # along it: the bracket's ends are the segment's ends, and the centre lies between them on
+    # its offset, where its height meets e (on an arc the ends are one point to rounding)
+    below_at, above_at = centre(lo), centre(hi)
+    rise = above_at[1] - below_at[1]
+    share = np.clip(np.where(rise > 0, (offset - below_at[1]) / np.where(rise > 0, rise, 1.0), 0.5), 0.0, 1.0)
+    position, wrapped = (a + share * (b - a) for a, b in ((below_at[0], above_at[0]), (below_at[2], above_at[2])))
+    psi = direction + lean - rotation
     on = (psi >= outline.start[0]) & (psi <= outline.end[-1])
     return tuple(np.where(on, value, np.nan) for value in (psi, wrapped, position, lean))
