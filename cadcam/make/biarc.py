@@ -207,6 +207,34 @@ def concavity(vertices, bulges) -> float:
                      depth[2 * count:].max(initial=0.0)))
 
 
+def chain_measures(vertices, bulges) -> tuple[float, float]:
+    """Area [m²] inside the closed chain ``vertices``/``bulges`` (counter-clockwise: positive)
+    and its length [m], from its exact arcs: the polygon of its vertices (shoelace) with each
+    arc's circular segment R²(θ − sin θ)/2 added (taken away where it turns clockwise)."""
+    a, b, bulges = chain_segments(vertices, bulges)
+    area = 0.5 * float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]))
+    length = np.linalg.norm(b - a, axis=1)
+    arc = np.abs(bulges) >= STRAIGHT
+    if arc.any():
+        _, radius, sweep = arc_geometry(a[arc], b[arc], bulges[arc])
+        area += float(np.sum(radius**2 * (sweep - np.sin(sweep)) / 2))
+        length[arc] = np.abs(radius * sweep)
+    return area, float(length.sum())
+
+
+def inward_band(vertices, bulges, depth: float) -> float:
+    """Area [m²] between the convex closed chain ``vertices``/``bulges`` and its inward offset
+    by ``depth`` [m] (a groove's band): P·d − d²·(Σ θ/2 over its arcs' sweeps + Σ tan(θ/2) over
+    its corners' turns), each arc of radius R and sweep θ giving its sector of the annulus
+    R·θ·d − θd²/2, each corner's two lines meeting nearer the middle (exact while d is below
+    every arc's radius and no segment vanishes; the turns add up to 2π, so a smooth outline's
+    band is Steiner's P·d − π d²)."""
+    leave, arrive, sweep = tangent_angles(vertices, bulges)
+    corner = np.angle(np.exp(1j * (np.roll(leave, -1) - arrive)))  # at the joint after each segment
+    _, length = chain_measures(vertices, bulges)
+    return float(length * depth - depth**2 * (sweep.sum() / 2 + np.sum(np.tan(corner / 2))))
+
+
 def segment_distance(points, a, b) -> np.ndarray:
     """Distance from ``points`` to the segments from ``a`` to ``b`` (broadcast, last axis x, y)."""
     ab = b - a

@@ -536,36 +536,80 @@ def _check_closing_arc(outline):
 
 # -------------------------------------------------------------------------------------- polyline
 
-def polyline(outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> np.ndarray:
-    """Vertices [m] of a polygon inscribed in ``outline`` whose chords are within ``tolerance``.
-
-    The sag of a chord (the largest distance from the outline between its ends to the chord)
-    is about ℓ²κ/8 for a chord of length ℓ where the curvature is κ, so the first vertices are
-    spread evenly in ∫ √(κ/8·tolerance) ds, each arc on its own, with φ = 0 and φ_end as
-    vertices: the designed arc is covered by chords of its own. Every chord whose sag still
-    exceeds ``tolerance`` is then split evenly into ⌈√(sag/tolerance)⌉ chords until none does.
-
-    Parameters
-    ----------
-    outline : Outline
-    tolerance : float
-        Largest allowed distance between the outline and a chord [m].
+def polyline(outline: Outline, tolerance: float = DEFAULT_TOLERANCE, turn: float | None = None) -> np.ndarray:
+    """Vertices [m] of a polygon inscribed in ``outline`` whose chords are within ``tolerance``
+    and, given ``turn`` [rad], whose chords each span at most that turn of the outline's
+    tangent (:func:`polyline_knots`).
 
     Returns
     -------
     ndarray, shape (N, 2)
         Counter-clockwise from φ = 0; the first vertex is not repeated.
     """
+    return outline.xy(polyline_knots(outline, tolerance, turn)[:-1])
+
+
+def polyline_knots(outline: Outline, tolerance: float = DEFAULT_TOLERANCE, turn: float | None = None) -> np.ndarray:
+    """Parameters [rad] of :func:`polyline`'s vertices, from 0 up to 2π (repeating the first).
+
+    The sag of a chord (the largest distance from the outline between its ends to the chord)
+    is about ℓ²κ/8 for a chord of length ℓ where the curvature is κ, so the first vertices are
+    spread evenly in ∫ √(κ/8·tolerance) ds, each arc on its own, with φ = 0 and φ_end as
+    vertices: the designed arc is covered by chords of its own. Every chord whose sag still
+    exceeds ``tolerance`` is then split evenly into ⌈√(sag/tolerance)⌉ chords until none does.
+    Given ``turn``, every chord over which the outline's tangent turns (:func:`chord_turn`)
+    by more is then split evenly into ⌈turning/turn⌉: the chord's direction is within that turn
+    of the outline's all along it, where a follower pressed onto a polygon takes its direction
+    from (a chord within a tolerance of the outline can lie √(8κ·tolerance) off its direction);
+    a convex arc's chord split so sags no more than before.
+
+    Parameters
+    ----------
+    outline : Outline
+    tolerance : float
+        Largest allowed distance between the outline and a chord [m].
+    turn : float, optional
+        Largest turn [rad] of the outline's tangent over one chord.
+    """
     tolerance = _positive("tolerance", tolerance)
     designed = _even_chords(outline, 0.0, outline.phi_end, tolerance)
     closing = _even_chords(outline, outline.phi_end, TWO_PI, tolerance)
     knots = np.concatenate((designed[:-1], closing))
+    knots = _split_until(knots, lambda k: np.ceil(np.sqrt(chord_sag(outline, k) / tolerance)))
+    if turn is None:
+        return knots
+    turn = _positive("turn", turn)
+
+    def pieces(k):
+        # the designed arc's chords and the closing arc's two that meet its ends: a follower on
+        # an end of the range leans on both chords of the end's vertex
+        near = (k[1:] <= outline.phi_end) | (k[:-1] == outline.phi_end)
+        near[-1] = True
+        return np.where(near, np.ceil(chord_turn(outline, k) / turn), 1)
+
+    return _split_until(knots, pieces)
+
+
+def _split_until(knots, pieces) -> np.ndarray:
+    """``knots`` with each chord split evenly into the number ``pieces(knots)`` gives it (at
+    least 1) until it gives 1 for every chord."""
     while True:
-        pieces = np.maximum(1, np.ceil(np.sqrt(chord_sag(outline, knots) / tolerance))).astype(int)
-        if pieces.max() == 1:
-            return outline.xy(knots[:-1])
-        knots = np.append(np.concatenate([np.linspace(a, b, p, endpoint=False) for a, b, p
-                                          in zip(knots[:-1], knots[1:], pieces)]), TWO_PI)
+        count = np.maximum(1, pieces(knots)).astype(int)
+        if count.max() == 1:
+            return knots
+        j = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)  # each piece's index in its chord
+        knots = np.append(np.repeat(knots[:-1], count) + j * np.repeat(np.diff(knots) / count, count), knots[-1])
+
+
+def chord_turn(outline: Outline, knots) -> np.ndarray:
+    """Turn [rad] of the outline's tangent over each chord between consecutive ``knots``
+    [rad]: ∫ κ |dp/dφ| dφ by Simpson's rule from both ends and the middle (the smooth
+    turning: a hull closure's corner inside a chord is no turn a split could lessen)."""
+    knots = np.asarray(knots, dtype=float)
+    # φ_end is a knot, and the chord starting there lies on the closing arc, beyond it
+    starts = np.where(knots[:-1] == outline.phi_end, np.nextafter(outline.phi_end, np.inf), knots[:-1])
+    rate = [np.prod(outline.speed_curvature(phi), axis=0) for phi in (starts, (knots[:-1] + knots[1:]) / 2, knots[1:])]
+    return np.diff(knots) * (rate[0] + 4 * rate[1] + rate[2]) / 6
 
 
 def _even_chords(outline, start, stop, tolerance) -> np.ndarray:
@@ -873,20 +917,22 @@ def write_groove_csv(path, groove: np.ndarray) -> None:
                 np.column_stack([groove[:, 0], groove[:, 1:] * MM]))
 
 
-def write_points_csv(path, outline: Outline, tolerance: float = DEFAULT_TOLERANCE) -> None:
-    """Write the vertices of :func:`polyline` as CSV ``x_mm,y_mm``, atomically."""
-    write_table(path, ["x_mm", "y_mm"], polyline(outline, tolerance) * MM)
+def write_points_csv(path, outline: Outline, tolerance: float = DEFAULT_TOLERANCE, turn: float | None = None) -> int:
+    """Write the vertices of :func:`polyline` (within ``tolerance``, each chord of the designed
+    arc turning at most ``turn``) as CSV ``x_mm,y_mm``, atomically; returns their number."""
+    points = polyline(outline, tolerance, turn)
+    write_table(path, ["x_mm", "y_mm"], points * MM)
+    return len(points)
 
 
-def write_stl(path, outline: Outline, thickness: float, bore_diameter: float,
-              groove_depth: float = 0.0, groove_width: float = 0.0,
-              tolerance: float = DEFAULT_TOLERANCE) -> float:
+def write_stl(path, outline: Outline, thickness: float, holes: list, groove_depth: float = 0.0,
+              groove_width: float = 0.0, tolerance: float = DEFAULT_TOLERANCE) -> float:
     """Write the cam as a watertight binary STL in millimetres, atomically.
 
-    The profile of :func:`polyline` extruded along z by ``thickness`` with the bore through it
-    (a regular polygon circumscribing the circle within ``tolerance``, so that a shaft of
-    ``bore_diameter`` fits). With a groove, a cable groove ``groove_width`` wide, centred in
-    the thickness, is cut all round: there the section is the profile offset inward by
+    The profile of :func:`polyline` extruded along z by ``thickness`` with every hole through
+    it (each a regular polygon circumscribing its circle within ``tolerance``, so that a shaft
+    or pin of its diameter fits). With a groove, a cable groove ``groove_width`` wide, centred
+    in the thickness, is cut all round: there the section is the profile offset inward by
     ``groove_depth``. manifold3d builds the solid by extrusion and boolean difference, which
     always yield a closed 2-manifold.
 
@@ -896,23 +942,26 @@ def write_stl(path, outline: Outline, thickness: float, bore_diameter: float,
     outline : Outline
     thickness : float
         Cam thickness along z [m].
-    bore_diameter : float
-        [m]
+    holes : list of (ndarray, float)
+        Centre [m] and diameter [m] of each hole, the bore (about the axis) first:
+        :func:`holes`, as the DXF places them.
     groove_depth, groove_width : float
         Cable groove [m]; both 0 (no groove) or both positive.
     tolerance : float
-        Chordal tolerance of the profile and the bore [m].
+        Chordal tolerance of the profile and the holes [m].
 
     Returns
     -------
     float
         Volume of the solid [m³].
     """
-    _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width)
+    _check_solid(outline, thickness, holes[0][1], groove_depth, groove_width)
     profile = CrossSection([polyline(outline, tolerance) * MM])
-    bore = _bore_section(bore_diameter / 2, tolerance)
-    solid = Manifold.extrude(profile - bore, thickness * MM)
-    if groove_depth > 0:
+    section = profile
+    for centre, diameter in holes:
+        section = section - _hole_section(centre, diameter / 2, tolerance)
+    solid = Manifold.extrude(section, thickness * MM)
+    if groove_depth > 0:  # round the outline, not the holes
         ring = (profile.offset(groove_depth * MM, JoinType.Round)
                 - profile.offset(-groove_depth * MM, JoinType.Miter))
         groove = Manifold.extrude(ring, groove_width * MM)
@@ -938,10 +987,11 @@ def _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width):
                          f"ρ_min − bore radius − wall = {_length(deepest)}")
 
 
-def _bore_section(radius: float, tolerance: float) -> CrossSection:
-    """A regular polygon [mm] around the circle of ``radius`` [m], corners within ``tolerance``."""
+def _hole_section(centre, radius: float, tolerance: float) -> CrossSection:
+    """A regular polygon [mm] around the circle of ``radius`` [m] about ``centre`` [m], corners
+    within ``tolerance``."""
     sides = max(8, int(np.ceil(np.pi / np.arccos(radius / (radius + tolerance)))))
-    return CrossSection.circle(radius / np.cos(np.pi / sides) * MM, sides)
+    return CrossSection.circle(radius / np.cos(np.pi / sides) * MM, sides).translate(tuple(np.asarray(centre) * MM))
 
 
 def _write_binary_stl(path, vertices, triangles):

@@ -9,7 +9,7 @@ from matplotlib.image import imread
 
 from cadcam import evaluate, optimize
 from cadcam.make.drawing import draw_sheet
-from cadcam.make.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline,
+from cadcam.make.workshop import (DEFAULT_TOLERANCE, MIN_WALL, anchor_centre, closed_outline, holes,
                                 polyline, segment_distance, write_points_csv, write_dxf, write_stl,
                                 write_svg)
 from cadcam.make.biarc import arc_distance, biarc_fit
@@ -240,18 +240,20 @@ def check_closed_manifold(corners):
     return len(verts) - key.size // 2 + len(tri)
 
 
-@pytest.mark.parametrize("depth, width", [(0.0, 0.0), (1e-3, 2e-3)])
+@pytest.mark.parametrize("depth, width", [(0.0, 0.0), (5e-4, 2e-3)])
 def test_stl_is_watertight_with_the_right_volume(tmp_path, outline, depth, width):
+    """The STL with its bore and anchor hole, and a groove shallower than the anchor hole's
+    1 mm wall (a deeper one cuts into the hole)."""
     path = tmp_path / "cam.stl"
-    volume = write_stl(path, outline, THICKNESS, BORE, depth, width)
+    volume = write_stl(path, outline, THICKNESS, holes(outline, BORE, ANCHOR), depth, width)
     corners = read_stl(path)
-    assert check_closed_manifold(corners) == 0  # one through-hole: a torus, χ = 0
+    assert check_closed_manifold(corners) == -2  # the bore and the anchor hole through it: χ = 2 − 2·2
     mesh_volume = np.sum(np.linalg.det(corners)) / 6 * 1e-9
     assert mesh_volume == pytest.approx(volume, rel=1e-6)
     pts = polyline(outline)
     area, length = shoelace(pts), perimeter(pts)
     groove = width * (length * depth - np.pi * depth**2)  # Steiner: area − inner parallel area
-    expected = (area - np.pi * BORE**2 / 4) * THICKNESS - groove
+    expected = (area - np.pi * (BORE**2 + ANCHOR**2) / 4) * THICKNESS - groove
     print(f"\nSTL volume {volume * 1e9:.3f} mm³, expected {expected * 1e9:.3f} mm³")
     assert volume == pytest.approx(expected, rel=1e-3)
     assert np.ptp(corners[:, :, 2]) == pytest.approx(THICKNESS * 1e3, abs=1e-5)
@@ -261,13 +263,13 @@ def test_bad_sizes_raise_naming_the_parameter(tmp_path, cam_1dof):
     path = tmp_path / "cam.stl"
     rho_min = cam_1dof.rho_range[0]
     cases = [
-        ("bore_diameter", lambda: write_stl(path, cam_1dof, THICKNESS, 2 * rho_min)),
+        ("bore_diameter", lambda: write_stl(path, cam_1dof, THICKNESS, [(np.zeros(2), 2 * rho_min)])),
         ("bore_diameter", lambda: write_dxf(path, cam_1dof, -1e-3, ANCHOR)),
         ("groove_depth",
-         lambda: write_stl(path, cam_1dof, THICKNESS, BORE, rho_min - BORE / 2, 1e-3)),
-        ("groove_width", lambda: write_stl(path, cam_1dof, THICKNESS, BORE, 1e-3, THICKNESS)),
-        ("groove_width", lambda: write_stl(path, cam_1dof, THICKNESS, BORE, 1e-3, 0.0)),
-        ("thickness", lambda: write_stl(path, cam_1dof, 0.0, BORE)),
+         lambda: write_stl(path, cam_1dof, THICKNESS, [(np.zeros(2), BORE)], rho_min - BORE / 2, 1e-3)),
+        ("groove_width", lambda: write_stl(path, cam_1dof, THICKNESS, [(np.zeros(2), BORE)], 1e-3, THICKNESS)),
+        ("groove_width", lambda: write_stl(path, cam_1dof, THICKNESS, [(np.zeros(2), BORE)], 1e-3, 0.0)),
+        ("thickness", lambda: write_stl(path, cam_1dof, 0.0, [(np.zeros(2), BORE)])),
         ("anchor_diameter", lambda: write_svg(path, cam_1dof, BORE, 6e-3)),
         ("tolerance", lambda: write_points_csv(path, cam_1dof, tolerance=0.0)),
     ]
