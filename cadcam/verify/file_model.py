@@ -20,6 +20,7 @@ the first vertex on +x and wound counter-clockwise from it.
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -72,15 +73,79 @@ def read_groove(path) -> FileOutline:
     ValueError
         If the file lacks a column of :data:`GROOVE_COLUMNS` or has fewer than two rows.
     """
+    xy = _columns(path, GROOVE_COLUMNS)
+    return outline_from_chain(xy, np.zeros(len(xy)), MILLIMETRES, False, [], groove=True)
+
+
+def _columns(path, columns: tuple[str, ...]) -> np.ndarray:
+    """The ``columns`` of the CSV at ``path`` [mm] as metres (rows, len(columns)).
+
+    Raises
+    ------
+    ValueError
+        If the file lacks one of the columns or has fewer than two rows.
+    """
     with open(path, encoding="utf-8") as f:
         header = f.readline().strip().split(",")
-    missing = [c for c in GROOVE_COLUMNS if c not in header]
+    missing = [c for c in columns if c not in header]
     if missing:
         raise ValueError(f"{Path(path).name}: no column {', '.join(missing)}")
-    xy = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)[:, [header.index(c) for c in GROOVE_COLUMNS]] / MM
+    xy = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)[:, [header.index(c) for c in columns]] / MM
     if len(xy) < 2:
-        raise ValueError(f"{Path(path).name}: {len(xy)} rows, a groove needs at least 2")
-    return outline_from_chain(xy, np.zeros(len(xy)), MILLIMETRES, False, [], groove=True)
+        raise ValueError(f"{Path(path).name}: {len(xy)} rows, at least 2 expected")
+    return xy
+
+
+def read_points(path) -> FileOutline:
+    """The closed polygon of ``camN_points.csv`` (its columns :data:`GROOVE_COLUMNS`, the
+    vertices counter-clockwise from the anchor): the outline a workshop joining the points by
+    straight lines cuts. ValueError as :func:`read_groove`."""
+    xy = _columns(path, GROOVE_COLUMNS)
+    return outline_from_chain(xy, np.zeros(len(xy)), MILLIMETRES, True, [])
+
+
+#: The commands of an SVG path that :func:`read_svg` reads (absolute moves, arcs, lines, close),
+#: the ones ``cadcam.make.workshop.write_svg`` writes.
+SVG_COMMANDS = "MALZ"
+
+
+def read_svg(path) -> FileOutline:
+    """The outline of a cadcam SVG: its one path (M, then an A arc or L line per segment, Z)
+    and its circles, y negated back (SVG's y axis points down); ``units`` 4 where the drawing is
+    at 1:1 in millimetres (its width in mm equal to its viewBox's), else 0.
+
+    Raises
+    ------
+    ValueError
+        If the file holds other than one path, or a command other than :data:`SVG_COMMANDS`.
+    """
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    ns = {"svg": "http://www.w3.org/2000/svg"}
+    paths = root.findall(".//svg:path", ns)
+    if len(paths) != 1:
+        raise ValueError(f"{Path(path).name}: {len(paths)} paths, expected 1")
+    words = re.findall(r"[A-Za-z]|[-+0-9.eE]+", paths[0].get("d").replace(",", " "))
+    if set(w for w in words if w.isalpha()) - set(SVG_COMMANDS) or words[0] != "M":
+        raise ValueError(f"{Path(path).name}: a path of commands other than {', '.join(SVG_COMMANDS)}")
+    flip = np.array([1.0, -1.0]) / MM
+    points, bulges, i = [np.array(words[1:3], dtype=float) * flip], [], 3
+    while words[i] != "Z":
+        if words[i] == "L":
+            end, bulge, i = np.array(words[i + 1:i + 3], dtype=float) * flip, 0.0, i + 3
+        else:  # A rx ry rotation large-arc sweep x y
+            radius, large, positive = float(words[i + 1]) / MM, words[i + 4] == "1", words[i + 5] == "1"
+            end, i = np.array(words[i + 6:i + 8], dtype=float) * flip, i + 8
+            half = np.arcsin(min(1.0, np.hypot(*(end - points[-1])) / (2 * radius)))
+            bulge = np.tan((np.pi - half if large else half) / 2) * (1 if positive else -1)
+        points.append(end)
+        bulges.append(bulge)
+    width, box = root.get("width", ""), [float(v) for v in root.get("viewBox", "0 0 0 0").split()]
+    units = MILLIMETRES if width.endswith("mm") and abs(float(width[:-2]) - box[2]) <= 1e-6 * box[2] else 0
+    circles = [(np.array([float(c.get("cx")), float(c.get("cy"))]) * flip, 2 * float(c.get("r")) / MM)
+               for c in root.findall(".//svg:circle", ns)]
+    return outline_from_chain(np.array(points[:-1]), np.array(bulges), units, True, circles)
 
 
 def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
