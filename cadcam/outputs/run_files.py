@@ -158,7 +158,15 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                 datums[i] = _datum(ev.problem, i, outlines[i], args)
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
-    tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves, datums)
+    from .verification import design_reference
+
+    reference = design_reference(result)
+    tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves, datums, reference)
+    names = {i: f"cam{i + 1}{'_groove.csv' if i in grooves else '.dxf'}" for i in chains}
+    checks = _from_files(checks, names)
+    points, point_checks, counts = _points_files(result, out, outlines, chains, _polygon_tolerance(tolerance),
+                                                 reference)
+    point_checks = _from_files(point_checks, {**names, **{i: f"cam{i + 1}_points.csv" for i in outlines}})
     notes += [f"cam{i + 1}: helical groove centre line, {len(chains[i].vertices)} points within "
               f"{1e3 * tolerance:.3g} mm, {phi_max / TWO_PI:.2f} turns at {1e3 * args.groove_pitch:g} mm pitch"
               + (" (wound clockwise: the CSV is its mirror image, a helix of the other hand; mirror y)"
@@ -168,20 +176,51 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     for i, outline in outlines.items():
         part = _part_notes(ev.problem, i, args, tolerance, datums[i], cable, result.installation) if sheets else None
         try:
-            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, part, owners[i], drawings))
+            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, part, owners[i], drawings,
+                                              counts[i]))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
+    from .file_checks import dxf_rows, quantity_rows
     from .verification import cable_clearances, cam_report, groove_report, verdict, write_report
 
     clearance = cable_clearances(result, chains)
-    cams = [cam_report(i + 1, outlines[i], chains[i], tolerance, _polygon_tolerance(tolerance), args.cable_radius,
-                       clearance[i]) if i in outlines
+    cams = {i: cam_report(i + 1, outlines[i], chains[i], tolerance, _polygon_tolerance(tolerance), args.cable_radius,
+                          clearance[i]) if i in outlines
             else groove_report(i + 1, ev.design.bases[i], ev.design.coefficients[i], grooves[i], chains[i],
                                tolerance, args.cable_radius)
-            for i in sorted(chains)]
-    write_report(out, cams, checks)
-    notes.append(f"verification.md: {verdict(checks, cams)}")
+            for i in sorted(chains)}
+    files = quantity_rows(checks + point_checks)
+    for i in sorted(chains):
+        files += dxf_rows(names[i], cams[i], chains[i].units)
+        if i in outlines:
+            files += _outline_file_rows(out, i, outlines[i], chains[i], points[i], args, tolerance)
+    unread = {f"cam{i + 1}{kind}": "a drawing for people, of the outline and holes camN.dxf holds (not read back)"
+              for i in outlines for kind in (SHEET_FILES if sheets else ())}
+    write_report(out, list(cams.values()), checks, files, unread, point_checks)
+    notes.append(f"verification.md: {verdict(checks, list(cams.values()), files)}")
     return notes
+
+
+def _from_files(checks: list[dict], names: dict[int, str]) -> list[dict]:
+    """The torque and output ``checks`` with the names of the files they are recomputed from
+    (profile index → file name) as their ``files``."""
+    files = " ".join(names[i] for i in sorted(names))
+    return [{**c, "files": files} for c in checks]
+
+
+def _outline_file_rows(out: Path, i: int, outline, dxf, points, args: Workshop, tolerance: float) -> list[dict]:
+    """The rows of profile ``i``'s SVG, points CSV (read back: ``points``) and, where written,
+    STL and STEP (:mod:`cadcam.outputs.file_checks`), ``dxf`` its DXF read back."""
+    from .file_checks import points_rows, solid_check, svg_check
+
+    stem = out / f"cam{i + 1}"
+    polygon = _polygon_tolerance(tolerance)
+    rows = svg_check(stem.with_suffix(".svg"), outline, dxf, tolerance)
+    rows += points_rows(f"cam{i + 1}_points.csv", outline, points, dxf, polygon, tolerance)
+    for path, chordal in ((stem.with_suffix(".stl"), polygon), (stem.with_suffix(".step"), 0.0)):
+        if args.stl is not None and path.exists():
+            rows += solid_check(path, outline, dxf, args, chordal, tolerance)
+    return rows
 
 
 def _outline(ev, i: int, args: Workshop):
@@ -232,12 +271,13 @@ def _part_notes(problem, i: int, args: Workshop, tolerance: float, datum, cable:
                      cable_diameter=args.cable_diameter)
 
 
-def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict, datums: dict):
+def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict, datums: dict, reference: dict):
     """Write every outline's DXF (with its datum mark, profile index → Datum) and every groove's
     centre line (profile index → its most-wound
     departure [rad]) at the tolerance the design asks for, read them back and recompute; write
     them tighter while a check misses (at most ``REFITS`` times). Returns the tolerance [m], the
-    files read back (profile index → FileOutline) and the checks."""
+    files read back (profile index → FileOutline) and the checks (the torque against
+    ``reference``: :func:`cadcam.outputs.verification.design_reference`)."""
     from ..make.workshop import helical_groove, write_dxf, write_groove_csv
     from ..verify.file_model import read_dxf, read_groove
     from .verification import MIN_FIT, REFITS, fit_tolerance, recompute
@@ -257,11 +297,55 @@ def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: di
             write_groove_csv(out / f"cam{i + 1}_groove.csv", helical_groove(
                 design.bases[i], design.coefficients[i], phi_max, args.groove_pitch, tolerance))
             chains[i] = read_groove(out / f"cam{i + 1}_groove.csv")
-        checks = recompute(result, chains)
-        miss = max((c["file_max_abs_error"] / c["required"] for c in checks if "passed" in c), default=0.0)
+        checks = recompute(result, chains, reference)
+        miss = _miss(checks)
         if miss <= 1 or tolerance <= MIN_FIT or attempt == REFITS or not np.isfinite(miss):
             return tolerance, chains, checks
         tolerance = max(MIN_FIT, tolerance / (2 * miss))
+    raise AssertionError("unreachable")
+
+
+def _miss(checks: list[dict]) -> float:
+    """The largest file error of the recomputed ``checks`` over its requirement."""
+    return max((c["file_max_abs_error"] / c["required"] for c in checks if "passed" in c), default=0.0)
+
+
+#: Factor beyond a points CSV's miss by which the turn of its chords is cut for the next try
+#: (:func:`_points_files`): the torque of a follower pressed on a polygon errs as the turn of
+#: the chord it presses on, a cable's on it as their sag, the turn squared. From the chords'
+#: mean turn first: where they turn more than the mean the next try has margin, where less
+#: one more try cuts them again.
+DENSER = 1.25
+
+
+def _points_files(result, out: Path, outlines: dict, chains: dict, polygon: float, reference: dict):
+    """Write every outline's ``camN_points.csv`` (its polygon within ``polygon`` [m]), read them
+    back and recompute the torque (or x) from them, with any helical groove's centre line of
+    ``chains``; while a check misses, write them again with the designed arc's chords turning
+    less (:func:`cadcam.make.workshop.polyline_knots`: a follower takes its direction from the
+    chord it presses on), at most ``REFITS`` times. Returns the polygons read back (profile
+    index → FileOutline), their checks and each file's number of points."""
+    from ..make.workshop import chord_turn, polyline_knots, write_points_csv
+    from ..verify.file_model import read_points
+    from .verification import REFITS, recompute
+
+    turn = None
+    for attempt in range(REFITS + 1):
+        points, counts = {}, {}
+        for i, outline in outlines.items():
+            counts[i] = write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon, turn)
+            points[i] = read_points(out / f"cam{i + 1}_points.csv")
+        checks = recompute(result, {**chains, **points}, reference) if outlines else []
+        miss = _miss(checks)
+        if miss <= 1 or attempt == REFITS or not np.isfinite(miss):
+            return points, checks, counts
+        if turn is None:  # the sag's polygon: its chords' mean turn on the designed arcs
+            turns = []
+            for outline in outlines.values():
+                knots = polyline_knots(outline, polygon)
+                turns.append(chord_turn(outline, knots)[knots[1:] <= outline.phi_end])
+            turn = float(np.mean(np.concatenate(turns)))
+        turn /= DENSER * miss
     raise AssertionError("unreachable")
 
 
@@ -281,18 +365,18 @@ def _polygon_tolerance(tolerance: float) -> float:
 
 
 def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, part, mech,
-                         drawings: list[Drawing] | None) -> str:
-    """The SVG, points CSV, sheets and STL of profile ``i`` of mechanism ``mech`` (its DXF is
-    written by :func:`_fitted_files`), the sheets (:data:`SHEET_FILES`) stating ``part`` (a
-    :class:`cadcam.make.drawing.PartNotes`; None: no sheets); returns its line of the summary."""
-    from ..make.workshop import polyline, write_points_csv, write_stl, write_svg
+                         drawings: list[Drawing] | None, points: int) -> str:
+    """The SVG, sheets and STL of profile ``i`` of mechanism ``mech`` (its DXF is written by
+    :func:`_fitted_files`, its ``points`` points by :func:`_points_files`), the sheets
+    (:data:`SHEET_FILES`) stating ``part`` (a :class:`cadcam.make.drawing.PartNotes`; None: no
+    sheets); returns its line of the summary."""
+    from ..make.workshop import holes, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
     stem = out / f"cam{i + 1}"
     polygon = _polygon_tolerance(tolerance)
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance,
               _mirrored(ev.problem, i))
-    write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon)
     if part is not None:
         from ..make.drawing import part_sheets, save_pdf, save_sheet
 
@@ -303,28 +387,26 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
         _drawn(functools.partial(save_pdf, figures, pdf), drawings)
         for fig, png in zip(figures, pngs):
             _drawn(functools.partial(save_sheet, fig, png), drawings)
-    note = (f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, "
-            f"{len(polyline(outline, polygon))} points at {1e3 * polygon:.3g} mm")
+    note = f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, {points} points at {1e3 * polygon:.3g} mm"
     if args.stl is not None:
-        volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, args.bore_diameter,
-                           args.groove_depth, args.groove_width, polygon)
+        circles = holes(outline, args.bore_diameter, args.anchor_diameter, tolerance)  # as the DXF's
+        volume = write_stl(stem.with_suffix(".stl"), outline, args.stl, circles, args.groove_depth,
+                           args.groove_width, polygon)
         note += f", STL {volume * 1e9:.0f} mm³"
-        note += _write_step(stem.with_suffix(".step"), outline, args, tolerance)
+        note += _write_step(stem.with_suffix(".step"), outline, args, tolerance, circles)
     return note
 
 
-def _write_step(path: Path, outline, args: Workshop, tolerance: float) -> str:
-    """``camN.step`` (the biarc outline extruded, the bore and anchor hole through it, the groove
+def _write_step(path: Path, outline, args: Workshop, tolerance: float, circles: list) -> str:
+    """``camN.step`` (the biarc outline extruded, the holes ``circles`` through it, the groove
     cut) where the extra ``step`` is installed; the summary's words either way."""
     from ..make import step
     from ..make.biarc import biarc_fit
-    from ..make.workshop import holes
 
     if not step.available():
         return ", no STEP (pip install -e '.[step]')"
-    volume = step.write_step(path, biarc_fit(outline, tolerance),
-                             holes(outline, args.bore_diameter, args.anchor_diameter, tolerance),
-                             args.stl, args.groove_depth, args.groove_width)
+    volume = step.write_step(path, biarc_fit(outline, tolerance), circles, args.stl, args.groove_depth,
+                             args.groove_width)
     return f", STEP {volume * 1e9:.0f} mm³"
 
 

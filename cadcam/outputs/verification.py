@@ -1,6 +1,7 @@
 """How accurate the written workshop files are: the fit tolerance a design's claimed accuracy
 asks for, and ``verification.json`` / ``verification.md``, which read each DXF back and say
-how far the part it describes is from the design.
+how far the part it describes is from the design, and list every file read back with each of
+its checks against its own tolerance (:mod:`cadcam.outputs.file_checks`).
 
 The requirement (issue 31): the torque of each joint, recomputed from the written files by
 :mod:`cadcam.verify.file_model`, is within max(:data:`DESIGN_SHARE` × the design's own largest
@@ -10,7 +11,10 @@ largest |x − x_d|, :data:`PEAK_SHARE` × the span of x over the range). The fi
 :data:`FIT_SHARE` of that requirement divided by how much torque (or x) a metre of outline
 error moves (:func:`fit_tolerance`), then read back and checked; a fit that misses is refitted
 tighter, up to :data:`REFITS` times. A helical groove's centre line (``camN_groove.csv``) is
-sampled so that its chords sag no more than that tolerance, and checked the same way.
+sampled so that its chords sag no more than that tolerance, and checked the same way; so is
+each points CSV's polygon, by the same file models. Under a paper's force model the files are
+checked against the design's energy torque ∂V/∂θ (what a part does), and the force model's
+departure from it is stated.
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from ..mechanisms.base import ENERGY
 from ..physics.outline import NOTCH, FileOutline
 from ..physics.profile import profile_function
 from ..problem import MIN_WALL
+from ..verify.evaluate import evaluate
 from ..verify.file_model import MILLIMETRES, file_torque, outline_points, span_clearance
 
 #: Share of the design's own largest error the file may add (issue 31).
@@ -93,6 +98,12 @@ FIELDS = {
                           "the range a convex outline allows (the cable would wrap past its anchor, or leave "
                           "past a groove's end)"),
     "passed": ("-", "file_max_abs_error ≤ required at every grid point"),
+    "files": ("-", "the files a quantity is recomputed from (the DXFs, or the points CSVs; a helical groove's CSV "
+                   "in either set)"),
+    "model_gap": ("N·m", "under a force model (torque_model not energy): the design's largest |τ_force − τ_energy| "
+                         "on the grid. The files are checked against the design's energy torque ∂V/∂θ, what a part "
+                         "does and the file model computes; the design's accuracy claims the force model's torque, "
+                         "which differs from it by this"),
     "note": ("-", "why a quantity is not recomputed"),
 }
 
@@ -172,19 +183,25 @@ def _segments(chain: FileOutline):
     return chain.vertices[None, :count], ends[None, :count], chain.bulges[None, :count]
 
 
-def _file_error(outline, chain: FileOutline) -> float:
-    """Largest distance [m] from the designed outline to the chain read back from the file:
-    from each point to the segments round its polar angle (:func:`_polar_neighbours`) where
-    the chain winds once round the axis, else to every segment."""
-    points = outline.xy(np.linspace(0.0, 2 * np.pi, DISTANCE_SAMPLES, endpoint=False))
+def file_error(outline, chain: FileOutline) -> float:
+    """Largest distance [m] from the designed outline, at :data:`DISTANCE_SAMPLES` points, to
+    the chain read back from the file (:func:`chain_distance`)."""
+    return float(chain_distance(outline.xy(np.linspace(0.0, 2 * np.pi, DISTANCE_SAMPLES, endpoint=False)),
+                                chain).max())
+
+
+def chain_distance(points, chain: FileOutline) -> np.ndarray:
+    """Distance [m] from each of ``points`` (N, 2) [m] to the chain: to the segments round its
+    polar angle (:func:`_polar_neighbours`) where the chain winds once round the axis, else to
+    every segment."""
     a, b, bulges = _segments(chain)
     near = _polar_neighbours(points, chain)
     if near is not None:
-        return float(arc_distance(points[:, None], a[0][near], b[0][near], bulges[0][near]).min(axis=1).max())
+        return arc_distance(points[:, None], a[0][near], b[0][near], bulges[0][near]).min(axis=1)
     best = np.full(len(points), np.inf)
     for rows in np.array_split(np.arange(len(points)), max(1, len(points) * len(a[0]) // 2_000_000)):
         best[rows] = arc_distance(points[rows, None], a, b, bulges).min(axis=1)
-    return float(best.max())
+    return best
 
 
 def _polar_neighbours(points, chain: FileOutline) -> np.ndarray | None:
@@ -266,7 +283,7 @@ def cam_report(cam: int, outline, chain: FileOutline, tolerance: float, polygon_
         "cable_clearance_m": cable_clearance, "spans_clear": bool(cable_clearance >= cable_radius - NOTCH)}
     inwards = concavity(chain.vertices, chain.bulges)
     return {**_chain_fields(cam, chain, tolerance, cable_radius), "convex": bool(inwards <= NOTCH),
-            "concavity_m": inwards, "file_error_m": _file_error(outline, chain),
+            "concavity_m": inwards, "file_error_m": file_error(outline, chain),
             "points_csv_tolerance_m": polygon_tolerance, **_walls(chain), **spans}
 
 
@@ -293,9 +310,24 @@ def cable_clearances(result, chains: dict[int, FileOutline]) -> dict[int, float 
     return out
 
 
-def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
+def design_reference(result) -> dict:
+    """What the files' torque is checked against, on the grid of :func:`_grid`: its points
+    (``sample``), the design's torque there (``tau``) — its own under the energy model; under
+    a force model its energy torque ∂V/∂θ, which a part does and the file model computes, and
+    the force model's largest departure from it (``model_gap``)."""
+    fine = _grid(result)
+    sample = fine.tensor.sample(fine.tensor.whole())
+    if fine.problem.torque_model == ENERGY:
+        return {"sample": sample, "tau": sample["tau"]}
+    energy = evaluate(fine.problem.with_torque_model(ENERGY), fine.design, grid=fine.grid, profile=False)
+    tau = energy.tensor.sample(energy.tensor.whole())["tau"]
+    return {"sample": sample, "tau": tau, "model_gap": np.max(np.abs(tau - sample["tau"]), axis=1)}
+
+
+def recompute(result, chains: dict[int, FileOutline], reference: dict | None = None) -> list[dict]:
     """The torque and output checks with the values recomputed from the files (profile index →
-    outline or groove read back), or a note where no file model covers a mechanism."""
+    outline or groove read back), or a note where no file model covers a mechanism. The torque
+    is checked against :func:`design_reference` (``reference``, computed here if None)."""
     problem, fine = result.problem, _grid(result)
     # the DXFs hold the cut outlines; the cable's centre line, on which the design is, lies its
     # radius outside them (a groove's file is that centre line)
@@ -304,20 +336,20 @@ def recompute(result, chains: dict[int, FileOutline]) -> list[dict]:
     checks = []
     torque = _torque_checks(result)
     missing = sorted({mech.kind for mech in problem.mechanisms if not mech.has_file_model()})
-    if torque and not missing and problem.torque_model == ENERGY:  # a file torque only against a target
-        sample = fine.tensor.sample(fine.tensor.whole())
+    if torque and not missing:  # a file torque only against a target
+        reference = reference or design_reference(result)
         outlines = {u: [chains[i] for i in profiles] for u, profiles in enumerate(profiles_of)}
-        tau = file_torque(problem, fine.design, outlines, sample["theta"])
+        tau = file_torque(problem, fine.design, outlines, reference["sample"]["theta"])
         for check in torque:
             i = check.pop("joint")
             found = np.isfinite(tau[i])
-            checks.append(_judged(check, float(np.max(np.abs(tau[i] - sample["tau"][i])[found], initial=0.0)),
+            gap = {"model_gap": float(reference["model_gap"][i])} if "model_gap" in reference else {}
+            checks.append(_judged({**check, **gap},
+                                  float(np.max(np.abs(tau[i] - reference["tau"][i])[found], initial=0.0)),
                                   int(np.sum(~found))))
     else:
-        why = (f"no file model of {', '.join(missing)}" if missing
-               else f"the file model computes the energy torque, the design the {problem.torque_model} model")
-        checks += [{**{k: v for k, v in c.items() if k != "joint"}, "note": f"not recomputed from the files: {why}"}
-                   for c in torque]
+        checks += [{**{k: v for k, v in c.items() if k != "joint"},
+                    "note": f"not recomputed from the files: no file model of {', '.join(missing)}"} for c in torque]
     for check in _output_checks(result):
         u = check.pop("mechanism")
         mech = problem.mechanisms[u]
@@ -338,26 +370,39 @@ def _judged(check: dict, error: float, unresolved: int) -> dict:
             "passed": bool(error <= check["required"] and unresolved == 0)}
 
 
-def passed(checks: list[dict], cams: list[dict]) -> bool | None:
-    """Every file keeps the rules of its own — convex, its holes' walls, its free spans' clearance
-    — and every recomputed check met its requirement (those not recomputed do not count); None
-    when none could be recomputed and no file broke a rule of its own (False where one did)."""
+def passed(checks: list[dict], cams: list[dict], files: list[dict] = ()) -> bool | None:
+    """Every file keeps the rules of its own — convex, its holes' walls, its free spans' clearance,
+    each check of the files' rows (:mod:`cadcam.outputs.file_checks`) — and every recomputed
+    check met its requirement (those not recomputed do not count); None when none could be
+    recomputed and no file broke a rule of its own (False where one did)."""
     if not all(c["convex"] and c.get("walls_hold", True) and c.get("spans_clear", True) for c in cams):
+        return False
+    if not all(r["passed"] for r in files):
         return False
     judged = [c["passed"] for c in checks if "passed" in c]
     return all(judged) if judged else None
 
 
-def verdict(checks: list[dict], cams: list[dict]) -> str:
+def verdict(checks: list[dict], cams: list[dict], files: list[dict] = ()) -> str:
     """The report's one word: PASSED, FAILED or NOT CHECKED (no file model covers the design)."""
-    return {True: "PASSED", False: "FAILED", None: "NOT CHECKED"}[passed(checks, cams)]
+    return {True: "PASSED", False: "FAILED", None: "NOT CHECKED"}[passed(checks, cams, files)]
 
 
-def write_report(out: Path, cams: list[dict], checks: list[dict]) -> None:
-    """``verification.json`` (the fields, the cams' files, the checks) and ``verification.md``."""
-    write_json(out / "verification.json", {"fields": {k: {"unit": u, "description": d} for k, (u, d) in FIELDS.items()},
-                                           "cams": cams, "checks": checks, "passed": passed(checks, cams)})
-    write_text(out / "verification.md", _markdown(cams, checks))
+def write_report(out: Path, cams: list[dict], checks: list[dict], files: list[dict] = (),
+                 unread: dict[str, str] | None = None, points: list[dict] = ()) -> None:
+    """``verification.json`` (the fields; ``files``: each check of each file read, and
+    ``file_checks`` their meanings; ``not_read``: the files written but not read, with why; the
+    cams' DXFs; ``checks``: the quantities recomputed from the DXFs (and grooves), and
+    ``points_checks`` from the points CSVs) and ``verification.md``."""
+    from .file_checks import FILE_CHECKS
+
+    unread = unread or {}
+    write_json(out / "verification.json", {
+        "fields": {k: {"unit": u, "description": d} for k, (u, d) in FIELDS.items()},
+        "file_checks": {k: {"unit": u, "sense": sense, "description": d} for k, (u, sense, d) in FILE_CHECKS.items()},
+        "files": list(files), "not_read": unread, "cams": cams, "checks": checks, "points_checks": list(points),
+        "passed": passed(checks, cams, files)})
+    write_text(out / "verification.md", _markdown(cams, checks + list(points), list(files), unread))
 
 
 def _table(rows: list[dict], names: list[str]) -> list[str]:
@@ -369,20 +414,45 @@ def _table(rows: list[dict], names: list[str]) -> list[str]:
             + ["| " + " | ".join(cell(n, r.get(n, "")) for n in names) + " |" for r in rows])
 
 
-def _markdown(cams: list[dict], checks: list[dict]) -> str:
-    """The report as markdown: the verdict, the checks, the files, then the fields' meanings."""
-    lines = [f"# Workshop files against the design: {verdict(checks, cams)}", "",
-             "Read `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
-             "recomputed from the written DXF outlines (and helical grooves' centre lines) by plane geometry, "
-             "against the design's; and, under Files, each hole's wall against `wall_rule_m`, measured with a sign "
-             "(negative: outside the part), whether the outline is convex, and `cable_clearance_m` against "
-             "`cable_radius_m`: how near the free cable comes to the part.",
-             ""]
-    lines += _table(checks, ["quantity", "where", "file_max_abs_error", "required", "passed", "unresolved_points",
-                             "design_max_abs_error", "peak", "note"])
+def _markdown(cams: list[dict], checks: list[dict], files: list[dict], unread: dict[str, str]) -> str:
+    """The report as markdown: the verdict, every file read with its checks, the quantities
+    recomputed, the DXFs' details, the files not read, then the fields' meanings."""
+    from .file_checks import FILE_CHECKS
+
+    lines = [f"# Workshop files against the design: {verdict(checks, cams, files)}", "",
+             "Every file a workshop receives is read back as written and checked against its own tolerance: "
+             "`measured` against `limit` (each check's meaning under Checks of the files). The number to read "
+             "first is `file_max_abs_error` against `required`: the torque (or a differential pair's x) "
+             "recomputed from the written DXF outlines (and helical grooves' centre lines), and again from the "
+             "points CSVs' polygons, by plane geometry, against the design's; and, under Files, each hole's wall "
+             "against `wall_rule_m`, measured with a sign (negative: outside the part), whether the outline is "
+             "convex, and `cable_clearance_m` against `cable_radius_m`: how near the free cable comes to the part.",
+             "", "## Files read", ""]
+    shown = [{**r, "check": r["check"] + (f" ({r['where']})" if r.get("where") else ""),
+              "limit": f"{FILE_CHECKS[r['check']][1]} {_cell(r['limit'])}", "unit": FILE_CHECKS[r["check"]][0]}
+             for r in files]
+    lines += _rows(shown, ["file", "check", "measured", "limit", "unit", "passed"])
+    lines += ["", "## Recomputed from the files", ""]
+    lines += _table(checks, ["quantity", "where", "files", "file_max_abs_error", "required", "passed",
+                             "unresolved_points", "design_max_abs_error", "peak", "model_gap", "note"])
     lines += ["", "## Files", ""]
     lines += _table(cams, ["cam", "units", "closed", "convex", "concavity_m", "vertices", "fit_tolerance_m",
                            "file_error_m", "points_csv_tolerance_m", *WALLS, "wall_rule_m", "walls_hold",
                            "cable_radius_m", "cable_clearance_m", "spans_clear"])
+    if unread:
+        lines += ["", "## Written, not read", ""] + [f"- `{name}`: {why}" for name, why in unread.items()]
+    lines += ["", "## Checks of the files", ""] + [f"- `{k}` [{u}, {sense} limit]: {d}"
+                                                   for k, (u, sense, d) in FILE_CHECKS.items()]
     lines += ["", "## Fields", ""] + [f"- `{k}` [{u}]: {d}" for k, (u, d) in FIELDS.items()] + [""]
     return "\n".join(lines)
+
+
+def _cell(v) -> str:
+    """A value of a row as printed: floats to three digits."""
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
+def _rows(rows: list[dict], names: list[str]) -> list[str]:
+    """A markdown table of ``rows`` over the columns ``names``, as :func:`_cell` prints them."""
+    return (["| " + " | ".join(names) + " |", "|" + "---|" * len(names)]
+            + ["| " + " | ".join(_cell(r.get(n, "")) for n in names) + " |" for r in rows])

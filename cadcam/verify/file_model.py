@@ -37,8 +37,10 @@ MM = 1e3
 MILLIMETRES = 4
 #: The columns of a groove's CSV the file model reads: its centre line's plane coordinates [mm].
 GROOVE_COLUMNS = ("x_mm", "y_mm")
-#: Step [rad] of the central difference dL/dθ (its error is below 1e-9 of the moment arm).
-STEP = 1e-5
+#: Step [rad] of the central difference dL/dθ: far below the turn of a points CSV's chords (a
+#: follower's torque on a polygon jumps from chord to chord, and a wider step would average the
+#: jumps away), far above the lengths' rounding (1e-17 m over it: 1e-10 of a moment arm).
+STEP = 1e-7
 
 
 def read_dxf(path) -> FileOutline:

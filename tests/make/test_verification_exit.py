@@ -14,7 +14,7 @@ SPEC = Path(__file__).resolve().parents[2] / "docs" / "first_balancer.toml"
 
 @pytest.mark.parametrize("verdict, code", [(False, 1), pytest.param(True, 0, marks=pytest.mark.slow)])
 def test_the_exit_follows_the_files_verification(tmp_path, monkeypatch, capsys, verdict, code):
-    monkeypatch.setattr(verification, "passed", lambda checks, cams: verdict)
+    monkeypatch.setattr(verification, "passed", lambda checks, cams, files=(): verdict)
     out = tmp_path / "out"
     assert cli.main(["design", str(SPEC), "-o", str(out), "--no-figures"]) == code
     captured = capsys.readouterr()
