@@ -192,32 +192,50 @@ def outline_from_chain(vertices, bulges, units, closed, circles, groove=False) -
     heading = np.arctan2(chord[:, 1], chord[:, 0]) - sweep / 2  # tangent angle at each start
     radius = np.where(arc, length / (2 * np.abs(np.sin(np.where(arc, sweep, 1.0) / 2))), 0.0)
     seg_length = np.where(arc, radius * np.abs(sweep), length)
-    centre, r, start, stop, at, reflex = [], [], [], [], [], 0
-    psi, s = heading[0] - np.pi / 2, 0.0
+    nxt = (np.arange(count) + 1) % len(vertices)
+    following = np.minimum(nxt, count - 1)  # an open chain's last segment has none
+    # each joint's turn and notch at once, the loop below in plain floats (a points CSV's
+    # polygon has 10⁵ joints)
+    turns = np.angle(np.exp(1j * (heading[following] - (heading + sweep))))
+    notched = (_notch_depths(turns, seg_length, seg_length[following]) > NOTCH).tolist()
+    sweeps, lengths, arcs, turns, nxt = sweep.tolist(), seg_length.tolist(), arc.tolist(), turns.tolist(), nxt.tolist()
+    pieces, start, stop, at, reflex = [], [], [], [], 0  # pieces: (segment, its arc's or its end's)
+    psi, s = float(heading[0]) - np.pi / 2, 0.0
     for i in range(count):
-        reflex += int(sweep[i] < 0)
-        if arc[i] and not reflex:
-            centre.append(vertices[i] - radius[i] * np.array([np.cos(psi), np.sin(psi)]))
-            r.append(radius[i]), start.append(psi), stop.append(psi + sweep[i]), at.append(s)
-        psi, s = psi + sweep[i], s + seg_length[i]
-        nxt = (i + 1) % len(vertices)
-        if nxt == count:  # an open chain's end: a corner of no turn, where a cable along the last
+        reflex += int(sweeps[i] < 0)
+        if arcs[i] and not reflex:
+            pieces.append((i, psi)), start.append(psi), stop.append(psi + sweeps[i]), at.append(s)
+        psi, s = psi + sweeps[i], s + lengths[i]
+        if nxt[i] == count:  # an open chain's end: a corner of no turn, where a cable along the last
             if not reflex:  # segment's line leaves it
-                centre.append(ends[i]), r.append(0.0), start.append(psi), stop.append(psi), at.append(s)
+                pieces.append((i, None)), start.append(psi), stop.append(psi), at.append(s)
             break
-        turn = np.angle(np.exp(1j * (heading[nxt] - (heading[i] + sweep[i]))))
-        if nxt == 0 and not reflex:  # back at the anchor: the normals close a full turn
+        turn, notch = turns[i], notched[i]
+        if nxt[i] == 0 and not reflex:  # back at the anchor: the normals close a full turn
             turn = start[0] + TWO_PI - psi
-        if _notch_depth(turn, seg_length[i], seg_length[nxt]) > NOTCH:
+            notch = _notch_depth(turn, lengths[i], lengths[0]) > NOTCH
+        if notch:
             reflex += 1
-        elif not reflex and turn > 0 and (turn > CORNER or nxt == 0):
-            centre.append(ends[i]), r.append(0.0), start.append(psi), stop.append(psi + turn)
-            at.append(s)
+        elif not reflex and turn > 0 and (turn > CORNER or nxt[i] == 0):
+            pieces.append((i, None)), start.append(psi), stop.append(psi + turn), at.append(s)
         psi = psi + turn
-    out = FileOutline(vertices, bulges, units, closed, circles, np.array(centre), np.array(r),
+    index = np.array([i for i, _ in pieces], dtype=int)
+    corner = np.array([normal is None for _, normal in pieces], dtype=bool)
+    normal = np.array([0.0 if n is None else n for _, n in pieces])
+    r = np.where(corner, 0.0, radius[index])
+    centre = np.where(corner[:, None], ends[index], vertices[index] - r[:, None] * np.column_stack(
+        [np.cos(normal), np.sin(normal)]))
+    out = FileOutline(vertices, bulges, units, closed, circles, centre.reshape(-1, 2), r,
                       np.array(start), np.array(stop), np.array(at), reflex, groove=groove)
     object.__setattr__(out, "_length", s)
     return out
+
+
+def _notch_depths(turn, before, after) -> np.ndarray:
+    """:func:`_notch_depth` of each joint (arrays)."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # a joint turning outwards has none
+        depth = np.sin(-turn) * before * after / np.hypot(before + after * np.cos(turn), after * np.sin(turn))
+    return np.where(turn < 0, depth, 0.0)
 
 
 def _notch_depth(turn: float, before: float, after: float) -> float:
