@@ -246,7 +246,8 @@ def closing_angles(profile: ca.Function, coefficients, phi_end: float, offset: f
 def designed_values(profile: ca.Function, coefficients, phi) -> np.ndarray:
     """ρ, ρ′, ρ″ and the Eq. 40 margin of the designed profile at ``phi``, shape (4, N)."""
     phi = np.atleast_1d(np.asarray(phi, dtype=float))
-    out = profile.map(phi.size)(phi.reshape(1, -1), np.asarray(coefficients, dtype=float))
+    # a row of angles: CasADi evaluates the function at each (a map without building one per call)
+    out = profile(phi.reshape(1, -1), np.asarray(coefficients, dtype=float))
     return np.array([np.asarray(v).ravel() for v in out])
 
 
@@ -606,10 +607,15 @@ def chord_turn(outline: Outline, knots) -> np.ndarray:
     [rad]: ∫ κ |dp/dφ| dφ by Simpson's rule from both ends and the middle (the smooth
     turning: a hull closure's corner inside a chord is no turn a split could lessen)."""
     knots = np.asarray(knots, dtype=float)
-    # φ_end is a knot, and the chord starting there lies on the closing arc, beyond it
-    starts = np.where(knots[:-1] == outline.phi_end, np.nextafter(outline.phi_end, np.inf), knots[:-1])
-    rate = [np.prod(outline.speed_curvature(phi), axis=0) for phi in (starts, (knots[:-1] + knots[1:]) / 2, knots[1:])]
-    return np.diff(knots) * (rate[0] + 4 * rate[1] + rate[2]) / 6
+    # φ_end ends a chord of the designed arc and starts one of the closing arc: its rate on each
+    end = int(np.searchsorted(knots, outline.phi_end))
+    phi = np.concatenate([knots, (knots[:-1] + knots[1:]) / 2, [np.nextafter(outline.phi_end, np.inf)]])
+    rate = np.prod(outline.speed_curvature(phi), axis=0)
+    ends, middle = rate[:len(knots)], rate[len(knots):-1]
+    starts = ends[:-1].copy()
+    if end < len(knots) - 1 and knots[end] == outline.phi_end:
+        starts[end] = rate[-1]
+    return np.diff(knots) * (starts + 4 * middle + ends[1:]) / 6
 
 
 def _even_chords(outline, start, stop, tolerance) -> np.ndarray:
