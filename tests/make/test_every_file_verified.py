@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 import cadcam
+from cadcam.make import step
 from cadcam.make.biarc import biarc_fit, chain_measures, inward_band
 from cadcam.make.workshop import holes, polyline, write_points_csv, write_stl
 from cadcam.outputs.file_checks import points_rows, solid_check, svg_check
-from cadcam.outputs.run_files import _outline, _polygon_tolerance, write_workshop_files
-from cadcam.outputs.verification import recompute
+from cadcam.outputs.run_files import SHEET_FILES, _outline, _polygon_tolerance, run_file_names, write_workshop_files
+from cadcam.outputs.verification import recompute, verdict
 from cadcam.verify.file_model import read_dxf, read_points
 
 SPEC = Path(__file__).resolve().parents[2] / "models" / "roller_follower_pendulum.toml"
@@ -23,19 +24,20 @@ SPEC = Path(__file__).resolve().parents[2] / "models" / "roller_follower_pendulu
 KINDS = (".dxf", ".svg", "_points.csv", ".stl", ".step")
 
 
-def _written(result, out: Path) -> dict:
-    """``result``'s workshop files written into ``out``, the report read back."""
-    write_workshop_files(result, out, result.problem.workshop, sheets=False)
+def _written(result, out: Path, sheets: bool = False) -> dict:
+    """``result``'s workshop files written into ``out`` (with ``sheets``, their drawing sheets
+    built, not drawn), the report read back."""
+    write_workshop_files(result, out, result.problem.workshop, sheets=sheets, drawings=[])
     return json.loads((out / "verification.json").read_text())
 
 
 @pytest.fixture(scope="module")
 def roller(tmp_path_factory):
     """The roller follower's cam designed and its files written (with an STL and, with the extra
-    ``step``, a STEP): the result, the folder and the report."""
+    ``step``, a STEP; its sheets built, not drawn): the result, the folder and the report."""
     result = cadcam.design(SPEC)
     out = tmp_path_factory.mktemp("roller")
-    return result, out, _written(result, out)
+    return result, out, _written(result, out, sheets=True)
 
 
 @pytest.fixture(scope="module")
@@ -65,6 +67,28 @@ def test_every_file_written_is_read_and_within_its_own_tolerance(roller):
         if name.endswith((".stl", ".step")):
             assert {"closed", "thickness", "holes_found", "holes_inside", "holes_outside", "volume"} <= checks
     assert "# Workshop files against the design: PASSED" in (out / "verification.md").read_text()
+
+
+def test_a_file_not_read_is_named_with_why(roller):
+    """Every file of the part a run writes (run_file_names) is read and checked, or named as not
+    read with the reason: the drawing sheets, made for people."""
+    result, _, report = roller
+    names = {n for n in run_file_names(result.problem, True, result.problem.workshop) if n.startswith("cam")}
+    read = {name for r in report["files"] for name in r["file"].split()}
+    assert set(report["not_read"]) == {f"cam1{kind}" for kind in SHEET_FILES}
+    planar = names - {"cam1_groove.csv"} - (set() if step.available() else {"cam1.step"})
+    assert read | set(report["not_read"]) == planar
+    assert all("drawing" in why for why in report["not_read"].values())
+
+
+def test_a_file_failing_a_check_of_its_own_fails_the_report():
+    """A row of the files failing makes the report FAILED whatever the torque; rows passing
+    leave a report whose torque could not be recomputed NOT CHECKED."""
+    torque = [{"quantity": "torque", "passed": True}]
+    cams = [{"convex": True}]
+    assert verdict(torque, cams, [{"passed": True}]) == "PASSED"
+    assert verdict(torque, cams, [{"passed": True}, {"passed": False}]) == "FAILED"
+    assert verdict([{"note": "not recomputed"}], cams, [{"passed": True}]) == "NOT CHECKED"
 
 
 def test_the_points_csv_carries_the_designs_accuracy(tmp_path, roller, part):
