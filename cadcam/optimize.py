@@ -78,7 +78,10 @@ def solve(tr: Transcription, problem: Problem, start: Design, warm: Multipliers 
         first = solve(built_for(plain)[0], plain, start)
         if first.status == "converged":
             start = first.design
-    run = tr.solve(problem, start, start_samples(problem, start, tr.n, tr.start_order()), warm)
+    # a warm start at the answer's own NLP point needs no samples of its design
+    samples = None if warm is not None and warm.x is not None else start_samples(problem, start, tr.n,
+                                                                                 tr.start_order())
+    run = tr.solve(problem, start, samples, warm)
     if first is None:
         return run
     return replace(run, iterations=first.iterations + run.iterations,

@@ -36,8 +36,8 @@ import numpy as np
 from ..designs import Design
 from . import compiled
 from .blocks import BAND_SCALE, LENGTH_SCALE
-from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, WARM_IPOPT, Multipliers,
-                    Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
+from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, RESOLVE_IPOPT, WARM_IPOPT,
+                    Multipliers, Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
 from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
@@ -383,17 +383,31 @@ class Transcription:
     def start_point(self, problem: Problem, design: Design, samples) -> tuple[np.ndarray, np.ndarray]:
         """The NLP's start from ``design`` (:meth:`initial_guess`) and the parameters it is
         solved with: :meth:`parameters` of ``problem`` and each high-degree profile's check
-        range (``wc``, :func:`cadcam.solve.rows._fixed_check_angles`), up to the start's
-        most-wound departure plus one grid step's wrap, so that the wrap may grow a step before
-        the rows bind."""
-        pv = self.parameters(problem)
+        range (:meth:`_with_check_ranges`) from the start's departures."""
+        pv = self._with_check_ranges(problem, self.parameters(problem), lambda u, r: samples[u].z[r])
+        return self.initial_guess(problem, design, samples, pv), pv
+
+    def warm_point(self, problem: Problem, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The NLP's start at an answer's own NLP point ``w`` (:attr:`Multipliers.x`, of a
+        problem of this structure) and the parameters ``problem`` is solved with, each
+        high-degree profile's check range from the departures ``w`` holds (as
+        :meth:`start_point` takes them from a design's samples)."""
+        w = np.asarray(w, dtype=float)
+        return w, self._with_check_ranges(problem, self.parameters(problem),
+                                          lambda u, r: self.v.part(w, f"z{u}_{problem.mechanisms[u].unknowns[r]}"))
+
+    def _with_check_ranges(self, problem: Problem, pv: np.ndarray, departures) -> np.ndarray:
+        """``pv`` with each high-degree profile's check range (``wc``,
+        :func:`cadcam.solve.rows._fixed_check_angles`): up to the start's most-wound departure
+        plus one grid step's wrap, so that the wrap may grow a step before the rows bind;
+        ``departures(u, r)`` is mechanism ``u``'s unknown ``r`` at the grid angles."""
         for u, (mech, sl) in enumerate(zip(problem.mechanisms, problem.profile_slices())):
             for k in range(sl.start, sl.stop):
                 if f"wc{k}" in self.p.blocks:
-                    alpha = samples[u].z[k - sl.start]
+                    alpha = departures(u, k - sl.start)
                     end = float(mech.wrap_end(alpha[0], alpha[-1], ca.DM(mech.parameter_values())))
                     self.p.put(pv, f"wc{k}", end + abs(alpha[-1] - alpha[0]) / (self.n - 1))
-        return self.initial_guess(problem, design, samples, pv), pv
+        return pv
 
     def _breaks_deferred(self, problem: Problem, w, pv) -> bool:
         """Whether the NLP point ``w`` breaks a deferred row by more than DEFERRED_TOL. The
@@ -428,14 +442,15 @@ class Transcription:
         return self._imposing
 
     def _warm_solver(self) -> ca.Function:
-        """IPOPT on :attr:`nlp` started warm (:data:`WARM_IPOPT`), built on first use: from
-        the library :attr:`solver` loaded (in milliseconds), else from its derivatives."""
+        """IPOPT on :attr:`nlp` re-solving warm from an answer (:data:`RESOLVE_IPOPT`), built
+        on first use: from the library :attr:`solver` loaded (in milliseconds), else from its
+        derivatives."""
         if self._warm is None:
             opt = self.problem.options
             if self.functions_used in (COMPILED_NOW, COMPILED_CACHED):
-                self._warm, _ = _ipopt_solver(self.nlp, opt, self._split_nlp, WARM_IPOPT, key=self._key)
+                self._warm, _ = _ipopt_solver(self.nlp, opt, self._split_nlp, RESOLVE_IPOPT, key=self._key)
             else:
-                self._warm = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, WARM_IPOPT),
+                self._warm = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, RESOLVE_IPOPT),
                                             expand=opt.functions != "mapped")
         return self._warm
 
@@ -449,9 +464,13 @@ class Transcription:
     def solve(self, problem: Problem, start: Design, samples, warm: Multipliers | None = None) -> Solve:
         """Run IPOPT from ``start`` (with its ``samples``, see :meth:`initial_guess`) with
         ``problem``'s numbers; with ``warm``, the multipliers of the answer ``start`` is (a
-        neighbouring problem's), from them and :data:`WARM_IPOPT`: with the deferred rows
-        at once if that answer's solve imposed them."""
-        w0, pv = self.start_point(problem, start, samples)
+        neighbouring problem's), from them and :data:`RESOLVE_IPOPT`, and from that answer's
+        own NLP point where ``warm`` holds it (``samples`` are then not used and may be
+        None): with the deferred rows at once if that answer's solve imposed them."""
+        if warm is not None and warm.x is not None:
+            w0, pv = self.warm_point(problem, warm.x)
+        else:
+            w0, pv = self.start_point(problem, start, samples)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
@@ -487,7 +506,7 @@ class Transcription:
             z=[np.vstack([self.v.part(w, f"z{u}_{name}") for name in mech.unknowns])
                for u, mech in enumerate(problem.mechanisms)],
             history=joined(histories), warnings=warnings,
-            multipliers=Multipliers(np.asarray(sol["lam_x"]).ravel(), lam_g, lam_g.size > lbg.size),
+            multipliers=Multipliers(np.asarray(sol["lam_x"]).ravel(), lam_g, lam_g.size > lbg.size, w),
             placements=self.placements_of(problem, w))
 
     def placements_of(self, problem: Problem, w) -> list[dict]:
