@@ -30,6 +30,7 @@ from ..library_files import matplotlib_defaults
 from ..mechanisms.base import Picture
 from ..version import __version__
 from .datum import Datum
+from .png import save_png
 from .fits import BORE_FIT, GENERAL_CLASS, angular_tolerance, bore_limits
 from .workshop import DEFAULT_TOLERANCE, MIRRORED_NOTE, MM, Outline, holes
 
@@ -82,9 +83,11 @@ def save_sheet(fig: Figure, *paths) -> None:
     """Write a sheet of :func:`sheet_figure` to each of ``paths`` (``.png`` at :data:`DPI` dots
     per inch, or ``.pdf``), atomically."""
     for path in paths:
-        fmt = _sheet_format(path)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=DPI)
+        if _sheet_format(path) == "png":
+            save_png(fig, path, DPI)
+        else:
+            with atomic_path(path) as tmp:
+                fig.savefig(tmp, format="pdf", dpi=DPI)
 
 
 def _sheet_format(path) -> str:

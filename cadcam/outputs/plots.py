@@ -15,7 +15,9 @@ from __future__ import annotations
 import math
 import re
 import textwrap
+from collections.abc import Callable
 from dataclasses import fields, replace
+from functools import partial
 
 import matplotlib
 import numpy as np
@@ -28,7 +30,7 @@ from ..verify.binding import limit_state
 from ..verify.evaluate import METRICS, Evaluation, output_error, output_law
 from ..verify.friction import FrictionBand
 from ..verify.tolerance import Band
-from ..files import atomic_path
+from ..make.png import save_png
 from ..library_files import matplotlib_defaults
 from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
@@ -57,11 +59,10 @@ RHO_BINDING = dict(marker="x", color="crimson", ms=10, mew=2.2, ls="none", zorde
 CONVEXITY_BINDING = dict(marker="D", mfc="none", mec="magenta", mew=1.8, ms=12, ls="none", zorder=6)
 
 
-@matplotlib_defaults()
 def save_figure(fig: Figure, path, dpi: int = DPI) -> None:
-    """Write ``fig`` to ``path`` as a PNG, atomically (a complete file or none)."""
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
+    """Write ``fig`` to ``path`` as a PNG, atomically (a complete file or none;
+    :func:`cadcam.make.drawing.save_png`)."""
+    save_png(fig, path, dpi)
 
 
 # ------------------------------------------------------------------------------------ profiles
@@ -815,15 +816,28 @@ def figures(ev: Evaluation, history: dict | None = None, band: Band | None = Non
     ``band`` and the ``friction`` band where given) and ``springs`` (only with springs: without them there is no torque);
     ``output`` (only for mechanisms with an output law; its error on the ``recheck`` grid where
     given); ``convergence`` (only when IPOPT's ``history`` is given)."""
-    out = {"profile": profile_figure(ev)}
+    return {name: make() for name, make in figure_makers(ev, history, band, recheck, friction).items()}
+
+
+def figure_makers(ev: Evaluation, history: dict | None = None, band: Band | None = None,
+                  recheck: Evaluation | None = None,
+                  friction: FrictionBand | None = None) -> dict[str, Callable[[], Figure]]:
+    """:func:`figures` by name, each not yet built: a function of no arguments that builds it
+    (so that a drawing process builds the figure it draws)."""
+    out = {"profile": partial(profile_figure, ev)}
     if ev.problem.springs:
-        out["torque"] = torque_figure(ev, band, friction)
-        out["springs"] = springs_figure(ev)
+        out["torque"] = partial(torque_figure, ev, band, friction)
+        out["springs"] = partial(springs_figure, ev)
     if any(mech.output_target is not None for mech in ev.problem.mechanisms):
-        out["output"] = output_figure(ev, recheck)
+        out["output"] = partial(output_figure, ev, recheck)
     if history and history.get("iteration"):
-        out["convergence"] = convergence_figure(history)
+        out["convergence"] = partial(convergence_figure, history)
     return out
+
+
+def save_made(make: Callable[[], Figure], path) -> None:
+    """Build a figure by ``make`` and write it to ``path`` (:func:`save_figure`)."""
+    save_figure(make(), path)
 
 
 # --------------------------------------------------------------------------------------- study
