@@ -21,10 +21,10 @@ from .verify.builds import Builds, simulate_builds
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
 from .version import __version__
-from .outputs.forked import Drawing, draw
+from .outputs.forked import Drawing, draw, drawn_meanwhile
 from .solve.messages import count
-from .outputs.run_files import (ADJUSTMENT_FILE, WorkshopError, run_file_names, torque_table, write_outputs,
-                                 write_workshop_files)
+from .outputs.run_files import (ADJUSTMENT_FILE, WorkshopError, figure_drawings, run_file_names, torque_table,
+                                 write_outputs, write_workshop_files)
 
 if TYPE_CHECKING:
     from .designs import Design
@@ -350,23 +350,22 @@ class Result:
             The set could not be written or swapped in (the earlier one is left whole).
         """
         notes, failure = [], None
-        plots: list[Drawing] = []
         sheets: list[Drawing] = []
         sizes = self.problem.workshop if workshop == "spec" else workshop
         with staged_folder(Path(directory), "result.json", run_file_names(self.problem, figures, sizes)) as stage:
             outcome = None  # the workshop step's, recorded in result.json beside the design's status
-            if sizes is not None:
-                try:
-                    notes = write_workshop_files(self, stage, sizes, figures, sheets)
-                    outcome = {"status": "written", "files": notes}
-                except WorkshopError as exc:
-                    failure = exc
-                    outcome = {"status": "failed", "message": str(exc)}
-            write_outputs(self, stage, figures, plots, outcome)
-            # longest first, so that the workers end together: the convergence figure (the first
-            # of the plots, when there is one: 0.8 s on the 1-DOF spec), the sheets (PDF and a
-            # 300-dpi PNG: 0.7 s), the other plots (0.3–0.5 s)
-            draw(plots[:1] + sheets + plots[1:], workers)
+            # the figures need only the design: drawn while this process makes the workshop
+            # files, whose sheets are drawn beside them once those are made
+            with drawn_meanwhile(figure_drawings(self, stage) if figures else [], workers):
+                if sizes is not None:
+                    try:
+                        notes = write_workshop_files(self, stage, sizes, figures, sheets)
+                        outcome = {"status": "written", "files": notes}
+                    except WorkshopError as exc:
+                        failure = exc
+                        outcome = {"status": "failed", "message": str(exc)}
+                write_outputs(self, stage, False, None, outcome)
+                draw(sheets, workers)
         if failure is not None:
             raise failure
         return notes

@@ -53,12 +53,24 @@ def draw(drawings: list[Drawing], workers: int = 1) -> None:
     KeyboardInterrupt
         Ctrl-C or SIGTERM; the workers are ended and waited for first.
     """
+    with drawn_meanwhile(drawings, workers):
+        pass
+
+
+@contextlib.contextmanager
+def drawn_meanwhile(drawings: list[Drawing], workers: int = 1):
+    """:func:`draw` ``drawings`` while the block runs: the workers are forked on entering it
+    and waited for on leaving it, so that this process does the block's work meanwhile (the
+    drawings must need nothing the block makes). Where :func:`draw` would draw them here,
+    they are drawn before the block. An error of the block ends the workers, and waits for
+    them, before it comes out (a drawing's error comes out after the block)."""
     forkable = (sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
                 and threading.active_count() == 1)
     workers = min(workers, len(drawings)) if forkable else 1
     if workers <= 1:
         for drawing in drawings:
             drawing()
+        yield
         return
     context = multiprocessing.get_context("fork")
     taken = context.Value("i", 0)  # the next drawing to take; len(drawings) once one failed
@@ -73,6 +85,7 @@ def draw(drawings: list[Drawing], workers: int = 1) -> None:
             for process in processes:
                 process.start()
         # a Ctrl-C held back during the starts is raised on leaving the block, here
+        yield
         for process in processes:
             process.join()
     except BaseException:

@@ -122,13 +122,20 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
             cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
         write_csv(out / "output.csv", header, np.column_stack(cols))
     if figures:
-        from .plots import figures as run_figures, save_figure
+        for drawing in figure_drawings(result, out):
+            _drawn(drawing, drawings)
 
-        figs = run_figures(ev, result.history, result.band, result.recheck, result.friction)  # the figures this run has: NAME.png
-        # the longest to draw first (three axes of logarithmic ticks: 0.8 s on the 1-DOF spec,
-        # against 0.3–0.5 s for the others), so that workers drawing side by side end together
-        for name in sorted(figs, key=lambda name: name != "convergence"):
-            _drawn(functools.partial(save_figure, figs[name], out / f"{name}.png"), drawings)
+
+def figure_drawings(result, out: Path) -> list[Drawing]:
+    """The PNG figures of ``result`` in ``out`` (:func:`write_outputs`) as drawings, each
+    building its figure (where it is drawn: side by side, the figures are built side by side
+    too); the longest to draw first (three axes of logarithmic ticks: 0.8 s on the 1-DOF spec,
+    against 0.3–0.5 s for the others), so that workers drawing side by side end together."""
+    from .plots import figure_makers, save_made
+
+    makers = figure_makers(result.evaluation, result.history, result.band, result.recheck, result.friction)
+    return [functools.partial(save_made, makers[name], out / f"{name}.png")
+            for name in sorted(makers, key=lambda name: name != "convergence")]
 
 
 def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
