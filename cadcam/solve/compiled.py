@@ -216,7 +216,7 @@ def cached_library(key: str | None) -> Path | None:
     return path if _loadable(path, then=EXPANDED) else None
 
 
-def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path | None, bool]:
+def library(nlp: dict, source=None, key: str | None = None, claimed: bool = False) -> tuple[Path | None, bool]:
     """The compiled library of ``nlp``'s :data:`ORACLE` functions, and whether it was compiled
     now (False: found in the cache). ``source()``, if given, is the same NLP (its variables,
     parameters and rows in the same order) written as the functions are to be generated from;
@@ -226,7 +226,10 @@ def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path | None
     A library in the cache that may not be loaded (:func:`library_refusal`) is compiled again
     in its place. ``(None, False)``, said in one line on stderr, where the cache may not be
     used (:func:`folder_refusal`) or a folder stands under the library's name: the caller
-    solves with expanded functions.
+    solves with expanded functions. While it compiles, the library is claimed as a background
+    compile claims it (:data:`PENDING_NAME`; ``claimed``: the caller holds that claim), so that
+    no other process compiles it too: one that finds it claimed waits for that compile and
+    loads its library (:func:`_claim_or_wait`).
 
     Raises
     ------
@@ -237,17 +240,51 @@ def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path | None
     folder = _private_folder(create=True)
     if folder is None:
         return None, False
-    path = folder / LIBRARY_NAME.format(key or library_key(nlp, cc))
+    key = key or library_key(nlp, cc)
+    path = folder / LIBRARY_NAME.format(key)
     replaceable = _replaceable(path)
     if _loadable(path, then="compiling it again" if replaceable else EXPANDED):
         return path, False
     if not replaceable:
         return None, False
+    pending = None if claimed else _claim_or_wait(folder, key, path)
+    if pending is None and not claimed:  # compiled meanwhile by the process that held the claim
+        return path, False
+    try:
+        _compile_library(source() if source is not None else nlp, cc, folder, path)
+    finally:
+        if pending is not None:
+            _remove(pending)
+    return path, True
+
+
+#: How often a design waiting for another process's compile of its library looks again [s].
+WAIT_POLL_S = 0.2
+
+
+def _claim_or_wait(folder: Path, key: str, path: Path) -> Path | None:
+    """Claim the compile of the library ``key`` (``path``) in the cache ``folder``: its
+    :data:`PENDING_NAME` folder, made now; or, where another process holds the claim (a
+    background compile, another design compiling it), wait until that compile is over and
+    return None where its library may be loaded. A claim whose process ended without a
+    library, or one pending for :data:`PENDING_STALE_S`, is taken over (:func:`_claimed`)."""
+    while True:
+        pending = _claimed(folder, key)
+        if pending is not None:
+            return pending
+        time.sleep(WAIT_POLL_S)
+        if os.path.lexists(path) and library_refusal(path) is None:
+            return None
+
+
+def _compile_library(nlp: dict, cc: str, folder: Path, path: Path) -> None:
+    """Generate the C of ``nlp``'s :data:`ORACLE` functions, compile it (each function's file on
+    a core of its own) and install the library as ``path`` in the cache ``folder``."""
     remove_leftovers(folder)  # the build folders of compiles killed before they ended
     # absolute: the compiler runs in a folder of its own (run_compiler)
     with tempfile.TemporaryDirectory(dir=folder.absolute(), prefix=f"{TEMP_PREFIX}{os.getpid()}-build-") as tmp:
         sources = []
-        for name, f in oracle_functions(source() if source is not None else nlp).items():
+        for name, f in oracle_functions(nlp).items():
             # without CasADi's comment per operation, which doubles the C
             gen = ca.CodeGenerator(f"{name}.c", {"verbose": False})
             gen.add(f)
@@ -260,7 +297,6 @@ def library(nlp: dict, source=None, key: str | None = None) -> tuple[Path | None
         built = Path(tmp) / path.name
         _run([cc, "-shared", *map(str, objects), "-o", str(built), "-lm"])
         _install(folder, path, built)
-    return path, True
 
 
 def folder_refusal(create: bool = False) -> str | None:
@@ -549,7 +585,7 @@ def compile_pending(key: str, pending: Path) -> None:
         f = ca.Function.load(str(pending / NLP_FILE))
         x, p = f.mx_in()
         obj, g = f.call([x, p], True, False)
-        library({"x": x, "p": p, "f": obj, "g": g}, key=key)
+        library({"x": x, "p": p, "f": obj, "g": g}, key=key, claimed=True)
     except (CompileError, RuntimeError, OSError, MemoryError) as e:
         (pending.parent / FAILED_NAME.format(key)).write_text(str(e)[:2000])
     finally:
