@@ -30,6 +30,7 @@ from .verify.model import solved_poses, torque_function, torque_jacobian_functio
 from .verify.reachable import unreachable
 from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
+from .solve import compiled
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
 from .solve.transcription import Transcription
 from .optimize import completed, optimize, start_design, warm_optimize
@@ -157,6 +158,23 @@ def design(spec, *, start=None, **options) -> Result:
     problem = load_problem(spec, **options)
     refuse_unreachable(problem)
     return optimize(problem, start=None if start is None else load_design(start, problem))
+
+
+def compile_ahead(spec, *, variant: str | None = None) -> int | None:
+    """Compile now, into the cache of compiled libraries (:mod:`cadcam.solve.compiled`), what
+    the first design of ``spec`` on the default path (``solver.functions = "auto"``) would
+    compile in the background while it solves with expanded functions, so that it loads them
+    instead: ``spec`` is designed once with compiled functions, which compiles every library
+    its design loads (the NLP's, the NLP's with the outline rows where the design imposes them)
+    that the cache does not hold. Returns how many libraries were compiled, or None where a
+    design of ``spec`` loads none (its functions expanded or mapped, a method of its own
+    designs it, or no C compiler)."""
+    problem = load_problem(spec, variant=variant)
+    if problem.options.method != "nlp" or problem.options.functions != "auto" or not compiled.available():
+        return None
+    before = set(compiled.cached_libraries())
+    optimize(problem.with_options(functions="compiled"))
+    return len(set(compiled.cached_libraries()) - before)
 
 
 def refuse_unreachable(problem: Problem) -> None:

@@ -10,6 +10,7 @@ import argparse
 import importlib
 import json
 import os
+import subprocess
 import sys
 import threading
 import time
@@ -494,6 +495,8 @@ def cmd_cache(args) -> int:
         _say(f"{folder}: not used: {refused} (solver.functions = 'auto' and 'compiled' solve with expanded "
               f"functions; {MAKE_PRIVATE})")
         return 0
+    if args.build is not None:
+        return _compile_ahead(args.build)
     if args.clear:
         n, size, left = clear_cache()
         _say(f"removed {libraries(n)} ({size / 1e6:.1f} MB) from {folder}"
@@ -506,6 +509,50 @@ def cmd_cache(args) -> int:
          "(solver.functions = 'auto' or 'compiled'; 'cadcam cache --clear' removes them, CADCAM_CACHE_DIR moves "
          "the folder)" + (f"; never loaded: {_named(others)}" if others else ""))
     return 0
+
+
+def _compile_ahead(specs: list[str]) -> int:
+    """``cadcam cache --build``: compile what the first design of each of ``specs`` (spec files
+    or example names; default every example spec) loads (:func:`cadcam.api.compile_ahead`),
+    one line each."""
+    import time
+
+    from . import examples
+    from .api import compile_ahead
+
+    for spec in specs or examples.names():
+        start = time.perf_counter()
+        compiled_now = compile_ahead(spec if Path(spec).is_file() else examples.path(spec))
+        if compiled_now is None:
+            _say(f"{spec}: its design loads no compiled library")
+        elif compiled_now:
+            _say(f"{spec}: {compiled_now} librar{'y' if compiled_now == 1 else 'ies'} compiled "
+                 f"({time.perf_counter() - start:.1f} s)")
+        else:
+            _say(f"{spec}: in the cache already")
+    return 0
+
+
+def compile_templates_in_background(specs: list[str]) -> subprocess.Popen | None:
+    """Start ``cadcam cache --build`` of ``specs`` (example names) in a detached process, as
+    ``cadcam app`` does at start-up for the page's templates, so that a template's first design
+    loads its libraries instead of solving with expanded functions while they compile; not
+    where :data:`cadcam.solve.compiled.BACKGROUND_ENV` is ``0`` or no process can be started."""
+    import shutil
+
+    from .solve.compiled import BACKGROUND_ENV, BACKGROUND_NICENESS
+
+    if os.environ.get(BACKGROUND_ENV, "1") == "0":
+        return None
+    # at low priority where the system's nice is there: the page's own designs go first
+    nice = ["nice", "-n", str(BACKGROUND_NICENESS)] if shutil.which("nice") else []
+    try:
+        # -P: python -m would put the working folder first on sys.path (cadcam.library_files)
+        return subprocess.Popen([*nice, sys.executable, "-P", "-m", "cadcam", "cache", "--build", *specs],
+                                start_new_session=True, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+    except OSError:  # the page works without it: its designs compile in the background themselves
+        return None
 
 
 #: How many files a listing names before it only counts the rest.
@@ -528,6 +575,10 @@ def cmd_app(args) -> int:
     spec = _spec_path(args) if args.spec or args.example else None
     if spec is not None:
         page.DesignState(Path(spec))  # a spec that cannot be read fails here, as one line
+    from .app.state import TEMPLATES
+
+    # a template with a variant is left to its first design: the base spec's libraries are not its own
+    compile_templates_in_background([t.spec for t in TEMPLATES if t.variant is None])
     page.serve(spec, port=args.port, address=args.address, show=args.show)
     return 0
 
@@ -683,8 +734,14 @@ def _parser() -> _Parser:
     p.add_argument("--no-browser", dest="show", action="store_false", help="do not open a browser tab")
     p.set_defaults(run=cmd_app)
     p = sub.add_parser("cache", help="the compiled NLP libraries cached on disk: where, how many, how large")
-    p.add_argument("--clear", action="store_true",
-                   help="remove those its records say cadcam compiled (each is compiled again when next needed)")
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--clear", action="store_true",
+                      help="remove those its records say cadcam compiled (each is compiled again when next needed)")
+    what.add_argument("--build", nargs="*", metavar="SPEC",
+                      help="compile ahead the libraries the first design of each SPEC (a spec file or an "
+                           "example's name; default: every example) loads, so that it loads them instead of "
+                           "solving with expanded functions while they compile (minutes; `cadcam app` does it "
+                           "for its templates in the background as it starts)")
     p.set_defaults(run=cmd_cache)
     return parser
 
