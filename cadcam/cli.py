@@ -220,9 +220,12 @@ def _not_written(result, why: str) -> int:
 
 
 #: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), and the
-#: figures' and drawing sheets' (matplotlib), which ``--no-figures`` does not write.
+#: figures' and drawing sheets' (matplotlib, with the backends that draw the PNGs and the PDF
+#: and the font subsetting the PDF embeds, which each drawing process would otherwise import
+#: itself: 0.1 s of the PDF's), which ``--no-figures`` does not write.
 WORKSHOP_WRITERS = ("cadcam.make.workshop",)
-FIGURE_WRITERS = ("cadcam.outputs.plots", "cadcam.make.drawing")
+FIGURE_WRITERS = ("cadcam.outputs.plots", "cadcam.make.drawing", "matplotlib.backends.backend_agg",
+                  "matplotlib.backends.backend_pdf", "fontTools.subset")
 
 
 def _import_in_background(*modules: str) -> threading.Thread:
