@@ -108,8 +108,10 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     write_json(out / "result.json", {**result.to_dict(), **({"workshop": workshop} if workshop else {})})
     write_torque_csv(out / "torque.csv", ev)
     write_torque_csv(out / "torque_recheck.csv", result.recheck)
-    rows = [[float(i + 1), p, r, r * np.cos(p), r * np.sin(p), c] for i, cs in enumerate(ev.profiles)
-            for p, r, c in zip(cs.phi, cs.rho, cs.convexity)]
+    # one table of floats (write_csv's fast path: the same text as cell by cell, the cam 1.0, …)
+    rows = np.vstack([np.column_stack([np.full(cs.phi.size, i + 1.0), cs.phi, cs.rho, cs.rho * np.cos(cs.phi),
+                                       cs.rho * np.sin(cs.phi), cs.convexity]) for i, cs in enumerate(ev.profiles)]
+                     or [np.zeros((0, 6))])
     write_csv(out / "profile.csv", ["cam", "phi_rad", "rho_m", "x_m", "y_m", "convexity_m2"], rows)
     if result.builds is not None and result.builds.chosen:
         write_csv(out / ADJUSTMENT_FILE, *table_rows(result.builds))
