@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from ..keys import PART_SIZE, Key, KeyTable
+from ..physics.mapped import mapped
 from ..physics.profile import BASES, Basis, profile_function
 from ..physics.wrap import arc_length_density, length_function, wound_length
 
@@ -950,7 +951,7 @@ class DepartureSolver:
     def guess(self, theta, c, q) -> np.ndarray:
         """Initial z (rows: unknowns) at each θ in ``theta``."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        return np.asarray(self._guess.map(theta.size)(theta, c, q)).reshape(-1, theta.size)
+        return np.asarray(mapped(self._guess, theta.size)(theta, c, q)).reshape(-1, theta.size)
 
     def solve(self, theta, c, q, start=None, tol: float = 1e-9):
         """z (rows: unknowns) and the max |residual| at each θ; ``start`` overrides the guess.
@@ -1009,8 +1010,8 @@ class DepartureSolver:
         iteration) from ``z0``."""
         n = theta.size
         p = np.vstack([theta, np.tile(c[:, None], (1, n)), np.tile(q[:, None], (1, n))])
-        z = np.asarray((rootfinder or self._rf).map(n)(z0, p)).reshape(-1, n)
-        R = np.asarray(self.residual.map(n)(theta, z, c, q)[0]).reshape(-1, n)
+        z = np.asarray(mapped(rootfinder or self._rf, n)(z0, p)).reshape(-1, n)
+        R = np.asarray(mapped(self.residual, n)(theta, z, c, q)[0]).reshape(-1, n)
         return z, np.abs(R).max(axis=0)
 
 

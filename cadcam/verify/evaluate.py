@@ -31,6 +31,7 @@ import numpy as np
 
 from ..designs import Design
 from ..mechanisms.base import departure_solver, margin_function, pose_function, room_function, split_coefficients
+from ..physics.mapped import mapped
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import whole_wrap_order, wound_length
@@ -563,8 +564,8 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     """Dense samples of ρ and the convexity margin on [0, phi_hi], with refined minima."""
     prof = profile_function(basis)
     phi = np.linspace(0.0, phi_hi, n)
-    rho, drho, _, conv = (np.asarray(v).ravel() for v in prof.map(n)(phi, c))
-    local = prof.map(REFINE_POINTS)
+    rho, drho, _, conv = (np.asarray(v).ravel() for v in mapped(prof, n)(phi, c))
+    local = mapped(prof, REFINE_POINTS)
     conv_min = _refine_min(local, c, phi, conv, 3)
     rho_lo = _refine_min(local, c, phi, rho, 0)
     rho_hi = -_refine_min(local, c, phi, -rho, 0, sign=-1.0)
@@ -615,9 +616,9 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     z, residual = departure_solver(structure).solve(th, c, q, start)
     n = theta.size
     order = whole_wrap_order(design.bases) if order is None else order
-    pose = pose_function(structure, problem.torque_model, order, integrals).map(n)
+    pose = mapped(pose_function(structure, problem.torque_model, order, integrals), n)
     d, arm, _, branch = (np.asarray(v) for v in pose(theta, z[:, 1:], z[:, 0], c, q))
-    margins = np.asarray(margin_function(structure).map(n)(theta, z[:, 1:], c, q, arm))
+    margins = np.asarray(mapped(margin_function(structure), n)(theta, z[:, 1:], c, q, arm))
     pieces = split_coefficients(bases, c)
     rooms, wound = _mounted_rooms(structure, th, z, c, q)
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
@@ -641,7 +642,7 @@ def _mounted_rooms(structure, th: np.ndarray, z: np.ndarray, c: np.ndarray, q: n
     if not cls.mounted_ports:
         return {}, np.zeros(0)
     at = np.r_[th[1:], th[0]], np.c_[z[:, 1:], z[:, :1]]
-    rooms = {port: np.asarray(room_function(structure, port).map(th.size)(*at, c, q)).ravel()
+    rooms = {port: np.asarray(mapped(room_function(structure, port), th.size)(*at, c, q)).ravel()
              for port in cls.mounted_ports}
     wound = [float(wound_length(b, z[k, 0], ck)) for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c)))]
     return rooms, np.array(wound)
