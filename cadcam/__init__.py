@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 
 #: The public names, by the module that defines them.
 _PUBLIC = {
-    "api": ("DerivativeCheck", "Session", "check_derivatives", "design", "evaluate", "load_design",
-            "load_problem", "read_study"),
+    "api": ("DerivativeCheck", "Session", "check_derivatives", "compile_ahead", "design", "evaluate",
+            "load_design", "load_problem", "read_study"),
     "designs": ("Design", "DesignError"),
     "optimize": ("optimize",),
     "problem": ("Joint", "Options", "Problem"),
@@ -38,7 +38,7 @@ __all__ = sorted(_MODULE_OF)  # noqa: PLE0605 (built from _PUBLIC, where the nam
 
 if TYPE_CHECKING:  # the names as type checkers see them (``X as X``: re-exported)
     from .api import DerivativeCheck as DerivativeCheck, Session as Session
-    from .api import check_derivatives as check_derivatives
+    from .api import check_derivatives as check_derivatives, compile_ahead as compile_ahead
     from .api import design as design, evaluate as evaluate, load_design as load_design
     from .api import load_problem as load_problem, read_study as read_study
     from .designs import Design as Design, DesignError as DesignError
