@@ -516,14 +516,14 @@ def cmd_cache(args) -> int:
 
 def _compile_ahead(specs: list[str]) -> int:
     """``cadcam cache --build``: compile what the first design of each of ``specs`` (spec files
-    or example names; default every example spec) loads (:func:`cadcam.api.compile_ahead`),
-    one line each."""
+    or example names; default the design page's templates) loads
+    (:func:`cadcam.api.compile_ahead`), one line each."""
     import time
 
     from . import examples
     from .api import compile_ahead
 
-    for spec in specs or examples.names():
+    for spec in specs or _template_specs():
         start = time.perf_counter()
         compiled_now = compile_ahead(spec if Path(spec).is_file() else examples.path(spec))
         if compiled_now is None:
@@ -534,6 +534,14 @@ def _compile_ahead(specs: list[str]) -> int:
         else:
             _say(f"{spec}: in the cache already")
     return 0
+
+
+def _template_specs() -> list[str]:
+    """The design page's templates (example names) whose first design compiles libraries: a
+    template with a variant is left out, the base spec's libraries not being its own."""
+    from .app.state import TEMPLATES
+
+    return [t.spec for t in TEMPLATES if t.variant is None]
 
 
 def compile_templates_in_background(specs: list[str]) -> subprocess.Popen | None:
@@ -578,10 +586,7 @@ def cmd_app(args) -> int:
     spec = _spec_path(args) if args.spec or args.example else None
     if spec is not None:
         page.DesignState(Path(spec))  # a spec that cannot be read fails here, as one line
-    from .app.state import TEMPLATES
-
-    # a template with a variant is left to its first design: the base spec's libraries are not its own
-    compile_templates_in_background([t.spec for t in TEMPLATES if t.variant is None])
+    compile_templates_in_background(_template_specs())
     page.serve(spec, port=args.port, address=args.address, show=args.show)
     return 0
 
@@ -742,9 +747,9 @@ def _parser() -> _Parser:
                       help="remove those its records say cadcam compiled (each is compiled again when next needed)")
     what.add_argument("--build", nargs="*", metavar="SPEC",
                       help="compile ahead the libraries the first design of each SPEC (a spec file or an "
-                           "example's name; default: every example) loads, so that it loads them instead of "
-                           "solving with expanded functions while they compile (minutes; `cadcam app` does it "
-                           "for its templates in the background as it starts)")
+                           "example's name; default: the design page's templates) loads, so that it loads them "
+                           "instead of solving with expanded functions while they compile (minutes; `cadcam app` "
+                           "does it for its templates in the background as it starts)")
     p.set_defaults(run=cmd_cache)
     return parser
 

@@ -43,6 +43,17 @@ def test_the_command_says_what_it_compiled_for_each_spec(tmp_path, capsys):
     assert capsys.readouterr().out.strip() == f"{spec}: its design loads no compiled library"
 
 
+def test_by_default_the_command_compiles_the_design_pages_templates(monkeypatch, capsys):
+    from cadcam import api
+    from cadcam.app.state import TEMPLATES
+
+    asked = []
+    monkeypatch.setattr(api, "compile_ahead", lambda path: asked.append(path.stem) or 0)
+    assert main(["cache", "--build"]) == 0
+    assert asked == [t.spec for t in TEMPLATES if t.variant is None]
+    assert capsys.readouterr().out.splitlines() == [f"{name}: in the cache already" for name in asked]
+
+
 def test_building_and_clearing_are_not_asked_at_once(capsys):
     assert main(["cache", "--build", "--clear"]) == 2
     assert "--clear: not allowed with argument --build" in capsys.readouterr().err
