@@ -474,11 +474,11 @@ class Transcription:
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
-        wlo, whi = self.whole_bounds(problem)
         runs = []
 
         def impose(x0, m: Multipliers):
             """The solve with the deferred rows, from ``x0`` and ``m`` (of every row)."""
+            wlo, whi = self.whole_bounds(problem)
             sol = self._imposing_solver()(x0=x0, lam_x0=m.lam_x, lam_g0=m.lam_g, p=pv,
                                           lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
             runs.append(self._imposing.stats())
@@ -493,7 +493,7 @@ class Transcription:
                              **({} if warm is None else {"lam_x0": warm.lam_x, "lam_g0": warm.lam_g}))
                 runs.append(solver.stats())
                 if self._breaks_deferred(problem, sol["x"], pv):
-                    lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(wlo.size - lbg.size)]
+                    lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(self._deferred.numel_out(0))]
                     sol = impose(sol["x"], Multipliers(sol["lam_x"], lam_g0, True))
         elapsed = time.perf_counter() - t0
         w, ret = np.asarray(sol["x"]).ravel(), runs[-1].get("return_status", "unknown")
