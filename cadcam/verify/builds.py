@@ -51,6 +51,7 @@ import numpy as np
 
 from ..designs import Design
 from ..problem import DISTRIBUTIONS, Problem
+from ..variation import Setting, draws, joint_scale, settings
 from .evaluate import Evaluation, evaluate
 from .tolerance import Sensitivity, sensitivity
 
@@ -81,52 +82,6 @@ PAYLOAD_TOL = 1e-6
 PERCENTILES = (50, 95)
 
 
-# -- the adjustment's settings ------------------------------------------------------------------
-@dataclass(frozen=True)
-class Setting:
-    """One thing the builder sets: a parameter of p (:func:`cadcam.verify.model.parameter_model`)
-    and its range.
-
-    Attributes
-    ----------
-    kind : str
-        ``screw`` (a spring's tensioning screw) or ``slot`` (a mechanism's).
-    number : int
-        Its spring's or mechanism's number (1-based).
-    index : int
-        Its parameter's index in p.
-    per_metre : float
-        The parameter's change per metre of the setting's travel [SI/m]: 1 for a length, 1/arm
-        for an angle.
-    travel : float
-        ± its range [m].
-    what : str
-        What it moves, and which way is +.
-    """
-
-    kind: str
-    number: int
-    index: int
-    per_metre: float
-    travel: float
-    what: str
-
-    @property
-    def name(self) -> str:
-        """``screw 1``, ``slot 2``."""
-        return f"{self.kind} {self.number}"
-
-    @property
-    def screw(self) -> bool:
-        """Whether it is a tensioning screw (else a slot)."""
-        return self.kind == "screw"
-
-    @property
-    def bound(self) -> float:
-        """± its range in its parameter's units."""
-        return self.travel * self.per_metre
-
-
 def adjusts(problem: Problem) -> bool:
     """Whether ``problem``'s builds are adjusted: springs, builds to simulate and an
     ``[adjustment]`` with a travel (what writes the adjustment table)."""
@@ -135,32 +90,10 @@ def adjusts(problem: Problem) -> bool:
         adjust["preload_travel"] > 0 or (bool(adjust["slot"]) and adjust["slot_travel"] > 0))
 
 
-def settings(problem: Problem, layout) -> list[Setting]:
-    """The ``[adjustment]`` of ``problem`` as settings (``layout``: the band's
-    :class:`cadcam.verify.tolerance._Layout`): a screw per spring, a slot per mechanism that
-    places the ``slot`` parameter; none where their travel is 0."""
-    adjust, out = problem.adjustment, []
-    if adjust["preload_travel"] > 0:
-        out += [Setting("screw", j + 1, int(layout.start["x0"]) + j, 1.0, adjust["preload_travel"],
-                        f"{spring.name}'s pre-extension, its extension at the reference angle (+: longer)")
-                for j, spring in enumerate(problem.springs)]
-    first = int(layout.start["q"])
-    for u, mech in enumerate(problem.mechanisms):
-        names = list(mech.parameter_names)
-        if adjust["slot"] in names and adjust["slot_travel"] > 0:
-            at = names.index(adjust["slot"])
-            quantity = mech.parameters[at]
-            out.append(Setting("slot", u + 1, first + at, float(mech.placement_steps(1.0)[at]),
-                               adjust["slot_travel"], f"{mech.name}'s {quantity.name}, {quantity.description} "
-                               f"(+: larger)"))
-        first += len(names)
-    return out
-
-
 # -- builds evaluated exactly -------------------------------------------------------------------
 def built(problem: Problem, design: Design, layout, step: np.ndarray) -> tuple[Problem, Design]:
     """The problem and design of a build whose parameters p (``layout``:
-    :class:`cadcam.verify.tolerance._Layout`) are the design's moved by ``step`` (P): springs'
+    :class:`cadcam.variation.Layout`) are the design's moved by ``step`` (P): springs'
     rates and preloads, pre-extensions, placed parameters and profile coefficients — what
     :func:`cadcam.verify.evaluate.evaluate` evaluates exactly.
 
@@ -270,9 +203,7 @@ def mixed_function(model: ca.Function) -> ca.Function:
 def joint_scales(ev: Evaluation) -> np.ndarray:
     """Each joint's scale [N·m]: the target's peak |τ_d| over the grid, or the joint's torque
     floor where that is larger (a vanishing target); NaN for a joint without a torque goal."""
-    problem = ev.problem
-    return np.array([max(float(np.abs(ev.tau_d[i]).max()), problem.torque_floor(i))
-                     if joint.target.kind != "none" else np.nan for i, joint in enumerate(problem.joints)])
+    return np.array([joint_scale(ev.problem, i, ev.tau_d[i]) for i in range(len(ev.problem.joints))])
 
 
 def build_model(ev: Evaluation, sens: Sensitivity, mixed: ca.Function, slots: list[Setting]) -> tuple[BuildModel, list]:
@@ -325,20 +256,6 @@ def slot_curvature(ev: Evaluation, layout, slot: Setting, slope: np.ndarray, poi
 def _limit(violation: str) -> str:
     """A violation's sentence without its margin: the limit it names."""
     return violation.split(" (margin")[0]
-
-
-# -- the draws --------------------------------------------------------------------------------
-def draws(seed: int, count: int, columns: int, distribution: str) -> np.ndarray:
-    """``count`` builds' draws (columns × count), each in [−1, 1], a share of its step:
-    :data:`cadcam.problem.DISTRIBUTIONS`'s ``uniform``, or ``normal`` with σ = 1/3 cut at ±1
-    (drawn by the inverse of its distribution function over the kept share)."""
-    rng = np.random.default_rng(seed)
-    if distribution == "uniform":
-        return rng.uniform(-1.0, 1.0, (columns, count))
-    from scipy.special import ndtr, ndtri
-
-    cut = ndtr(-3.0)
-    return ndtri(rng.uniform(cut, 1.0 - cut, (columns, count))) / 3.0
 
 
 # -- settings per build -------------------------------------------------------------------------

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from ..designs import Design
-from ..problem import TOLERANCES, Problem
+from ..problem import TOLERANCES
+from ..variation import Layout, directions
 from .model import parameter_model
 
 
@@ -76,20 +76,20 @@ class Sensitivity:
     ----------
     model : casadi.Function
         The torque model with its derivatives (:func:`cadcam.verify.model.parameter_model`).
-    layout : _Layout
+    layout : Layout
         Where each parameter sits in p = [c; k; x0; F0; q], and the design's values p₀.
     z : ndarray
         The solved unknowns at every grid point (:func:`_unknowns`).
     jacobian : ndarray
         dτ/dp (m, N, P) [N·m per unit of p], the poses re-solved (implicit function theorem).
     directions : dict
-        For each tolerance, its parameter steps (P × steps), each its Δp (:func:`_directions`).
+        For each tolerance, its parameter steps (P × steps), each its Δp (:func:`cadcam.variation.directions`).
     labels : dict
         For each tolerance, each step's part in words (``spring 1's rate``).
     """
 
     model: Any
-    layout: "_Layout"
+    layout: Layout
     z: np.ndarray
     jacobian: np.ndarray
     directions: dict
@@ -102,13 +102,13 @@ def sensitivity(evaluation, model=None) -> Sensitivity:
     :func:`cadcam.verify.model.parameter_model`, built here if not given (it depends on the
     problem's structure only, not on its targets or parameter values)."""
     problem, design, theta = evaluation.problem, evaluation.design, evaluation.theta
-    layout = _Layout(problem, design)
+    layout = Layout(problem, design)
     model = parameter_model(problem, design.bases) if model is None else model
     z = _unknowns(evaluation)
     N = theta.shape[1]
     # the N blocks (m × P) side by side → (m, N, P)
     J = np.stack(np.hsplit(np.asarray(model.map(N)(theta, *layout.split(layout.nominal), z)[3]), N), axis=1)
-    return Sensitivity(model, layout, z, J, *_directions(problem, design, layout))
+    return Sensitivity(model, layout, z, J, *directions(problem, design.bases, layout))
 
 
 def tolerance_band(evaluation) -> Band:
@@ -124,32 +124,6 @@ def tolerance_band(evaluation) -> Band:
     return Band(problem.tolerance, half, parts, corners, sens)
 
 
-class _Layout:
-    """Where c, k, x₀, F0 and q sit in the parameter vector P of
-    :func:`cadcam.verify.model.parameter_model`, and the design's values P₀."""
-
-    def __init__(self, problem: Problem, design: Design):
-        S = len(problem.springs)
-        sizes = [sum(b.size for b in design.bases), S, S, S,
-                 sum(len(mech.parameters) for mech in problem.mechanisms)]
-        self.start = dict(zip(("c", "k", "x0", "F0", "q"), np.cumsum([0, *sizes[:-1]])))
-        self.size = int(sum(sizes))
-        springs = problem.spring_parameters()
-        self.nominal = np.concatenate([np.concatenate(design.coefficients), springs.rate, design.preextension,
-                                       springs.preload,
-                                       [v for mech in problem.mechanisms for v in mech.parameter_values()]])
-
-    def split(self, values: np.ndarray) -> list[np.ndarray]:
-        """``values`` (P) cut into the model's inputs c, k, x₀, F0, q."""
-        return np.split(values, list(self.start.values())[1:])
-
-    def step(self, index: int, value: float) -> np.ndarray:
-        """A step of ``value`` in parameter ``index`` alone."""
-        out = np.zeros(self.size)
-        out[index] = value
-        return out
-
-
 def _unknowns(evaluation) -> np.ndarray:
     """The solved unknowns at every grid point (rows: each mechanism's z at θ, then at its
     reference angle, as :func:`cadcam.verify.model.parameter_model` stacks them)."""
@@ -158,36 +132,6 @@ def _unknowns(evaluation) -> np.ndarray:
         at = np.searchsorted(unit.theta, evaluation.theta[mech.joint])  # the joint's grid index
         rows += [unit.z[:, at], np.repeat(np.reshape(unit.z_ref, (-1, 1)), at.size, axis=1)]
     return np.vstack(rows)
-
-
-def _directions(problem: Problem, design: Design, layout: _Layout) -> tuple[dict, dict]:
-    """For each tolerance, the parameter steps it allows (P × steps): one column per spring,
-    placed parameter or profile, each its Δp; and each column's part in words."""
-    tol = problem.tolerance
-    cols: dict[str, list] = {key: [] for key in TOLERANCES}
-    labels: dict[str, list] = {key: [] for key in TOLERANCES}
-
-    def add(key: str, label: str, column: np.ndarray) -> None:
-        cols[key].append(column)
-        labels[key].append(label)
-    for j, spring in enumerate(problem.springs):
-        add("rate", f"{spring.name}'s rate", layout.step(layout.start["k"] + j, tol["rate"] * spring.rate))
-        add("preload", f"{spring.name}'s preload", layout.step(layout.start["F0"] + j, tol["preload"] * spring.preload))
-        add("placement", f"{spring.name}'s pre-extension", layout.step(layout.start["x0"] + j, tol["placement"]))
-    first = layout.start["q"]
-    for mech in problem.mechanisms:
-        steps = mech.placement_steps(tol["placement"])
-        for index, (quantity, step) in enumerate(zip(mech.parameters, steps)):
-            if quantity.placed:
-                add("placement", f"{mech.name}'s {quantity.name}", layout.step(first + index, step))
-        first += len(mech.parameters)
-    start = layout.start["c"]
-    for k, basis in enumerate(design.bases):  # a uniform offset of ρ, in the profile's basis
-        offset = np.zeros(layout.size)
-        offset[start:start + basis.size] = basis.offset(tol["profile"])
-        add("profile", f"cam {k + 1}'s offset", offset)
-        start += basis.size
-    return ({key: np.stack(c, axis=1) if c else np.zeros((layout.size, 0)) for key, c in cols.items()}, labels)
 
 
 #: Newton steps that re-solve the poses at the worst corner from the nominal ones.

@@ -10,7 +10,8 @@ import cadcam
 from cadcam.designs import Design
 from cadcam.spec import SpecError, parse_spec, read_spec_data
 from cadcam.verify.evaluate import evaluate
-from cadcam.verify.tolerance import _Layout, _unknowns, tolerance_band
+from cadcam.variation import Layout
+from cadcam.verify.tolerance import _unknowns, tolerance_band
 from cadcam.verify.model import parameter_model
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -27,7 +28,7 @@ def pair():
 
 def test_the_bands_model_gives_the_evaluations_torque_at_its_poses(pair):
     ev = pair.evaluation
-    layout = _Layout(ev.problem, ev.design)
+    layout = Layout(ev.problem, ev.design)
     model = parameter_model(ev.problem, ev.design.bases).map(ev.theta.shape[1])
     tau, residual, _, _ = model(ev.theta, *layout.split(layout.nominal), _unknowns(ev))
     np.testing.assert_allclose(np.asarray(tau), ev.tau, rtol=1e-9, atol=1e-12)
