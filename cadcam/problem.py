@@ -21,8 +21,9 @@ from .physics.springs import Network, Spring, SpringParameters
 from .targets import Target
 
 
-#: Tracking objectives of the NLP (:attr:`Options.objective`).
-OBJECTIVES = ("least_squares", "minimax")
+#: Tracking objectives of the NLP (:attr:`Options.objective`): the design's own error (nominal),
+#: or its builds' after adjusting (``robust``, :mod:`cadcam.solve.robust`).
+OBJECTIVES = ("least_squares", "minimax", "robust")
 #: How IPOPT's functions are evaluated (:attr:`Options.functions`).
 FUNCTIONS = ("auto", "expanded", "mapped", "compiled")
 #: Loosest IPOPT tolerance ``[solver] tol`` may set.
@@ -152,7 +153,13 @@ SOLVER = {k.name: k for k in (
     Key("objective", "", "the tracking objective", "choice", "least_squares", choices=OBJECTIVES,
         details="``least_squares``: the tracking term is ∫(τ − τ_d)² (Johnston2023 Eq. 46/47); ``minimax``: the "
         "largest |τ − τ_d| over the grid, by an epigraph variable per joint (for problems whose joint torques and "
-        "targets each depend on their own joint's angle)"),
+        "targets each depend on their own joint's angle); ``robust``: the builds' error after adjusting, not the "
+        "design's — the mean of the worst ``[builds] tail`` of ``[builds] scenarios`` builds and the design itself "
+        "(each build's parts drawn within its [tolerances] and set by its own [adjustment] settings, variables of the "
+        "NLP) of each one's largest |τ − τ_d| as a share of its joint's peak target, with the adjustment's ranges as "
+        "limits, solved from the least-squares optimum (for problems with springs whose joint torques and targets "
+        "each depend on their own joint's angle, on mechanisms without a constant cable length; :mod:"
+        "`cadcam.solve.robust`)"),
     Key("ipopt", "", "further IPOPT options (name without the ``ipopt.`` prefix = value), each one of "
         ":data:`IPOPT_OPTIONS`, e.g. a warm start (``mu_init``, ``bound_push``, ``warm_start_init_point``) from a "
         "start that is already close to the optimum", "table", (), check=lambda v: all(
@@ -450,6 +457,9 @@ DISTRIBUTIONS = {
 }
 #: Most builds ``[builds] count`` may ask for.
 MAX_BUILDS = 1_000_000
+#: Most scenarios ``[builds] scenarios`` may ask for: each adds its settings and its torque at
+#: every grid angle to the robust objective's NLP.
+MAX_SCENARIOS = 256
 
 #: The ``[builds]`` keys: the Monte Carlo of built devices (:mod:`cadcam.verify.builds`).
 BUILD_KEYS = KeyTable("[builds]", "Builds, not corners: every design with springs simulates this many devices, each "
@@ -462,6 +472,13 @@ BUILD_KEYS = KeyTable("[builds]", "Builds, not corners: every design with spring
     Key("distribution", "", "how each part's deviation is drawn within its ± tolerance", "choice",
         choices=tuple(DISTRIBUTIONS), default="uniform",
         details="; ".join(f"{name}: {words}" for name, words in DISTRIBUTIONS.items())),
+    Key("scenarios", "", "the builds the robust objective (solver.objective = 'robust') designs for, drawn like the "
+        "simulated ones from a stream of their own (seeded by seed), each with its own adjustment settings in the "
+        "NLP", "integer", low=1, high=MAX_SCENARIOS, default=32),
+    Key("tail", "", "the share of the scenarios and the design itself, the worst, whose mean largest error after "
+        "adjusting the robust objective minimises (their conditional value at risk: a smooth stand-in for a high "
+        "percentile)", low=0, high=1, open_low=True, default=0.1, plausible=SHARE,
+        details="at most 1/(scenarios + 1): the worst alone"),
 ))
 
 #: The ``[adjustment]`` keys: what the builder sets after the build (:mod:`cadcam.verify.builds`).

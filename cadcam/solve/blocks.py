@@ -107,6 +107,21 @@ X_BLOCKS = {
                 "joint) (in its squared error)", "auxiliary"),
     "ee": Block(f"{MM}²·rad", "∫ of the product of the shares ({1}, {2}) and ({3}, {4}) (spring, joint) "
                 "(in joint {0}'s squared error)", "auxiliary"),
+    "rd": Block(MM, "joint {0}'s port displacements at its grid angles (ports × angles, column-major), for the "
+                "robust objective's scenarios", "scenario"),
+    "rarm": Block(MM, "joint {0}'s port moment arms at its grid angles (ports × angles, column-major)", "scenario"),
+    "rdd": Block("1", "change of joint {0}'s port displacements per millimetre of the tolerance column {1} "
+                 "{2} (bq: a placed number of mechanism {2}, bf: an offset of profile {2}) (ports × angles, "
+                 "column-major)", "scenario"),
+    "rdarm": Block("1", "change of joint {0}'s port moment arms per millimetre of the tolerance column {1} {2}",
+                   "scenario"),
+    "ra": Block("1", "each scenario's adjustment settings (settings × scenarios, column-major), each a share of its "
+                "range", "scenario"),
+    "rmax": Block("%", "the design's largest |τ − τ_d| over its goal joints' grids, then each scenario's after its "
+                  "settings, a share of its joint's peak target (epigraph)", "scenario"),
+    "rvar": Block("%", "the level the worst tail share of the scenarios' largest errors exceeds (its value at "
+                  "risk, at the optimum)", "scenario"),
+    "rexc": Block("%", "each scenario's largest error above that level, or 0", "scenario"),
 }
 
 #: The parameter vector's families.
@@ -117,7 +132,7 @@ P_BLOCKS = {
     "rt": Block(lambda p: f"N·m·{_rad(p)}", "joint {0}'s target summed over the other joints' angles with "
                 "the quadrature weights, at each of its grid angles", "target"),
     "td2": Block(lambda p: f"N²·m²·{_rad(p)}", "∫τ_d² of joint {0} over the grid", "target"),
-    "td": Block("N·m", "joint {0}'s target at each of its grid angles (minimax)", "target"),
+    "td": Block("N·m", "joint {0}'s target at each of its grid angles (minimax, robust)", "target"),
     "Mt": Block(lambda p: f"N·m·{_rad(p)}", "joint {0}'s target summed over all but joints {0} and {1}, "
                 "with the quadrature weights (rows joint {0}'s angles, column-major)", "target"),
     "q": Block("SI", "mechanism {0}'s parameters", "mechanism"),
@@ -137,6 +152,12 @@ P_BLOCKS = {
                 "(0: not placed)", "tolerances"),
     "tol": Block("mm", "the placement and profile tolerances (a part's misplacement, a uniform offset of ρ)",
                  "tolerances"),
+    "rsteps": Block("SI", "each scenario's step of the design's parameters p = [c; k; x0; F0; q] (parameters × "
+                    "scenarios, column-major)", "tolerances"),
+    "rbound": Block("SI", "the range ± of each adjustment setting in its parameter's units", "tolerances"),
+    "rw": Block("1/(N·m)", "one over each joint's scale (its peak target; 0: no torque goal)", "weights"),
+    "rtail": Block("1", "one over the number of the robust objective's tail (the design and its scenarios)",
+                   "weights"),
     "obj_scale": Block(lambda p: "1/(N·m)" if _minimax(p) else f"1/(N²·m²·{_rad(p)})",
                        "scale of the torque objective (OBJECTIVE_SCALE over its value at zero torque)",
                        "weights"),

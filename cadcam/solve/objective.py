@@ -133,7 +133,7 @@ def _mean_extension(x0, e: dict, w: list, span: list, i: int, j: int):
 
 
 def _band_rows(rows: _Rows, p: _Vars, problem: Problem, banded: list, x0, e: dict, d: list, arm: list,
-               poses: list, w: list, span: list) -> tuple[list, list, list]:
+               poses: list, w: list, span: list, changes: dict) -> tuple[list, list, list]:
     """The tolerance band's split rows and objective terms of each joint in ``banded``: the
     band's first-order half-width w(θ) = Σ_p |∂τ/∂p| Δp (:mod:`cadcam.verify.tolerance`),
     integrated over the grid and weighed by the joint's ``band_weight``.
@@ -144,7 +144,9 @@ def _band_rows(rows: _Rows, p: _Vars, problem: Problem, banded: list, x0, e: dic
     there and leaves s⁺ and s⁻ to IPOPT's barrier, as :func:`_sensitivity_rows` found), and its
     rate part is Δk_j times Johnston2023's ∫|∂τ/∂k_j|. Given the pre-extensions ``x0``, the
     spring shares ``e``, the joints' port displacements ``d`` and moment arms ``arm``, the
-    mechanisms' ``poses`` (:class:`_Pose`), the trapezoidal weights ``w`` and their sums ``span``.
+    mechanisms' ``poses`` (:class:`_Pose`), the trapezoidal weights ``w`` and their sums ``span``;
+    each joint's port changes (:func:`port_changes`) are kept in ``changes`` (by joint), made
+    where they are not there yet.
 
     Returns
     -------
@@ -163,7 +165,9 @@ def _band_rows(rows: _Rows, p: _Vars, problem: Problem, banded: list, x0, e: dic
             continue  # no spring, no band
         parts = _band_spring_parts(p, net, i, x0, e, arm, w, span)
         if all(net.joints_of(j) == [i] for j in springs):
-            parts += _band_part_changes(rows, p, problem, net, i, x0, d[i], arm[i], poses)
+            if i not in changes:
+                changes[i] = port_changes(rows, p, problem, i, poses)
+            parts += _band_part_changes(p, problem, net, i, x0, d[i], arm[i], changes[i])
         total = 0
         for family, index, value in parts:
             n = value.shape[0]
@@ -190,25 +194,38 @@ def _band_spring_parts(p: _Vars, net, i: int, x0, e: dict, arm: list, w: list, s
             for j in range(net.S) if i in net.joints_of(j)]
 
 
-def _band_part_changes(rows: _Rows, p: _Vars, problem: Problem, net, i: int, x0, d_i: list, arm_i: list,
-                       poses: list) -> list:
-    """The band's parts of joint ``i`` (whose springs act on it alone) from each placed number
-    of its mechanisms and a uniform offset of each of their profiles (:func:`_band_columns`):
-    ∂τ_i/∂p Δp at its grid angles. Per millimetre of each, the poses' change at the grid
-    angles and at the reference angle and the change of the wrapped lengths at fixed ends are
-    lifted variables tied by linear rows (:func:`_pose_changes`); the ports' change follows
-    (:func:`cadcam.mechanisms.base.port_change_function`), and the torque's by
-    :meth:`cadcam.physics.springs.Network.torque_terms` differentiated.
+def _band_part_changes(p: _Vars, problem: Problem, net, i: int, x0, d_i: list, arm_i: list, columns: list) -> list:
+    """The band's parts of joint ``i`` (whose springs act on it alone) from each of its
+    ``columns`` (:func:`port_changes`): ∂τ_i/∂p Δp at its grid angles, the torque's change by
+    :meth:`cadcam.physics.springs.Network.torque_terms` differentiated along its ports' change."""
+    change = _torque_change_function(net, i).map(problem.options.grid)
+    return [(family, index, tol * change(ca.horzcat(*arm_i).T, ca.horzcat(*d_i).T, darm, dd, p["k"], p["F0"], x0).T)
+            for family, index, dd, darm, tol in columns]
+
+
+def port_changes(rows: _Rows, p: _Vars, problem: Problem, i: int, poses: list) -> list:
+    """The change per millimetre of each placed number of joint ``i``'s mechanisms and of a
+    uniform offset of each of their profiles (:func:`_band_columns`) of the joint's ports'
+    displacements and moment arms at its grid angles. Per millimetre of each, the poses'
+    change at the grid angles and at the reference angle and the change of the wrapped lengths
+    at fixed ends are lifted variables tied by linear rows (:func:`_pose_changes`); the ports'
+    change follows (:func:`cadcam.mechanisms.base.port_change_function`).
 
     A mechanism with closure rows (a cable of constant length, whose poses at every angle hang
     on the lengths wound from its anchors) is left out: there the change of every pose hangs on
     each profile's whole coefficient vector through those lengths, and the exact Hessian of its
-    rows grows too large to build."""
+    rows grows too large to build.
+
+    Returns
+    -------
+    list
+        Per column: (family, index, dd, darm, tolerance [mm]) with ``dd`` and ``darm`` [m/mm]
+        (the joint's ports × grid angles).
+    """
     n, order = problem.options.grid, friction_order(problem.options.quadrature_order)
-    change = _torque_change_function(net, i).map(n)
     own = [u for u, mech in enumerate(problem.mechanisms) if mech.joint == i]
     first_port = [int(a) for a in np.cumsum([0] + [len(problem.mechanisms[u].ports) for u in own])]
-    parts = []
+    columns = []
     for slot, u in enumerate(own):
         mech, pose, s = problem.mechanisms[u], poses[u], poses[u].s
         if mech.closure_rows:
@@ -222,9 +239,8 @@ def _band_part_changes(rows: _Rows, p: _Vars, problem: Problem, net, i: int, x0,
             dd_i, darm_i = ca.MX.zeros(first_port[-1], n), ca.MX.zeros(first_port[-1], n)
             own_ports = slice(first_port[slot], first_port[slot + 1])  # the others' do not change
             dd_i[own_ports, :], darm_i[own_ports, :] = dd, darm
-            per_mm = change(ca.horzcat(*arm_i).T, ca.horzcat(*d_i).T, darm_i, dd_i, p["k"], p["F0"], x0).T
-            parts.append((family, index, tol * per_mm))
-    return parts
+            columns.append((family, index, dd_i, darm_i, tol))
+    return columns
 
 
 def _band_columns(p: _Vars, problem: Problem, u: int) -> list:

@@ -163,16 +163,18 @@ def _first_segment_order(problem: Problem, mech: Mechanism) -> int:
 
 
 def _wrapped_length_rows(rows: _Rows, problem: Problem, mech: Mechanism, first_profile: int,
-                         s: _MechanismSymbols):
+                         s: _MechanismSymbols, family: str = "len", index: tuple = ()):
     """Each profile's wrapped length [m] at the grid angles (profiles × n) as lifted variables,
-    the running sum of Gauss–Legendre segment lengths (Johnston2023 Eq. 10, 14)."""
+    the running sum of Gauss–Legendre segment lengths (Johnston2023 Eq. 10, 14); the blocks of
+    ``family`` at the profile's number and ``index`` (an adjustment's end,
+    :mod:`cadcam.solve.robust`)."""
     n, L = problem.options.grid, LENGTH_SCALE
     first = _first_segment_order(problem, mech)
     # wrapped lengths are lifted to variables, tied segment by segment (Johnston2023
     # Eq. 10, 14), which keeps the Lagrangian Hessian banded instead of dense
     wrapped = []
     for k, (b, ck) in enumerate(zip(mech.bases, split_coefficients(mech.bases, s.c))):
-        lk = L * rows.v.add("len", n, first_profile + k)
+        lk = L * rows.v.add(family, n, first_profile + k, *index)
         seg = segment_lengths(b, problem.options.quadrature_order, first, s.ref[k], s.z[k, :].T, ck)
         rows.constrain((lk - ca.vertcat(0, lk[:n - 1]) - seg) / L, _equal)
         wrapped.append(lk.T)

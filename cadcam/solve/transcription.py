@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..designs import Design
-from . import compiled
+from . import compiled, robust
 from .blocks import BAND_SCALE, LENGTH_SCALE
 from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, RESOLVE_IPOPT, WARM_IPOPT,
                     Multipliers, Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
@@ -126,7 +126,10 @@ class Transcription:
                       for j, w in enumerate(c.sensitivity_weights)
                       if w > 0 and i in net.joints_of(j)]  # others have ∂τ_i/∂k_j ≡ 0
         self.banded = [i for i, c in enumerate(problem.joints) if c.band_weight > 0]
+        self.robust = robust.robust(problem)
         self.v, self.p = _Vars("w"), _parameter_blocks(problem)
+        if self.robust:
+            robust.parameter_blocks(self.p, problem)
         rows = _Rows(self.v)
 
         # -- per mechanism and per angle: O(n) --------------------------------------------------
@@ -147,10 +150,12 @@ class Transcription:
 
         # -- the objective: tracking, rate sensitivity, tolerance band, output laws --------------
         span = [ca.sum1(wc) for wc in w]
-        tracking = _tracking_terms(rows, self.p, problem, terms, e, w, span)
+        # the robust objective judges the builds, not the design: no tracking term of its own
+        tracking = [] if self.robust else _tracking_terms(rows, self.p, problem, terms, e, w, span)
         sens, sensitivity = _sensitivity_rows(rows, self.p, net, self.pairs, x0, e, arm, w, span)
+        changes = {}  # each joint's port changes per unit of each tolerance, made once for both
         self._band_splits, band, band_terms = _band_rows(rows, self.p, problem, self.banded, x0, e, d,
-                                                         arm, poses, w, span)
+                                                         arm, poses, w, span, changes)
         # summed one term at a time, in this order: the graph, and so the compiled library's
         # cache key and IPOPT's iterates, depend on it
         objective = 0
@@ -161,6 +166,11 @@ class Transcription:
         for term, weighted in _output_law_terms(rows, self.p, opt.objective == "minimax", outputs, w):
             objective += term
             scaled += weighted
+        errors = ca.MX(0, 1)
+        if self.robust:  # a share of the joints' scales: scaled as a minimax share is
+            errors, builds = robust.robust_rows(rows, self.p, problem, changes, poses, x0, e, d, arm, terms)
+            objective += robust.ROBUST_UNIT * builds
+            scaled += OBJECTIVE_SCALE * robust.ROBUST_UNIT * builds
 
         x, P = self.v.vector(), self.p.vector()
         self.objective = ca.Function("objective", [x, P], [objective])
@@ -168,6 +178,7 @@ class Transcription:
                            for name, expr in rows.lifted]
         self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
         self._band_fn = ca.Function("band", [x, P], [ca.vertcat(*band, ca.MX(0, 1))])
+        self._robust_fn = ca.Function("robust", [x, P], [errors])
         self._bounds, self._deferred_bounds = rows.bounds, rows.deferred_bounds
         self._deferred = ca.Function("deferred", [x, P], [ca.vertcat(*rows.deferred_g, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
@@ -207,11 +218,12 @@ class Transcription:
         ws = [trapezoid_weights(g) for g in grids]
         mesh = np.meshgrid(*grids, indexing="ij")
         theta = np.vstack([t.ravel() for t in mesh])
-        energy, minimax_scale = 0.0, 0.0
+        energy, minimax_scale, own = 0.0, 0.0, []
         for i, c in enumerate(problem.joints):
             td = np.asarray(c.target.function(m, i).map(self.N)(theta)).reshape((n,) * m)
-            if problem.options.objective == "minimax":
+            if problem.options.objective in ("minimax", "robust"):
                 minimax_scale += c.tracking_weight * self._own_target(vec, i, c, td)
+                own.append(self.p.part(vec, f"td{i}"))
             weighted = td
             for ax in range(m):
                 weighted = weighted * np.expand_dims(ws[ax], [a for a in range(m) if a != ax])
@@ -242,8 +254,10 @@ class Transcription:
                 p.put(vec, f"rc{pk}", problem.curvature_limit(pk) * (1 + problem.options.limit_margin))
         p.put(vec, "k", problem.spring_parameters().rate)
         p.put(vec, "F0", problem.spring_parameters().preload)
-        if self.banded:
+        if self.banded or self.robust:
             self._band_parameters(vec, problem)
+        if self.robust:
+            robust.put_parameters(self.p, vec, problem, own)
         scale = minimax_scale if problem.options.objective == "minimax" else energy
         p.put(vec, "obj_scale", OBJECTIVE_SCALE / scale if scale > 0 else 1.0)
         return vec
@@ -279,7 +293,7 @@ class Transcription:
         RMS [N·m], the minimax objective's scale."""
         own = np.moveaxis(td, i, 0).reshape(self.n, -1)
         if np.ptp(own, axis=1).max() > 1e-9 * (1 + np.abs(td).max()):
-            raise SpecError(f"solver.objective = 'minimax' needs each target to depend on its own "
+            raise SpecError(f"solver.objective = '{self.problem.options.objective}' needs each target to depend on its own "
                             f"joint's angle only; {joint.name!r}'s depends on the others: "
                             f"use 'least_squares'")
         self.p.put(vec, f"td{i}", own[:, 0])
@@ -321,6 +335,8 @@ class Transcription:
         for _, pos, neg in self._band_splits:
             v.put(lbx, pos, 0)
             v.put(lbx, neg, 0)
+        if self.robust:
+            robust.variable_bounds(v, problem, lbx, ubx)
         return lbx, ubx
 
     def start_order(self) -> int:
@@ -378,6 +394,8 @@ class Transcription:
         for (_, pos, neg), part in zip(self._band_splits, band):  # so do the band's
             v.put(w0, pos, np.maximum(part, 0))
             v.put(w0, neg, np.maximum(-part, 0))
+        if self.robust:
+            robust.initial_guess(v, problem, w0, samples[len(problem.mechanisms):], self._robust_fn, pv, order)
         return w0
 
     def start_point(self, problem: Problem, design: Design, samples) -> tuple[np.ndarray, np.ndarray]:

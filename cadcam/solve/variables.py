@@ -108,7 +108,7 @@ def _parameter_blocks(problem: Problem) -> _Vars:
     for i in range(m):
         for name, size in (("theta", n), ("weights", 1), ("wsens", S), ("rt", n), ("td2", 1)):
             p.add(name, size, i)
-        if opt.objective == "minimax":
+        if opt.objective in ("minimax", "robust"):
             p.add("td", n, i)
         for c in range(m):
             if c != i:

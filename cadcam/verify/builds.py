@@ -80,6 +80,9 @@ PAYLOAD_STEPS = 8
 PAYLOAD_TOL = 1e-6
 #: The percentiles reported.
 PERCENTILES = (50, 95)
+#: The ``[builds]`` keys the simulation reads and reports (the others are the robust
+#: objective's, :mod:`cadcam.solve.robust`).
+SIMULATION_KEYS = ("count", "seed", "distribution")
 
 
 def adjusts(problem: Problem) -> bool:
@@ -452,7 +455,7 @@ class Builds:
             joints.append({"scale": float(scale), **{
                 stage: {f"p{p}": float(v) for p, v in zip(PERCENTILES, self.percentiles(stage)[:, i])}
                 for stage in stages}})
-        out = {**self.options, "distribution_words": DISTRIBUTIONS[self.options["distribution"]],
+        out = {**{key: self.options[key] for key in SIMULATION_KEYS}, "distribution_words": DISTRIBUTIONS[self.options["distribution"]],
                "sources": self.sources, "joints": joints, "seconds": self.seconds}
         if self.chosen:
             out["adjustment"] = {

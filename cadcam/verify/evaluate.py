@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import casadi as ca
@@ -36,6 +36,7 @@ from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import whole_wrap_order, wound_length
 from ..problem import Problem, cap
+from ..variation import Layout, settings
 from .binding import MM
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
@@ -661,8 +662,24 @@ def poses_of(problem: Problem, units: list[UnitSamples]) -> list:
 def start_samples(problem: Problem, design: Design, grid: int, order: int) -> list:
     """Per-mechanism samples of ``design`` on a ``grid``-angle grid with quadrature ``order``, for
     :meth:`cadcam.solve.transcription.Transcription.initial_guess`: departure by the rootfinder,
-    port quantities in closed form."""
-    return evaluate(problem, design, grid=grid, order=order, integrals="closed-form", profile=False).units
+    port quantities in closed form. For the robust objective, each slot's ends follow, the
+    samples of its mechanism with the slot at either end of its range
+    (:func:`cadcam.solve.robust.slot_ends`'s order)."""
+    samples = evaluate(problem, design, grid=grid, order=order, integrals="closed-form", profile=False).units
+    if problem.options.objective != "robust":
+        return samples
+    for setting in settings(problem, Layout(problem, design)):
+        if setting.screw:
+            continue
+        u = setting.number - 1
+        mech = problem.mechanisms[u]
+        value = dict(zip(mech.parameter_names, mech.parameter_values()))[setting.parameter]
+        for sign in (1.0, -1.0):  # the robust objective's ENDS
+            moved = tuple(m.placed({setting.parameter: value + sign * setting.bound}) if k == u else m
+                          for k, m in enumerate(problem.mechanisms))
+            samples.append(evaluate(replace(problem, mechanisms=moved), design, grid=grid, order=order,
+                                    integrals="closed-form", profile=False).units[u])
+    return samples
 
 
 def evaluate(problem: Problem, design: Design, grid: int | None = None,
