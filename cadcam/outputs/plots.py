@@ -185,17 +185,21 @@ def _drawn_free_length(spring, x: np.ndarray, rooms: list[float]) -> float:
 
 
 def _coils(ev: Evaluation, u: int, mech, poses: list[tuple[int, float, np.ndarray, np.ndarray]],
-           radius: float) -> list[list]:
+           radius: float, fitted: list[tuple] | None = None) -> list[list]:
     """The springs of mechanism ``u`` (``mech``, its largest radius ``radius`` [m]) drawn at
     each of its ``poses`` (grid index, θ, z, c), each a zigzag [mm] from the mechanism's
     ``spring_line`` over its drawn free length plus its extension there (at most its room),
-    and whether that free length is the spring's own."""
+    and whether that free length is the spring's own; a free length drawn to fit fits the
+    rooms at the poses ``fitted`` (default: those drawn)."""
     out: list[list] = [[] for _ in poses]
     for j, port, x in _mechanism_springs(ev, u):
         spring = ev.problem.springs[j]
         lines = [(i, k, mech.spring_line(th, z, c, port.name, port.sign)) for i, (k, th, z, c) in enumerate(poses)]
         drawn = [(i, k, line) for i, k, line in lines if line is not None]
-        free = _drawn_free_length(spring, x, [room for _, _, (_, _, room) in drawn])
+        rooms = [line[2] for line in (mech.spring_line(th, z, c, port.name, port.sign) for _, th, z, c in fitted)
+                 if line is not None] if fitted is not None and spring.free_length is None else \
+            [room for _, _, (_, _, room) in drawn]
+        free = _drawn_free_length(spring, x, rooms)
         width = MM * min(COIL_WIDTH * free, COIL_WIDTH_RADII * radius)
         for i, k, (start, direction, room) in drawn:
             length = min(free + float(x[k]), room)
@@ -219,20 +223,34 @@ def _inside(lo, hi, pt) -> bool:
 
 
 def _row(ev: Evaluation, u: int, n_poses: int):
-    """What the profile view draws for mechanism ``u`` at each of its poses [mm], and the
-    view's box (lo, hi) [mm]."""
+    """What the profile view draws for mechanism ``u`` at each of its ``n_poses`` poses [mm],
+    and the view's box (lo, hi) [mm]."""
+    return mechanism_poses(ev, u, _pose_indices(ev.units[u].theta.size, n_poses))
+
+
+def mechanism_poses(ev: Evaluation, u: int, indices, points: int = 1500,
+                    fit_poses: int | None = None) -> tuple[list, np.ndarray, np.ndarray]:
+    """What the profile view draws for mechanism ``u`` at the poses of its joint grid's
+    ``indices`` [mm] (one tuple a pose: θ, the profiles of at most about ``points`` points, the
+    free cable spans, the circles, the wrapped cable, the arms and the springs), and the box
+    (lo, hi) [mm] that holds them: what a page draws of one pose (:mod:`cadcam.app.live`), and
+    each figure's row. A spring without a free length is drawn with one that fits the poses
+    drawn, or with ``fit_poses`` that many poses spread over the grid (a view of one pose at a
+    time then draws it with one free length at every angle)."""
     problem = ev.problem
     mech, unit, sl = problem.mechanisms[u], ev.units[u], problem.profile_slices()[u]
     # the drawing hooks evaluate ρ in the mechanism's own bases: give it the design's (a
     # published design typed in as monomials is drawn in its own basis, not the spec's)
     mech = replace(mech, profiles=tuple(replace(pr, basis=b) for pr, b in zip(mech.profiles, ev.design.bases[sl])))
     c = np.concatenate([np.asarray(v, dtype=float) for v in ev.design.coefficients[sl]])
-    curves = {p: _curve(ev, p) for p in range(sl.start, sl.stop)}
+    curves = {p: _curve(ev, p, points) for p in range(sl.start, sl.stop)}
     marks = {p: _profile_marks(ev, p) for p in range(sl.start, sl.stop)}
     radius = max(float(np.nanmax(rho)) for _, rho in curves.values())
     panels = []
-    poses = [(int(k), float(unit.theta[k]), unit.z[:, k], c) for k in _pose_indices(unit.theta.size, n_poses)]
-    coils = _coils(ev, u, mech, poses, radius) if problem.springs else [[] for _ in poses]
+    poses = [(int(k), float(unit.theta[k]), unit.z[:, k], c) for k in indices]
+    fitted = None if fit_poses is None else [(int(k), float(unit.theta[k]), unit.z[:, k], c)
+                                             for k in _pose_indices(unit.theta.size, fit_poses)]
+    coils = _coils(ev, u, mech, poses, radius, fitted) if problem.springs else [[] for _ in poses]
     for k, _, _, _ in poses:
         th, z = float(unit.theta[k]), unit.z[:, k]
         prof = []
