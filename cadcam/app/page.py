@@ -6,11 +6,21 @@ spec is designed again at once, in a worker thread, through the tab's :class:`ca
 (the NLP built once per structure, warm from the last answer and its multipliers; its functions
 as the spec says, by default expanded for a structure's first design while they compile in the
 background, then compiled: :meth:`cadcam.solve.transcription.Transcription.adopt_compiled`).
-On the right the verdict line and
-what binds, the torque against its target with the error, the mechanism at one joint angle (a
-player runs it over the range), the springs' extensions against their travel, the spring
-catalogue with a feasibility light per spring, and the files to download, each named after the
-file open (:func:`cadcam.app.state.download_stem`). An input error is the command line's one
+The quantities a designer turns have a slider beside their field (:func:`cadcam.app.form.slider_of`):
+while one moves, each step is designed warm from the last answer and drawn as it comes, the
+steps passed while a design ran dropped (:class:`cadcam.app.latest.Latest`: only the newest is
+designed); when it is let go, the design is made as after a typed edit, with the tolerance and
+friction bands, the summary, the catalogue's lights and the springs' figure. Undo and redo step
+through the designs the tab made from the file open (:mod:`cadcam.app.history`).
+
+On the right, in a panel that stays in view while the form scrolls: the verdict line, what binds
+and what the spec's values warn of, above the live view (:mod:`cadcam.app.live`): each mechanism
+at the joint angle of the player below it, the spring end a mechanism places drawn as a handle
+to drag, and the torque against its target with the error, the tolerance band and the friction
+band, all drawn in the browser by Bokeh from data a design replaces in place. Under it the
+summary, the springs' extensions against their travel, the spring catalogue with a feasibility
+light per spring, and the files to download, each named after the file open
+(:func:`cadcam.app.state.download_stem`). An input error is the command line's one
 line, shown under the field it names. A joint's tabulated target has an editor of its own
 (:mod:`cadcam.app.tables`): its angles' unit, its rows edited in place or pasted from a
 spreadsheet, each change designed at once. A field that is another's quantity (Fedorov2018's
@@ -21,8 +31,9 @@ spec as edited now: by the catalogue's screen, before each design (milliseconds)
 verdict of each design the tab has made with a part under the same edits. Clicking a row makes
 that spring the part and designs with it.
 
-Every callback of the page (an edit, a catalogue pick or row, a template, an upload, the player, a
-download, the first design) runs through one guard (:meth:`DesignPage.guarded`): what it raises
+Every callback of the page (an edit, a slider, a handle, a catalogue pick or row, a template, an
+upload, the player, undo, a download, the first design) runs through one guard
+(:meth:`DesignPage.guarded`): what it raises
 is shown as one line on the page (:func:`one_line`: control characters escaped, no folder
 named) and logged as one line, never left to the server as a traceback; what the page shows
 names no folder of the server, and an uploaded file by the browser's name for it
@@ -33,11 +44,13 @@ gives are looked up among the files uploaded with it, never on the server's disk
 answers only to the address it serves on (:mod:`cadcam.app.hosts`).
 
 Everything the page loads comes from this server: Bokeh's and Panel's scripts are served from it
-(``resources="server"``) and the figures are PNG images sent over its socket.
+(``resources="server"``), the plots' data and the springs' figure (a PNG image) come over its
+socket.
 """
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import functools
 import inspect
 import io
@@ -52,22 +65,28 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import panel as pn
+from bokeh.models import PrintfTickFormatter
 from matplotlib.figure import Figure
+from panel.io.document import unlocked
+from panel.io.state import set_curdoc
 
 from .. import examples
 from ..library_files import matplotlib_defaults
 from ..make.step import available as step_available
-from ..outputs.plots import springs_figure, torque_figure
+from ..outputs.plots import springs_figure
 from ..physics.catalogue import Need
 from ..spec import SpecError
 from ..targets import ANGLE_UNITS
-from .state import (INPUT_ERRORS, TEMPLATES, DesignState, Outcome, catalogue, download_stem, part_name, result_json,
-                    zipped)
-from .form import table_title, value_text
+from .state import (INPUT_ERRORS, TEMPLATES, DesignState, Outcome, Request, catalogue, download_stem, part_name,
+                    result_json, zipped)
+from .form import Field, Slider, slider_of, table_title, value_text
+from .history import Edits
+from .latest import Latest
+from .live import LiveView
 from .tables import TORQUE_UNIT
 from .uploads import save as save_upload, shown as shown_name
 from .parts import LIGHTS, NUMBERS, columns, count_line, part_lines, titles
-from .frames import Frames
+from .views import dragged_end
 from .hosts import refuse_other_hosts, served_hosts
 
 log = logging.getLogger(__name__)
@@ -84,6 +103,14 @@ MESSAGE_CHARS = 300
 UPLOAD_PREFIX = "cadcam-app-open-"
 #: The verdict line while a design runs.
 DESIGNING = "<span class='solving'>designing…</span>"
+#: The verdict line of a design made while a slider moves.
+MOVING = "<small>(moving: the bands, the summary and the lights follow when it is let go)</small>"
+#: Width of the form's column [px].
+FORM_WIDTH = 430
+#: Units a slider shows no word for (a share, a number without a unit).
+UNITLESS = ("", "-", "ratio")
+#: The player's step through the joint angles [ms].
+PLAYER_INTERVAL = 120
 #: Rows of the catalogue table on one page: the table sends the browser that page alone.
 CATALOGUE_ROWS = 15
 #: The spring choice of the form for the spec's own spring.
@@ -106,7 +133,14 @@ CSS = """
 .verdict-failure { color: #b00020; font-weight: bold; }
 .page-error { color: #b00020; }
 .catalogue-line { font-size: 13px; }
+.verdict-lines { font-size: 12px; line-height: 1.3; }
+.verdict-lines ul { margin: 0; padding-left: 18px; }
 """
+#: The page's two columns, each its own scroll: the form, and the live view with what is under it,
+#: the live view staying at the top of its column while what is under it scrolls.
+COLUMN_STYLE = {"height": "100vh", "overflow-y": "auto"}
+LIVE_STYLE = {"position": "sticky", "top": "0", "z-index": "10", "background": "white",
+              "border-bottom": "1px solid #ddd"}
 
 
 class PageError(Exception):
@@ -166,11 +200,6 @@ def png(fig: Figure, dpi: int = PAGE_DPI) -> bytes:
     return buffer.getvalue()
 
 
-def torque_png(result) -> bytes:
-    """The torque figure of ``result`` (a design with springs) as the page shows it."""
-    return png(torque_figure(result.evaluation, result.band, result.friction))
-
-
 class Download(pn.widgets.FileDownload):
     """A download whose callback gives None when it failed (:meth:`DesignPage.guarded` has said
     why): nothing is sent, where Panel would raise."""
@@ -178,6 +207,26 @@ class Download(pn.widgets.FileDownload):
     def _sync_data(self, fileobj):
         if fileobj is not None:
             super()._sync_data(fileobj)
+
+
+class _AtOnce:
+    """A slider whose moves reach the page as they come: Panel gathers a widget's changes for 50 ms
+    before it hands them on (``Syncable._debounce``), half a slider step's goal; the page drops
+    the steps it has no time for itself (:class:`cadcam.app.latest.Latest`)."""
+
+    _priority_changes = ["value", "value_throttled"]
+
+
+class FloatSlider(_AtOnce, pn.widgets.FloatSlider):
+    """Panel's FloatSlider, its moves handed on at once (:class:`_AtOnce`)."""
+
+
+class IntSlider(_AtOnce, pn.widgets.IntSlider):
+    """Panel's IntSlider, its moves handed on at once (:class:`_AtOnce`)."""
+
+
+class RangeSlider(_AtOnce, pn.widgets.RangeSlider):
+    """Panel's RangeSlider, its moves handed on at once (:class:`_AtOnce`)."""
 
 
 class DesignPage:
@@ -193,10 +242,12 @@ class DesignPage:
         self.headings: dict[int, pn.pane.HTML] = {}  # each spring's, by its number
         self.spring_picks: dict[int, pn.widgets.Select] = {}  # each spring's choice, by its number
         self.table_widgets: dict[str, tuple] = {}  # each table target's unit and rows, by its key
-        self.frames: Frames | None = None
+        self.sliders: dict[str, list] = {}  # each turned field's slider (a point's one per coordinate), by its key
+        self.slider_kinds: dict[str, Slider] = {}  # what each slider spans now
         self._shown = 0  # designs asked for: only the last one's figures are shown
-        self._pose = 0  # the player's last value: only its frame is drawn
+        self._asked: Edits | None = None  # the edits of the last design asked for as made (not while moving)
         self._error_key: str | None = None  # the field whose error is shown
+        self._moving: str | None = None  # the field a slider or handle moves now (what its design names)
         self.template = pn.widgets.Select(name="Template", options=self._template_options(),
                                           value=self._template_option(), css_classes=["template"],
                                           sizing_mode="stretch_width")
@@ -209,14 +260,22 @@ class DesignPage:
         self.failure = pn.pane.HTML("", css_classes=["page-error"], visible=False, sizing_mode="stretch_width")
         self.form = pn.Column(sizing_mode="stretch_width")
         self.verdict = pn.pane.HTML("", css_classes=["verdict"], sizing_mode="stretch_width")
+        self.lines = pn.pane.HTML("", css_classes=["verdict-lines"], sizing_mode="stretch_width", margin=(0, 10))
         self.details = pn.pane.HTML("", css_classes=["details"], sizing_mode="stretch_width")
-        self.torque = pn.pane.PNG(None, css_classes=["torque-figure"], width=700)
         self.springs = pn.pane.PNG(None, css_classes=["springs-figure"], width=740)
-        self.mechanism = pn.pane.PNG(None, css_classes=["mechanism-figure"], width=700)
-        self.player = pn.widgets.Player(name="joint angle", start=0, end=1, value=0, interval=250,
+        self.live = LiveView(self._on_end_moved)
+        self.player = pn.widgets.Player(name="joint angle", start=0, end=1, value=0, interval=PLAYER_INTERVAL,
                                         loop_policy="loop", show_loop_controls=False, css_classes=["pose-player"],
                                         width=420)
         self.player.param.watch(self.guarded("drawing the mechanism", self._on_pose), "value")
+        self._moves = Latest(self.guarded("designing as the slider moves", self._design_moving))
+        self._poses = Latest(self.guarded("drawing the mechanism", self._draw_pose))
+        self.undo = pn.widgets.Button(label="↶ undo", css_classes=["undo"], disabled=True, width=80)
+        self.redo = pn.widgets.Button(label="↷ redo", css_classes=["redo"], disabled=True, width=80)
+        self.undo.on_click(self.guarded("stepping back", self._on_undo))
+        self.redo.on_click(self.guarded("stepping forth", self._on_redo))
+        self.history_line = pn.pane.HTML("", css_classes=["history-line"], margin=(12, 6))
+        self.doc = None  # the tab's Bokeh document, whose plots' data the page replaces (:meth:`drawing`)
         self._named: list[tuple[Download, str]] = []  # each download button and the end of its file's name
         self.downloads = pn.Row(*self._download_buttons(), css_classes=["downloads"])
         self.spring_slot = pn.widgets.Select(name="the catalogue of", css_classes=["catalogue-slot"], width=400)
@@ -228,18 +287,22 @@ class DesignPage:
 
     # ----------------------------------------------------------------------------- layout
     def view(self) -> pn.Row:
-        """The page."""
+        """The page: the form's column, and the live view's, each its own scroll."""
         left = pn.Column(pn.pane.HTML("<h2>cadcam design page</h2>"), self.template,
                          pn.pane.HTML("<small>or open a spec (TOML) or a result.json, with the CSV files it names "
                                       "(choose them together):</small>"), self.upload,
-                         self.open_error, self.opened, self.form, width=400)
-        right = pn.Column(self.failure, self.verdict, self.details, self.downloads,
-                          pn.Tabs(("Torque", self.torque), ("Mechanism", pn.Column(self.player, self.mechanism)),
-                                  ("Springs", self.springs),
-                                  ("Spring catalogue", pn.Column(self.spring_slot, self.catalogue_line,
-                                                                 self.catalogue_table, sizing_mode="stretch_width")),
-                                  dynamic=False),
-                          sizing_mode="stretch_width")
+                         self.open_error, self.opened, self.form, width=FORM_WIDTH, styles=COLUMN_STYLE,
+                         css_classes=["form-column"])
+        live = pn.Column(self.failure, self.verdict, self.lines,
+                         pn.Row(self.undo, self.redo, self.history_line, self.downloads),
+                         pn.Row(pn.Column(self.live.mechanisms, self.live.key, self.player), self.live.torque,
+                                sizing_mode="stretch_width"),
+                         styles=LIVE_STYLE, css_classes=["live-panel"], sizing_mode="stretch_width")
+        under = pn.Tabs(("Summary", self.details), ("Springs", self.springs),
+                        ("Spring catalogue", pn.Column(self.spring_slot, self.catalogue_line, self.catalogue_table,
+                                                       sizing_mode="stretch_width")),
+                        dynamic=False, sizing_mode="stretch_width")
+        right = pn.Column(live, under, styles=COLUMN_STYLE, sizing_mode="stretch_width", css_classes=["live-column"])
         return pn.Row(left, right, sizing_mode="stretch_width")
 
     def _template_title(self) -> str | None:
@@ -262,6 +325,8 @@ class DesignPage:
         self.headings.clear()
         self.spring_picks.clear()
         self.table_widgets.clear()
+        self.sliders.clear()
+        self.slider_kinds.clear()
         cards: dict[str, list] = {}
         heading = None
         for f in self.state.fields:
@@ -289,7 +354,8 @@ class DesignPage:
             error = pn.pane.HTML("", css_classes=["field-error", f"error-{slug(f.key)}"], visible=False,
                                  sizing_mode="stretch_width")
             self.inputs[f.key], self.errors[f.key] = box, error
-            items += [box, error]
+            slider = self._slider(f)
+            items += [box if slider is None else pn.Row(box, slider, sizing_mode="stretch_width"), error]
         self.form.objects = [pn.Card(*items, title=group, collapsed=group in ("Solver", "Workshop files"),
                                      sizing_mode="stretch_width") for group, items in cards.items()]
         self._show_set_keys()
@@ -313,6 +379,8 @@ class DesignPage:
             leader = self.state.links.get(f.key)
             box = self.inputs[f.key]
             box.disabled = method is not None or part is not None or leader is not None
+            for slider in self.sliders.get(f.key, []):
+                slider.disabled = box.disabled
             box.name = (f"{f.label}: set by method {method}" if method is not None
                         else f"{f.label}: set by part {part}" if part is not None
                         else f"{f.label}: kept equal to {self._named_field(leader)}" if leader is not None
@@ -331,6 +399,136 @@ class DesignPage:
         with one edited)."""
         for key in self.inputs if keys is None else keys:
             self.inputs[key].value = value_text(self.state.value(key))
+        self._show_sliders(keys)
+
+    # ----------------------------------------------------------------------------- sliders
+    def _slider(self, f: Field) -> pn.Column | None:
+        """The slider of field ``f`` (:func:`cadcam.app.form.slider_of`) about its value now,
+        showing its value and unit; None for a field a designer does not turn. Moved, each
+        step is designed as it comes; let go, the design is made in full."""
+        kind = slider_of(f, self.state.value(f.key))
+        if kind is None:
+            return None
+        unit = "" if kind.unit in UNITLESS else f" {kind.unit}"
+        common = dict(step=kind.step, format=PrintfTickFormatter(format=f"%.4g{unit}"), sizing_mode="stretch_width",
+                      margin=(4, 10, 0, 10))
+        value = self.state.value(f.key)
+        if kind.kind == "range":
+            widgets = [RangeSlider(label="", start=kind.start, end=kind.end, value=tuple(value), **common)]
+        elif kind.kind == "point":
+            widgets = [FloatSlider(label=axis, start=lo, end=hi, value=v, **common)
+                       for axis, (lo, hi), v in zip("xy", kind.spans, value)]
+        elif kind.kind == "integer":
+            widgets = [IntSlider(label="", start=int(kind.start), end=int(kind.end), value=int(value),
+                                            **common)]
+        else:
+            widgets = [FloatSlider(label="", start=kind.start, end=kind.end, value=float(value), **common)]
+
+        async def moved(event, key=f.key):
+            await self._turn(key, self._slider_value(key), final=False)
+
+        async def released(event, key=f.key):
+            await self._turn(key, self._slider_value(key), final=True)
+
+        for w in widgets:
+            w.param.watch(self.guarded(f"moving {f.key}", moved), "value")
+            w.param.watch(self.guarded(f"setting {f.key}", released), "value_throttled")
+        self.sliders[f.key], self.slider_kinds[f.key] = widgets, kind
+        return pn.Column(*widgets, css_classes=["slider", f"slider-{slug(f.key)}"], sizing_mode="stretch_width")
+
+    def _slider_value(self, key: str):
+        """The value field ``key``'s slider shows, as the field takes it (a step's binary noise
+        rounded off)."""
+        kind, widgets = self.slider_kinds[key], self.sliders[key]
+        if kind.kind == "range":
+            return [kind.snapped(v) for v in widgets[0].value]
+        if kind.kind == "point":
+            return [kind.snapped(w.value) for w in widgets]
+        return int(widgets[0].value) if kind.kind == "integer" else kind.snapped(widgets[0].value)
+
+    def _show_sliders(self, keys=None) -> None:
+        """Sliders of fields ``keys`` (default: all) show their fields' values now, each spanning
+        them anew where a value lies beyond its span (typed, or a spring picked)."""
+        for key in self.sliders if keys is None else [k for k in keys if k in self.sliders]:
+            value, kind, widgets = self.state.value(key), self.slider_kinds[key], self.sliders[key]
+            shown = value if isinstance(value, list) else [value]
+            spans = kind.spans if kind.kind == "point" else [(kind.start, kind.end)] * len(shown)
+            if not all(isinstance(v, (int, float)) and lo <= v <= hi for v, (lo, hi) in zip(shown, spans)):
+                anew = slider_of(self.state.field(key), value)
+                if anew is None:
+                    continue  # a value no slider shows (an expression): the field says it
+                self.slider_kinds[key] = kind = anew
+                for w, (lo, hi) in zip(widgets, kind.spans if kind.kind == "point" else [(kind.start, kind.end)]):
+                    w.param.update(start=lo, end=hi, step=kind.step)
+            if kind.kind == "range":
+                widgets[0].value = tuple(value)
+            else:
+                for w, v in zip(widgets, shown):
+                    w.value = v
+
+    async def _turn(self, key: str, value, final: bool) -> None:
+        """Field ``key`` turned to ``value`` by its slider or handle: the field follows; while it
+        moves the newest step is designed as it comes, and when it is let go the design is
+        made in full (none where the edits are those of the design shown)."""
+        text = value_text(value)
+        if text != value_text(self.state.value(key)):
+            error = self.state.edit(key, text)
+            if error:
+                self._show_error(key, error)
+                return
+            self._show_error(None, None)
+            self._show_values([key, *(k for k, leader in self.state.links.items() if leader == key)])
+        elif not final:
+            return  # the page showing a value (a typed edit, a step back): no move
+        if final:
+            self._moves.drop()
+            if self.state.edits() != self._asked:
+                await self.design(edited=key)
+        elif self.state.edits() != self._asked:
+            self._moving = key
+            self._moves.ask()
+
+    async def _design_moving(self) -> None:
+        """Design the edits now, while a slider moves (:class:`cadcam.app.latest.Latest`: the
+        steps passed meanwhile were dropped), and draw it unless a full design was asked for
+        since; its bands, summary and lights come with the design made when it is let go."""
+        if self.state.edits() == self._asked:
+            return  # asked for in full meanwhile
+        shown, key = self._shown, self._moving
+        request = self.state.ask(key)
+        outcome, frame = await self._in_worker(self._moving_design, request, key, self.player.value, set(self.inputs))
+        if shown != self._shown:
+            return
+        if outcome.error is not None:
+            self._show_error(outcome.field, outcome.error)
+            self.verdict.object = self._verdict(outcome)
+            return
+        self._show_error(None, None)
+        self.verdict.object = self._verdict(outcome) + " " + MOVING
+        self.lines.object = self._lines(outcome.result)
+        with self.drawing():
+            self.live.draw(frame)
+
+    def _moving_design(self, request: Request, key: str | None, pose: int, keys: set[str]):
+        """(In the worker.) The design of ``request`` and what the live view draws of it at
+        ``pose`` (with the handles of the fields ``keys``), without the bands and view boxes."""
+        outcome = self.state.run(request, key)
+        frame = None if outcome.result is None else LiveView.frame(outcome.result, pose, keys, bands=False,
+                                                                    views=False)
+        return outcome, frame
+
+    def _on_end_moved(self, key: str, x: float, y: float, final: bool) -> None:
+        """A spring end's handle dragged to (x, y) [mm] in the view: its field turned
+        (:func:`cadcam.app.views.dragged_end`: at the angle shown)."""
+        result = self.state.result
+        if result is None:
+            return
+        u = int(key.split(".")[1]) - 1
+        unit = result.evaluation.units[u]
+        theta = float(unit.theta[int(np.clip(self.player.value, 0, unit.theta.size - 1))])
+        value = dragged_end(result.problem, u, theta, x, y)
+        turn = self.guarded(f"moving {key}", self._turn)
+        asyncio.ensure_future(turn(key, value, final))
 
     # ----------------------------------------------------------------------- table targets
     def _table_editor(self, key: str) -> pn.Column:
@@ -419,13 +617,7 @@ class DesignPage:
     async def _spring_changed(self, number: int) -> None:
         """Show spring ``number`` as now chosen (its heading, choice and fields, the catalogue
         table's name for it) and design."""
-        self.headings[number].object = _heading(self.state.table_names()[f"springs.{number}"])
-        # both at once: a choice left out of the new options would otherwise be replaced by the first
-        self.spring_picks[number].param.update(options=self._spring_options(number),
-                                               value=self._spring_option(number))
-        self._show_values()
-        self._show_set_keys()
-        self._show_slots()
+        self._show_form()
         await self.design()
 
     def _catalogue_table(self) -> pn.widgets.Tabulator:
@@ -495,42 +687,112 @@ class DesignPage:
             return
         if key == "solver.method":
             self._show_set_keys()
-        self._show_values([k for k, leader in self.state.links.items() if leader == key])
+        self._show_values([key, *(k for k, leader in self.state.links.items() if leader == key)])
         await self.design(edited=key)
 
     async def design(self, edited: str | None = None) -> None:
-        """Design the state in the worker and show what it gave: the verdict, the catalogue
-        table with the verdict of a part designed with, and the torque first, then the springs
-        and the mechanism (each figure drawn in the worker too). The table's screen comes before
-        the design, from the parse the design then uses."""
+        """Design the edits now in the worker and show what it gave: the verdict and what binds,
+        the live view with its bands, the summary, the catalogue table with the verdict of a
+        part designed with, and the springs' figure (drawn in the worker too); the design is
+        recorded in the tab's history. The table's screen comes before the design, from the
+        parse the design then uses."""
         self._shown += 1
         shown = self._shown
+        self._moves.drop()
         self.failure.visible = False
         self.verdict.object = DESIGNING
+        request = self.state.ask(edited)
+        self._asked = request.edits
         await self._show_catalogue()
-        outcome = await self._in_worker(self.state.design, edited)
+        outcome, frame, details = await self._in_worker(self._full_design, request, edited, self.player.value,
+                                                        set(self.inputs))
         if shown != self._shown:  # a later edit is being designed: show that one
             return
-        self._show(outcome)
-        await self._show_catalogue()
-        if outcome.result is not None and shown == self._shown:
-            await self._show_figures(outcome.result, shown)
+        self.state.keep(request, outcome)
+        await self._show_design(outcome, frame, details, shown)
 
-    async def _show_figures(self, result, shown: int) -> None:
-        """The figures of ``result``, the design asked for ``shown``-th, unless a later one was
-        asked for meanwhile."""
-        ev = result.evaluation
-        frames = Frames(ev)
-        self.frames = frames
-        if result.problem.springs:
-            self.torque.object = await self._in_worker(torque_png, result)
-        for pane, draw in ((self.springs, lambda: png(springs_figure(ev)) if result.problem.springs else None),
-                           (self.mechanism, lambda: frames.png(self.player.value))):
-            image = await self._in_worker(draw)
-            if shown != self._shown:
-                return
-            pane.object = image
-        self.player.end = max(frames.count - 1, 1)
+    def _full_design(self, request: Request, edited: str | None, pose: int, keys: set[str]):
+        """(In the worker.) The design of ``request``, what the live view draws of it and its
+        summary's lines (:meth:`_drawn`)."""
+        outcome = self.state.run(request, edited)
+        return (outcome, *self._drawn(outcome, pose, keys))
+
+    @staticmethod
+    def _drawn(outcome: Outcome, pose: int, keys: set[str]) -> tuple:
+        """(In the worker.) What the live view draws of ``outcome`` at ``pose`` (with the
+        handles of the fields ``keys``) and its summary's lines; None, None for an error."""
+        result = outcome.result
+        if result is None:
+            return None, None
+        lines = [f"  {line}" for line in part_lines(result.problem)] + result.summary().splitlines()[1:]
+        return LiveView.frame(result, pose, keys), "\n".join(lines)
+
+    async def _show_design(self, outcome: Outcome, frame, details: str | None, shown: int) -> None:
+        """Show ``outcome``, the design asked for ``shown``-th, with its live view ``frame`` and
+        summary ``details``: then the catalogue table and the springs' figure, unless a later
+        design was asked for meanwhile."""
+        self._show(outcome, details)
+        self._show_history()
+        if frame is not None:
+            with self.drawing():
+                self.live.draw(frame)
+            self.player.end = max(outcome.result.evaluation.units[0].theta.size - 1, 1)
+        await self._show_catalogue()
+        result = outcome.result
+        if result is not None and shown == self._shown:
+            image = await self._in_worker(lambda: png(springs_figure(result.evaluation)) if result.problem.springs
+                                          else None)
+            if shown == self._shown:
+                self.springs.object = image
+
+    @contextlib.contextmanager
+    def drawing(self):
+        """Where the live view's plots are changed: the tab's document unlocked, its changes sent
+        to the browser as one message when the block ends (a callback of the page's loop, or of
+        a handle in the plots, holds no lock on it)."""
+        with set_curdoc(self.doc) if self.doc is not None else contextlib.nullcontext(), unlocked():
+            yield
+
+    # ----------------------------------------------------------------------------- history
+    def _show_history(self) -> None:
+        history = self.state.history
+        self.undo.disabled, self.redo.disabled = not history.can_undo, not history.can_redo
+        self.history_line.object = f"<small>{history.words()}</small>"
+
+    async def _on_undo(self, event) -> None:
+        await self._step(self.state.history.undo())
+
+    async def _on_redo(self, event) -> None:
+        await self._step(self.state.history.redo())
+
+    async def _step(self, entry) -> None:
+        """Show the design of history ``entry`` (its edits and what they gave) as it was made:
+        the form, the sliders, the spring choices and the tables follow."""
+        if entry is None:
+            return
+        self._shown += 1
+        shown = self._shown
+        self._moves.drop()
+        edits, outcome = entry
+        self.state.restore(edits, outcome)
+        self._asked = edits
+        self._show_form()
+        frame, details = await self._in_worker(self._drawn, outcome, self.player.value, set(self.inputs))
+        if shown == self._shown:
+            await self._show_design(outcome, frame, details, shown)
+
+    def _show_form(self) -> None:
+        """Every field, slider, spring choice and table of the form shows the edits now."""
+        for number in self.headings:
+            self.headings[number].object = _heading(self.state.table_names()[f"springs.{number}"])
+            # both at once: a choice left out of the new options would otherwise be replaced by the first
+            self.spring_picks[number].param.update(options=self._spring_options(number),
+                                                   value=self._spring_option(number))
+        for key in self.table_widgets:
+            self._show_table(key)
+        self._show_values()
+        self._show_set_keys()
+        self._show_slots()
 
     async def _show_catalogue(self) -> None:
         """The catalogue table of the spring chosen above it, for the spec as edited now (the
@@ -635,17 +897,17 @@ class DesignPage:
         self.folder = None
 
     async def _on_pose(self, event) -> None:
-        frames, self._pose = self.frames, event.new
-        if frames is not None:
-            image = await self._in_worker(self._frame_if_current, frames, event.new)
-            if image is not None:
-                self.mechanism.object = image
+        self._poses.ask()
 
-    def _frame_if_current(self, frames: Frames, pose: int) -> bytes | None:
-        """Frame ``pose`` of ``frames``, or None once the player has moved on or another design
-        is shown: the player steps faster than a first frame is drawn, and the frames it passed
-        would otherwise queue in the worker ahead of the next design."""
-        return frames.png(pose) if pose == self._pose and frames is self.frames else None
+    async def _draw_pose(self) -> None:
+        """Draw the mechanisms at the player's angle now (:class:`cadcam.app.latest.Latest`: the
+        player steps faster than a design is drawn on a busy worker, and the angles it passed
+        meanwhile would otherwise hold the next design back)."""
+        result, pose = self.state.result, self.player.value
+        if result is not None:
+            poses = await self._in_worker(LiveView.poses, result, pose, set(self.inputs))
+            with self.drawing():
+                self.live.show_poses(poses)
 
     # ------------------------------------------------------------------------------- views
     def _opened(self) -> str:
@@ -670,27 +932,37 @@ class DesignPage:
             shown = k == key
             pane.object, pane.visible = _escape(self._public(message)) if shown else "", shown
 
-    def _show(self, outcome: Outcome) -> None:
+    def _verdict(self, outcome: Outcome) -> str:
+        """The verdict line of ``outcome``: its status and message, or the error it ended in."""
+        if outcome.error is not None:
+            return f"<span class='verdict-failure'>not designed: {_escape(self._public(outcome.error))}</span>"
+        result = outcome.result
+        style = "verdict-success" if result.success else "verdict-failure"
+        return (f"<span class='{style}'>{_escape(result.status)}: {_escape(self._scrubbed(result.message))}</span>"
+                f" <small>(designed in {outcome.seconds:.2f} s, functions {result.functions})</small>")
+
+    def _lines(self, result) -> str:
+        """What binds and what the spec's values warn of, one line each, above the plots."""
+        items = [f"<li>binding: {_escape(self._scrubbed(b))}</li>" for b in result.binding]
+        items += [f"<li class='spec-warning'>warning: {_escape(self._scrubbed(w))}</li>" for w in result.spec_warnings]
+        return f"<ul>{''.join(items)}</ul>" if items else ""
+
+    def _show(self, outcome: Outcome, details: str | None) -> None:
+        """The verdict, the lines above the plots and the summary of ``outcome`` (``details``:
+        its summary's lines, made in the worker)."""
+        self.verdict.object = self._verdict(outcome)
         if outcome.error is not None:
             self._show_error(outcome.field, outcome.error)
-            self.verdict.object = (f"<span class='verdict-failure'>not designed: "
-                                   f"{_escape(self._public(outcome.error))}</span>")
             if self.state.result is not None:
-                self.details.object = ("<small>The figures, result.json and workshop files below are those of the "
+                self.details.object = ("<small>The plots, result.json and workshop files are those of the "
                                        "last design made; the spec (TOML) has the edits as they are.</small>")
             return
         self._show_error(None, None)
-        result = outcome.result
-        assert result is not None
-        style = "verdict-success" if result.success else "verdict-failure"
-        message = self._scrubbed(result.message)
-        self.verdict.object = (f"<span class='{style}'>{_escape(result.status)}: {_escape(message)}</span>"
-                               f" <small>(designed in {outcome.seconds:.2f} s, functions {result.functions})</small>")
-        lines = [f"  {line}" for line in part_lines(result.problem)] + result.summary().splitlines()[1:]
+        self.lines.object = self._lines(outcome.result)
         self.details.object = ("<pre style='white-space: pre-wrap; font-size: 12px'>"
-                               + _escape(self._scrubbed("\n".join(lines))) + "</pre>")
-        if not result.problem.springs:
-            self.torque.object = self.springs.object = None
+                               + _escape(self._scrubbed(details or "")) + "</pre>")
+        if not outcome.result.problem.springs:
+            self.springs.object = None
 
     # --------------------------------------------------------------------------- downloads
     def _download_buttons(self) -> list:
@@ -712,19 +984,21 @@ class DesignPage:
             files = self._result_files(True, solids=True)
             return io.BytesIO(zipped({**files, "summary.txt": (self._result().summary() + "\n").encode("utf-8")}))
 
-        def button(make, end: str, label: str, kind: str) -> Download:
-            """A download of the file ``make`` gives, named after the design and ending in ``end``."""
+        def button(make, end: str, label: str, kind: str, what: str | None = None) -> Download:
+            """A download of the file ``make`` gives, named after the design and ending in ``end``;
+            ``what`` it holds said on hovering."""
             made = Download(callback=self.guarded(f"downloading {label}", make), label=label,
                             filename=download_stem(self.name, self.state.variant) + end,
-                            css_classes=[f"download-{kind}"], button_type="primary")
+                            css_classes=[f"download-{kind}"], button_type="primary", description=what)
             self._named.append((made, end))
             return made
 
         return [button(spec, ".toml", "spec (TOML)", "spec"),
                 button(result, "_result.json", "result.json", "result"),
-                button(dxf, "_dxf.zip", "DXF outlines (zip)", "dxf"),
-                *([button(solids, "_step.zip", "STEP solids (zip)", "step")] if step_available() else []),
-                button(everything, "_outputs.zip", "every file: SVG, solids, sheets, figures, summary (zip)", "all")]
+                button(dxf, "_dxf.zip", "DXF (zip)", "dxf"),
+                *([button(solids, "_step.zip", "STEP (zip)", "step")] if step_available() else []),
+                button(everything, "_outputs.zip", "every file (zip)", "all",
+                       "every file cadcam design writes: SVG, solids, sheets, figures, and the summary")]
 
     def _result(self):
         result = self.state.result
@@ -783,6 +1057,7 @@ def page(path: str | None = None) -> pn.Row:
     upload folder removed when its session ends."""
     state = DesignState(Path(path)) if path else DesignState.template(TEMPLATES[0].spec)
     view = DesignPage(state)
+    view.doc = pn.state.curdoc
     pn.state.onload(view.guarded("designing", view.design))
     pn.state.on_session_destroyed(lambda session_context: view.close())
     return view.view()

@@ -1,8 +1,14 @@
 """What the design page holds and does, without the page: the spec opened (a template, a spec
 file, an upload or a result.json), the user's edits as dotted-key overrides (a tabulated target's
 rows among them, :mod:`cadcam.app.tables`), the designs of a
-:class:`cadcam.Session` (each from the last answer of its structure), the catalogue table of
-each spring with its lights (:mod:`cadcam.app.parts`) and the files to download.
+:class:`cadcam.Session` (each from the last answer of its structure) and the history of those the
+user made (:mod:`cadcam.app.history`: undo, redo), the catalogue table of each spring with its
+lights (:mod:`cadcam.app.parts`) and the files to download.
+
+A design is asked for in two steps, so that the page's worker designs the edits as they were when
+asked while the user edits on: :meth:`DesignState.ask` (the edits taken and parsed) and
+:meth:`DesignState.run` (the design), then :meth:`DesignState.keep` (the design shown, recorded);
+:meth:`DesignState.design` does the three.
 
 The page (:mod:`cadcam.app.page`) only shows this state; the tests drive it directly too.
 """
@@ -36,6 +42,7 @@ from ..sweep.springs import part_spec, slot_need, verdict
 from ..sweep.study import read_catalogue
 from ..targets import ExpressionError
 from .form import Field, field_of_error, fields_of
+from .history import Edits, History
 from .parts import catalogue_numbers, table as catalogue_table
 from .tables import TargetTable, checked, pasted, spec_table
 
@@ -94,6 +101,20 @@ class Outcome:
 
 
 @dataclass
+class Request:
+    """A design asked for (:meth:`DesignState.ask`): the edits as they were, the spec with them
+    parsed (or the one-line error of a spec that cannot be, and the field it names), and the
+    catalogue table's context of each spring made a part (:meth:`DesignState._context`), and
+    the time the parse took [s]."""
+
+    edits: Edits
+    problem: Problem | None
+    error: Outcome | None
+    contexts: dict[int, str]
+    seconds: float = 0.0
+
+
+@dataclass
 class DesignState:
     """The spec being designed and its edits.
 
@@ -141,6 +162,8 @@ class DesignState:
     links: dict[str, str] = field(init=False)
     last: Outcome = field(default_factory=Outcome)
     result: Result | None = None  # the last design made (the last outcome may be an error)
+    #: The designs made from this file, to step back and forth through
+    history: History = field(default_factory=History)
     #: The verdict of each part designed with, by (the other edits, spring number, part)
     #: (:meth:`_context`): a part's light is its design's while those edits stand
     verdicts: dict[tuple[str, int, str], tuple[str, str]] = field(default_factory=dict)
@@ -342,27 +365,70 @@ class DesignState:
             self._parsed = (key, load_problem(self.path, variant=self.variant, overrides=pairs), {})
         return self._parsed[1]
 
-    def design(self, edited: str | None = None) -> Outcome:
-        """Design the spec with the edits through the session; a spec error names its field
-        (the one it names, else ``edited``). The verdict of each catalogue part designed with
-        is kept for its light (:meth:`catalogue_view`)."""
+    def edits(self) -> Edits:
+        """The user's edits now, as a copy (:class:`cadcam.app.history.Edits`)."""
+        return Edits.of(self.overrides, self.picks, self.parts, self.table_edits)
+
+    def ask(self, edited: str | None = None) -> Request:
+        """A design of the edits now (``edited``: the field just edited, which an error names
+        where it names none): the edits taken and the spec with them parsed, or its error."""
         start = time.perf_counter()
+        contexts = {number: self._context(number) for number in self.parts}
         try:
-            result = self.session.design(self.problem())
+            problem = self.problem()
         except INPUT_ERRORS as exc:
-            message = str(exc)
-            keys = [f.key for f in self.fields] + list(self.tables)
-            self.last = Outcome(error=message, field=field_of_error(message, keys, edited),
-                                seconds=time.perf_counter() - start)
-            for number, part in self.parts.items():
-                self.verdicts[self._context(number), number, part] = ("infeasible", message)
+            return Request(self.edits(), None, self._failed(exc, edited, start), contexts)
+        return Request(self.edits(), problem, None, contexts, time.perf_counter() - start)
+
+    def run(self, request: Request, edited: str | None = None) -> Outcome:
+        """Design ``request`` through the session; a spec error names its field (the one it
+        names, else ``edited``). The verdict of each catalogue part designed with is kept for
+        its light (:meth:`catalogue_view`)."""
+        if request.error is not None:
+            outcome = request.error
         else:
-            self.last = Outcome(result=result, seconds=time.perf_counter() - start)
-            self.result = result
-            for j, spring in enumerate(result.problem.springs):
-                if spring.part is not None:
-                    self.verdicts[self._context(j + 1), j + 1, spring.part] = verdict(_verdict_row(result, j))
-        return self.last
+            start = time.perf_counter() - request.seconds  # the parse counted in
+            try:
+                result = self.session.design(request.problem)
+            except INPUT_ERRORS as exc:
+                outcome = self._failed(exc, edited, start)
+            else:
+                outcome = Outcome(result=result, seconds=time.perf_counter() - start)
+                for j, spring in enumerate(result.problem.springs):
+                    if spring.part is not None and j + 1 in request.contexts:
+                        self.verdicts[request.contexts[j + 1], j + 1, spring.part] = verdict(_verdict_row(result, j))
+        if outcome.error is not None:
+            for number, part in request.edits.parts.items():
+                self.verdicts[request.contexts[number], number, part] = ("infeasible", outcome.error)
+        return outcome
+
+    def _failed(self, exc: Exception, edited: str | None, start: float) -> Outcome:
+        message = str(exc)
+        keys = [f.key for f in self.fields] + list(self.tables)
+        return Outcome(error=message, field=field_of_error(message, keys, edited), seconds=time.perf_counter() - start)
+
+    def keep(self, request: Request, outcome: Outcome) -> Outcome:
+        """``outcome``, the design of ``request``, made the one shown: the last outcome, the
+        last design made where it is one, and recorded in :attr:`history`."""
+        self.last = outcome
+        if outcome.result is not None:
+            self.result = outcome.result
+        self.history.record(request.edits, outcome)
+        return outcome
+
+    def design(self, edited: str | None = None) -> Outcome:
+        """Design the spec with the edits now (:meth:`ask`, :meth:`run`, :meth:`keep`)."""
+        request = self.ask(edited)
+        return self.keep(request, self.run(request, edited))
+
+    def restore(self, edits: Edits, outcome: Outcome) -> None:
+        """The edits and the design of a step back or forth in :attr:`history`, shown again as
+        they were (not designed again)."""
+        self.overrides, self.picks, self.parts, self.table_edits = (
+            copy.deepcopy(d) for d in (edits.overrides, edits.picks, edits.parts, edits.tables))
+        self.last = outcome
+        if outcome.result is not None:
+            self.result = outcome.result
 
     # ---------------------------------------------------------------- the catalogue table
     def catalogue_of(self, number: int) -> Catalogue:
