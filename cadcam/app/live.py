@@ -182,6 +182,7 @@ class LiveView:
         self.shape = frame.shape
         # the browser keeps the models replaced for a while: the names find the plots shown alone
         for model in [*self.torque_sources, *self.end_sources, *self.mechanism_figures,
+                      *([self.torque_figure] if self.torque_figure is not None else []),
                       *(source for sources in self.pose_sources for source in sources.values())]:
             model.name = None
         return self._build_torque(frame), self._build_mechanisms(frame)
@@ -193,7 +194,7 @@ class LiveView:
             self.torque_figure = None
             return None
         top = figure(min_width=TORQUE_WIDTH, height=TORQUE_HEIGHT, tools=TOOLS, y_axis_label="torque [N·mm]",
-                     toolbar_location="above", sizing_mode="stretch_width")
+                     toolbar_location="above", sizing_mode="stretch_width", name="torque-plot")
         bottom = figure(min_width=TORQUE_WIDTH, height=ERROR_HEIGHT, tools=TOOLS, x_range=top.x_range,
                         x_axis_label="θ [deg]", y_axis_label="τ − τ_d [N·mm]", toolbar_location=None,
                         sizing_mode="stretch_width")

@@ -425,7 +425,8 @@ class DesignPage:
             widgets = [FloatSlider(label="", start=kind.start, end=kind.end, value=float(value), **common)]
 
         async def moved(event, key=f.key):
-            await self._turn(key, self._slider_value(key), final=False)
+            if not self._shows_its_field(key):  # else the page showing the field's value, no move
+                await self._turn(key, self._slider_value(key), final=False)
 
         async def released(event, key=f.key):
             await self._turn(key, self._slider_value(key), final=True)
@@ -446,11 +447,21 @@ class DesignPage:
             return [kind.snapped(w.value) for w in widgets]
         return int(widgets[0].value) if kind.kind == "integer" else kind.snapped(widgets[0].value)
 
+    def _shows_its_field(self, key: str) -> bool:
+        """Whether field ``key``'s slider shows the field's value as it is (not rounded to its
+        step): the page set it so."""
+        kind, widgets, value = self.slider_kinds[key], self.sliders[key], self.state.value(key)
+        shown = list(widgets[0].value) if kind.kind == "range" else [w.value for w in widgets]
+        return shown == (list(value) if isinstance(value, list) else [value])
+
     def _show_sliders(self, keys=None) -> None:
         """Sliders of fields ``keys`` (default: all) show their fields' values now, each spanning
-        them anew where a value lies beyond its span (typed, or a spring picked)."""
+        them anew where a value lies beyond its span (typed, or a spring picked); not a value its
+        key refuses."""
         for key in self.sliders if keys is None else [k for k in keys if k in self.sliders]:
             value, kind, widgets = self.state.value(key), self.slider_kinds[key], self.sliders[key]
+            if not self.state.field(key).declaration.ok(value):
+                continue  # a value the key refuses (its error is under the field): the slider stays
             shown = value if isinstance(value, list) else [value]
             spans = kind.spans if kind.kind == "point" else [(kind.start, kind.end)] * len(shown)
             if not all(isinstance(v, (int, float)) and lo <= v <= hi for v, (lo, hi) in zip(shown, spans)):
@@ -730,13 +741,13 @@ class DesignPage:
     async def _show_design(self, outcome: Outcome, frame, details: str | None, shown: int) -> None:
         """Show ``outcome``, the design asked for ``shown``-th, with its live view ``frame`` and
         summary ``details``: then the catalogue table and the springs' figure, unless a later
-        design was asked for meanwhile."""
-        self._show(outcome, details)
-        self._show_history()
+        design was asked for meanwhile. The plots first: the verdict says they are drawn."""
         if frame is not None:
             with self.drawing():
                 self.live.draw(frame)
             self.player.end = max(outcome.result.evaluation.units[0].theta.size - 1, 1)
+        self._show(outcome, details)
+        self._show_history()
         await self._show_catalogue()
         result = outcome.result
         if result is not None and shown == self._shown:
@@ -889,6 +900,8 @@ class DesignPage:
             self.upload.clear()
         self._show_opened()
         self._build_form()
+        self._show_history()  # the file's own: none yet
+        self.player.value = 0  # a file opened is shown at its range's first angle
         await self.design()
 
     def close(self) -> None:

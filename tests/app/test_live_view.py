@@ -161,11 +161,17 @@ def test_a_slider_moved_designs_each_step_and_let_go_makes_the_design_undo_steps
     np.testing.assert_allclose(live.torque_sources[0].data["tau"], moving, rtol=1e-6)
 
 
-def test_a_value_typed_beyond_its_slider_spans_the_slider_anew(wire_cam):
+def test_a_value_typed_beyond_its_slider_spans_the_slider_anew_and_stays_as_typed(wire_cam):
+    """The slider shows the value typed, finer than its step; that is no move of the slider,
+    which would round the field to its step. A value the key refuses leaves the slider."""
     view = wire_cam
     slider = view.sliders["springs.2.travel"][0]
-    assert slider.end < 0.2
-    view.state.edit("springs.2.travel", "0.2")
+    assert slider.end < 0.2 and slider.step == 1e-4
+    view.state.edit("springs.2.travel", "0.2345678")
     view._show_values(["springs.2.travel"])
-    assert slider.start <= 0.2 <= slider.end and slider.value == 0.2
-    assert view.inputs["springs.2.travel"].value == "0.2"
+    assert slider.start <= 0.2345678 <= slider.end and slider.value == 0.2345678
+    assert view.inputs["springs.2.travel"].value == "0.2345678"
+    assert view.state.overrides["springs.2.travel"] == 0.2345678
+    view.state.edit("springs.2.travel", "-1")  # refused by its key: the field says so, the slider stays
+    view._show_values(["springs.2.travel"])
+    assert slider.value == 0.2345678 and view.inputs["springs.2.travel"].value == "-1"
