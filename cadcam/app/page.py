@@ -406,21 +406,20 @@ class DesignPage:
         """The slider of field ``f`` (:func:`cadcam.app.form.slider_of`) about its value now,
         showing its value and unit; None for a field a designer does not turn. Moved, each
         step is designed as it comes; let go, the design is made in full."""
-        kind = slider_of(f, self.state.value(f.key))
+        value = self.state.value(f.key)
+        kind = slider_of(f, value)
         if kind is None:
             return None
         unit = "" if kind.unit in UNITLESS else f" {kind.unit}"
         common = dict(step=kind.step, format=PrintfTickFormatter(format=f"%.4g{unit}"), sizing_mode="stretch_width",
                       margin=(4, 10, 0, 10))
-        value = self.state.value(f.key)
         if kind.kind == "range":
             widgets = [RangeSlider(label="", start=kind.start, end=kind.end, value=tuple(value), **common)]
         elif kind.kind == "point":
             widgets = [FloatSlider(label=axis, start=lo, end=hi, value=v, **common)
                        for axis, (lo, hi), v in zip("xy", kind.spans, value)]
         elif kind.kind == "integer":
-            widgets = [IntSlider(label="", start=int(kind.start), end=int(kind.end), value=int(value),
-                                            **common)]
+            widgets = [IntSlider(label="", start=int(kind.start), end=int(kind.end), value=int(value), **common)]
         else:
             widgets = [FloatSlider(label="", start=kind.start, end=kind.end, value=float(value), **common)]
 

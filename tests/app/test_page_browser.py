@@ -513,9 +513,19 @@ def _handle(page, slider: str):
 
 def _slider_value(page, key: str) -> list:
     """The values of field ``key``'s sliders in the browser (their Bokeh models')."""
-    return page.evaluate("""(name) => {
-        for (const model of Bokeh.documents[0].all_models)
-            if (model.css_classes && model.css_classes.includes(name)) return model.children.map(c => c.value);
+    return page.evaluate("""(name) => {  // the view on the page now (the browser keeps the forms replaced)
+        const find = (view) => {
+            if (view.model.css_classes && view.model.css_classes.includes(name) && view.el.isConnected) return view;
+            for (const child of (view.children ? [...view.children()] : [])) {
+                const found = find(child);
+                if (found) return found;
+            }
+            return null;
+        };
+        for (const root of Bokeh.index.roots) {
+            const view = find(root);
+            if (view) return view.model.children.map(c => c.value);
+        }
         return null;
     }""", f"slider-{re.sub(r'[^a-z0-9]+', '-', key)}")
 
