@@ -22,9 +22,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-SCRIPTS = ("bench_design.py", "bench_solver.py", "bench_page.py", "bench_sweep.py", "bench_arms.py", "bench_growth.py",
-           "bench_cable_robot.py", "bench_torques.py", "bench_friction.py", "bench_builds.py", "bench_robust.py",
-           "bench_springs.py")
+SCRIPTS = ("bench_design.py", "bench_solver.py", "bench_page.py", "bench_speed.py", "bench_sweep.py", "bench_arms.py",
+           "bench_growth.py", "bench_cable_robot.py", "bench_torques.py", "bench_friction.py", "bench_builds.py",
+           "bench_robust.py", "bench_springs.py")
 #: The goal for the whole benchmark [s] (issue 12).
 GOAL_S = 300
 
