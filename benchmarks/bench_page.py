@@ -142,21 +142,29 @@ def _live_s(result, state: DesignState) -> float:
 
 
 # ------------------------------------------------------------------------------------ browser
-#: In the browser: the time of each pointer event, and of each replacement of the torque
-#: plot's data (with the frame painted after it and the curve's last value).
+#: In the browser: the time of each pointer event; and of each replacement of the torque plot's
+#: data, of the frame painted after it, and the curve; ``window.__next`` settles at the next
+#: (:data:`NEXT`: the step's wait is no polling, which would take the machine's time from the page).
 WATCH = """() => {
-  window.__moves = []; window.__changes = []; window.__painted = [];
+  window.__moves = []; window.__changes = [];
   if (!window.__watching) {
     window.addEventListener('pointermove', () => window.__moves.push(performance.now()), true);
     window.__watching = true;
   }
   const src = Bokeh.documents[0].get_model_by_name('torque-1');
   src.properties.data.change.connect(() => {
-    window.__changes.push([performance.now(), Array.from(src.data.tau)]);
-    requestAnimationFrame(() => window.__painted.push(performance.now()));
+    const came = performance.now(), tau = Array.from(src.data.tau);
+    requestAnimationFrame(() => {
+      window.__changes.push([came, performance.now(), tau]);
+      if (window.__settle) window.__settle();
+    });
   });
-  return src.data.tau.length;
 }"""
+#: In the browser: a promise settled by the next replacement of the torque plot's data (:data:`WATCH`).
+NEXT = "() => { window.__next = new Promise(settle => { window.__settle = settle; }); }"
+#: In the browser: wait for that promise, or fail after the seconds given.
+AWAIT = """(seconds) => Promise.race([window.__next,
+    new Promise((_, fail) => setTimeout(() => fail(new Error('no new curve')), 1000 * seconds))])"""
 
 
 def _free_port() -> int:
@@ -244,14 +252,13 @@ def _steps(page, name: str) -> list[tuple[float, float]]:
     page.mouse.down()
     times = []
     for i in range(1, WARM_UP + STEPS + 1):
-        changes = page.evaluate("window.__changes.length")
         moves = page.evaluate("window.__moves.length")
+        page.evaluate(NEXT)
         page.mouse.move(x + STEP_PX * i, y)
-        page.wait_for_function(f"window.__changes.length > {changes} && window.__painted.length > {changes}",
-                               timeout=PAGE_WAIT_S * 1e3, polling="raf")
-        moved, (came, tau), painted, before = page.evaluate(
-            f"[window.__moves[window.__moves.length - 1], window.__changes[{changes}], window.__painted[{changes}], "
-            f"{changes} ? window.__changes[{changes} - 1][1] : null]")
+        page.evaluate(AWAIT, PAGE_WAIT_S)
+        moved, (came, painted, tau), before = page.evaluate(
+            "[window.__moves[window.__moves.length - 1], window.__changes[window.__changes.length - 1], "
+            "window.__changes.length > 1 ? window.__changes[window.__changes.length - 2][2] : null]")
         if page.evaluate("window.__moves.length") <= moves:
             raise RuntimeError(f"{name}: the browser saw no pointer move")
         if before is not None and tau == before:

@@ -458,7 +458,8 @@ def test_a_spec_opens_with_its_csv_a_table_pasted_or_edited_is_designed_and_down
 
 # -- the live view: sliders, handles, undo, each template -----------------------------------------
 #: In the browser: the time of each pointer event, and each replacement of the torque plot's data
-#: with its curve (a source made again for another template is watched anew).
+#: with its curve (a source made again for another template is watched anew); ``window.__next``
+#: settles at the next (:data:`NEXT`; waited for without polling, which would slow the page).
 WATCH = """() => {
     window.__moves = []; window.__curves = [];
     if (!window.__watching) {
@@ -466,8 +467,16 @@ WATCH = """() => {
         window.__watching = true;
     }
     const source = Bokeh.documents[0].get_model_by_name('torque-1');
-    source.properties.data.change.connect(() => window.__curves.push([performance.now(), Array.from(source.data.tau)]));
+    source.properties.data.change.connect(() => {
+        window.__curves.push([performance.now(), Array.from(source.data.tau)]);
+        if (window.__settle) window.__settle();
+    });
 }"""
+#: In the browser: a promise settled by the next curve drawn (:data:`WATCH`).
+NEXT = "() => { window.__next = new Promise(settle => { window.__settle = settle; }); }"
+#: In the browser: wait for that promise, or fail after the seconds given.
+AWAIT = """(seconds) => Promise.race([window.__next,
+    new Promise((_, fail) => setTimeout(() => fail(new Error('no new curve')), 1000 * seconds))])"""
 
 
 def _open_template(page, spec: str, wait_s: float = CURVE_WAIT_S) -> None:
@@ -498,10 +507,6 @@ def _verdict(page) -> str:
     return " ".join(page.locator("span.verdict-success, span.verdict-failure, span.solving").all_inner_texts())
 
 
-def _wait_curves(page, count: int, what: str) -> list:
-    """The curves drawn since :data:`WATCH` once there are more than ``count``."""
-    page.wait_for_function(f"window.__curves.length > {count}", timeout=CURVE_WAIT_S * 1000, polling="raf")
-    return page.evaluate("window.__curves")
 
 
 def _handle(page, slider: str):
@@ -546,11 +551,12 @@ def test_a_slider_dragged_draws_each_steps_design_and_undo_steps_back(browser_pa
     page.mouse.down()
     steps = []
     for i, dx in enumerate((8, 16, 24)):
+        page.evaluate(NEXT)
         page.mouse.move(x + dx, y)
-        curves = _wait_curves(page, i, f"step {i + 1}")
-        moved = page.evaluate("window.__moves[window.__moves.length - 1]")
-        steps.append(curves[i][0] - moved)
-        assert curves[i][1] != (curves[i - 1][1] if i else first), f"step {i + 1} drew the same curve"
+        page.evaluate(AWAIT, CURVE_WAIT_S)
+        curves, moved = page.evaluate("[window.__curves, window.__moves[window.__moves.length - 1]]")
+        steps.append(curves[-1][0] - moved)
+        assert curves[-1][1] != (curves[-2][1] if len(curves) > 1 else first), f"step {i + 1} drew the same curve"
     assert float(rate.input_value()) > 1100.0
     page.locator(".verdict").get_by_text("moving: the bands, the summary and the lights follow").wait_for()
     page.screenshot(path=str(SCREENS / "16_slider_moving.png"))
