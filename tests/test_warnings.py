@@ -199,16 +199,19 @@ def test_the_warnings_are_in_result_json_and_the_summary(warned):
 
 
 def test_the_design_page_shows_the_warnings(warned):
-    """The page's details are the summary's lines after the verdict, warnings among them (the
-    page's panes stand in as plain objects: building a whole page takes seconds)."""
+    """The page's details are the summary's lines after the verdict, made in the worker with the
+    live view's frame, warnings among them (the page's panes stand in as plain objects: building
+    a whole page takes seconds)."""
     pytest.importorskip("panel", reason="Panel is the app extra's (make test installs it)")
     from cadcam.app.page import DesignPage
     from cadcam.app.state import Outcome
 
     view = DesignPage.__new__(DesignPage)
     view.errors, view.state, view.name = {}, SimpleNamespace(path=FIRST, result=None, aliases={}), FIRST.name
-    view.verdict, view.details, view.torque, view.springs = (SimpleNamespace(object=None) for _ in range(4))
-    view._show(Outcome(result=warned, seconds=1.0))
+    view.verdict, view.details, view.lines, view.springs = (SimpleNamespace(object=None) for _ in range(4))
+    outcome = Outcome(result=warned, seconds=1.0)
+    _, details = DesignPage._drawn(outcome, 0, set())  # in the worker
+    view._show(outcome, details)
     assert f"warning: {warned.spec_warnings[0]}" in view.details.object
 
 
