@@ -63,8 +63,9 @@ FILE_CHECKS = {
     "closed": ("-", "=", "edges of the mesh not shared by exactly two facets, once each way (0: watertight)"),
     "thickness": ("m", "≤", "|the solid's extent along z − the thickness|"),
     "volume": ("m³", "≤", "|the solid's volume − (area inside the DXF's arcs − the holes' circles) × thickness + "
-                          "(the groove's band (cadcam.make.biarc.inward_band) − the holes wholly within it) × its width|, within what its polygons "
-                          "can differ by (perimeters × chordal tolerances × thickness) and its rounding"),
+                          "(the groove's band (cadcam.make.biarc.inward_band) − the holes wholly within it) × its "
+                          "width|, within what its polygons can differ by (perimeters × chordal tolerances × "
+                          "thickness) and its rounding"),
 }
 
 #: How far [m] the SVG's arcs, rebuilt from ends and radii printed to 1e-9 mm (1e-12 m), may
