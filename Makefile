@@ -11,12 +11,15 @@ STAMP  := $(VENV)/.installed-stamp
 # tqdm — and the extras dev (pytest, pytest-xdist, hypothesis, jsonschema, dask[distributed],
 # cvxpy, setuptools, Playwright's client and the app extra: panel, tomlkit), lint (ruff, mypy)
 # and step (build123d: camN.step); the design page's browser test drives Debian's chromium,
-# installed here when it is missing (Playwright's own browser download is not used)
+# installed here when it is missing (Playwright's own browser download is not used); the design
+# page's templates are compiled ahead into the user's cache (about a minute), so that their first
+# design on this machine loads a library instead of solving with expanded functions
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev,lint,step]'
 	test -x /usr/bin/chromium || (apt-get update -qq && apt-get install -y -qq chromium)
+	$(VENV)/bin/cadcam cache --build
 	touch $(STAMP)
 
 # the design page on http://127.0.0.1:5006 (cadcam app; Ctrl-C stops it)
