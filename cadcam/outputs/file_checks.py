@@ -31,7 +31,7 @@ from ..make.workshop import ROUNDING
 from ..physics.outline import NOTCH, outline_from_chain
 from ..verify.file_model import MILLIMETRES, read_svg
 from ..verify.solid_files import read_step, read_stl
-from .verification import WALLS, chain_distance, file_error
+from .verification import WALLS, chain_distance, file_error, model_gap_limit
 
 #: Each check of a file, declared once: name → (unit, sense of its limit, what is measured).
 FILE_CHECKS = {
@@ -39,6 +39,10 @@ FILE_CHECKS = {
                            "(the table recomputed from the files; `where`: the joint): `required`"),
     "x": ("m", "≤", "largest |file − design| of a differential pair's output x recomputed from the files "
                     "(the table recomputed from the files; `where`: the mechanism): `required`"),
+    "model_gap": ("N·m", "≤", "under a force model: the design's largest |τ_force − τ_energy| over the grid, the torque "
+                               "the design claims against the one its part does (∂V/∂θ, which the files are checked "
+                               "against; `where`: the joint): max(1 × design_max_abs_error, 1e-4 × peak), "
+                               "cadcam.outputs.verification.MODEL_GAP_SHARE"),
     "read": ("-", "=", "the file reads back as its format (else its reader's message)"),
     "units": ("-", "=", "the file's length unit: millimetres (an SVG: its width in mm equal to its viewBox's, 1:1)"),
     "outline": ("m", "≤", "largest distance from the designed outline (a groove: the designed spiral), at 4096 "
@@ -102,6 +106,13 @@ def quantity_rows(checks: list[dict]) -> list[dict]:
     those not recomputed are left to the checks table's note."""
     return [row(c["files"], c["quantity"] if c["quantity"] == "x" else "torque", c["file_max_abs_error"],
                 c["required"], c["where"]) for c in checks if "passed" in c]
+
+
+def model_gap_rows(checks: list[dict]) -> list[dict]:
+    """Under a force model, each torque check's ``model_gap`` as a row of the files it is
+    recomputed from (:func:`cadcam.outputs.verification.model_gap_limit`)."""
+    return [row(c["files"], "model_gap", c["model_gap"], model_gap_limit(c), c["where"])
+            for c in checks if "model_gap" in c]
 
 
 def dxf_rows(name: str, cam: dict, units: int) -> list[dict]:

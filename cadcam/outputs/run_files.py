@@ -189,7 +189,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
                                               counts[i]))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
-    from .file_checks import dxf_rows, quantity_rows
+    from .file_checks import dxf_rows, model_gap_rows, quantity_rows
     from .verification import cable_clearances, cam_report, groove_report, verdict, write_report
 
     clearance = cable_clearances(result, chains)
@@ -198,7 +198,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
             else groove_report(i + 1, ev.design.bases[i], ev.design.coefficients[i], grooves[i], chains[i],
                                tolerance, args.cable_radius)
             for i in sorted(chains)}
-    files = quantity_rows(checks + point_checks)
+    files = quantity_rows(checks + point_checks) + model_gap_rows(checks)
     for i in sorted(chains):
         files += dxf_rows(names[i], cams[i], chains[i].units)
         if i in outlines:
@@ -330,13 +330,14 @@ DENSER = 1.25
 def _points_files(result, out: Path, outlines: dict, chains: dict, polygon: float, reference: dict):
     """Write every outline's ``camN_points.csv`` (its polygon within ``polygon`` [m]), read them
     back and recompute the torque (or x) from them, with any helical groove's centre line of
-    ``chains``; while a check misses, write them again with the designed arc's chords turning
+    ``chains``, against their own tolerance (:data:`cadcam.outputs.verification.POINTS_SHARE`
+    of the design's error); while a check misses, write them again with the designed arc's chords turning
     less (:func:`cadcam.make.workshop.polyline_knots`: a follower takes its direction from the
     chord it presses on), at most ``REFITS`` times. Returns the polygons read back (profile
     index → FileOutline), their checks and each file's number of points."""
     from ..make.workshop import chord_turn, polyline_knots, write_points_csv
     from ..verify.file_model import read_points
-    from .verification import REFITS, recompute
+    from .verification import POINTS_SHARE, REFITS, recompute
 
     turn = None
     for attempt in range(REFITS + 1):
@@ -344,7 +345,7 @@ def _points_files(result, out: Path, outlines: dict, chains: dict, polygon: floa
         for i, outline in outlines.items():
             counts[i] = write_points_csv(out / f"cam{i + 1}_points.csv", outline, polygon, turn)
             points[i] = read_points(out / f"cam{i + 1}_points.csv")
-        checks = recompute(result, {**chains, **points}, reference) if outlines else []
+        checks = recompute(result, {**chains, **points}, reference, POINTS_SHARE) if outlines else []
         miss = _miss(checks)
         if miss <= 1 or attempt == REFITS or not np.isfinite(miss):
             return points, checks, counts
