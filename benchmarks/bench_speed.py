@@ -2,7 +2,8 @@
 design`` of the 1-DOF spec with every file, each template's first design on an empty cache and
 Fedorov2018's balancer per edit.
 
-``make bench`` (``python benchmarks/bench_speed.py [--runs 3]``). Wall time on the machine at
+``make bench`` (``python benchmarks/bench_speed.py [--runs 3] [--tables 1 2 3 4]``: the tables
+named, each with its goal rows; all four by default). Wall time on the machine at
 hand, and beside it the CPU time of the process (and of its children), which another load on a
 shared machine stretches less (the goals' verdicts are the wall time's). Tables:
 
@@ -155,7 +156,7 @@ DESIGN_RUNS = (("every file", []), ("`--no-figures`", ["--no-figures"]))
 
 def design_table(runs: int) -> Time:
     """Table 2: wall and CPU time of ``cadcam design`` of the 1-DOF spec, a new process each run
-    (functions auto, its library in the cache since table 1), beside the work its result.json
+    (functions auto, its library in the cache since table 1 or an earlier run), beside the work its result.json
     reports; returns the median times with every file."""
     subprocess.run([sys.executable, "-c", "import cadcam.cli"], check=True)  # its bytecode cached
     with Clock() as start:
@@ -289,25 +290,37 @@ def balancer_table() -> Time:
     return Time(edit_clock.wall, edit_clock.cpu)
 
 
+#: The tables ``--tables`` names, by their numbers.
+TABLES = ("1", "2", "3", "4")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--tables", nargs="+", choices=TABLES, default=list(TABLES),
+                        help="the tables to measure, each with its goal rows (default: all)")
     args = parser.parse_args()
-    warm_s, cold_s = solve_table(args.runs)
-    design_s = design_table(args.runs)
-    ahead = first_design_table()
-    edit_s = balancer_table()
-    print_goals([
-        (f"1-DOF solve ≤ {1e3 * SOLVE_S:.0f} ms, as the design page solves (warm after a 1 % step; median of the "
-         "drags)", f"{warm_s.words(1e3, 'ms', 1)} warm; from the default start {cold_s.words(1e3, 'ms', 0)}",
-         warm_s.wall <= SOLVE_S),
-        (f"`cadcam design` of the 1-DOF spec ≤ {DESIGN_S:g} s wall with every file (functions auto, from the cache)",
-         design_s.words(), design_s.wall <= DESIGN_S),
-        (f"a template's first design on a fresh machine ≤ {FIRST_S:g} s, its libraries built ahead",
-         "; ".join(f"{name} {t.words()}" for name, t in ahead.items()), max(t.wall for t in ahead.values()) <= FIRST_S),
-        (f"Fedorov2018's balancer ≤ {BALANCER_EDIT_S:g} s per edit (the page's path, the pendulum's mass × "
-         f"{MASS_STEP})", edit_s.words(digits=1), edit_s.wall <= BALANCER_EDIT_S),
-    ], issues="issue 53")
+    goals = []
+    if "1" in args.tables:
+        warm_s, cold_s = solve_table(args.runs)
+        goals.append((f"1-DOF solve ≤ {1e3 * SOLVE_S:.0f} ms, as the design page solves (warm after a 1 % step; "
+                      "median of the drags)",
+                      f"{warm_s.words(1e3, 'ms', 1)} warm; from the default start {cold_s.words(1e3, 'ms', 0)}",
+                      warm_s.wall <= SOLVE_S))
+    if "2" in args.tables:
+        design_s = design_table(args.runs)
+        goals.append((f"`cadcam design` of the 1-DOF spec ≤ {DESIGN_S:g} s wall with every file (functions auto, "
+                      "from the cache)", design_s.words(), design_s.wall <= DESIGN_S))
+    if "3" in args.tables:
+        ahead = first_design_table()
+        goals.append((f"a template's first design on a fresh machine ≤ {FIRST_S:g} s, its libraries built ahead",
+                      "; ".join(f"{name} {t.words()}" for name, t in ahead.items()),
+                      max(t.wall for t in ahead.values()) <= FIRST_S))
+    if "4" in args.tables:
+        edit_s = balancer_table()
+        goals.append((f"Fedorov2018's balancer ≤ {BALANCER_EDIT_S:g} s per edit (the page's path, the pendulum's "
+                      f"mass × {MASS_STEP})", edit_s.words(digits=1), edit_s.wall <= BALANCER_EDIT_S))
+    print_goals(goals, issues="issue 53")
     return 0
 
 
