@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..make.biarc import chain_measures, inward_band, signed_distance
+from ..make.biarc import arc_geometry, chain_measures, chain_segments, inward_band, signed_distance
 from ..make.workshop import ROUNDING
-from ..physics.outline import NOTCH, outline_from_chain
+from ..physics.outline import NOTCH, STRAIGHT, outline_from_chain
 from ..verify.file_model import MILLIMETRES, read_svg
 from ..verify.solid_files import read_step, read_stl
 from .verification import WALLS, chain_distance, file_error, model_gap_limit
@@ -67,9 +67,10 @@ FILE_CHECKS = {
     "closed": ("-", "=", "edges of the mesh not shared by exactly two facets, once each way (0: watertight)"),
     "thickness": ("m", "≤", "|the solid's extent along z − the thickness|"),
     "volume": ("m³", "≤", "|the solid's volume − (area inside the DXF's arcs − the holes' circles) × thickness + "
-                          "(the groove's band (cadcam.make.biarc.inward_band) − the holes wholly within it) × its "
+                          "(the groove's band (cadcam.make.biarc.inward_band) − the holes' area within it) × its "
                           "width|, within what its polygons can differ by (perimeters × chordal tolerances × "
-                          "thickness) and its rounding"),
+                          "thickness), its rounding and the error of a hole's share of the band where the band's "
+                          "inner edge crosses the hole (integrated on the DXF's exact arcs)"),
 }
 
 #: How far [m] the SVG's arcs, rebuilt from ends and radii printed to 1e-9 mm (1e-12 m), may
@@ -187,36 +188,145 @@ def solid_rows(name: str, solid, outline, dxf, thickness: float, groove: tuple[f
 def _volume_row(name: str, solid, dxf, thickness: float, groove: tuple[float, float], tolerance: float,
                 fit: float) -> dict:
     """The solid's volume against the exact one, (area inside the DXF's arcs − the holes) ×
-    thickness less the groove's band × its width: an STL's within what an inscribed polygon,
-    circumscribed holes and a DXF within its fit of the design can differ by, the polygon's band
-    from the exact one's and its rounding; a STEP's, of the DXF's own arcs, within
-    :data:`STEP_VOLUME_SHARE`."""
+    thickness less the groove's band (less the holes' share of it) × its width: an STL's within
+    what an inscribed polygon, circumscribed holes and a DXF within its fit of the design can
+    differ by, the polygon's band from the exact one's and its rounding; a STEP's, of the DXF's
+    own arcs, within :data:`STEP_VOLUME_SHARE`; either also within the error of the holes'
+    share of the band where the band crosses a hole (:func:`_holes_in_band`)."""
     area, length = chain_measures(dxf.vertices, dxf.bulges)
     (depth, width), holes = groove, dxf.circles
     band = inward_band(dxf.vertices, dxf.bulges, depth) if depth else 0.0
-    cut = band - _holes_in_band(dxf, depth) if depth else 0.0  # what the groove removes of the face
-    exact = (area - sum(np.pi * d**2 / 4 for _, d in holes)) * thickness - width * cut
+    shared, error = _holes_in_band(dxf, depth) if depth else (0.0, 0.0)
+    exact = (area - sum(np.pi * d**2 / 4 for _, d in holes)) * thickness - width * (band - shared)
     if not tolerance:
-        return row(name, "volume", abs(solid.volume - exact), STEP_VOLUME_SHARE * abs(exact))
+        return row(name, "volume", abs(solid.volume - exact), STEP_VOLUME_SHARE * abs(exact) + width * error)
     polygon = inward_band(solid.outline, np.zeros(len(solid.outline)), depth) if depth and len(solid.outline) > 2 \
         else band
     slack = (thickness * (length * (tolerance + fit) + sum(np.pi * d for _, d in holes) * tolerance)
-             + width * abs(polygon - band) + solid.surface * solid.rounding)
+             + width * (abs(polygon - band) + error) + solid.surface * solid.rounding)
     return row(name, "volume", abs(solid.volume - exact), slack)
 
 
-def _holes_in_band(dxf, depth: float) -> float:
-    """The area [m²] of the DXF's holes that lie wholly within a groove's band ``depth`` [m]
-    deep (their far edge no deeper than it below the exact arcs): the groove cuts no material
-    there, so the band's area counts them once, not twice. A hole the band's inner edge
-    crosses is not counted (its share has no closed form here); its volume then fails, as a
-    groove cutting part of a hole is no part this check can vouch for."""
-    if not dxf.circles:
-        return 0.0
-    centres = np.array([c for c, _ in dxf.circles], dtype=float)
-    radii = np.array([d / 2 for _, d in dxf.circles])
-    inside = signed_distance(centres, dxf.vertices, dxf.bulges) + radii <= depth
-    return float(np.sum(np.pi * radii[inside] ** 2))
+def _holes_in_band(dxf, depth: float) -> tuple[float, float]:
+    """The area [m²] of the DXF's holes within a groove's band ``depth`` [m] deep (the groove
+    cuts no material there, so the band's area counts it once, not twice), and how far it may
+    be off [m²]: a hole wholly within the band (its far edge no deeper than it below the exact
+    arcs) counts whole; one wholly deeper, not at all; one the band's inner edge crosses, its
+    share by :func:`band_in_hole`, exact but for rounding, or the whole hole's area off where
+    that cannot say (the volume then fails unless that little)."""
+    shared = error = 0.0
+    for centre, diameter in dxf.circles:
+        radius = diameter / 2
+        deep = float(signed_distance(np.asarray(centre, dtype=float)[None], dxf.vertices, dxf.bulges)[0])
+        if deep + radius <= depth:
+            shared += np.pi * radius**2
+        elif deep - radius < depth:
+            area = band_in_hole(dxf, centre, radius, depth)
+            shared += np.pi * radius**2 / 2 if area is None else area
+            error += np.pi * radius**2 / 2 if area is None else BAND_ROUNDING * np.pi * radius**2
+    return float(shared), float(error)
+
+
+#: Share of a hole's area by which :func:`band_in_hole`'s closed form may be off (rounding).
+BAND_ROUNDING = 1e-12
+#: Gap [m] between the offsets of two segments' common end below which they join (rounding).
+JOINED = 1e-12
+
+
+def band_in_hole(dxf, centre, radius: float, depth: float) -> float | None:
+    """Area [m²] of the hole (``centre``, ``radius`` [m]) within the groove's band ``depth`` [m]
+    deep below the DXF's exact arcs, in closed form: the hole's area less that of its part
+    deeper than the band, whose boundary is the chain offset inwards by ``depth`` (each arc's
+    concentric arc, each line moved along its normal) where it runs inside the hole, and the
+    hole's circle where it runs deeper than the band; its area is Green's ∮ (x dy − y dx)/2
+    over those arcs and lines, each in closed form. None where the offset within the hole is no
+    chain of such pieces (an arc there of radius ≤ ``depth``, or a corner whose offsets part),
+    for which this has no closed form."""
+    c = np.asarray(centre, dtype=float)
+    a, b, bulges = chain_segments(dxf.vertices - c, dxf.bulges)  # the hole's centre at the origin
+    arc = np.abs(bulges) >= STRAIGHT
+    pieces, cuts = [], []  # the offset's pieces inside the hole; the hole's angles where it crosses it
+    ends = np.zeros((len(a), 2, 2))  # each segment's offset start and end
+    for k in range(len(a)):
+        if arc[k]:
+            middle, bent, sweep = arc_geometry(a[k], b[k], bulges[k])
+            rho = bent - depth  # a counter-clockwise arc's centre lies inside: its offset is concentric
+            if rho <= 0:
+                if _near(a[k], b[k], middle, abs(bent), radius + depth):
+                    return None
+                ends[k] = np.nan
+                continue
+            start = np.arctan2(*(a[k] - middle)[::-1])
+            ends[k] = middle + rho * np.array([[np.cos(start), np.sin(start)],
+                                               [np.cos(start + sweep), np.sin(start + sweep)]])
+            for lo, hi in _arc_inside(middle, rho, start, sweep, radius):
+                pieces.append((rho**2 * (hi - lo) + rho * (middle[0] * (np.sin(hi) - np.sin(lo))
+                                                           - middle[1] * (np.cos(hi) - np.cos(lo)))) / 2)
+                cuts += [np.arctan2(*(middle + rho * np.array([np.cos(t), np.sin(t)]))[::-1])
+                         for t, crossed in ((lo, lo > start), (hi, hi < start + sweep)) if crossed]
+        else:
+            d = b[k] - a[k]
+            inward = np.array([-d[1], d[0]]) / np.hypot(*d) * depth
+            p, q = a[k] + inward, b[k] + inward
+            ends[k] = p, q
+            for lo, hi in _line_inside(p, q, radius):
+                u, v = p + lo * (q - p), p + hi * (q - p)
+                pieces.append((u[0] * v[1] - u[1] * v[0]) / 2)
+                cuts += [np.arctan2(*w[::-1]) for w, crossed in ((u, lo > 0), (v, hi < 1)) if crossed]
+    parted = np.hypot(*(ends[:, 1] - np.roll(ends[:, 0], -1, axis=0)).T)
+    near = np.minimum(np.hypot(*ends[:, 1].T), np.hypot(*np.roll(ends[:, 0], -1, axis=0).T)) < radius + depth
+    if np.any((~(parted <= JOINED)) & near):  # a corner (or a vanished arc) by the hole
+        return None
+    cuts = np.sort(np.mod(cuts, 2 * np.pi))
+    if cuts.size:
+        spans = np.diff(np.append(cuts, cuts[0] + 2 * np.pi))
+        middles = cuts + spans / 2
+        deeper = signed_distance(c + radius * np.column_stack([np.cos(middles), np.sin(middles)]), dxf.vertices,
+                                 dxf.bulges) > depth
+        pieces.append(radius**2 * np.sum(spans[deeper]) / 2)
+    elif signed_distance(c[None] + [[radius, 0.0]], dxf.vertices, dxf.bulges)[0] > depth:
+        pieces.append(np.pi * radius**2)  # the hole's circle deeper than the band all round
+    return float(np.pi * radius**2 - sum(pieces))
+
+
+def _near(a, b, middle, bent: float, reach: float) -> bool:
+    """Whether an arc (ends ``a``, ``b``, centre ``middle``, radius ``bent``) comes within
+    ``reach`` [m] of the origin (its circle does, and so might the arc)."""
+    return bool(abs(np.hypot(*middle) - bent) < reach or min(np.hypot(*a), np.hypot(*b)) < reach)
+
+
+def _arc_inside(middle, rho: float, start: float, sweep: float, radius: float) -> list[tuple[float, float]]:
+    """The angles [rad] (from ``start`` over ``sweep`` > 0) of the arc about ``middle`` of radius
+    ``rho`` that lie inside the circle of ``radius`` about the origin, as (from, to) pairs."""
+    s = np.hypot(*middle)
+    if s >= rho + radius:  # apart
+        return []
+    if s + rho <= radius:  # the whole circle inside the hole
+        return [(start, start + sweep)]
+    if rho >= s + radius:  # the hole inside the arc's circle: no crossing
+        return []
+    towards = np.arctan2(-middle[1], -middle[0])  # the direction from the arc's centre to the hole's
+    half = np.arccos(np.clip((rho**2 + s**2 - radius**2) / (2 * rho * s), -1.0, 1.0))
+    lo = start + np.mod(towards - half - start, 2 * np.pi)
+    out = []
+    for first in (lo - 2 * np.pi, lo):  # the window about the direction, and its turn before
+        a, b = max(first, start), min(first + 2 * half, start + sweep)
+        if a < b:
+            out.append((a, b))
+    return out
+
+
+def _line_inside(p, q, radius: float) -> list[tuple[float, float]]:
+    """The fractions (from, to) of the segment from ``p`` to ``q`` inside the circle of
+    ``radius`` about the origin."""
+    d = q - p
+    aa, bb, cc = d @ d, 2 * p @ d, p @ p - radius**2
+    disc = bb**2 - 4 * aa * cc
+    if disc <= 0:
+        return []
+    root = np.sqrt(disc)
+    lo, hi = max((-bb - root) / (2 * aa), 0.0), min((-bb + root) / (2 * aa), 1.0)
+    return [(lo, hi)] if lo < hi else []
 
 
 def read_back(reader, path: Path, checks) -> list[dict]:

@@ -12,9 +12,9 @@ import pytest
 
 import cadcam
 from cadcam.make import step
-from cadcam.make.biarc import biarc_fit, chain_measures, inward_band
+from cadcam.make.biarc import biarc_fit, chain_measures, inward_band, signed_distance
 from cadcam.make.workshop import holes, polyline, write_points_csv, write_stl
-from cadcam.outputs.file_checks import model_gap_rows, points_rows, solid_check, svg_check
+from cadcam.outputs.file_checks import band_in_hole, model_gap_rows, points_rows, solid_check, svg_check
 from cadcam.outputs.run_files import SHEET_FILES, _outline, _polygon_tolerance, run_file_names, write_workshop_files
 from cadcam.outputs.verification import (MODEL_GAP_SHARE, PEAK_SHARE, POINTS_SHARE, model_gap_limit, recompute,
                                          verdict)
@@ -280,3 +280,47 @@ def test_a_force_model_farther_from_the_energy_torque_than_the_designs_error_fai
         assert verdict([check], cams, [row]) == verdict_of
     assert model_gap_limit({**check, "design_max_abs_error": 1e-9}) == pytest.approx(PEAK_SHARE * 0.2, rel=1e-12)
     assert model_gap_rows([check]) == []  # under the energy model: no gap, no row
+
+
+def _lens(r1: float, r2: float, s: float) -> float:
+    """Area of the intersection of circles of radii ``r1`` and ``r2`` whose centres are ``s`` apart."""
+    return (r1**2 * np.arccos((s * s + r1 * r1 - r2 * r2) / (2 * s * r1))
+            + r2**2 * np.arccos((s * s + r2 * r2 - r1 * r1) / (2 * s * r2))
+            - np.sqrt((-s + r1 + r2) * (s + r1 - r2) * (s - r1 + r2) * (s + r1 + r2)) / 2)
+
+
+@pytest.mark.parametrize("offset", [-1e-3, -3e-4, 0.0, 4e-4, 1.1e-3])
+def test_a_holes_share_of_a_band_on_a_circle_is_the_lens_closed_form(offset):
+    """A disc of radius R grooved d deep: its band is the annulus R − d … R, so a hole of radius
+    r whose centre lies s from the axis has π r² − lens(R − d, r, s) of its area in the band,
+    wherever round the axis it lies; a hole by a square's corner, whose offsets part there, has
+    no closed form, and one by the middle of a side half its area in the band."""
+    R, d, r = 0.02, 0.003, 0.00125
+    disc = types.SimpleNamespace(vertices=np.array([[R, 0.0], [-R, 0.0]]), bulges=np.ones(2))
+    s = R - d + offset
+    for angle in (0.0, 1.0, 3.0):
+        area = band_in_hole(disc, s * np.array([np.cos(angle), np.sin(angle)]), r, d)
+        assert area == pytest.approx(np.pi * r**2 - _lens(R - d, r, s), rel=1e-10)
+    square = types.SimpleNamespace(vertices=np.array([[-R, -R], [R, -R], [R, R], [-R, R]]), bulges=np.zeros(4))
+    assert band_in_hole(square, np.array([0.0, d - R]), r, d) == pytest.approx(np.pi * r**2 / 2, rel=1e-12)
+    assert band_in_hole(square, np.array([R - d, d - R]), r, d) is None
+
+
+def test_a_groove_cutting_into_the_anchor_hole_passes_its_volume(tmp_path, roller, part):
+    """A groove deep enough to cross the roller's anchor hole (its band's inner edge through the
+    hole's centre): the STL's volume meets the exact one, the hole's share of the band in closed
+    form; counted as if the band held none of the hole, it fails."""
+    result, _, report = roller
+    outline, dxf, fit = part
+    (anchor,) = [(c, dia) for c, dia in dxf.circles if np.hypot(*c) > 1e-9]
+    depth = float(signed_distance(np.asarray(anchor[0])[None], dxf.vertices, dxf.bulges)[0])
+    args = dataclasses.replace(result.problem.workshop, groove_depth=depth, groove_width=2e-3)
+    circles = holes(outline, args.bore_diameter, args.anchor_diameter, fit)
+    polygon = _polygon_tolerance(fit)
+    write_stl(tmp_path / "cam1.stl", outline, args.stl, circles, depth, 2e-3, polygon)
+    rows = solid_check(tmp_path / "cam1.stl", outline, dxf, args, polygon, fit)
+    assert not _failed(rows)
+    share = band_in_hole(dxf, anchor[0], anchor[1] / 2, depth)
+    assert 0.3 < share / (np.pi * anchor[1] ** 2 / 4) < 0.7  # about half the hole in the band
+    (volume,) = [r for r in rows if r["check"] == "volume"]
+    assert 2e-3 * share > 10 * volume["limit"]  # left out, the hole's share would fail the volume
