@@ -298,7 +298,8 @@ HOOKS = (
             ("parameters", "unknown_bounds", "n_profiles", "closure_rows", "output", "shorthand", "spec_keys")),
     *_hooks("geometry", ("residual", "guess", "displacements"),
             ("closure", "profile_rotation", "profile_domain", "wrap_end", "max_span", "windings")),
-    *_hooks("limits", (), ("limits", "margins", "mounted_ports", "spring_room", "mount_reach", "fixed_sign_ports",
+    *_hooks("limits", (), ("limits", "margins", "mounted_ports", "spring_room", "largest_arm", "mount_room",
+                                 "fixed_sign_ports",
                                  "advice")),
     *_hooks("placement", (), ("placement_region", "placed")),
     *_hooks("starts and methods", (), ("start_radius", "prepare_start", "methods", "force_models", "force_arms",
@@ -478,10 +479,21 @@ class Mechanism(ABC):
     #: span (:meth:`spring_room`); empty: the mechanism bounds no spring's length.
     mounted_ports: ClassVar[tuple[str, ...]] = ()
 
-    def mount_reach(self, port: str) -> float | None:
-        """The largest distance [m] from the joint to the mount of a spring on ``port`` (one of
-        :attr:`mounted_ports`) over every placement the spec allows, for screening springs by
-        length before any design; None where the port mounts no spring. Default: no port does."""
+    def largest_arm(self, port: str) -> float | None:
+        """The largest moment arm [m] a spring on ``port`` can have on the joint, whatever the
+        profiles, for screening springs by force, stroke and room before any design
+        (:func:`cadcam.sweep.springs.slot_need`); None where the mechanism bounds none.
+        Default: none is bounded."""
+        return None
+
+    def mount_room(self, port: str, arms: np.ndarray) -> np.ndarray | None:
+        """For each moment arm h [m] of ``arms`` (each within :meth:`largest_arm`), the longest
+        straight line [m] from the mount of a spring on ``port`` (one of :attr:`mounted_ports`)
+        to where a cable of that arm can leave the profiles, over every placement the spec
+        allows: at most the spring's free length plus its extension at that arm (:meth:`spring_room`),
+        for screening springs by length before any design. It must not decrease as h falls
+        (the screen bounds it between the arms it is given). None where the port mounts no
+        spring. Default: no port does."""
         return None
 
     @classmethod

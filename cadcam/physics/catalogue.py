@@ -345,7 +345,7 @@ SCREEN_TESTS = {
               "radius winds over the range) covers the target's work",
     "room": "for some moment arm h up to r_max, its free length plus the extension at which it pulls "
             "the peak torque over h fits in the longest straight line from its mount to where a cable of "
-            "arm h leaves a profile within r_max: √(ℓ² − h²) + √(r_max² − h²), ℓ the mount's reach",
+            "arm h leaves a profile (the mechanism's, :meth:`cadcam.mechanisms.base.Mechanism.mount_room`)",
 }
 #: How many moment arms the room test tries, spaced evenly up to the largest.
 ROOM_ARMS = 64
@@ -366,16 +366,17 @@ class Need:
         The largest moment arm the mechanism allows [m]; None: no force or stroke test.
     angle : float or None
         The joint's range Δθ [rad]; None: no stroke test.
-    reach : float or None
-        The largest distance from the joint to the spring's mount [m]
-        (:meth:`cadcam.mechanisms.base.Mechanism.mount_reach`); None: no room test.
+    rooms : tuple of float or None
+        At each moment arm of :func:`room_arms`, the longest straight line from the spring's
+        mount to where a cable of that arm leaves a profile [m]
+        (:meth:`cadcam.mechanisms.base.Mechanism.mount_room`); None: no room test.
     """
 
     energy: float | None = None
     torque: float | None = None
     arm: float | None = None
     angle: float | None = None
-    reach: float | None = None
+    rooms: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -403,16 +404,19 @@ class Screen:
     force: np.ndarray
 
 
+def room_arms(arm: float) -> np.ndarray:
+    """The moment arms [m] the room test tries: :data:`ROOM_ARMS` of them, evenly up to the
+    largest, ``arm``."""
+    return arm * np.arange(1, ROOM_ARMS + 1) / ROOM_ARMS
+
+
 def _room_spare(body, need: Need) -> np.ndarray:
-    """The room test (:data:`SCREEN_TESTS`): at each of :data:`ROOM_ARMS` moment arms h, the
-    longest straight line from a mount at ``need.reach`` to where a cable of arm h leaves a
-    profile within r_max = ``need.arm`` (the foot of the joint on the cable line splits it into
-    √(ℓ² − h²) and at most √(r_max² − h²)), and per spring the most that line exceeds the
-    spring's free length plus its extension at force τ_peak / h, the best over the arms [m]."""
-    h = need.arm * np.arange(1, ROOM_ARMS + 1) / ROOM_ARMS
-    room = np.sqrt(np.maximum(need.reach**2 - h**2, 0.0)) + np.sqrt(need.arm**2 - h**2)
+    """The room test (:data:`SCREEN_TESTS`): at each moment arm h of :func:`room_arms`, the
+    room ``need.rooms`` less the spring's free length plus its extension at force τ_peak / h,
+    per spring the best over the arms [m]."""
+    h = room_arms(need.arm)
     stretch = np.maximum((need.torque / h[None, :] - body.preload[:, None]) / body.rate[:, None], 0.0)
-    return (room[None, :] - body.free_length[:, None] - stretch).max(axis=1)
+    return (np.asarray(need.rooms)[None, :] - body.free_length[:, None] - stretch).max(axis=1)
 
 
 def screen(catalogue: Catalogue, need: Need) -> Screen:
@@ -433,7 +437,7 @@ def screen(catalogue: Catalogue, need: Need) -> Screen:
     if need.energy is not None and need.arm is not None and need.angle is not None:
         start = np.maximum(travel - need.arm * need.angle, 0.0)
         fails["stroke"] = energy - (0.5 * b.rate * start**2 + b.preload * start) < need.energy
-    if need.reach is not None and need.torque is not None and need.arm is not None:
+    if need.rooms is not None and need.torque is not None and need.arm is not None:
         spare = _room_spare(b, need)
         fails["room"] = spare < 0
     binding = tuple(BODY_LIMITS[k] for k in which)

@@ -25,15 +25,9 @@ import numpy as np
 
 from ..designs import Design
 from ..errors import SpecError
-from ..physics.catalogue import Catalogue, Need, Screen, screen
+from ..physics.catalogue import Catalogue, Need, Screen, room_arms, screen
 from ..physics.springs import Spring
 from ..problem import Problem
-
-#: The (mechanism kind, port) pairs whose moment arm on their joint is at most the mechanism's
-#: profiles' ``rho_max``: the cable of an anchored pulley leaves its profile tangentially, so its length
-#: changes by the perpendicular distance of that line from the pivot, at most the largest
-#: radius, per radian. Springs on other ports get no force or stroke test.
-ARM_BOUNDED = {("anchored_pulley", "cable")}
 
 #: Points of the joint's range the target's work and peak torque are taken on.
 NEED_POINTS = 2001
@@ -59,13 +53,13 @@ def slot_need(problem: Problem, j: int) -> Need:
     theta = np.linspace(*joint.theta_range, NEED_POINTS)
     tau = np.asarray(joint.target.function(1, 0).map(theta.size)(theta[None, :])).ravel()
     work = np.concatenate([[0.0], np.cumsum(0.5 * (tau[1:] + tau[:-1]) * np.diff(theta))])
-    arms = [max(f.rho_max for f in problem.mechanisms[p.mechanism].profiles) for p in spring.ports
-            if (problem.mechanisms[p.mechanism].kind, p.name) in ARM_BOUNDED]
-    bounded = len(arms) == len(spring.ports) == 1
-    reach = problem.mechanisms[spring.ports[0].mechanism].mount_reach(spring.ports[0].name) if bounded else None
-    return Need(energy=float(work.max() - work.min()), torque=float(np.abs(tau).max()),
-                arm=float(arms[0]) if bounded else None,
-                angle=float(np.ptp(theta)) if bounded else None, reach=reach)
+    port = spring.ports[0]
+    mechanism = problem.mechanisms[port.mechanism]
+    arm = mechanism.largest_arm(port.name) if len(spring.ports) == 1 else None
+    rooms = mechanism.mount_room(port.name, room_arms(arm)) if arm is not None else None
+    return Need(energy=float(work.max() - work.min()), torque=float(np.abs(tau).max()), arm=arm,
+                angle=float(np.ptp(theta)) if arm is not None else None,
+                rooms=None if rooms is None else tuple(float(r) for r in rooms))
 
 
 def screen_slot(problem: Problem, j: int, catalogue: Catalogue) -> Screen:

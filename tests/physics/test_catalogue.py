@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cadcam.physics.catalogue import (COLUMNS, CONSISTENCY_RTOL, MATERIALS, CatalogueError, Need,
-                                      load_catalogue, material_of, parse_catalogue, screen, shipped)
+                                      load_catalogue, material_of, parse_catalogue, room_arms, screen, shipped)
 from cadcam.physics.springs import BODY_LIMITS, wahl_factor
 
 HEADER = "length_natural,od,wire_dia,length_max,load_min,load_max,stiffness,material,pkg_qty,part_number,pkg_cost"
@@ -155,13 +155,17 @@ def test_the_screen_of_the_whole_catalogue_is_fast_and_gives_one_reason_each():
 
 def test_a_spring_too_long_for_its_mount_at_every_arm_is_screened_out_for_room():
     """The room test against a brute-force maximum over moment arms h of the longest line from
-    a mount at reach ℓ to a cable of arm h leaving a profile within r_max, less the stretch at
-    which the spring pulls the peak torque over h: a free length 2 mm shorter than that passes,
-    2 mm longer fails, and the one with the reason "room"."""
-    need = Need(torque=0.98, arm=0.06, reach=0.2)
+    a mount at reach ℓ to a cable of arm h leaving a profile within r_max (the anchored pulley's
+    room), less the stretch at which the spring pulls the peak torque over h: a free length
+    2 mm shorter than that passes, 2 mm longer fails, and the one with the reason "room"."""
+    reach, arm = 0.2, 0.06
+
+    def room(h):
+        return np.sqrt(reach**2 - h**2) + np.sqrt(arm**2 - h**2)
+    need = Need(torque=0.98, arm=arm, rooms=tuple(room(room_arms(arm))))
     k, f0 = 1000.0, 20.0
     h = np.linspace(1e-6, need.arm, 200_001)
-    line = np.sqrt(need.reach**2 - h**2) + np.sqrt(need.arm**2 - h**2)
+    line = room(h)
     longest = np.max(line - np.maximum((need.torque / h - f0) / k, 0.0))
     rows = [f"{length:.6f},0.012,0.0015,{length + 0.2:.6f},{f0},{f0 + 0.2 * k},{k},Music-Wire Steel,5,{name},9.5"
             for name, length in (("SHORT", longest - 0.002), ("LONG", longest + 0.002))]
@@ -169,4 +173,4 @@ def test_a_spring_too_long_for_its_mount_at_every_arm_is_screened_out_for_room()
     result = screen(cat, need)
     assert result.passed.tolist() == [True, False]
     assert result.reasons[1].startswith("room:")
-    assert np.all(screen(cat, replace(need, reach=None)).passed)  # no mount: no test
+    assert np.all(screen(cat, replace(need, rooms=None)).passed)  # no mount: no test

@@ -214,11 +214,21 @@ class AnchoredPulley(Mechanism):
         psi = self.anchor_angle + WINDING[self.winding] * chi0
         return replace(self, spring_end_x=float(ell * np.cos(psi)), spring_end_y=float(ell * np.sin(psi)))
 
-    def mount_reach(self, port: str) -> float | None:
-        """ℓ, or the largest of ``mount_distance`` where the NLP places the spring end."""
+    def largest_arm(self, port: str) -> float | None:
+        """The largest ``rho_max``: the cable leaves a profile tangentially, so its line passes
+        the joint at most the profile's radius there away."""
+        return float(max(f.rho_max for f in self.profiles)) if port == "cable" else None
+
+    def mount_room(self, port: str, arms: np.ndarray) -> np.ndarray | None:
+        """√(ℓ² − h²) + √(r_max² − h²): the foot of the joint on the cable's line splits the
+        line from the spring end, at ℓ from the joint (the largest of ``mount_distance`` where
+        the NLP places it), to the departure point, within r_max of it, into two legs of a
+        right triangle each; both fall as h grows."""
         if port not in self.mounted_ports:
             return None
-        return float(self.mount_distance[1] if self.mount_distance is not None else self.ell)
+        ell = float(self.mount_distance[1] if self.mount_distance is not None else self.ell)
+        h = np.asarray(arms, dtype=float)
+        return np.sqrt(np.maximum(ell**2 - h**2, 0.0)) + np.sqrt(np.maximum(self.largest_arm(port)**2 - h**2, 0.0))
 
     def parameter_values(self) -> tuple[float, ...]:
         w = WINDING[self.winding]

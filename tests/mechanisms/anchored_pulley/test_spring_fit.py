@@ -129,3 +129,18 @@ def test_a_region_that_does_not_hold_the_spring_end_is_refused(region, words):
     from cadcam.spec import SpecError
     with pytest.raises(SpecError, match=words):
         parse_spec(_placed_spec(**region))
+
+
+@pytest.mark.parametrize("region, ell", [({}, 0.2), ({"mount_distance": [0.1, 0.35]}, 0.35)])
+def test_the_mount_room_is_the_longest_line_at_each_arm(region, ell):
+    """The room the spring screen gives a spring at moment arm h, against a brute-force longest
+    line from a spring end at the spec's (or its region's largest) distance to a point within
+    rho_max, the two on a line h from the joint: one a side of its foot, one the other."""
+    mech = parse_spec(_placed_spec(**region)).mechanisms[0]
+    r = mech.largest_arm("cable")
+    assert r == 0.06 and mech.largest_arm("nope") is None and mech.mount_room("nope", [0.01]) is None
+    arms = np.array([1e-4, 0.01, 0.03, 0.059])
+    t = np.linspace(0.0, 1.0, 20_001)
+    brute = [np.max(np.sqrt(ell**2 - h**2) + t * np.sqrt(r**2 - h**2)) for h in arms]
+    np.testing.assert_allclose(mech.mount_room("cable", arms), brute, rtol=1e-12)
+    assert np.all(np.diff(mech.mount_room("cable", np.linspace(0.0, r, 50))) < 0)  # falls as h grows
