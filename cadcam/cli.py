@@ -433,7 +433,8 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
     words = [row[1] for row in table]
     best = found.best()
     summary = (f"{len(table)} springs: {int((~found.screened.passed).sum())} screened out, "
-               f"{len(found.designed)} designed, {words.count('feasible')} feasible, {words.count('near')} near; ")
+               f"{len(found.designed)} designed, {words.count('feasible')} feasible, {words.count('near')} near, "
+               f"{words.count('undecided')} undecided; ")
     if best is None:
         print(summary + f"no feasible spring; the table in {out / 'springs.csv'}")
         return 1

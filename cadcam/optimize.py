@@ -438,13 +438,13 @@ WARM_GUARD = 0.10
 def warm_optimize(problem: Problem, transcription: Transcription, start: Design | None,
                   start_objective: float | None, start_name: str, warm: Multipliers | None = None,
                   default: tuple[Problem, Design] | None = None, refine: str = "points",
-                  margins: dict | None = None) -> Result:
+                  margins: dict | None = None, retry: bool = True) -> Result:
     """:func:`optimize` from ``start``, the design of a neighbouring problem named
     ``start_name`` whose objective was ``start_objective`` (a sweep's nearest case, a design
     session's last answer), with that answer's multipliers ``warm`` if given; and again from
-    the default start when the warm start fails or ends worse than that objective by more
-    than :data:`WARM_GUARD`; the better is kept and its message says which start it came from.
-    Without ``start``, :func:`optimize`.
+    the default start when the warm start fails (unless not ``retry``) or ends worse than that
+    objective by more than :data:`WARM_GUARD`; the better is kept and its message says which
+    start it came from. Without ``start``, :func:`optimize`.
 
     The problem solved, warm or cold, is the one the default start completes
     (:func:`start_design`: a differential pair's cable length from the envelope of this
@@ -458,7 +458,9 @@ def warm_optimize(problem: Problem, transcription: Transcription, start: Design 
         return optimize(problem, transcription=transcription, start=cold_start, refine=refine)
     result = optimize(problem, transcription=transcription, start=start, warm=warm, refine=refine,
                       margins=margins)
-    if not result.success:  # a warm start that did not help: start afresh
+    if not result.success and not retry:
+        result.message += f" (warm start from {start_name}; not tried again from the default start)"
+    elif not result.success:  # a warm start that did not help: start afresh
         result = optimize(problem, transcription=transcription, start=cold_start, refine=refine)
         result.message += " (from the default start, after a failed warm start)"
     elif start_objective is not None and \

@@ -16,7 +16,7 @@ import pytest
 from cadcam.cli import main
 from cadcam.designs import Design
 from cadcam.errors import SpecError
-from cadcam.optimize import MARGIN_STEP, _raised_margins, optimize, solve, start_design
+from cadcam.optimize import MARGIN_STEP, _raised_margins, optimize, solve, start_design, warm_optimize
 from cadcam.physics.catalogue import load_catalogue
 from cadcam.solve.builds import built_for
 from cadcam.spec import parse_spec, read_spec_data
@@ -144,8 +144,28 @@ def test_a_spring_starts_from_its_solved_neighbour_with_its_multipliers(found):
 
 def test_a_spring_that_cannot_be_designed_is_a_row():
     row = design_part(SPEC, 0, "nope", None, None)
-    assert row["status"] == "error" and row["message"].startswith("SpecError: part 'nope': no part")
-    assert verdict(row)[0] == "infeasible"
+    assert row["status"] == "unusable" and row["message"].startswith("part 'nope': no part")
+    assert verdict(row) == ("infeasible", f"unusable: {row['message']}")
+
+
+@pytest.mark.parametrize("status", ["max_iterations", "infeasible", "restoration_failed", "error"])
+def test_a_design_that_did_not_converge_is_undecided_not_infeasible(status):
+    row = {"part": "P", "status": status, "message": "IPOPT stopped"}
+    assert verdict(row) == ("undecided", f"not finished: {status}: IPOPT stopped")
+
+
+def test_a_failed_warm_start_is_not_tried_again_when_told():
+    """A search's spring whose warm start fails ends there, undecided, at the cost of one solve;
+    ``cadcam design``'s warm starts still try the default start after it."""
+    problem = with_part(_spec_problem(SPEC), 0, FITS, None).with_options(max_iter=3)
+    tr, _ = built_for(problem)
+    far = start_design(with_part(_spec_problem(SPEC), 0, "9654K908", None))[1]
+    once = warm_optimize(problem, tr, far, None, "part X", retry=False)
+    assert once.status == "max_iterations" and once.solve.iterations <= 3
+    assert once.message.endswith("(warm start from part X; not tried again from the default start)")
+    twice = warm_optimize(problem, tr, far, None, "part X")
+    assert twice.message.endswith("(from the default start, after a failed warm start)")
+    assert verdict({"status": once.status, "message": once.message})[0] == "undecided"
 
 
 def test_the_table_ranks_by_the_tolerance_band(tmp_path, capsys):

@@ -32,6 +32,7 @@ LIGHTS = {
     "feasible": Light("#2e7d32", VERDICTS["feasible"]),
     "near": Light("#f9a825", VERDICTS["near"]),
     "untried": Light("#90a4ae", "passes the screen; not designed with these edits yet: pick it to design"),
+    "undecided": Light("#8d6e63", VERDICTS["undecided"]),
     "infeasible": Light("#c62828", VERDICTS["infeasible"]),
 }
 

@@ -95,7 +95,9 @@ RANKS = {
 VERDICTS = {
     "feasible": "designed; the solve converged and the re-check passed, the body's limits included",
     "near": "designed and converged, but the re-check failed: the reason names the binding limit and by how much",
-    "infeasible": "screened out (its reason), or the design failed (its status)",
+    "undecided": "passed the screen, but its design did not converge (its status; a search's within its budget, "
+                 "SEARCH_MAX_ITER iterations from one start): neither found nor ruled out",
+    "infeasible": "screened out (its reason: a test it cannot pass), or a part the spec cannot use",
     "not_designed": "passed the screen but beyond --limit",
 }
 
@@ -180,12 +182,18 @@ def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: di
     row = {"part": part}
     try:
         problem = with_part(_spec_problem(spec), j, part, catalogue)
+    except SpecError as exc:
+        row.update(status="unusable", message=str(exc), wall_time_s=time.perf_counter() - t0)
+        return row
+    try:
         tr, _ = built_for(problem)
         start = start or {}
         design = (force_matched(Design.from_dict(start["design"], problem), j, start["spring"], problem.springs[j],
                                 start["extension"]) if start else None)
+        # a warm start that fails is not tried again from the default start: on the tutorial's
+        # whole catalogue none of the 20 that were converged from it, at twice their cost
         result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", start.get("multipliers"),
-                               refine=SEARCH_REFINE, margins=start.get("margins"))
+                               refine=SEARCH_REFINE, margins=start.get("margins"), retry=False)
         row.update(status=result.status, message=result.message, iterations=result.solve.iterations,
                    violations=result.recheck.violations if not result.success else [],
                    rmse=max(result.evaluation.metrics.rmse),
@@ -241,9 +249,13 @@ def binding_limit(body: dict) -> tuple[str, float]:
 
 
 def verdict(row: dict) -> tuple[str, str]:
-    """A designed spring's verdict and reason (:data:`VERDICTS`)."""
+    """A designed spring's verdict and reason (:data:`VERDICTS`): a design that did not
+    converge proves nothing, so it is ``undecided``; only a part the spec cannot use
+    (:func:`with_part`) is ``infeasible`` here."""
+    if row["status"] == "unusable":
+        return "infeasible", f"unusable: {row['message']}"
     if row["status"] == "error" or "body" not in row:
-        return "infeasible", f"{row['status']}: {row['message']}"
+        return "undecided", f"not finished: {row['status']}: {row['message']}"
     words, ratio = binding_limit(row["body"])
     if row["status"] == "success":
         raised = row.get("margins") or {}
@@ -255,7 +267,7 @@ def verdict(row: dict) -> tuple[str, str]:
             return "near", f"{words} passed by {100 * ratio:.3g} %"
         first = row["violations"][0] if row["violations"] else row["message"]
         return "near", f"{row['status']}: {first}"
-    return "infeasible", f"{row['status']}: {row['message']}"
+    return "undecided", f"not finished: {row['status']}: {row['message']}"
 
 
 def design_order(catalogue: Catalogue, passed, nominal_rate: float) -> list[int]:
