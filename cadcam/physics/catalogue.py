@@ -347,8 +347,9 @@ SCREEN_TESTS = {
             "the peak torque over h fits in the longest straight line from its mount to where a cable of "
             "arm h leaves a profile (the mechanism's, :meth:`cadcam.mechanisms.base.Mechanism.mount_room`)",
 }
-#: How many moment arms the room test tries, spaced evenly up to the largest.
-ROOM_ARMS = 64
+#: How many intervals of moment arm the room test bounds the spring's fit over, evenly up to
+#: the largest.
+ROOM_ARMS = 128
 
 
 @dataclass(frozen=True)
@@ -405,18 +406,20 @@ class Screen:
 
 
 def room_arms(arm: float) -> np.ndarray:
-    """The moment arms [m] the room test tries: :data:`ROOM_ARMS` of them, evenly up to the
-    largest, ``arm``."""
-    return arm * np.arange(1, ROOM_ARMS + 1) / ROOM_ARMS
+    """The moment arms [m] the room test bounds between: 0 and :data:`ROOM_ARMS` more, evenly
+    up to the largest, ``arm``."""
+    return arm * np.arange(ROOM_ARMS + 1) / ROOM_ARMS
 
 
 def _room_spare(body, need: Need) -> np.ndarray:
-    """The room test (:data:`SCREEN_TESTS`): at each moment arm h of :func:`room_arms`, the
-    room ``need.rooms`` less the spring's free length plus its extension at force τ_peak / h,
-    per spring the best over the arms [m]."""
-    h = room_arms(need.arm)
+    """The room test (:data:`SCREEN_TESTS`): per spring, an upper bound [m] of the most by which
+    the room ``need.rooms`` exceeds its free length plus its extension at force τ_peak / h, over
+    every moment arm h up to the largest. Between two arms of :func:`room_arms`, the room is at
+    most that at the smaller (it falls as h grows) and the extension at least that at the
+    larger (so does τ_peak / h): the bound holds at every arm, not only at those tried."""
+    h = room_arms(need.arm)[1:]
     stretch = np.maximum((need.torque / h[None, :] - body.preload[:, None]) / body.rate[:, None], 0.0)
-    return (np.asarray(need.rooms)[None, :] - body.free_length[:, None] - stretch).max(axis=1)
+    return (np.asarray(need.rooms)[None, :-1] - body.free_length[:, None] - stretch).max(axis=1)
 
 
 def screen(catalogue: Catalogue, need: Need) -> Screen:

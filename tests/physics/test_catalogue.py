@@ -174,3 +174,22 @@ def test_a_spring_too_long_for_its_mount_at_every_arm_is_screened_out_for_room()
     assert result.passed.tolist() == [True, False]
     assert result.reasons[1].startswith("room:")
     assert np.all(screen(cat, replace(need, rooms=None)).passed)  # no mount: no test
+
+
+def test_the_room_test_rejects_no_spring_that_fits_at_some_arm_between_those_tried():
+    """Every shipped spring against a brute-force search over 4,001 moment arms (63 between each
+    two the test bounds over) for the tutorial's mount 0.2 m away and r_max = 60 mm: none that
+    fits at one of them is screened out for room, and each screened out for room fits at none."""
+    reach, arm, torque = 0.2, 0.06, 0.98
+
+    def room(h):
+        return np.sqrt(reach**2 - h**2) + np.sqrt(arm**2 - h**2)
+    cat = shipped()
+    b = cat.body
+    result = screen(cat, Need(torque=torque, arm=arm, rooms=tuple(room(room_arms(arm)))))
+    h = np.linspace(arm / 4000, arm, 4000)
+    spare = (room(h)[None, :] - b.free_length[:, None]
+             - np.maximum((torque / h[None, :] - b.preload[:, None]) / b.rate[:, None], 0.0)).max(axis=1)
+    for_room = np.array([r.startswith("room:") for r in result.reasons])
+    assert for_room.sum() > 50 and np.all(spare[for_room] < 0)
+    assert np.all(result.passed[spare >= 0] | ~for_room[spare >= 0])
