@@ -338,6 +338,8 @@ def load_catalogue(path=None) -> Catalogue:
 
 
 #: The screen's tests, in the order a rejected spring's one reason is chosen: what each asks.
+#: The work and the peak torque are what a design meeting the slot's acceptance must at least
+#: deliver (:class:`Slack`), not the target's own.
 SCREEN_TESTS = {
     "energy": "the energy it stores within its travel, ½k·x² + F0·x, covers the target's work over its range",
     "force": "its largest force times the largest moment arm reaches the target's peak torque",
@@ -347,6 +349,58 @@ SCREEN_TESTS = {
             "the peak torque over h fits in the longest straight line from its mount to where a cable of "
             "arm h leaves a profile (the mechanism's, :meth:`cadcam.mechanisms.base.Mechanism.mount_room`)",
 }
+
+
+@dataclass(frozen=True)
+class Slack:
+    """How far a design's torque may miss the target and still meet the slot's acceptance, and
+    what that leaves of the target's work and peak torque.
+
+    A design whose torque τ_s has RMSE e from the target τ over the range Δθ misses the work
+    over any part of it by at most Δθ·e (Cauchy–Schwarz: |∫(τ_s − τ)| ≤ √(b − a)·√(Δθ)·e),
+    and over a window of width w its mean |τ_s| is at least the target's less e·√(Δθ/w), so
+    somewhere there |τ_s| reaches that.
+
+    Attributes
+    ----------
+    span : float
+        Δθ [rad].
+    rmse : float
+        The RMSE [N·m] the relative limit allows against the target's RMS (inf: no limit).
+    per_joule : float
+        The RMSE [N·m] the relative limit allows per joule a spring stores within its travel,
+        against its torque floor (:data:`cadcam.problem.TORQUE_FLOOR`) [N·m/J].
+    cap : float
+        The absolute RMSE limit [N·m] (inf: none).
+    max_error : float
+        The largest |τ_s − τ| allowed [N·m] (inf: no limit).
+    windows : tuple of (float, float)
+        Per window width w: √(Δθ/w) and the largest mean |τ| over a window that wide [N·m].
+    """
+
+    span: float
+    rmse: float
+    per_joule: float
+    cap: float
+    max_error: float
+    windows: tuple[tuple[float, float], ...]
+
+    def allowed(self, energy: np.ndarray) -> np.ndarray:
+        """The largest RMSE [N·m] a design with springs of ``energy`` [J] within their travel
+        may have (the relative limit's share of the larger of the target's RMS and the floor,
+        within the absolute limit)."""
+        return np.minimum(self.cap, np.maximum(self.rmse, self.per_joule * np.asarray(energy)))
+
+    def least_peak(self, peak: float, rmse: np.ndarray) -> np.ndarray:
+        """The torque [N·m] a design of RMSE ``rmse`` (per spring) must reach somewhere, the
+        target's peak being ``peak``: the best of the windows' means less their slack, and the
+        peak less the largest error allowed (the peak itself where ``rmse`` is 0)."""
+        c, m = (np.array(v, dtype=float) for v in zip(*self.windows))
+        rmse = np.asarray(rmse, dtype=float)
+        with np.errstate(invalid="ignore"):  # inf × 0: a window with no slack and no limit
+            windowed = np.nan_to_num((m[None, :] - rmse[:, None] * c[None, :]).max(axis=1), nan=-np.inf)
+        pointwise = np.where(rmse > 0, peak - self.max_error, peak)
+        return np.maximum(np.maximum(windowed, pointwise), 0.0)
 #: How many intervals of moment arm the room test bounds the spring's fit over, evenly up to
 #: the largest.
 ROOM_ARMS = 128
@@ -371,6 +425,9 @@ class Need:
         At each moment arm of :func:`room_arms`, the longest straight line from the spring's
         mount to where a cable of that arm leaves a profile [m]
         (:meth:`cadcam.mechanisms.base.Mechanism.mount_room`); None: no room test.
+    slack : Slack or None
+        How far a design may miss the target and meet the acceptance; None: the tests take
+        the target's work and peak torque as they are.
     """
 
     energy: float | None = None
@@ -378,6 +435,7 @@ class Need:
     arm: float | None = None
     angle: float | None = None
     rooms: tuple[float, ...] | None = None
+    slack: Slack | None = None
 
 
 @dataclass(frozen=True)
@@ -411,14 +469,15 @@ def room_arms(arm: float) -> np.ndarray:
     return arm * np.arange(ROOM_ARMS + 1) / ROOM_ARMS
 
 
-def _room_spare(body, need: Need) -> np.ndarray:
+def _room_spare(body, need: Need, torque: np.ndarray) -> np.ndarray:
     """The room test (:data:`SCREEN_TESTS`): per spring, an upper bound [m] of the most by which
-    the room ``need.rooms`` exceeds its free length plus its extension at force τ_peak / h, over
+    the room ``need.rooms`` exceeds its free length plus its extension at force ``torque`` / h
+    (the peak a design must reach, per spring), over
     every moment arm h up to the largest. Between two arms of :func:`room_arms`, the room is at
     most that at the smaller (it falls as h grows) and the extension at least that at the
-    larger (so does τ_peak / h): the bound holds at every arm, not only at those tried."""
+    larger (so does the force): the bound holds at every arm, not only at those tried."""
     h = room_arms(need.arm)[1:]
-    stretch = np.maximum((need.torque / h[None, :] - body.preload[:, None]) / body.rate[:, None], 0.0)
+    stretch = np.maximum((torque[:, None] / h[None, :] - body.preload[:, None]) / body.rate[:, None], 0.0)
     return (np.asarray(need.rooms)[None, :-1] - body.free_length[:, None] - stretch).max(axis=1)
 
 
@@ -432,25 +491,31 @@ def screen(catalogue: Catalogue, need: Need) -> Screen:
     travel, which = catalogue.travel()
     energy = 0.5 * b.rate * travel**2 + b.preload * travel
     force = b.force(travel)
+    slack = need.slack
+    rmse = slack.allowed(energy) if slack is not None else np.zeros(len(catalogue))
+    work = None if need.energy is None else need.energy - (slack.span if slack is not None else 0.0) * rmse
+    torque = (None if need.torque is None else
+              slack.least_peak(need.torque, rmse) if slack is not None else np.full(len(catalogue), need.torque))
     fails = {}
-    if need.energy is not None:
-        fails["energy"] = energy < need.energy
-    if need.torque is not None and need.arm is not None:
-        fails["force"] = force * need.arm < need.torque
-    if need.energy is not None and need.arm is not None and need.angle is not None:
+    if work is not None:
+        fails["energy"] = energy < work
+    if torque is not None and need.arm is not None:
+        fails["force"] = force * need.arm < torque
+    if work is not None and need.arm is not None and need.angle is not None:
         start = np.maximum(travel - need.arm * need.angle, 0.0)
-        fails["stroke"] = energy - (0.5 * b.rate * start**2 + b.preload * start) < need.energy
-    if need.rooms is not None and need.torque is not None and need.arm is not None:
-        spare = _room_spare(b, need)
+        fails["stroke"] = energy - (0.5 * b.rate * start**2 + b.preload * start) < work
+    if need.rooms is not None and torque is not None and need.arm is not None:
+        spare = _room_spare(b, need, torque)
         fails["room"] = spare < 0
     binding = tuple(BODY_LIMITS[k] for k in which)
+    within = " (missing the target by all its acceptance allows)" if slack is not None else ""
     words = {
         "energy": lambda i: (f"energy: stores {energy[i]:.3g} J within its {1e3 * travel[i]:.3g} mm travel "
-                             f"(bound by its {binding[i]}), the target needs {need.energy:.3g} J"),
+                             f"(bound by its {binding[i]}), the target needs {work[i]:.3g} J{within}"),
         "force": lambda i: (f"force: {force[i]:.3g} N at its travel × {need.arm:.3g} m gives "
-                            f"{force[i] * need.arm:.3g} N·m < the peak {need.torque:.3g} N·m"),
+                            f"{force[i] * need.arm:.3g} N·m < the peak {torque[i]:.3g} N·m{within}"),
         "stroke": lambda i: (f"stroke: over the {1e3 * need.arm * need.angle:.3g} mm of cable the largest "
-                             f"radius winds it stores less than the {need.energy:.3g} J needed"),
+                             f"radius winds it stores less than the {work[i]:.3g} J needed{within}"),
         "room": lambda i: (f"room: its {1e3 * b.free_length[i]:.3g} mm free length and its stretch at the peak "
                            f"torque exceed the room its mount leaves at every moment arm, by "
                            f"{-1e3 * spare[i]:.3g} mm at best"),

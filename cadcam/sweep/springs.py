@@ -25,12 +25,15 @@ import numpy as np
 
 from ..designs import Design
 from ..errors import SpecError
-from ..physics.catalogue import Catalogue, Need, Screen, room_arms, screen
+from ..physics.catalogue import Catalogue, Need, Screen, Slack, room_arms, screen
 from ..physics.springs import Spring
 from ..problem import Problem
 
 #: Points of the joint's range the target's work and peak torque are taken on.
 NEED_POINTS = 2001
+#: Every how many of those points a window of the acceptance's slack starts and ends
+#: (:func:`acceptance_slack`): 100 widths.
+NEED_WINDOW = 20
 
 
 def slot_need(problem: Problem, j: int) -> Need:
@@ -59,7 +62,27 @@ def slot_need(problem: Problem, j: int) -> Need:
     rooms = mechanism.mount_room(port.name, room_arms(arm)) if arm is not None else None
     return Need(energy=float(work.max() - work.min()), torque=float(np.abs(tau).max()), arm=arm,
                 angle=float(np.ptp(theta)) if arm is not None else None,
-                rooms=None if rooms is None else tuple(float(r) for r in rooms))
+                rooms=None if rooms is None else tuple(float(r) for r in rooms),
+                slack=acceptance_slack(joint.limits, theta, tau))
+
+
+def acceptance_slack(limits: dict, theta: np.ndarray, tau: np.ndarray) -> Slack:
+    """How far a design may miss the target ``tau`` [N·m] at the evenly spaced angles ``theta``
+    [rad] and still meet the acceptance ``limits`` (a joint's): :class:`Slack`, its windows
+    every :data:`NEED_WINDOW` points of the angles."""
+    from ..problem import TORQUE_FLOOR
+
+    span, inf = float(np.ptp(theta)), math.inf
+    relative = limits.get("relative_rmse")
+    size = np.abs(tau)
+    total = np.concatenate([[0.0], np.cumsum(0.5 * (size[1:] + size[:-1]) * np.diff(theta))])[::NEED_WINDOW]
+    ends = theta[::NEED_WINDOW]
+    windows = tuple((math.sqrt(span / (ends[d] - ends[0])),
+                     float(np.max((total[d:] - total[:-d]) / (ends[d:] - ends[:-d]))))
+                    for d in range(1, ends.size))
+    return Slack(span=span, rmse=inf if relative is None else relative * float(np.sqrt(np.mean(tau**2))),
+                 per_joule=inf if relative is None else relative * TORQUE_FLOOR / span,
+                 cap=limits.get("rmse") or inf, max_error=limits.get("max_abs_error") or inf, windows=windows)
 
 
 def screen_slot(problem: Problem, j: int, catalogue: Catalogue) -> Screen:
