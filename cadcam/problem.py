@@ -427,8 +427,9 @@ class Tolerance:
 WORKSHOP_TOLERANCE = Plausible(high=0.01, what="a workshop's tolerances")
 
 #: The ``[tolerances]`` keys and their defaults: a catalogue spring's rate and initial tension
-#: are sold at about ±10 %, a hole drilled by hand lands within about 0.5 mm, and a profile
-#: cut by a CNC mill or a laser within about 0.05 mm.
+#: are sold at about ±10 %, a hole drilled by hand lands within about 0.5 mm, a profile
+#: cut by a CNC mill or a laser within about 0.05 mm, and a friction coefficient is known to
+#: about ±30 % (one pair of materials spans that in handbooks, and wear, dirt and humidity move it).
 TOLERANCES = {
     "rate": Tolerance("ratio", "each spring's rate k, as a share of it", 0.10, SHARE),
     "preload": Tolerance("ratio", "each spring's preload F0 (initial tension), as a share of it", 0.10, SHARE),
@@ -436,6 +437,9 @@ TOLERANCES = {
                                 "pre-extension, and each mechanism's placed parameters)", 0.5e-3, WORKSHOP_TOLERANCE),
     "profile": Tolerance("m", "each profile's radius ρ, as a uniform offset of the cut outline", 0.05e-3,
                          WORKSHOP_TOLERANCE),
+    "friction": Tolerance("ratio", "each friction coefficient of [friction] that moves the friction band's centre "
+                                   "(a guide's mu, an idler's coefficient), as a share of it: the simulated builds "
+                                   "draw it, the first-order band leaves it out", 0.30, SHARE),
 }
 
 def tolerance_keys() -> KeyTable:

@@ -79,8 +79,11 @@ def _builds_lines(builds: Builds, ev: Evaluation) -> list[str]:
 
     def text(stage: str) -> str:
         return _errors_text(builds.percentiles(stage), builds.scales, floors, peaks)
+    rubbing = sum(source["tolerance"] == "friction" for source in builds.sources)
+    among = f"; {rubbing} friction coefficients among them" if rubbing > 1 else \
+        "; a friction coefficient among them" if rubbing else ""
     lines = [f"  builds: {options['count']} (seed {options['seed']}, each part {options['distribution']} within ± its "
-             f"tolerance), largest torque error P50 / P95 per joint: {text('before')}"]
+             f"tolerance{among}), largest torque error P50 / P95 per joint: {text('before')}"]
     if builds.chosen:
         how = [f"{s.name} ± {1e3 * s.travel:g} mm" for s in builds.chosen]
         hold = "" if builds.pose is None else (

@@ -49,13 +49,18 @@ def joint_scale(problem: Problem, i: int, tau_d: np.ndarray) -> float:
     return max(float(np.abs(tau_d).max()), problem.torque_floor(i))
 
 
+#: The tolerances whose parts step p; the friction coefficient's moves no parameter of p but the
+#: friction band's centre (:func:`friction_parts`).
+STEPPED = tuple(key for key in TOLERANCES if key != "friction")
+
+
 def directions(problem: Problem, bases, layout: Layout) -> tuple[dict, dict]:
-    """For each tolerance, the parameter steps it allows (P × steps): one column per spring,
-    placed parameter or profile (``bases``: the design's), each its Δp; and each column's part
-    in words."""
+    """For each tolerance of :data:`STEPPED`, the parameter steps it allows (P × steps): one
+    column per spring, placed parameter or profile (``bases``: the design's), each its Δp; and
+    each column's part in words."""
     tol = problem.tolerance
-    cols: dict[str, list] = {key: [] for key in TOLERANCES}
-    labels: dict[str, list] = {key: [] for key in TOLERANCES}
+    cols: dict[str, list] = {key: [] for key in STEPPED}
+    labels: dict[str, list] = {key: [] for key in STEPPED}
 
     def add(key: str, label: str, column: np.ndarray) -> None:
         cols[key].append(column)
@@ -78,6 +83,14 @@ def directions(problem: Problem, bases, layout: Layout) -> tuple[dict, dict]:
         add("profile", f"cam {k + 1}'s offset", offset)
         start += basis.size
     return ({key: np.stack(c, axis=1) if c else np.zeros((layout.size, 0)) for key, c in cols.items()}, labels)
+
+
+def friction_parts(problem: Problem) -> list:
+    """The parts the ``friction`` tolerance draws, each its own: the guides and the idlers of
+    ``[friction]``, whose coefficients move the friction band's centre (a joint bearing's
+    friction widens the band about it and moves no torque)."""
+    friction = problem.friction
+    return [] if friction is None else [*friction.guides, *friction.idlers]
 
 
 def draws(seed, count: int, columns: int, distribution: str) -> np.ndarray:

@@ -146,6 +146,11 @@ def band_edges(terms, log_ratios, bearing=0.0):
     return (t * np.exp(lift)).sum(axis=0) + bearing, (t * np.exp(-lift)).sum(axis=0) - bearing
 
 
+def _number(value):
+    """``value`` as a float where it is one number, else the array."""
+    return float(value) if np.ndim(value) == 0 else value
+
+
 @dataclass(frozen=True)
 class Guide:
     """A fixed guide or post on spring ``spring``'s cable to ``port`` (0-based spring; the port
@@ -156,9 +161,10 @@ class Guide:
     mu: float
     wrap: float
 
-    def log_ratio(self) -> float:
-        """ln of its tension ratio, μβ (:func:`capstan_log_ratio`)."""
-        return float(capstan_log_ratio(self.mu, self.wrap))
+    def log_ratio(self, factor=1.0):
+        """ln of its tension ratio, μβ (:func:`capstan_log_ratio`), with μ times ``factor`` (a
+        number, or an array: one per build)."""
+        return _number(capstan_log_ratio(self.mu * np.asarray(factor), self.wrap))
 
     def to_dict(self) -> dict:
         """The spec form."""
@@ -176,9 +182,10 @@ class Idler:
     coefficient: float
     wrap: float
 
-    def log_ratio(self) -> float:
-        """ln of its tension ratio (:func:`idler_log_ratio`)."""
-        return float(idler_log_ratio(self.coefficient, self.wrap))
+    def log_ratio(self, factor=1.0):
+        """ln of its tension ratio (:func:`idler_log_ratio`), with c times ``factor`` (a number,
+        or an array: one per build)."""
+        return _number(idler_log_ratio(self.coefficient * np.asarray(factor), self.wrap))
 
     def to_dict(self) -> dict:
         """The spec form."""

@@ -3,7 +3,9 @@ by its adjustment, are best — not the design itself.
 
 A scenario is one build: every part drawn within its ``[tolerances]`` as the simulated builds
 are (:func:`cadcam.variation.draws` over :func:`cadcam.variation.directions`, from a stream of
-its own seeded by ``[builds] seed``), so that its parameters are the design's moved by a step
+its own seeded by ``[builds] seed``; the friction coefficients, which move no parameter but
+the friction band's centre, are left to the simulated builds), so that its parameters are the
+design's moved by a step
 Δ_s of p = [c; k; x₀; F0; q], and set by its own settings of the ``[adjustment]``
 (:func:`cadcam.variation.settings`), variables of the NLP within their ranges, so that each
 build is set where it is best for it. Its torque is the network's

@@ -4,10 +4,11 @@ adjustment that sets each one back.
 **The builds.** A build draws every part within its tolerance (the spec's ``[tolerances]``,
 :data:`cadcam.problem.TOLERANCES`): each spring's rate and preload, each spring's
 pre-extension and each placed parameter of the mechanisms (placement), each profile's offset
-— one draw per step of the tolerance band (:attr:`cadcam.verify.tolerance.Sensitivity.directions`,
-a tolerance added there, a friction coefficient's, is drawn with them with nothing to change
-here), from the distribution ``[builds] distribution`` names (:data:`cadcam.problem.DISTRIBUTIONS`),
-by a generator seeded with ``[builds] seed``.
+— one draw per step of the tolerance band (:attr:`cadcam.verify.tolerance.Sensitivity.directions`)
+— and then each friction coefficient that moves the friction band's centre, a guide's μ or an
+idler's c (:func:`cadcam.variation.friction_parts`, drawn after the others so that a spec
+without friction draws what it drew before), from the distribution ``[builds] distribution``
+names (:data:`cadcam.problem.DISTRIBUTIONS`), by a generator seeded with ``[builds] seed``.
 
 **Its torque** is not solved again: it is the design's, moved by a model exact where the
 physics is polynomial and second order where it is not (:class:`BuildModel`). With p the
@@ -24,6 +25,15 @@ slot's ends. Left out: the second order in the geometry's own deviations besides
 and the products of a pre-extension's or a preload's tolerance with the geometry's — tenths
 of a millimetre on parts of centimetres (tests/verify/test_builds.py measures what is left
 against builds evaluated exactly). A block of builds is then a few matrix products.
+
+**With friction** a build's torque is its friction band's centre, where a payload is held
+still midway between rising and sinking (:mod:`cadcam.verify.friction`): each sliding cable
+path k adds t_k (cosh L_k − w_k) to the design's torque, t_k = T_j P_jp a_p its frictionless
+term at the design's tensions and arms, L_k its log tension ratio at the build's friction
+coefficients (exact in them) and w_k its arm's weight in the design's torque (cosh L_k at the
+declared coefficients where the design tracks the centre, else 1: then the centre's offset is
+every build's error too). Left out: the products of a friction coefficient's deviation with
+the other parts' (a share of cosh L_k − w_k of theirs).
 
 **The adjustment** (``[adjustment]``): each spring's tensioning screw shifts its pre-extension
 within ± ``preload_travel``; a slot moves each mechanism's spring end within ± ``slot_travel``
@@ -50,9 +60,11 @@ import casadi as ca
 import numpy as np
 
 from ..designs import Design
+from ..physics.friction import Guide
 from ..problem import DISTRIBUTIONS, Problem
-from ..variation import Setting, draws, joint_scale, settings
+from ..variation import Setting, draws, friction_parts, joint_scale, settings
 from .evaluate import Evaluation, evaluate
+from .friction import cable_paths, port_arms
 from .tolerance import Sensitivity, sensitivity
 
 #: Most grid points (over the tensor grid of every joint) a build's error is taken at: a larger
@@ -139,6 +151,47 @@ def _moved_to(mech, placed, moved: dict) -> bool:
 
 # -- the model --------------------------------------------------------------------------------
 @dataclass
+class FrictionShift:
+    """How a build's friction coefficients move its torque (see the module): rows as
+    :class:`BuildModel`'s, one draw per part of :func:`cadcam.variation.friction_parts`."""
+
+    terms: np.ndarray  # (K, rows) each sliding path's frictionless term t_k [N·m], 0 off its joint
+    weights: np.ndarray  # (K,) w_k, its arm's weight in the design's torque
+    parts: list  # (E,) the guides and idlers drawn
+    paths: np.ndarray  # (E,) the sliding path (an index of terms) each part is on
+
+    def shift(self, deviation: np.ndarray) -> np.ndarray:
+        """The change (rows, B) [N·m] of the builds' torque whose parts' coefficients are off by
+        the shares ``deviation`` (E, B) (each coefficient times 1 + its share)."""
+        L = np.zeros((len(self.weights), deviation.shape[1]))
+        for part, path, share in zip(self.parts, self.paths, deviation):
+            L[path] += part.log_ratio(1.0 + share)
+        return self.terms.T @ (np.cosh(L) - self.weights[:, None])
+
+
+def friction_shift(ev: Evaluation, points: np.ndarray) -> FrictionShift | None:
+    """The :class:`FrictionShift` of the evaluated design ``ev`` at the grid ``points`` kept
+    (:func:`kept_points`); None without a guide or an idler."""
+    problem = ev.problem
+    parts = friction_parts(problem)
+    if not parts:
+        return None
+    ports, scales = problem.ports, problem.arm_scales()
+    keys = [(part.spring, part.port.mechanism, part.port.name) for part in parts]
+    paths = [p for p in cable_paths(problem) if (p.spring, *ports[p.port]) in keys]
+    springs = problem.spring_parameters()
+    tension = (springs.preload[:, None] + springs.rate[:, None] * ev.x)[:, points]
+    arms = port_arms(ev)[:, points]
+    N = points.size
+    terms = np.zeros((len(paths), len(problem.joints) * N))
+    for k, p in enumerate(paths):
+        terms[k, p.joint * N:(p.joint + 1) * N] = p.sign * tension[p.spring] * arms[p.port]
+    where = [(p.spring, *ports[p.port]) for p in paths]
+    return FrictionShift(terms, np.array([scales.get(key, 1.0) for key in where]), parts,
+                         np.array([where.index(key) for key in keys]))
+
+
+@dataclass
 class BuildModel:
     """A build's torque error on the grid points kept (:func:`kept_points`) as a function of its
     parameter step Δ (see the module).
@@ -154,6 +207,9 @@ class BuildModel:
     curvature: dict  # parameter index → (rows,) T_u
     weights: np.ndarray  # (rows,)
     joints: int
+    #: How the friction coefficients move the torque; their deviations follow p's in a step
+    #: (a step of p alone: the declared coefficients).
+    friction: FrictionShift | None = None
 
     @property
     def points(self) -> int:
@@ -161,7 +217,9 @@ class BuildModel:
         return self.error0.size // self.joints
 
     def error(self, step: np.ndarray) -> np.ndarray:
-        """τ − τ_d (rows, B) [N·m] of the builds whose parameters moved by ``step`` (P, B)."""
+        """τ − τ_d (rows, B) [N·m] of the builds whose parameters moved by ``step`` (P, B; or
+        (P + E, B), the friction parts' deviations after p's)."""
+        step, deviation = step[:self.J.shape[1]], step[self.J.shape[1]:]
         half = step.copy()
         half[self.pairs] *= 0.5  # their products with each other, counted once
         s, rows, P = self.H.shape
@@ -169,10 +227,14 @@ class BuildModel:
         out = self.error0[:, None] + self.J @ step + second
         for index, T in self.curvature.items():
             out += 0.5 * T[:, None] * step[index] ** 2
+        if self.friction is not None:
+            out += self.friction.shift(deviation if deviation.size else np.zeros((len(self.friction.parts),
+                                                                                  step.shape[1])))
         return out
 
     def tangent(self, step: np.ndarray, index: int) -> np.ndarray:
-        """d(τ − τ_d)/dp_index (rows, B) at the builds ``step`` (P, B)."""
+        """d(τ − τ_d)/dp_index (rows, B) at the builds ``step`` (P, B, or P + E as :meth:`error`)."""
+        step = step[:self.J.shape[1]]
         where = np.flatnonzero(self.pairs == index)
         if where.size:  # a σ of H: its row is its derivative's change with every step
             return self.J[:, [index]] + self.H[where[0]] @ step
@@ -230,7 +292,8 @@ def build_model(ev: Evaluation, sens: Sensitivity, mixed: ca.Function, slots: li
     for slot in slots:
         curvature[slot.index], words = slot_curvature(ev, layout, slot, J[:, slot.index], points)
         violated += words
-    return BuildModel((ev.tau - ev.tau_d)[:, points].ravel(), J, pairs, H, curvature, weights, m), violated
+    return (BuildModel((ev.tau - ev.tau_d)[:, points].ravel(), J, pairs, H, curvature, weights, m,
+                       friction_shift(ev, points)), violated)
 
 
 def slot_curvature(ev: Evaluation, layout, slot: Setting, slope: np.ndarray, points: np.ndarray) -> tuple:
@@ -480,7 +543,8 @@ def simulate_builds(ev: Evaluation, sens: Sensitivity) -> Builds | None:
     chosen = settings(problem, layout)
     mixed = mixed_function(sens.model)
     model, violated = build_model(ev, sens, mixed, [s for s in chosen if not s.screw])
-    D = np.concatenate(list(sens.directions.values()), axis=1)
+    D = with_friction(np.concatenate(list(sens.directions.values()), axis=1), model.friction,
+                      problem.tolerance["friction"])
     xi = draws(options["seed"], options["count"], D.shape[1], options["distribution"])
     table = pose = None
     if chosen:
@@ -505,6 +569,19 @@ def simulate_builds(ev: Evaluation, sens: Sensitivity) -> Builds | None:
     return Builds(options, _sources(problem, sens), joint_scales(ev), _joined(before), _joined(best), _joined(set_),
                   chosen, theta, at_end, table, payloads, screw_limits(ev, chosen) + violated,
                   time.perf_counter() - start)
+
+
+def with_friction(D: np.ndarray, friction: FrictionShift | None, tolerance: float) -> np.ndarray:
+    """The steps ``D`` (P × columns) of the parts drawn, with a column and a row per friction
+    part after them (its deviation, ± ``tolerance`` a share of its coefficient): a build's step
+    is then (P + E) long, as :meth:`BuildModel.error` reads it."""
+    if friction is None:
+        return D
+    E = len(friction.parts)
+    out = np.zeros((D.shape[0] + E, D.shape[1] + E))
+    out[:D.shape[0], :D.shape[1]] = D
+    out[D.shape[0]:, D.shape[1]:] = tolerance * np.eye(E)
+    return out
 
 
 def rates_of(step: np.ndarray, layout, S: int) -> np.ndarray:
@@ -539,8 +616,17 @@ def _joined(blocks: list) -> np.ndarray | None:
 def _sources(problem: Problem, sens: Sensitivity) -> list[dict]:
     """Each part drawn that moves the torque: its tolerance, the part in words and ± how far
     (the tolerance's value: a share, or metres)."""
-    return [{"tolerance": key, "what": label, "plus_minus": float(problem.tolerance[key])}
-            for key, D in sens.directions.items() for label, column in zip(sens.labels[key], D.T) if column.any()]
+    tol = problem.tolerance
+    stepped = [{"tolerance": key, "what": label, "plus_minus": float(tol[key])}
+               for key, D in sens.directions.items() for label, column in zip(sens.labels[key], D.T) if column.any()]
+    return stepped + [{"tolerance": "friction", "what": _friction_words(part), "plus_minus": float(tol["friction"])}
+                      for part in friction_parts(problem) if tol["friction"] > 0]
+
+
+def _friction_words(part) -> str:
+    """A friction part in words: ``spring 1's guide's mu``, ``spring 2's idler's coefficient``."""
+    kind, name = ("guide", "mu") if isinstance(part, Guide) else ("idler", "coefficient")
+    return f"spring {part.spring + 1}'s {kind} on {part.port.label()}: its {name}"
 
 
 def _at_end(a: np.ndarray, chosen: list[Setting]) -> np.ndarray:

@@ -121,7 +121,7 @@ def tolerance_band(evaluation) -> Band:
     half = sum(parts.values())
     D = np.concatenate(list(sens.directions.values()), axis=1)
     corners = [_worst_corner(model, layout, theta, z, D, J, half, i) for i in range(theta.shape[0])]
-    return Band(problem.tolerance, half, parts, corners, sens)
+    return Band({key: problem.tolerance[key] for key in parts}, half, parts, corners, sens)
 
 
 def _unknowns(evaluation) -> np.ndarray:

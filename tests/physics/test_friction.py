@@ -93,3 +93,15 @@ def test_only_a_tracked_centre_weights_the_arms():
     centred = Friction(friction.guides, friction.idlers, centre=True)
     assert centred.arm_scales() == {(0, 0, "cable"): pytest.approx(math.cosh(L))}
     assert friction.scaled(0.0).path_log_ratios() == {(0, 0, "cable"): 0.0}
+
+
+def test_a_parts_log_ratio_takes_a_build_s_factor_on_its_coefficient():
+    """A build's coefficients, one factor per build: the guide's μβ and the idler's ratio with
+    its coefficient times each factor; one number stays a float."""
+    port = Port(0, "cable")
+    guide, idler = Guide(0, port, 0.16, math.pi / 6), Idler(0, port, 0.058, math.pi)
+    factors = np.array([0.7, 1.0, 1.3])
+    np.testing.assert_allclose(guide.log_ratio(factors), 0.16 * factors * math.pi / 6, rtol=1e-15)
+    np.testing.assert_allclose(idler.log_ratio(factors), [idler_log_ratio(0.058 * f, math.pi) for f in factors],
+                               rtol=1e-15)
+    assert isinstance(guide.log_ratio(), float) and guide.log_ratio() == pytest.approx(0.16 * math.pi / 6)

@@ -19,6 +19,7 @@ from cadcam.outputs.run_files import ADJUSTMENT_FILE, run_file_names
 from cadcam.spec import SpecError, parse_spec, read_spec_data
 from cadcam.verify import builds as B
 from cadcam.verify.evaluate import evaluate
+from cadcam.verify.friction import friction_band
 
 #: A full design per module fixture and more: too heavy for make test's five minutes.
 pytestmark = pytest.mark.slow
@@ -103,6 +104,38 @@ def test_the_build_model_is_the_exact_torque_of_thirty_builds(arm, model):
         exact = np.column_stack([_exact(arm, s) for s in steps.T])
         assert np.abs(exact - model.error(steps)).max() < bound * peak
         assert np.abs(exact - model.error0[:, None] - model.J @ steps).max() > first_order * peak
+
+
+def test_a_builds_friction_coefficient_moves_its_torque_to_its_friction_bands_centre(arm, model):
+    """The guide's μ 30 % off either way: the build's torque is the centre of the friction band
+    the design has under that μ (cadcam.verify.friction, the tensions and arms the design's),
+    to rounding; the declared μ moves nothing, its centre being tracked."""
+    model, _ = model
+    ev = arm.evaluation
+    points = B.kept_points(ev.grid, 1)
+    step = np.zeros((model.J.shape[1] + 1, 3))
+    step[-1] = [-0.3, 0.0, 0.3]
+    error = model.error(step)
+    np.testing.assert_array_equal(error[:, 1], model.error(step[:-1, [1]])[:, 0])
+    for b, factor in ((0, 0.7), (2, 1.3)):
+        centre = friction_band(ev, ev.problem.friction.scaled(factor)).centre[0, points]
+        np.testing.assert_allclose(error[:, b], centre - ev.tau_d[0, points], rtol=0, atol=1e-12)
+        assert np.abs(error[:, b] - error[:, 1]).max() > 1e-3 * np.abs(ev.tau_d).max()
+
+
+def test_the_friction_coefficients_are_drawn_after_the_other_parts(arm):
+    """Builds with the friction tolerance 0 are those of the design without its guide: its
+    draw comes last, so the other parts draw what they drew before; at ± 30 % they differ."""
+    ev, sens = arm.evaluation, arm.band.sensitivity
+    fixed = replace(ev.problem, tolerances=(("friction", 0.0),), builds=(("count", 2000),))
+    without = replace(fixed, friction=None)
+    drawn = [B.simulate_builds(_posed(ev, problem), sens) for problem in (fixed, without)]
+    np.testing.assert_allclose(drawn[0].before, drawn[1].before, rtol=1e-12)
+    np.testing.assert_allclose(drawn[0].set, drawn[1].set, rtol=1e-12)
+    assert [s["tolerance"] for s in drawn[0].sources] == [s["tolerance"] for s in drawn[1].sources]
+    rubbing = B.simulate_builds(_posed(ev, replace(fixed, tolerances=())), sens)
+    assert rubbing.sources[-1]["tolerance"] == "friction"
+    assert not np.allclose(rubbing.before, drawn[0].before, rtol=1e-6)
 
 
 def test_draws_are_reproducible_from_their_seed_and_as_declared():
@@ -237,10 +270,13 @@ def test_builds_are_in_result_json_the_summary_and_the_adjustment_table(arm, tmp
     out = arm.to_dict()["builds"]
     assert out["count"] == 10_000 and out["seed"] == 0 and out["distribution"] == "uniform"
     assert {s["what"] for s in out["sources"]} == {"spring 1's rate", "spring 1's pre-extension", "pulley's ell",
-                                                   "pulley's chi0", "cam 1's offset"}  # its preload is 0
+                                                   "pulley's chi0", "cam 1's offset",
+                                                   "spring 1's guide on cable:1: its mu"}  # its preload is 0
+    assert out["sources"][-1]["tolerance"] == "friction" and out["sources"][-1]["plus_minus"] == 0.3
     assert out["joints"][0]["set"]["p95"] == pytest.approx(arm.builds.percentiles("set")[1, 0])
     summary = arm.summary()
-    assert "builds: 10000 (seed 0, each part uniform within ± its tolerance)" in summary
+    assert "builds: 10000 (seed 0, each part uniform within ± its tolerance; a friction coefficient among them)" \
+        in summary
     assert f"as {ADJUSTMENT_FILE} says; then the screw until the arm holds still at" in summary
     assert ADJUSTMENT_FILE in run_file_names(arm.problem, False, None)
     arm.save(tmp_path, workshop=None, figures=False)

@@ -63,8 +63,9 @@ def test_a_specs_tolerances_scale_their_parts_of_the_band(pair):
     data = read_spec_data(SPEC)
     data["tolerances"] = {"rate": 0.2, "profile": 0.0}
     problem = parse_spec(data, str(SPEC))
-    assert problem.tolerance == {"rate": 0.2, "preload": 0.10, "placement": 0.5e-3, "profile": 0.0}
+    assert problem.tolerance == {"rate": 0.2, "preload": 0.10, "placement": 0.5e-3, "profile": 0.0, "friction": 0.3}
     band = tolerance_band(replace(pair.evaluation, problem=problem))
+    assert band.tolerance == {"rate": 0.2, "preload": 0.10, "placement": 0.5e-3, "profile": 0.0}  # no friction
     np.testing.assert_allclose(band.parts["rate"], 2 * pair.band.parts["rate"], rtol=1e-9)
     assert not band.parts["profile"].any()
     np.testing.assert_allclose(band.parts["placement"], pair.band.parts["placement"], rtol=1e-9)
