@@ -123,19 +123,23 @@ def test_a_builds_friction_coefficient_moves_its_torque_to_its_friction_bands_ce
         assert np.abs(error[:, b] - error[:, 1]).max() > 1e-3 * np.abs(ev.tau_d).max()
 
 
-def test_the_friction_coefficients_are_drawn_after_the_other_parts(arm):
-    """Builds with the friction tolerance 0 are those of the design without its guide: its
-    draw comes last, so the other parts draw what they drew before; at ± 30 % they differ."""
+def test_the_friction_coefficients_are_drawn_after_the_other_parts(arm, model):
+    """With the friction tolerance 0 the builds are those the model gives without friction from
+    the same draws less their last row: the guide's draw comes last, so the other parts draw
+    what they drew before friction was drawn; at ± 30 % they differ."""
+    model, _ = model
     ev, sens = arm.evaluation, arm.band.sensitivity
-    fixed = replace(ev.problem, tolerances=(("friction", 0.0),), builds=(("count", 2000),))
-    without = replace(fixed, friction=None)
-    drawn = [B.simulate_builds(_posed(ev, problem), sens) for problem in (fixed, without)]
-    np.testing.assert_allclose(drawn[0].before, drawn[1].before, rtol=1e-12)
-    np.testing.assert_allclose(drawn[0].set, drawn[1].set, rtol=1e-12)
-    assert [s["tolerance"] for s in drawn[0].sources] == [s["tolerance"] for s in drawn[1].sources]
-    rubbing = B.simulate_builds(_posed(ev, replace(fixed, tolerances=())), sens)
-    assert rubbing.sources[-1]["tolerance"] == "friction"
-    assert not np.allclose(rubbing.before, drawn[0].before, rtol=1e-6)
+    exact = replace(ev.problem, tolerances=(("friction", 0.0),), builds=(("count", 2000),))
+    drawn = B.simulate_builds(_posed(ev, exact), sens)
+    D = np.concatenate(list(sens.directions.values()), axis=1)
+    xi = B.draws(0, 2000, D.shape[1] + 1, "uniform")
+    frictionless = replace(model, friction=None)
+    np.testing.assert_allclose(drawn.before, B.largest_errors(frictionless, D @ xi[:-1]), rtol=1e-12)
+    rubbing = B.simulate_builds(_posed(ev, replace(exact, tolerances=())), sens)
+    assert rubbing.sources[-1]["tolerance"] == "friction" and drawn.sources[-1]["tolerance"] != "friction"
+    np.testing.assert_allclose(rubbing.before, B.largest_errors(model, B.with_friction(D, model.friction, 0.3) @ xi),
+                               rtol=1e-12)
+    assert not np.allclose(rubbing.before, drawn.before, rtol=1e-6)
 
 
 def test_draws_are_reproducible_from_their_seed_and_as_declared():
