@@ -19,7 +19,8 @@ squares within the ranges), each as a share of the target's peak; the wall and C
 builds [s] (the model, 10 000 builds, their settings and the table; with the payload range, its
 exact re-evaluations too; CPU over wall above 1 is NumPy's threads, below it the machine's other
 load). A last row draws the friction coefficient exactly (its tolerance 0): its share of the
-rest. Then each payload's RMS error after its setting — the screw and the slot, and the screw
+rest. Then each tolerance alone (the others 0), screw and slot, uniform: what is left after
+adjusting and where it comes from. Then each payload's RMS error after its setting — the screw and the slot, and the screw
 alone (one adjustment; the slot is the second) — the build model's error against 30 builds
 evaluated exactly, and the goals.
 """
@@ -34,9 +35,11 @@ from pathlib import Path
 import numpy as np
 
 import cadcam
+from cadcam.problem import TOLERANCES
 from cadcam.spec import parse_spec, read_spec_data
 from cadcam.verify import builds as B
 from cadcam.verify.evaluate import evaluate
+from cadcam.verify.tolerance import sensitivity
 
 from goals import print_goals
 
@@ -107,6 +110,7 @@ def main() -> None:
         pose = "–" if builds.pose is None else f"{np.degrees(builds.pose[0]):.1f}°"
         print(f"| {name} | {distribution} | {share('before')} | {share('set')} | {share('best')} | {pose} "
               f"| {builds.seconds:.2f} / {cpu[name, distribution]:.2f} |", flush=True)
+    alone_rows(ev, sens, peak)
     payloads = result.builds.payloads
     screw_alone = B.payload_settings(ev, sens, [s for s in result.builds.chosen if s.screw])
     print(f"\nPayloads 0.3–0.8 kg, the screw and the slot set for each from exact re-evaluations "
@@ -143,6 +147,22 @@ def main() -> None:
          f"the screw and the slot (CPU {cpu['none', 'uniform']:.2f} s and {cpu['screw and slot', 'uniform']:.2f} s)",
          builds.seconds <= TIME_GOAL),
     ], "issue 52")
+
+
+def alone_rows(ev, sens, peak: float) -> None:
+    """Print the table of each tolerance alone, the others 0 (its builds' steps made again for
+    its tolerances), with the screw and the slot, each part uniform."""
+    print("\n| tolerance alone | as built P50 / P95 | as set P50 / P95 | at best P50 / P95 |")
+    print("|---|---|---|---|")
+    names = list(ev.problem.tolerance)
+    for name in names:
+        alone = posed(ev, tolerances=tuple((other, 0.0) for other in names if other != name))
+        builds = B.simulate_builds(alone, sensitivity(alone, sens.model))
+        cells = [" / ".join(f"{100 * v / peak:.2f}" for v in builds.percentiles(stage)[:, 0]) + " %"
+                 for stage in ("before", "set", "best")]
+        value = ev.problem.tolerance[name]
+        amount = f"{100 * value:g} %" if TOLERANCES[name].unit == "ratio" else f"{1e3 * value:g} mm"
+        print(f"| {name} ± {amount} | {' | '.join(cells)} |", flush=True)
 
 
 def exact_check(result) -> tuple[float, float, float, float]:
