@@ -207,14 +207,19 @@ class Session:
     def __init__(self):
         self._last: OrderedDict[str, Result] = OrderedDict()  # as many as builds are kept
 
-    def design(self, spec, **options) -> Result:
+    def design(self, spec, *, recheck: bool = True, **options) -> Result:
         """:func:`design` of ``spec`` (``options`` as for :func:`load_problem`), through the
         NLP kept for its structure and from the last answer of that structure; its
-        ``build_time_s`` is what this design built (0 through an NLP kept)."""
+        ``build_time_s`` is what this design built (0 through an NLP kept). With ``recheck``
+        False, no fine re-check and no refusal of a target out of reach
+        (:func:`refuse_unreachable`, milliseconds to tens of them): a provisional design judged
+        on the design grid (:func:`cadcam.optimize.optimize`), as while a slider moves; designed
+        again with it, the same edits start from that answer and need few iterations."""
         problem = load_problem(spec, **options)
-        refuse_unreachable(problem)
+        if recheck:
+            refuse_unreachable(problem)
         if problem.options.method != "nlp":
-            return optimize(problem)
+            return optimize(problem, recheck=recheck)
         completed, start = default = start_design(problem)
         transcription, built = built_for(completed)
         key = structure_key(completed)
@@ -223,10 +228,11 @@ class Session:
                 completed.to_dict()["mechanisms"] != last.problem.to_dict()["mechanisms"]:
             last = None  # the default start completed other numbers than the last answer's
         if last is None:
-            result = optimize(completed, transcription=transcription, start=start)
+            result = optimize(completed, transcription=transcription, start=start, recheck=recheck)
         else:
             result = warm_optimize(problem, transcription, last.design, last.evaluation.metrics.objective,
-                                   "the last design", last.solve.multipliers if last.solve else None, default)
+                                   "the last design", last.solve.multipliers if last.solve else None, default,
+                                   recheck=recheck)
         if not built:  # the NLP kept from an earlier design: this design built none of it
             result.build_time_s -= transcription.build_time_s
         if result.success:

@@ -92,12 +92,15 @@ def solve(tr: Transcription, problem: Problem, start: Design, warm: Multipliers 
                    solve_time_s=first.solve_time_s + run.solve_time_s, history=joined([first.history, run.history]))
 
 
+#: The end of a provisional design's message (:func:`optimize` without its fine re-check).
+PROVISIONAL = "provisional: not yet re-checked on the fine grid"
 #: The statuses :func:`verdict` gives a design whose solve converged.
 VERDICTS = ("success", "not_finite", "recheck_failed", "target_missed")
 
 
-def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
-    """Status and message of a design from its solve and its fine re-check ``fine``.
+def verdict(problem: Problem, solve: Solve, fine, what: str, grid: str = "fine re-check") -> tuple[str, str]:
+    """Status and message of a design from its solve and its fine re-check ``fine`` (or, for a
+    provisional verdict, from the evaluation on the ``grid`` named: ``design``).
 
     ``success`` only if the solve converged, every number of the re-check is finite, no
     constraint is violated and every joint meets its acceptance limits (:attr:`Joint.limits`:
@@ -117,12 +120,12 @@ def verdict(problem: Problem, solve: Solve, fine, what: str) -> tuple[str, str]:
     if not np.all(np.isfinite(np.concatenate([np.ravel(v) for v in numbers] + [[m.objective]]))):
         return "not_finite", "the re-check has NaN or infinite values: the design cannot be trusted"
     if fine.violations:
-        return "recheck_failed", f"{what}, but it violates constraints on the fine re-check grid"
+        return "recheck_failed", f"{what}, but it violates constraints on the {grid} grid"
     missed = [text for i, joint in enumerate(problem.joints) for key, limit in joint.limits.items()
               if (text := _missed(problem, i, key, m, limit)) is not None]
     if missed:
-        return "target_missed", f"{what}, but the target is missed on the fine re-check: {'; '.join(missed)}"
-    return "success", f"{what}; every constraint holds and the target is met on the fine re-check grid"
+        return "target_missed", f"{what}, but the target is missed on the {grid} grid: {'; '.join(missed)}"
+    return "success", f"{what}; every constraint holds and the target is met on the {grid} grid"
 
 
 def _missed(problem: Problem, i: int, key: str, m, limit: float) -> str | None:
@@ -157,30 +160,43 @@ def _recheck(problem: Problem, design: Design, seeds=None):
     return fine, time.perf_counter() - t0
 
 
-def _synthesis_result(problem: Problem, design: Design, seconds: float) -> Result:
+def _judged(problem: Problem, solved: Solve, on_grid, what: str, recheck: bool, seeds=None):
+    """The fine re-check of ``solved``'s design (evaluated on the design grid as ``on_grid``),
+    its wall time [s] and the status and message judged on it (:func:`verdict`); without
+    ``recheck``, ``on_grid`` judged instead, in 0 s, and the message ends by saying that the
+    design is provisional (:data:`PROVISIONAL`)."""
+    if not recheck:
+        status, message = verdict(problem, solved, on_grid, what, "design")
+        return on_grid, 0.0, status, f"{message} ({PROVISIONAL})"
+    fine, recheck_s = _recheck(problem, solved.design, seeds)
+    return fine, recheck_s, *verdict(problem, solved, fine, what)
+
+
+def _synthesis_result(problem: Problem, design: Design, seconds: float, recheck: bool = True) -> Result:
     """The start design re-checked as the answer (a mechanism's own design method,
     :class:`~cadcam.mechanisms.base.DesignMethod`): its evaluation on
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
     objective is the largest output error on the design grid [m], or where no mechanism has
-    an output law, the largest torque error there [N·m]."""
+    an output law, the largest torque error there [N·m]. Without ``recheck``, provisional
+    (:func:`_judged`)."""
     on_grid = evaluate(problem, design)
-    fine, recheck_s = _recheck(problem, design)
     errors = [e for e in on_grid.metrics.output_max_abs_error if e is not None] or on_grid.metrics.max_abs_error
     method = design_methods()[problem.options.method]
     solve = Solve(design=design, status="converged", return_status=method.title,
                   iterations=0, solve_time_s=seconds, objective=max(errors),
                   z=[u.z for u in on_grid.units])
     solve.trials = [_trial(solve)]
-    status, message = verdict(problem, solve, fine, f"{method.name} design")
+    fine, recheck_s, status, message = _judged(problem, solve, on_grid, f"{method.name} design", recheck)
     result = Result(status=status, message=message, problem=problem,
                     design=replace(design, poses=poses_of(problem, on_grid.units)),
-                    evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s)
+                    evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s,
+                    provisional=not recheck)
     return _with_next_step(result, fine)
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,
              start: Design | None = None, warm: Multipliers | None = None, refine: str = "points",
-             margins: dict | None = None) -> Result:
+             margins: dict | None = None, recheck: bool = True) -> Result:
     """Solve ``problem`` and re-check the optimum.
 
     Parameters
@@ -202,6 +218,11 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
         Options of :data:`MARGIN_KEYS` to solve the NLP with, raised above ``problem``'s (the
         margins the answer ``start`` needed, :func:`_margin_refined`); every answer is
         re-checked and judged against ``problem`` itself.
+    recheck : bool
+        False: no fine re-check (a design shown while a slider moves, re-checked once it
+        stops): the result is judged on the design grid alone, its ``recheck`` is its
+        evaluation there, ``provisional`` is True and its message says so; an optimum that
+        breaks its shape there is not solved again.
 
     Returns
     -------
@@ -220,7 +241,7 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     if start is None:
         problem, start = start_design(problem)
     if problem.options.method != "nlp":
-        return _synthesis_result(problem, start, time.perf_counter() - t0)
+        return _synthesis_result(problem, start, time.perf_counter() - t0, recheck)
     tr = transcription or Transcription(problem)
     rng = np.random.default_rng(problem.options.seed)
     starts = [start]
@@ -236,11 +257,11 @@ def optimize(problem: Problem, transcription: Transcription | None = None,
     trials, warnings = [_trial(s) for s in solves], merged([s.warnings for s in solves])
     for candidate in ranked:  # each keeps the run's trials and warnings, every start's
         candidate.trials, candidate.warnings = trials, warnings
-    best = _verified(problem, tr, ranked[0], refine)
+    best = _verified(problem, tr, ranked[0], refine, recheck)
     if best.status == "success" or not converged:
         return best
     for other in ranked[1:]:
-        result = _verified(problem, tr, other, refine)
+        result = _verified(problem, tr, other, refine, recheck)
         if result.status == "success":
             result.message += (f" (from start {other.start}: the lowest objective, start "
                                f"{best.solve.start}'s, ended {best.status})")
@@ -258,12 +279,14 @@ def _refuse_other_types(problem, start) -> None:
                           f"file) or None, not {type(start).__name__}")
 
 
-def _verified(problem: Problem, tr: Transcription, solved: Solve, refine: str = "points") -> Result:
+def _verified(problem: Problem, tr: Transcription, solved: Solve, refine: str = "points",
+              recheck: bool = True) -> Result:
     """:func:`_checked` of ``solved``, solved again as ``refine`` says (:data:`REFINEMENTS`)
     where its profile broke its shape between the check points; where it still fails its
-    re-check, its message ends with the next step (:func:`_with_next_step`)."""
-    result = _checked(problem, tr, solved)
-    if result.status != "recheck_failed":
+    re-check, its message ends with the next step (:func:`_with_next_step`). Without
+    ``recheck``, :func:`_checked`'s provisional result alone."""
+    result = _checked(problem, tr, solved, recheck)
+    if result.status != "recheck_failed" or not recheck:
         return result
     last = result  # the re-check the next step is read from: the last one made
     if _broken_between_checks(result.recheck):
@@ -281,9 +304,10 @@ def _with_next_step(result: Result, fine, tried: int = 0) -> Result:
     return result
 
 
-def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
+def _checked(problem: Problem, tr: Transcription, best: Solve, recheck: bool = True) -> Result:
     """The result of the solve ``best`` of ``tr``: evaluated on the design grid, re-checked on
-    the fine one and judged (:func:`verdict`)."""
+    the fine one and judged (:func:`verdict`); without ``recheck``, judged on the design grid
+    and provisional (:data:`PROVISIONAL` ends its message)."""
     # a mount the NLP placed is where the part is re-checked, drawn and written for
     problem = problem.placed(best.placements)
     # the NLP's tangency angles start the independent rootfinder (the roots it converges to
@@ -291,8 +315,7 @@ def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])
              for u, mech in enumerate(problem.mechanisms)]
     on_grid = evaluate(problem, best.design, seeds=seeds)
-    fine, recheck_s = _recheck(problem, best.design, seeds)
-    status, message = verdict(problem, best, fine, "converged")
+    fine, recheck_s, status, message = _judged(problem, best, on_grid, "converged", recheck, seeds)
     if best.margins:
         message += f" (solved with {_margin_words(best.margins)})"
     # the result's design keeps the poses it was checked at: re-evaluated from result.json, it
@@ -300,7 +323,7 @@ def _checked(problem: Problem, tr: Transcription, best: Solve) -> Result:
     return Result(status=status, message=message, problem=problem,
                   design=replace(best.design, poses=poses_of(problem, on_grid.units)),
                   evaluation=on_grid, recheck=fine, solve=best, build_time_s=tr.build_time_s,
-                  recheck_time_s=recheck_s, functions=tr.functions_used)
+                  recheck_time_s=recheck_s, functions=tr.functions_used, provisional=not recheck)
 
 
 #: How many times the check points a design that broke only its shape between them is
@@ -438,7 +461,7 @@ WARM_GUARD = 0.10
 def warm_optimize(problem: Problem, transcription: Transcription, start: Design | None,
                   start_objective: float | None, start_name: str, warm: Multipliers | None = None,
                   default: tuple[Problem, Design] | None = None, refine: str = "points",
-                  margins: dict | None = None, retry: bool = True) -> Result:
+                  margins: dict | None = None, retry: bool = True, recheck: bool = True) -> Result:
     """:func:`optimize` from ``start``, the design of a neighbouring problem named
     ``start_name`` whose objective was ``start_objective`` (a sweep's nearest case, a design
     session's last answer), with that answer's multipliers ``warm`` if given; and again from
@@ -450,23 +473,23 @@ def warm_optimize(problem: Problem, transcription: Transcription, start: Design 
     (:func:`start_design`: a differential pair's cable length from the envelope of this
     problem's output law), so that a warm design answers the problem a cold one would;
     ``default`` is what :func:`start_design` gives for ``problem``, if the caller has it;
-    ``refine`` as :func:`optimize`'s; ``margins`` those ``start`` was solved with, for the warm
-    solve alone (:func:`optimize`).
+    ``refine`` and ``recheck`` as :func:`optimize`'s; ``margins`` those ``start`` was solved
+    with, for the warm solve alone (:func:`optimize`).
     """
     problem, cold_start = default or start_design(problem)
     if start is None:
-        return optimize(problem, transcription=transcription, start=cold_start, refine=refine)
+        return optimize(problem, transcription=transcription, start=cold_start, refine=refine, recheck=recheck)
     result = optimize(problem, transcription=transcription, start=start, warm=warm, refine=refine,
-                      margins=margins)
+                      margins=margins, recheck=recheck)
     if not result.success and not retry:
         result.message += f" (warm start from {start_name}; not tried again from the default start)"
     elif not result.success:  # a warm start that did not help: start afresh
-        result = optimize(problem, transcription=transcription, start=cold_start, refine=refine)
+        result = optimize(problem, transcription=transcription, start=cold_start, refine=refine, recheck=recheck)
         result.message += " (from the default start, after a failed warm start)"
     elif start_objective is not None and \
             result.evaluation.metrics.objective > (1 + WARM_GUARD) * start_objective:
         # a worse basin? compare
-        cold = optimize(problem, transcription=transcription, start=cold_start, refine=refine)
+        cold = optimize(problem, transcription=transcription, start=cold_start, refine=refine, recheck=recheck)
         warm_objective = result.evaluation.metrics.objective
         if cold.success and cold.evaluation.metrics.objective < warm_objective:
             result = cold

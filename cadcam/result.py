@@ -148,6 +148,10 @@ class Result:
     functions : str
         How the NLP's build evaluated IPOPT's functions
         (:attr:`cadcam.solve.transcription.Transcription.functions_used`; ``none`` without an NLP).
+    provisional : bool
+        True for a design judged on the design grid alone, not yet re-checked on the fine grid
+        (:func:`cadcam.optimize.optimize` with ``recheck=False``: a design page's while a
+        slider moves): its ``recheck`` is its ``evaluation``.
     """
 
     status: str
@@ -160,6 +164,7 @@ class Result:
     build_time_s: float = float("nan")
     recheck_time_s: float = float("nan")
     functions: str = "none"
+    provisional: bool = False
 
     @property
     def success(self) -> bool:
