@@ -16,6 +16,7 @@ import os
 import re
 import sys
 import tomllib
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 from itertools import product
 from pathlib import Path
@@ -292,8 +293,29 @@ def _table(r: _Reader, base: Path, output: bool) -> dict:
 GUARD_SAMPLES = {1: 4001, 2: 201, 3: 41}
 
 
+#: How many targets that passed :func:`_check_target` it remembers (by their spec data, angle
+#: ranges and joint), so as not to check them again: a design page parses its spec again at
+#: every slider step, and the check (its guards and its poles sampled at thousands of angles)
+#: took a tenth of the 1-DOF wire cam's step.
+CHECKED_TARGETS = 64
+_passed_targets: OrderedDict[str, None] = OrderedDict()
+
+
 def _check_target(origin, where, target: Target, joint_ranges, joint: int, unit: str = "torque [N·m]"):
-    """Refuse a target that is malformed or not finite over the angle ranges."""
+    """Refuse a target that is malformed or not finite over the angle ranges (one that passed
+    with the same ranges is not checked again, :data:`CHECKED_TARGETS`)."""
+    key = repr((target.to_dict(), [tuple(r) for r in joint_ranges], joint, unit))
+    if key in _passed_targets:
+        _passed_targets.move_to_end(key)
+        return
+    _checked_target(origin, where, target, joint_ranges, joint, unit)
+    _passed_targets[key] = None
+    while len(_passed_targets) > CHECKED_TARGETS:
+        _passed_targets.popitem(last=False)
+
+
+def _checked_target(origin, where, target: Target, joint_ranges, joint: int, unit: str) -> None:
+    """:func:`_check_target`'s check itself."""
     try:
         f = target.function(len(joint_ranges), joint)
     except ExpressionError as exc:
