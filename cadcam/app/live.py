@@ -69,6 +69,9 @@ class Frame(NamedTuple):
     limits: list[dict] | None
     #: The key under the mechanisms' views (:func:`cadcam.app.views.legend`)
     key: list[tuple[str, str]]
+    #: Whether the spec has friction, so a friction band (None: keep what is shown, a design
+    #: while a slider moves)
+    friction: bool | None = None
 
 
 class LiveView:
@@ -94,6 +97,7 @@ class LiveView:
         self.accepted: BoxAnnotation | None = None
         self.band_renderers: list = []
         self.friction_renderers: list = []
+        self.friction_items: list[LegendItem] = []
         self.torque_figure = None
         self.mechanism_figures: list = []
         #: How many times the plots' data were replaced (a test's and the benchmark's sign)
@@ -128,7 +132,7 @@ class LiveView:
                      accepted=[accepted_error(problem, i) for i in range(len(torque))], poses=poses,
                      boxes=[view_box(ev, u) for u in mechanisms] if views else None,
                      limits=[limit_circles(problem, u) for u in mechanisms] if views else None,
-                     key=legend(problem, bool(shape[2])))
+                     key=legend(problem, bool(shape[2])), friction=bool(problem.friction) if bands else None)
 
     # ---------------------------------------------------------------------------------- plots
     def draw(self, frame: Frame) -> None:
@@ -141,7 +145,10 @@ class LiveView:
                 return
             layouts = self._build(frame)
         for source, data in zip(self.torque_sources, frame.torque):
-            source.data = data
+            put(source, data)
+        if frame.friction is not None:  # no friction band, nor its words in the legend, without friction
+            for renderer, item in zip(self.friction_renderers, self.friction_items):
+                renderer.visible = item.visible = frame.friction
         if self.torque_figure is not None and frame.titles:
             self.torque_figure.title.text = frame.titles[0] if len(frame.titles) == 1 else "torque per joint"
             accepted = frame.accepted[0] if len(frame.accepted) == 1 else None
@@ -152,7 +159,7 @@ class LiveView:
             for sources, fig, box, limits in zip(self.pose_sources, self.mechanism_figures, frame.boxes, frame.limits):
                 fig.x_range.start, fig.x_range.end = box.lo[0], box.hi[0]
                 fig.y_range.start, fig.y_range.end = box.lo[1], box.hi[1]
-                sources["limits"].data = limits
+                put(sources["limits"], limits)
         self.show_poses(frame.poses)
         if layouts is not None:  # the plots made with their data: the browser sets no range on empty ones
             self.torque.object, self.mechanisms.object = layouts
@@ -166,7 +173,7 @@ class LiveView:
         for sources, columns, fig, heading in zip(self.pose_sources, poses.columns, self.mechanism_figures,
                                                   poses.headings):
             for name in POSE_COLUMNS:
-                sources[name].data = columns[name]
+                put(sources[name], columns[name])
             fig.title.text = heading
         for source, ends in zip(self.end_sources, poses.ends):
             source.data = {"x": [e.x for e in ends], "y": [e.y for e in ends], "key": [e.key for e in ends]}
@@ -198,7 +205,7 @@ class LiveView:
         bottom = figure(min_width=TORQUE_WIDTH, height=ERROR_HEIGHT, tools=TOOLS, x_range=top.x_range,
                         x_axis_label="θ [deg]", y_axis_label="τ − τ_d [N·mm]", toolbar_location=None,
                         sizing_mode="stretch_width")
-        items, self.band_renderers, self.friction_renderers = [], [], []
+        items, self.band_renderers, self.friction_renderers, self.friction_items = [], [], [], []
         several = len(self.torque_sources) > 1
         for i, (source, name) in enumerate(zip(self.torque_sources, frame.shape[0])):
             colour = COLOURS[i % len(COLOURS)] if several else TORQUE_COLOUR
@@ -211,12 +218,12 @@ class LiveView:
             self.band_renderers.append(band)
             self.friction_renderers.append(friction)
             named = f" ({name})" if several else ""
+            self.friction_items.append(LegendItem(label="friction band [τ⁻, τ⁺]" if not several else
+                                                  f"friction band{named}", renderers=[friction]))
             items += [LegendItem(label=f"target τ_d{named}", renderers=[target]),
                       LegendItem(label=f"τ{named}", renderers=[tau]),
                       LegendItem(label="tolerance band (built part, first order)" if not several else
-                                 f"tolerance band{named}", renderers=[band]),
-                      LegendItem(label="friction band [τ⁻, τ⁺]" if not several else f"friction band{named}",
-                                 renderers=[friction])]
+                                 f"tolerance band{named}", renderers=[band]), self.friction_items[-1]]
         top.add_layout(Legend(items=items, location="top_left", label_text_font_size="8pt", click_policy="hide",
                               background_fill_alpha=0.7))
         self.accepted = BoxAnnotation(fill_color=ACCEPTED_COLOUR, fill_alpha=0.15, visible=False)
@@ -288,4 +295,26 @@ class LiveView:
             self.on_end_moved(key, x, y, final)
 
 
-__all__ = ["Frame", "LiveView", "Poses"]
+def put(source: ColumnDataSource, data: dict) -> None:
+    """Put ``data`` in ``source``, sending the browser only the columns that changed where the
+    columns and their lengths stay (a design while a slider moves changes the torque, not the
+    angles or the target), else the whole data."""
+    old = source.data
+    if set(old) != set(data) or any(len(old[c]) != len(v) for c, v in data.items()):
+        source.data = data
+        return
+    changed = {c: v for c, v in data.items() if not _same(old[c], v)}
+    if changed:
+        source.data.update(changed)
+
+
+def _same(a, b) -> bool:
+    """Whether two columns hold the same values: a number array, a list of words, or a list of
+    arrays (a curve's coordinates)."""
+    if isinstance(b, np.ndarray) or isinstance(a, np.ndarray):
+        return np.array_equal(a, b)
+    return len(a) == len(b) and all(np.array_equal(x, y) if isinstance(y, np.ndarray) else x == y
+                                    for x, y in zip(a, b))
+
+
+__all__ = ["Frame", "LiveView", "Poses", "put"]

@@ -103,8 +103,11 @@ MESSAGE_CHARS = 300
 UPLOAD_PREFIX = "cadcam-app-open-"
 #: The verdict line while a design runs.
 DESIGNING = "<span class='solving'>designing…</span>"
-#: The verdict line of a design made while a slider moves.
-MOVING = "<small>(moving: the bands, the summary and the lights follow when it is let go)</small>"
+#: The verdict line of a design made while a slider moves (provisional: not re-checked on the fine grid).
+MOVING = ("<small>(moving: the fine re-check, the bands, the summary and the lights follow when it is let go "
+          "or rests)</small>")
+#: How long a slider held still rests before its design is made in full, re-checked [s].
+RESTING_S = 1.0
 #: Width of the form's column [px].
 FORM_WIDTH = 430
 #: Units a slider shows no word for (a share, a number without a unit).
@@ -131,6 +134,7 @@ CSS = """
 .field-error { color: #b00020; font-size: 12px; margin: -4px 10px 6px 10px; }
 .verdict-success { color: #1b5e20; font-weight: bold; }
 .verdict-failure { color: #b00020; font-weight: bold; }
+.verdict-provisional { color: #8a6100; font-weight: bold; }
 .page-error { color: #b00020; }
 .catalogue-line { font-size: 13px; }
 .verdict-lines { font-size: 12px; line-height: 1.3; }
@@ -248,6 +252,7 @@ class DesignPage:
         self._asked: Edits | None = None  # the edits of the last design asked for as made (not while moving)
         self._error_key: str | None = None  # the field whose error is shown
         self._moving: str | None = None  # the field a slider or handle moves now (what its design names)
+        self._resting: asyncio.Task | None = None  # the full design of a slider held still, once it rests
         self.template = pn.widgets.Select(name="Template", options=self._template_options(),
                                           value=self._template_option(), css_classes=["template"],
                                           sizing_mode="stretch_width")
@@ -496,7 +501,22 @@ class DesignPage:
                 await self.design(edited=key)
         elif self.state.edits() != self._asked:
             self._moving = key
+            self._rest(None)
             self._moves.ask()
+
+    def _rest(self, key: str | None) -> None:
+        """Forget the full design of a slider at rest asked for, if any; with ``key``, ask it
+        anew: in :data:`RESTING_S`, field ``key`` designed in full unless it moves again
+        first (the provisional design shown re-checked while the slider is held still)."""
+        if self._resting is not None:
+            self._resting.cancel()
+        self._resting = None if key is None else asyncio.ensure_future(self._at_rest(key))
+
+    async def _at_rest(self, key: str) -> None:
+        await asyncio.sleep(RESTING_S)
+        self._resting = None
+        if self.state.edits() != self._asked:
+            await self.guarded(f"setting {key}", self.design)(edited=key)
 
     async def _design_moving(self) -> None:
         """Design the edits now, while a slider moves (:class:`cadcam.app.latest.Latest`: the
@@ -509,6 +529,7 @@ class DesignPage:
         outcome, frame = await self._in_worker(self._moving_design, request, key, self.player.value, set(self.inputs))
         if shown != self._shown:
             return
+        self._rest(key)
         if outcome.error is not None:
             self._show_error(outcome.field, outcome.error)
             self.verdict.object = self._verdict(outcome)
@@ -520,9 +541,10 @@ class DesignPage:
             self.live.draw(frame)
 
     def _moving_design(self, request: Request, key: str | None, pose: int, keys: set[str]):
-        """(In the worker.) The design of ``request`` and what the live view draws of it at
-        ``pose`` (with the handles of the fields ``keys``), without the bands and view boxes."""
-        outcome = self.state.run(request, key)
+        """(In the worker.) The provisional design of ``request`` (no fine re-check,
+        :meth:`cadcam.app.state.DesignState.run`) and what the live view draws of it at ``pose``
+        (with the handles of the fields ``keys``), without the bands and view boxes."""
+        outcome = self.state.run(request, key, recheck=False)
         frame = None if outcome.result is None else LiveView.frame(outcome.result, pose, keys, bands=False,
                                                                     views=False)
         return outcome, frame
@@ -709,6 +731,7 @@ class DesignPage:
         self._shown += 1
         shown = self._shown
         self._moves.drop()
+        self._rest(None)
         self.failure.visible = False
         self.verdict.object = DESIGNING
         request = self.state.ask(edited)
@@ -783,6 +806,7 @@ class DesignPage:
         self._shown += 1
         shown = self._shown
         self._moves.drop()
+        self._rest(None)
         edits, outcome = entry
         self.state.restore(edits, outcome)
         self._asked = edits
@@ -949,8 +973,9 @@ class DesignPage:
         if outcome.error is not None:
             return f"<span class='verdict-failure'>not designed: {_escape(self._public(outcome.error))}</span>"
         result = outcome.result
-        style = "verdict-success" if result.success else "verdict-failure"
-        return (f"<span class='{style}'>{_escape(result.status)}: {_escape(self._scrubbed(result.message))}</span>"
+        style = "verdict-provisional" if result.provisional else "verdict-success" if result.success else "verdict-failure"
+        status = f"{result.status} (provisional)" if result.provisional else result.status
+        return (f"<span class='{style}'>{_escape(status)}: {_escape(self._scrubbed(result.message))}</span>"
                 f" <small>(designed in {outcome.seconds:.2f} s, functions {result.functions})</small>")
 
     def _lines(self, result) -> str:

@@ -380,24 +380,25 @@ class DesignState:
             return Request(self.edits(), None, self._failed(exc, edited, start), contexts)
         return Request(self.edits(), problem, None, contexts, time.perf_counter() - start)
 
-    def run(self, request: Request, edited: str | None = None) -> Outcome:
+    def run(self, request: Request, edited: str | None = None, recheck: bool = True) -> Outcome:
         """Design ``request`` through the session; a spec error names its field (the one it
         names, else ``edited``). The verdict of each catalogue part designed with is kept for
-        its light (:meth:`catalogue_view`)."""
+        its light (:meth:`catalogue_view`). Without ``recheck``, a provisional design
+        (:meth:`cadcam.Session.design`: while a slider moves), which sets no light."""
         if request.error is not None:
             outcome = request.error
         else:
             start = time.perf_counter() - request.seconds  # the parse counted in
             try:
-                result = self.session.design(request.problem)
+                result = self.session.design(request.problem, recheck=recheck)
             except INPUT_ERRORS as exc:
                 outcome = self._failed(exc, edited, start)
             else:
                 outcome = Outcome(result=result, seconds=time.perf_counter() - start)
                 for j, spring in enumerate(result.problem.springs):
-                    if spring.part is not None and j + 1 in request.contexts:
+                    if spring.part is not None and j + 1 in request.contexts and recheck:
                         self.verdicts[request.contexts[j + 1], j + 1, spring.part] = verdict(_verdict_row(result, j))
-        if outcome.error is not None:
+        if outcome.error is not None and recheck:
             for number, part in request.edits.parts.items():
                 self.verdicts[request.contexts[number], number, part] = ("infeasible", outcome.error)
         return outcome

@@ -140,6 +140,7 @@ def test_a_slider_moved_designs_each_step_and_let_go_makes_the_design_undo_steps
         await view._turn("springs.1.rate", 1180.0, final=False)
         await view._moves.idle()
         assert live.draws == draws + 1 and MOVING in view.verdict.object
+        assert "verdict-provisional" in view.verdict.object and "success (provisional)" in view.verdict.object
         moving = np.array(live.torque_sources[0].data["tau"])
         await view._turn("springs.1.rate", 1180.0, final=True)
         return moving
@@ -148,6 +149,7 @@ def test_a_slider_moved_designs_each_step_and_let_go_makes_the_design_undo_steps
     assert not np.allclose(moving, first)
     assert view.inputs["springs.1.rate"].value == "1180.0" and view.sliders["springs.1.rate"][0].value == 1180.0
     assert history.words() == "design 2 of 2" and MOVING not in view.verdict.object
+    assert "verdict-success" in view.verdict.object and not view.state.result.provisional
     assert view.state.result.problem.springs[0].rate == 1180.0
     np.testing.assert_allclose(live.torque_sources[0].data["tau"], moving, rtol=1e-6)
     assert view.undo.disabled is False and view.redo.disabled is True
@@ -175,3 +177,61 @@ def test_a_value_typed_beyond_its_slider_spans_the_slider_anew_and_stays_as_type
     view.state.edit("springs.2.travel", "-1")  # refused by its key: the field says so, the slider stays
     view._show_values(["springs.2.travel"])
     assert slider.value == 0.2345678 and view.inputs["springs.2.travel"].value == "-1"
+
+
+def test_the_friction_band_is_drawn_and_named_only_where_the_spec_has_friction(wire_cam):
+    from cadcam.app.live import LiveView
+
+    live = LiveView(lambda *args: None)
+    frame = LiveView.frame(wire_cam.state.result, 0, set())
+    assert wire_cam.state.result.problem.friction is None and frame.friction is False
+    live.draw(frame)
+    (item,), (renderer,) = live.friction_items, live.friction_renderers
+    assert item.label.value.startswith("friction band") and not item.visible and not renderer.visible
+    live.draw(frame._replace(friction=True))
+    assert item.visible and renderer.visible
+    live.draw(LiveView.frame(wire_cam.state.result, 0, set(), bands=False, views=False))  # moving: kept
+    assert item.visible and renderer.visible
+
+
+def test_a_plots_source_is_sent_only_the_columns_that_changed():
+    from bokeh.document import Document
+    from bokeh.models import ColumnDataSource
+
+    from cadcam.app.live import put
+
+    def data(n, y):
+        return {"x": np.arange(float(n)), "y": np.full(n, y), "xs": [np.arange(2.0)] * n, "w": ["a"] * n}
+
+    source = ColumnDataSource(data(3, 0.0))
+    doc = Document()
+    doc.add_root(source)
+    sent = []  # the columns of each change the browser is sent (None: the whole data)
+    doc.on_change(lambda event: sent.append(getattr(event, "cols", None)))
+    put(source, data(3, 1.0))
+    assert sent == [["y"]]
+    np.testing.assert_array_equal(source.data["y"], np.ones(3))
+    put(source, data(3, 1.0))
+    assert sent == [["y"]]  # nothing changed: nothing sent
+    put(source, data(4, 1.0))
+    assert len(source.data["x"]) == 4 and sent == [["y"], None]  # another length: the whole data replaced
+
+
+def test_a_slider_held_still_is_designed_in_full_once_it_rests(wire_cam, monkeypatch):
+    from cadcam.app import page
+
+    monkeypatch.setattr(page, "RESTING_S", 0.01)
+    view, history = wire_cam, wire_cam.state.history
+    assert view.state.edit("springs.2.travel", "") is None  # the spec's travel again (a test above refused one)
+
+    async def hold():
+        await view._turn("springs.1.rate", 1150.0, final=False)
+        await view._moves.idle()
+        assert "verdict-provisional" in view.verdict.object and view._resting is not None
+        await view._resting
+
+    made = len(history.entries)
+    asyncio.run(hold())
+    assert len(history.entries) == made + 1 and page.MOVING not in view.verdict.object
+    assert "verdict-success" in view.verdict.object and "fine re-check grid" in view.verdict.object
+    assert view.state.result.problem.springs[0].rate == 1150.0 and not view.state.result.provisional
