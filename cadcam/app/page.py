@@ -107,7 +107,7 @@ DESIGNING = "<span class='solving'>designing…</span>"
 MOVING = ("<small>(moving: the fine re-check, the bands, the summary and the lights follow when it is let go "
           "or rests)</small>")
 #: How long a slider held still rests before its design is made in full, re-checked [s].
-RESTING_S = 1.0
+RESTING_S = 2.0
 #: Width of the form's column [px].
 FORM_WIDTH = 430
 #: Units a slider shows no word for (a share, a number without a unit).

@@ -558,7 +558,8 @@ def test_a_slider_dragged_draws_each_steps_design_and_undo_steps_back(browser_pa
         steps.append(curves[-1][0] - moved)
         assert curves[-1][1] != (curves[-2][1] if len(curves) > 1 else first), f"step {i + 1} drew the same curve"
     assert float(rate.input_value()) > 1100.0
-    page.locator(".verdict").get_by_text("moving: the bands, the summary and the lights follow").wait_for()
+    page.locator(".verdict").get_by_text("moving: the fine re-check, the bands, the summary and the lights follow").wait_for()
+    assert "(provisional)" in page.locator("span.verdict-provisional").inner_text()  # not re-checked yet
     page.screenshot(path=str(SCREENS / "16_slider_moving.png"))
     page.mouse.up()
     page.locator(".history-line").get_by_text("design 2 of 2").wait_for(timeout=CURVE_WAIT_S * 1000)
