@@ -32,6 +32,7 @@ from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
 from .solve import compiled
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
+from .solve.ipopt import RESOLVE_OPTIONS, SESSION_IPOPT
 from .solve.transcription import Transcription
 from .optimize import completed, optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
@@ -220,6 +221,14 @@ class Session:
             refuse_unreachable(problem)
         if problem.options.method != "nlp":
             return optimize(problem, recheck=recheck)
+        token = RESOLVE_OPTIONS.set(SESSION_IPOPT)  # a warm start at the last answer: pushed little off it
+        try:
+            return self._designed(problem, recheck)
+        finally:
+            RESOLVE_OPTIONS.reset(token)
+
+    def _designed(self, problem: Problem, recheck: bool) -> Result:
+        """:meth:`design` of ``problem``, whose method is the NLP."""
         completed, start = default = start_design(problem)
         transcription, built = built_for(completed)
         key = structure_key(completed)

@@ -7,6 +7,8 @@ import pytest
 import cadcam
 from cadcam import spec as spec_module
 from cadcam.optimize import PROVISIONAL
+from cadcam.solve.ipopt import RESOLVE_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT
+from cadcam.solve.transcription import Transcription
 
 from .conftest import SPEC_1DOF
 
@@ -23,6 +25,25 @@ def test_a_provisional_design_is_judged_on_the_design_grid_then_rechecked_in_ful
     assert let_go.recheck.grid > let_go.evaluation.grid and let_go.recheck_time_s > 0
     assert let_go.message.endswith("(warm start from the last design)")
     np.testing.assert_allclose(let_go.x, moving.x, rtol=1e-6)  # the same design, now re-checked
+
+
+def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(monkeypatch):
+    """Within a session's design its warm re-solves take :data:`SESSION_IPOPT`; elsewhere (a
+    sweep, a catalogue search) :data:`RESOLVE_IPOPT` stands."""
+    used = []
+    warm_solver = Transcription._warm_solver
+
+    def recorded(self):
+        used.append(RESOLVE_OPTIONS.get())
+        return warm_solver(self)
+
+    monkeypatch.setattr(Transcription, "_warm_solver", recorded)
+    session = cadcam.Session()
+    session.design(SPEC_1DOF, grid=12)
+    edit = {"springs.1.rate": 1.01 * cadcam.load_spec(SPEC_1DOF).springs[0].rate}
+    assert session.design(SPEC_1DOF, grid=12, overrides=edit, recheck=False).message.endswith(
+        "(warm start from the last design)")
+    assert used == [SESSION_IPOPT] and RESOLVE_OPTIONS.get() is RESOLVE_IPOPT
 
 
 def test_a_target_that_passed_its_check_is_not_checked_again(monkeypatch):

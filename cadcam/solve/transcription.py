@@ -36,7 +36,7 @@ import numpy as np
 from ..designs import Design
 from . import compiled, robust
 from .blocks import BAND_SCALE, LENGTH_SCALE
-from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, RESOLVE_IPOPT, WARM_IPOPT,
+from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, RESOLVE_OPTIONS, WARM_IPOPT,
                     Multipliers, Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
 from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
@@ -101,7 +101,7 @@ class Transcription:
         self.solver, self.functions_used = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp,
                                                          key=self._key)
         self._imposing = None  # the solver with the deferred rows
-        self._warm = None  # the solver warm from an answer and its multipliers
+        self._warm: dict = {}  # the solvers warm from an answer and its multipliers, by their options
 
     def adopt_compiled(self) -> bool:
         """Solve through this structure's compiled library from now on where this build
@@ -460,17 +460,19 @@ class Transcription:
         return self._imposing
 
     def _warm_solver(self) -> ca.Function:
-        """IPOPT on :attr:`nlp` re-solving warm from an answer (:data:`RESOLVE_IPOPT`), built
-        on first use: from the library :attr:`solver` loaded (in milliseconds), else from its
-        derivatives."""
-        if self._warm is None:
+        """IPOPT on :attr:`nlp` re-solving warm from an answer, with the options of the running
+        context (:data:`cadcam.solve.ipopt.RESOLVE_OPTIONS`), built on first use: from the
+        library :attr:`solver` loaded (in milliseconds), else from its derivatives."""
+        options = RESOLVE_OPTIONS.get()
+        key = tuple(sorted(options.items()))
+        if key not in self._warm:
             opt = self.problem.options
             if self.functions_used in (COMPILED_NOW, COMPILED_CACHED):
-                self._warm, _ = _ipopt_solver(self.nlp, opt, self._split_nlp, RESOLVE_IPOPT, key=self._key)
+                self._warm[key], _ = _ipopt_solver(self.nlp, opt, self._split_nlp, options, key=self._key)
             else:
-                self._warm = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, RESOLVE_IPOPT),
-                                            expand=opt.functions != "mapped")
-        return self._warm
+                self._warm[key] = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, options),
+                                                 expand=opt.functions != "mapped")
+        return self._warm[key]
 
     def design_of(self, w) -> Design:
         """The design held in an NLP vector."""
@@ -482,7 +484,8 @@ class Transcription:
     def solve(self, problem: Problem, start: Design, samples, warm: Multipliers | None = None) -> Solve:
         """Run IPOPT from ``start`` (with its ``samples``, see :meth:`initial_guess`) with
         ``problem``'s numbers; with ``warm``, the multipliers of the answer ``start`` is (a
-        neighbouring problem's), from them and :data:`RESOLVE_IPOPT`, and from that answer's
+        neighbouring problem's), from them and the running context's options
+        (:data:`cadcam.solve.ipopt.RESOLVE_OPTIONS`), and from that answer's
         own NLP point where ``warm`` holds it (``samples`` are then not used and may be
         None): with the deferred rows at once if that answer's solve imposed them."""
         if warm is not None and warm.x is not None:
