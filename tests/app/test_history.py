@@ -49,7 +49,7 @@ def test_a_step_back_shows_the_edits_and_design_made_not_a_new_one(monkeypatch):
     state = DesignState.template("johnston2023_1dof")
     designed = []
 
-    def design(problem):  # the session's design, recorded: a step back designs nothing
+    def design(problem, recheck=True):  # the session's design, recorded: a step back designs nothing
         designed.append(problem.springs[0].rate)
         return SimpleNamespace(problem=problem, name=f"design at {problem.springs[0].rate:g}")
 
