@@ -13,9 +13,15 @@ from cadcam.solve.transcription import Transcription
 from .conftest import SPEC_1DOF
 
 
-def test_a_provisional_design_is_judged_on_the_design_grid_then_rechecked_in_full():
+@pytest.fixture(scope="module")
+def session():
+    """A design session of the 1-DOF spec on a coarse grid, its first design made."""
     session = cadcam.Session()
     assert session.design(SPEC_1DOF, grid=12).success
+    return session
+
+
+def test_a_provisional_design_is_judged_on_the_design_grid_then_rechecked_in_full(session):
     edit = {"springs.1.rate": 1.02 * cadcam.load_spec(SPEC_1DOF).springs[0].rate}
     moving = session.design(SPEC_1DOF, grid=12, overrides=edit, recheck=False)
     assert moving.provisional and moving.recheck is moving.evaluation and moving.recheck_time_s == 0.0
@@ -27,7 +33,7 @@ def test_a_provisional_design_is_judged_on_the_design_grid_then_rechecked_in_ful
     np.testing.assert_allclose(let_go.x, moving.x, rtol=1e-6)  # the same design, now re-checked
 
 
-def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(monkeypatch):
+def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(session, monkeypatch):
     """Within a session's design its warm re-solves take :data:`SESSION_IPOPT`; elsewhere (a
     sweep, a catalogue search) :data:`RESOLVE_IPOPT` stands."""
     used = []
@@ -38,8 +44,6 @@ def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(monkeypa
         return warm_solver(self)
 
     monkeypatch.setattr(Transcription, "_warm_solver", recorded)
-    session = cadcam.Session()
-    session.design(SPEC_1DOF, grid=12)
     edit = {"springs.1.rate": 1.01 * cadcam.load_spec(SPEC_1DOF).springs[0].rate}
     assert session.design(SPEC_1DOF, grid=12, overrides=edit, recheck=False).message.endswith(
         "(warm start from the last design)")
