@@ -9,7 +9,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "cadcam"
 #: Layer of each top-level module or folder of the package, lowest first.
-RANK = {"files": 0, "keys": 0, "version": 0, "citations": 0, "examples": 0, "errors": 0, "interrupts": 0, "library_files": 0, "physics": 1, "targets": 2, "mechanisms": 3,
+RANK = {"files": 0, "keys": 0, "version": 0, "citations": 0, "examples": 0, "errors": 0, "interrupts": 0, "library_files": 0, "units": 0, "physics": 1, "targets": 2, "mechanisms": 3,
         "problem": 4, "designs": 5, "spec": 5, "variation": 5, "solve": 6, "verify": 6, "make": 7, "export": 7, "outputs": 8,
         "result": 9, "optimize": 10, "sweep": 11, "api": 12, "app": 13, "cli": 14, "__init__": 15, "__main__": 15}
 

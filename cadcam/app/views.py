@@ -21,9 +21,8 @@ from ..outputs.plots import PROFILE_COLOURS, mechanism_poses
 from ..problem import Problem
 from ..result import Result
 from ..verify.evaluate import Evaluation
+from ..units import MM
 
-#: Millimetres (and newton-millimetres) per metre (per newton-metre).
-MM = 1e3
 #: Poses spread over the range whose drawings the view of a mechanism holds (:func:`view_box`), and
 #: whose room a spring without a free length is drawn to fit at every angle.
 BOX_POSES = 3

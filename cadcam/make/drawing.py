@@ -32,7 +32,8 @@ from ..version import __version__
 from .datum import Datum
 from .png import save_png
 from .fits import BORE_FIT, GENERAL_CLASS, angular_tolerance, bore_limits
-from .workshop import DEFAULT_TOLERANCE, MIRRORED_NOTE, MM, Outline, holes
+from .workshop import DEFAULT_TOLERANCE, MIRRORED_NOTE, Outline, holes
+from ..units import MM
 
 SHEET = (297.0, 210.0)
 """A4 landscape [mm of paper]."""

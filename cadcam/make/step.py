@@ -9,9 +9,7 @@ import numpy as np
 from ..files import atomic_path
 from ..library_files import libraries_imported
 from .biarc import ArcChain, arc_points
-
-MM = 1e3
-"""Millimetres per metre: the STEP file's unit."""
+from ..units import MM
 
 
 def available() -> bool:

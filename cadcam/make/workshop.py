@@ -21,13 +21,12 @@ from ..physics.profile import Basis, convexity_margin, curvature, profile_functi
 from ..problem import MIN_WALL
 from .biarc import (ArcChain, arc_geometry, biarc_fit, concavity, segment_distance, signed_distance, support,
                     tangent_angles)
+from ..units import MM
 
 with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
     import ezdxf
 
 TWO_PI = 2 * np.pi
-MM = 1e3
-"""Millimetres per metre: the length unit of every exported file."""
 DEFAULT_TOLERANCE = 1e-5
 """Default chordal tolerance [m] (0.01 mm)."""
 CLOSURE_FREE = 8

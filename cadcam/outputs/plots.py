@@ -34,10 +34,8 @@ from ..make.png import save_png
 from ..library_files import matplotlib_defaults
 from ..mechanisms.base import Picture, mechanism_class, mechanism_kinds
 from ..physics.profile import profile_function
+from ..units import MM, UM
 
-MM = 1e3
-#: Micrometres per metre (the output error's axis).
-UM = 1e6
 #: Resolution of the saved PNGs [dots per inch].
 DPI = 110
 #: A circle centre, spring end or cable end further from the joint than this many times the

@@ -22,10 +22,10 @@ from collections.abc import Mapping
 import numbers
 
 from ..mechanisms.base import LIMIT_UNITS
+from ..units import MM
 
 #: Relative tolerance: a margin ≤ RTOL × the limit's scale binds.
 RTOL = 1e-3
-MM = 1e3
 
 def _finite(v) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)

@@ -37,7 +37,7 @@ from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import whole_wrap_order, wound_length
 from ..problem import Problem, cap
 from ..variation import Layout, settings
-from .binding import MM
+from ..units import MM
 
 #: Tolerances of the feasibility check: lengths [m], departure residual [-, m], branch [-].
 LENGTH_TOL = 1e-6

@@ -27,12 +27,11 @@ import numpy as np
 
 from ..library_files import libraries_imported
 from ..physics.outline import STRAIGHT, FileOutline, outline_from_chain
+from ..units import MM
 
 with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
     import ezdxf
 
-#: Millimetres per metre (the files' unit: the DXF's $INSUNITS = 4, a groove's columns ``_mm``).
-MM = 1e3
 #: DXF $INSUNITS code of millimetres (a groove's CSV, in millimetres, is read as such).
 MILLIMETRES = 4
 #: The columns of a groove's CSV the file model reads: its centre line's plane coordinates [mm].

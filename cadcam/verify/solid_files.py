@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..library_files import libraries_imported
-from .file_model import MM
+from ..units import MM
 
 #: A binary STL's record: the facet's normal, its three corners [mm] and an attribute word.
 STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])

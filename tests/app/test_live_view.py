@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from cadcam.app.state import DesignState
-from cadcam.app.views import (MM, dragged_end, joint_line, pose_columns, spring_ends, torque_columns, view_box)
+from cadcam.units import MM
+from cadcam.app.views import (dragged_end, joint_line, pose_columns, spring_ends, torque_columns, view_box)
 
 pytest.importorskip("panel", reason="Panel is the app extra's (make test installs it)")
 
