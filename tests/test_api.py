@@ -117,6 +117,7 @@ def test_the_result_is_a_dataframe_and_a_notebook_cell(small, tmp_path):
     assert __import__("html").unescape(cell[len("<pre>"):-len("</pre>")]) == small.summary()
 
 
+@pytest.mark.slow  # a design through the API and again through the command line: make test-slow
 def test_save_writes_what_the_cli_writes(small, tmp_path):
     notes = small.save(tmp_path / "r")
     names = {p.name for p in (tmp_path / "r").iterdir()}

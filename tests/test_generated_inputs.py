@@ -568,6 +568,7 @@ def _design_for(which: str, designed: Path) -> Path:
 
 @_settings(160)
 @given(case=spec_cases())
+@pytest.mark.slow  # dozens of generated specs evaluated: make test-slow
 def test_mutated_specs_evaluate_or_are_refused_in_one_line(case, designed, scratch, capfd):
     which, m = case
     work = scratch()
@@ -587,6 +588,7 @@ def test_mutated_specs_evaluate_or_are_refused_in_one_line(case, designed, scrat
 @_settings(60)
 @given(case=st.sampled_from(sorted(SPECS)).flatmap(
     lambda w: st.tuples(st.just(w), mutate_bytes(FAST_1DOF if w == "1dof" else FAST_RR))))
+@pytest.mark.slow  # dozens of damaged specs evaluated: make test-slow
 def test_damaged_spec_files_evaluate_or_are_refused_in_one_line(case, designed, scratch, capfd):
     which, (name, raw) = case
     work = scratch()
@@ -644,6 +646,7 @@ def test_mutated_result_json_as_spec_evaluates_or_is_refused(data, result_tree, 
 # -- designs -----------------------------------------------------------------------------------------
 @_settings(90)
 @given(data=st.data(), which=st.sampled_from(["result", "table3"]))
+@pytest.mark.slow  # dozens of generated designs evaluated: make test-slow
 def test_mutated_designs_evaluate_or_are_refused(data, which, result_tree, scratch, capfd):
     # the design and a few of the members around it that evaluate must ignore
     base = ({k: result_tree[k] for k in ("design", "status", "torque_model")} if which == "result"
@@ -829,6 +832,7 @@ def _sweep_contract(capfd, root: Path, study_text: bytes, bad: bool, keys=()):
 
 @_settings(40)
 @given(data=st.data(), which=st.sampled_from(sorted(STUDY_TREES)))
+@pytest.mark.slow  # generated studies run: make test-slow
 def test_mutated_studies_run_or_are_refused_before_any_case(data, which, study_root, capfd):
     m = data.draw(mutate_tree(STUDY_TREES[which], RULES_STUDY))
     _sweep_contract(capfd, study_root, to_toml(m.data).encode(), m.bad, m.keys if m.bad and m.precise else ())
@@ -836,6 +840,7 @@ def test_mutated_studies_run_or_are_refused_before_any_case(data, which, study_r
 
 @_settings(25)
 @given(data=st.data(), which=st.sampled_from(sorted(STUDY_TREES)))
+@pytest.mark.slow  # damaged studies run: make test-slow
 def test_damaged_study_files_are_refused_or_run(data, which, study_root, capfd):
     name, raw = data.draw(mutate_bytes(to_toml(STUDY_TREES[which])))
     _sweep_contract(capfd, study_root, raw, toml_verdict(raw))
@@ -1248,6 +1253,7 @@ def _study_table(path: Path, definition: str, cases: bool = False) -> None:
         con.commit()
 
 
+@pytest.mark.slow  # a design far from its reference: make test-slow
 def test_a_narrow_range_far_from_the_reference_is_bounded_work(tmp_path):
     """In a child process with 8 GB of address space, so that the failure is quick everywhere."""
     import resource
@@ -1316,6 +1322,7 @@ def _refused_for(contents: dict) -> bool:
 
 @_settings(24)
 @given(contents=folder_contents())
+@pytest.mark.slow  # a design into each generated folder: make test-slow
 def test_a_design_into_a_folder_that_holds_things_replaces_only_cadcams_files(contents, scratch, capfd):
     """Refused before any work (nothing touched) when the folder holds the user's things where
     outputs go; otherwise the design is written and every other entry is left as it was."""

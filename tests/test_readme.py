@@ -21,6 +21,9 @@ run:
 ``prepare NAME because REASON``
     a cheaper equivalent: :data:`PREPARATIONS` [NAME] shrinks the inputs in the copy first (the
     same commands on a smaller problem); the reason says what the full run costs.
+``slow because REASON``
+    run by ``make test-slow`` (marked slow), not ``make test``: a block whose run alone would
+    take a large share of the five minutes; a block using its outputs is marked so too.
 ``exit N``, ``creates PATH ...``, ``prints TEXT``
     the expected exit code, files, and text on stdout (with ``exit 2``, bad input, the files
     named by ``-o`` must not exist afterwards).
@@ -56,7 +59,7 @@ README = ROOT / "README.md"
 PAGES = (README, ROOT / "docs" / "tutorial.md", ROOT / "docs" / "guide.md")
 COMMAND_LANGUAGES = {"", "sh", "bash", "shell", "console"}
 DIRECTIVE = re.compile(r"<!--\s*readme-test:\s*(.*?)\s*-->")
-KINDS = ("skip", "skip-line", "tested-by", "synopsis", "prepare", "exit", "creates", "prints")
+KINDS = ("skip", "skip-line", "tested-by", "synopsis", "prepare", "slow", "exit", "creates", "prints")
 #: What one block may take [s]; the whole file stays within about a minute.
 BLOCK_TIMEOUT = 240
 VENV = Path(sys.executable).parent.parent
@@ -222,7 +225,7 @@ def test_the_readme_has_command_blocks_and_each_is_run_or_says_why_not():
     for b in BLOCKS:
         for kind, arg in b.directives:
             assert kind in KINDS, f"{b.where}: unknown readme-test directive {kind!r}"
-            if kind in ("skip", "skip-line", "prepare"):
+            if kind in ("skip", "skip-line", "prepare", "slow"):
                 assert _reason(arg), f"{b.where}: '{kind}' needs 'because <reason>'"
         if b.get("skip") or b.get("tested-by") or b.get("synopsis"):
             assert len({k for k, _ in b.directives} & {"skip", "tested-by", "synopsis"}) == 1, b.line
@@ -233,7 +236,8 @@ def test_the_readme_has_command_blocks_and_each_is_run_or_says_why_not():
     assert len(run) >= 4, "most command blocks should really run"
 
 
-@pytest.mark.parametrize("block", BLOCKS, ids=[b.id for b in BLOCKS])  # pytest numbers repeats
+@pytest.mark.parametrize("block", [pytest.param(b, marks=[pytest.mark.slow] if b.get("slow") else [])
+                                   for b in BLOCKS], ids=[b.id for b in BLOCKS])  # pytest numbers repeats
 def test_readme_block(block, workdir, runs):
     if block.get("skip"):
         pytest.skip(f"{block.where}: {_reason(block.get('skip')[0])}")

@@ -98,6 +98,7 @@ def test_a_broken_margin_is_raised_by_its_depth_times_the_step():
     assert _raised_margins(problem, problem, _fine(rho_max=-0.1 * prof.rho_max)) is None  # past the cap
 
 
+@pytest.mark.slow  # a design mended twice: make test-slow
 def test_a_profile_broken_between_check_points_is_mended_by_its_margins():
     problem = with_part(_spec_problem(SPEC), 0, BROKEN, None)
     tr, _ = built_for(problem)
@@ -120,6 +121,7 @@ def test_a_profile_broken_between_check_points_is_mended_by_its_margins():
     assert "solved with the convexity margin" in warm.message and warm.solve.margins == mended.solve.margins
 
 
+@pytest.mark.slow  # a search of a few dozen springs: make test-slow
 def test_every_feasible_row_re_checks_on_its_own(found):
     rows = [r for r in found.designed.values() if verdict(r)[0] == "feasible"]
     assert len(found.designed) == LIMIT and len(rows) >= LIMIT - 1
@@ -135,6 +137,7 @@ def test_every_feasible_row_re_checks_on_its_own(found):
         assert fine.metrics.relative_rmse[0] <= spec.joints[0].limits["relative_rmse"]
 
 
+@pytest.mark.slow  # a search of a few dozen springs: make test-slow
 def test_a_spring_starts_from_its_solved_neighbour_with_its_multipliers(found):
     messages = [r["message"] for r in found.designed.values()]
     assert sum("warm start from part" in m for m in messages) >= LIMIT // 2
@@ -168,6 +171,7 @@ def test_a_failed_warm_start_is_not_tried_again_when_told():
     assert verdict({"status": once.status, "message": once.message})[0] == "undecided"
 
 
+@pytest.mark.slow  # a search with each design's band: make test-slow
 def test_the_table_ranks_by_the_tolerance_band(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["springs", str(TUTORIAL), "-o", str(out), "--workers", "0", "--limit", "3", "--rank", "band",

@@ -30,6 +30,7 @@ def installed(tmp_path_factory):
     return target
 
 
+@pytest.mark.slow  # a package installed, then a whole cadcam design: make test-slow
 def test_cadcam_design_finds_an_installed_mechanism_by_its_entry_point(installed, tmp_path):
     spec = write_spec(tmp_path / "toy.toml")
     out = tmp_path / "out"

@@ -204,6 +204,7 @@ def test_design_and_evaluate(design_spec):
     assert reported["solver"]["tangency_nlp_vs_rootfinder_max"] < 1e-8
 
 
+@pytest.mark.slow  # a whole cadcam design with every file: make test-slow
 def test_cli_design(design_spec, tmp_path):
     """`cadcam design` on the spec: exit 0, result.json, the workshop files of the profile."""
     out = tmp_path / "out"

@@ -251,6 +251,7 @@ def test_a_damaged_file_of_a_set_refuses_the_next_run_and_is_left_as_it_is(made,
 @_settings(12)
 @given(data=st.data(), base=st.sampled_from(["a set", "a set of a cadcam that kept no manifest", "nothing"]),
        entry=st.sampled_from(["Result.save", "cadcam design"]))
+@pytest.mark.slow  # a design for each user's file planted: make test-slow
 def test_a_users_file_is_never_replaced_or_removed(made, scratch, cli, data, base, entry):
     """A user's file in the folder: where the lean rerun would write it (or, without a
     manifest, where any file of the run stands) the run is refused before work, one line naming

@@ -172,6 +172,7 @@ def foreign_hosts(draw, port: int) -> bytes:
     return value.encode("utf-8", "surrogatepass")
 
 
+@pytest.mark.slow  # the page served and its first design: make test-slow
 def test_requests_for_other_hosts_are_refused_and_the_served_address_answers(app, served):
     from cadcam.app.hosts import served_hosts
 

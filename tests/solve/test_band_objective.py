@@ -14,6 +14,9 @@ from cadcam.verify.tolerance import tolerance_band
 
 from ..conftest import ROOT, SPEC_1DOF, SPEC_RR
 
+#: Its designs with and without a band weight: too slow for make test's five minutes (make test-slow).
+pytestmark = pytest.mark.slow
+
 #: The band weight [N·m] of the 1-DOF tests: the band term about twice the tracking error's.
 WEIGHT = 0.01
 

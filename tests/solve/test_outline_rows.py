@@ -52,6 +52,7 @@ def test_a_bore_that_binds_designs_the_arc_round_it(wide_bore):
     assert (edge[:, 0] * nxt[:, 1] - edge[:, 1] * nxt[:, 0]).min() > -1e-15  # convex
 
 
+@pytest.mark.slow  # a grooved design with its solids: make test-slow
 def test_a_groove_widens_the_hub_every_outline_closes_round(tmp_path):
     """A groove cut round the outline needs its depth of material outside the bore's wall: the
     hub grows by it, the outline keeps clear of it, and the STL with its groove is made."""

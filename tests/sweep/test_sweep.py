@@ -45,6 +45,7 @@ def _values(path):
     return {r["case_id"]: (r["status"], r["iterations"], r["metrics"]["rmse"], r["design"]) for r in rows}
 
 
+@pytest.mark.slow  # a study twice, once on a LocalCluster: make test-slow
 def test_local_pool_and_dask_local_cluster_give_identical_rows(tmp_path):
     pytest.importorskip("dask.distributed")
     study = _study(tmp_path)
@@ -191,6 +192,7 @@ def test_a_negative_worker_count_is_refused(tmp_path, capsys):
     assert not (tmp_path / "w.db").exists()
 
 
+@pytest.mark.slow  # a study's designs in three runners: make test-slow
 def test_a_second_runner_skips_cases_another_holds_and_takes_over_a_dead_runners(tmp_path):
     study = _study(tmp_path)
     run_sweep(study, tmp_path / "reference.db", workers=0, progress=False)
@@ -215,6 +217,7 @@ def test_a_second_runner_skips_cases_another_holds_and_takes_over_a_dead_runners
         assert con.execute("SELECT COUNT(*) FROM claims").fetchone()[0] == 0
 
 
+@pytest.mark.slow  # a study's designs in two runners: make test-slow
 def test_two_runners_on_one_database_finish_the_study_once_between_them(tmp_path):
     _study(tmp_path, num=4)
     db_path = tmp_path / "shared.db"

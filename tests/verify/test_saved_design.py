@@ -11,6 +11,9 @@ from cadcam.optimize import optimize
 
 from ..conftest import ROOT
 
+#: The five-bar arm's design: too slow for make test's five minutes (make test-slow).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def five_bar(tmp_path_factory):

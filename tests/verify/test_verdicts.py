@@ -164,6 +164,7 @@ def demo():
     return optimize(load_spec(SPEC_1DOF))
 
 
+@pytest.mark.slow  # a whole cadcam design with every file: make test-slow
 def test_a_missed_acceptance_limit_is_its_own_status_and_exit_1(tmp_path, capsys, demo):
     data = _one_dof(**read_spec_data(SPEC_1DOF)["joints" if "joints" in read_spec_data(SPEC_1DOF)
                                                   else "cams"][0]["target"])

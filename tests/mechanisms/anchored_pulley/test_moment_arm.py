@@ -114,6 +114,7 @@ def test_pendulum_pulleys_as_profiles_have_the_designed_moment_arm_by_the_mechan
         np.testing.assert_allclose(arm, state.r_m, rtol=0, atol=2e-5)
 
 
+@pytest.mark.slow  # a whole cadcam design with every file: make test-slow
 def test_design_command_by_the_moment_arm_method_meets_the_generic_goal_in_its_files(tmp_path, capsys):
     """``cadcam design models/ludovico2021_generic.toml`` (docs/guide.md), the spec's default
     path: Ludovico2021's generic torque by the moment arms of degree 5, each pulley fitted as a
