@@ -290,6 +290,25 @@ def test_builds_are_in_result_json_the_summary_and_the_adjustment_table(arm, tmp
     assert len(rows) == 1 + B.TABLE_ROWS + B.MASS_ROWS
 
 
+def test_the_design_page_shows_the_friction_band_and_the_builds_before_and_after_adjusting(arm):
+    """The page's details (made in the worker, as the page makes them) hold the summary's friction
+    band and its builds' P95 as built, as set by the table and at best, beside the design's error;
+    the live view's frame carries the friction band's edges."""
+    pytest.importorskip("panel", reason="Panel is the app extra's (make test installs it)")
+    from cadcam.app.page import DesignPage
+    from cadcam.app.state import Outcome
+
+    frame, details = DesignPage._drawn(Outcome(result=arm, seconds=1.0), 0, set())
+    summary = arm.summary().splitlines()
+    builds = next(line for line in summary if line.lstrip().startswith("builds:"))
+    adjusted = next(line for line in summary if line.lstrip().startswith("adjusted ("))
+    rubbing = arm.friction.summary_line([j.name for j in arm.problem.joints])
+    for line in (builds, adjusted, rubbing):
+        assert line in details.splitlines()
+    assert "P50 / P95" in builds and "; at best " in adjusted
+    assert frame.friction is True
+
+
 def test_the_same_seed_gives_the_same_numbers_and_count_zero_none(arm):
     """Without an adjustment the model keeps the rates' products alone (those of the
     pre-extensions' and preloads' tolerances with the geometry are below 1e-4 of the peak)."""
