@@ -284,8 +284,8 @@ def test_multistart_returns_the_best_start_that_passes_its_recheck(monkeypatch):
     opt = importlib.import_module("cadcam.optimize")  # the module: cadcam.optimize is also the function
     checked, failed = opt._checked, []
 
-    def failing_first(problem, tr, solved):
-        result = checked(problem, tr, solved)
+    def failing_first(problem, tr, solved, *options):
+        result = checked(problem, tr, solved, *options)
         if not failed:
             failed.append(solved.start)
             result.status, result.message = "recheck_failed", "converged, but it breaks a limit (test)"
