@@ -192,6 +192,7 @@ def test_the_files_to_download_are_those_cadcam_design_writes(tmp_path):
     assert files["cam1.dxf"].count(b"LWPOLYLINE") == (tmp_path / "cam1.dxf").read_bytes().count(b"LWPOLYLINE")
 
 
+@pytest.mark.slow  # a design and its solids: make test-slow
 def test_the_solids_to_download_need_no_stl_thickness_in_the_spec():
     from cadcam.make.step import available
     from cadcam.problem import SOLID_THICKNESS

@@ -83,6 +83,7 @@ def test_a_disk_full_midway_leaves_no_folder_and_one_line(tmp_path, design, monk
     assert not (tmp_path / "new").exists()  # the folders this run created are gone too
 
 
+@pytest.mark.slow  # two designs with every file: make test-slow
 def test_a_failure_midway_keeps_the_previous_set_byte_for_byte(tmp_path, design, monkeypatch):
     assert design(tmp_path / "o")[0] == 0
     before = _snapshot(tmp_path / "o")

@@ -206,6 +206,7 @@ def _failing_write(folder: Path, nth: int, code: int):
 @example(nth=0, code=errno.ENOSPC)
 @given(nth=st.integers(0, 12), code=st.sampled_from([errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EROFS,
                                                       errno.EACCES, errno.EFBIG]))
+@pytest.mark.slow  # a whole cadcam design with every file: make test-slow
 def test_a_failed_write_is_the_first_line_never_a_success(nth, code, design_1dof, tmp_path_factory, capsys):
     """The design (solved once, :func:`cadcam.optimize.optimize` standing in) written into a
     folder where the ``nth`` file opened for writing fails with the error ``code``."""

@@ -157,6 +157,7 @@ def test_torque_csv_is_the_whole_grid_or_the_lines_through_the_worst_points(thre
         assert abs(tau[i] - tau_d) == pytest.approx(fine.metrics.max_abs_error[i], rel=1e-9)
 
 
+@pytest.mark.slow  # a three-joint re-check at grid 46: make test-slow
 def test_a_three_joint_recheck_at_grid_46_runs_in_bounded_memory(three_cam):
     problem, design = three_cam
     options = problem.with_options(grid=46).options

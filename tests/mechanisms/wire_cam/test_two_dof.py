@@ -121,6 +121,7 @@ def solved():
 
 
 @pytest.mark.parametrize("variant", [None, "sec10_5"])
+@pytest.mark.slow  # the RR arm designed twice on its 46 × 46 grid: make test-slow
 def test_two_dof_optimum_is_verified_and_beats_the_published_design(solved, variant):
     problem, result, published = solved[variant]
     assert result.status == "success"
