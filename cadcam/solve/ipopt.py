@@ -49,13 +49,10 @@ RESOLVE_LINEAR = {"ipopt.mumps_pivot_order": 0, "ipopt.mumps_scaling": 0, "ipopt
 RESOLVE_IPOPT = {**WARM_IPOPT, **RESOLVE_LINEAR}
 #: How far IPOPT pushes a design session's warm start (the last answer's own NLP point) off its
 #: bounds, and its slacks off theirs, and the multipliers of the bounds away from zero (each
-#: ``warm_start_*_push`` and ``*_frac``), in the NLP's scaled units. IPOPT's default slack push of
-#: 1e-3 opens every active inequality of the answer by that much: the 1-DOF wire cam's re-solve
-#: then starts at a primal infeasibility of 0.3 and takes 11–15 iterations after a 1 % step of a
-#: spring rate. Measured over 8-step drags of +1 % (CPU, median per step; objectives equal within
-#: 1e-8): the wire cam 42 → 26 ms (spring 1's rate), 23 → 16 ms (spring 2's), 21 → 15 ms (the
-#: idler's height); Ludovico2021's pendulum 140 → 104 ms; the roller follower unchanged. Pushed
-#: 1e-6, one step of Ludovico2021's pendulum took 76 iterations; 1e-8, most took 60–75.
+#: ``warm_start_*_push`` and ``*_frac``), in the NLP's scaled units. IPOPT's default slack push
+#: opens every active inequality of the answer by 1e-3, so that a re-solve after a small step
+#: starts far from feasible; a push much smaller still (1e-8) or larger (1e-6) costs some steps
+#: many more iterations (``benchmarks/bench_speed.py`` measures the warm solves).
 SESSION_PUSH = 1e-7
 #: IPOPT options of a design session's warm re-solves (:class:`cadcam.Session`, the design page's
 #: path): :data:`RESOLVE_IPOPT`, pushed :data:`SESSION_PUSH`. Sweeps and catalogue searches keep
