@@ -773,9 +773,8 @@ def power_of_ten(value: float, _position=None) -> str:
 #: name; bottom: the iterations; top: the title) and the gap [in] between its three axes. With
 #: the objective on a logarithmic axis its contents are the same words and number formats for
 #: every design, so it is laid out once here, as matplotlib's constrained layout lays it out,
-#: and not by that layout at each draw: two thirds of the figure's drawing time (0.65 of 1.0 s
-#: of CPU on the 1-DOF spec). A linear objective's labels are as wide as its digits: that
-#: figure keeps the constrained layout.
+#: and not by that layout at each draw, which costs most of the figure's drawing time. A linear
+#: objective's labels are as wide as its digits: that figure keeps the constrained layout.
 CONVERGENCE_SIZE = (7.0, 7.5)
 CONVERGENCE_MARGINS = (0.75, 0.6, 0.48, 0.25)
 CONVERGENCE_GAP = 0.16
