@@ -95,10 +95,8 @@ def screen_slot(problem: Problem, j: int, catalogue: Catalogue) -> Screen:
 #: spec's own ``solver.max_iter``; a solve that imposes its deferred rows after the first may
 #: spend as many again): a spring the design reaches converges in a few dozen from a
 #: neighbour's design, and one that does not would otherwise hold a worker for the spec's
-#: whole limit (measured: 40 s for the tutorial's 5108N509 at 500 iterations against 0.5 s
-#: for a spring that fits). On the tutorial's whole catalogue, at 150: of the 505 feasible
-#: springs 498 took at most 100 iterations in all (median 21), while each of the 51 that
-#: reached the cap cost 1.3–5.7 s of CPU, 133 s in all against 116 s for the 505.
+#: whole limit, costing more than dozens of springs that fit. A spring that reaches the cap is
+#: reported undecided, not infeasible.
 SEARCH_MAX_ITER = 100
 
 #: How a search solves again a design whose profile broke its shape between the NLP's check
@@ -216,8 +214,8 @@ def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: di
         start = start or {}
         design = (force_matched(Design.from_dict(start["design"], problem), j, start["spring"], problem.springs[j],
                                 start["extension"]) if start else None)
-        # a warm start that fails is not tried again from the default start: of the tutorial's
-        # 21 so tried, 1 converged from it, for some 35 s of CPU in all
+        # a warm start that fails is not tried again from the default start: on the tutorial's
+        # catalogue that retry seldom converged and cost more than the springs that did
         result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", start.get("multipliers"),
                                refine=SEARCH_REFINE, margins=start.get("margins"), retry=False)
         row.update(status=result.status, message=result.message, iterations=result.solve.iterations,
