@@ -401,6 +401,8 @@ class Slack:
             windowed = np.nan_to_num((m[None, :] - rmse[:, None] * c[None, :]).max(axis=1), nan=-np.inf)
         pointwise = np.where(rmse > 0, peak - self.max_error, peak)
         return np.maximum(np.maximum(windowed, pointwise), 0.0)
+
+
 #: How many intervals of moment arm the room test bounds the spring's fit over, evenly up to
 #: the largest.
 ROOM_ARMS = 128
