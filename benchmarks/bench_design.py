@@ -344,8 +344,7 @@ def design_command_table(runs: int, root: str, cache: str) -> dict[str, float]:
           f"starting Python and importing cadcam takes {start:.2f} s (timed alone); build, solve and re-check "
           "from result.json; the rest is reading the spec, the design-grid evaluation and writing the files "
           "(with the figures: four figures and a drawing sheet as PDF and PNG, drawn side by side by one process per "
-          "core; the writers' libraries load on a thread during the build and the solve, and what is left of "
-          "that shows here)\n")
+          "core, forked before the design so that they load matplotlib during the build and the solve)\n")
     print("| run | wall [s] | build [s] | solve [s] | fine re-check [s] | the rest [s] |")
     print("|---|---|---|---|---|---|")
     medians = {}

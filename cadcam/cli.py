@@ -7,12 +7,10 @@ written), a derivative check beyond its tolerance, or the environment failed aft
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import os
 import subprocess
 import sys
-import threading
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -159,13 +157,20 @@ def _check_files_are_ours(out: Path, problem, figures: bool) -> None:
 def _design_into(args, problem, out: Path) -> int:
     """Design ``problem``, print its summary and write its files into ``out`` (held)."""
     from .optimize import optimize
+    from .outputs.forked import Drawer
+
+    # forked before the design, the drawing processes import matplotlib while it is made
+    with Drawer(os.cpu_count() or 1 if args.figures else 1, FIGURE_WRITERS) as drawer:
+        result = optimize(problem)
+        return _saved(args, problem, result, out, drawer)
+
+
+def _saved(args, problem, result, out: Path, drawer) -> int:
+    """Write the files of ``result`` into ``out`` (drawn by ``drawer``), print its summary."""
     from .outputs.run_files import ADJUSTMENT_FILE, SHEET_FILES, WorkshopError
 
-    writers = _import_in_background(*WORKSHOP_WRITERS, *(FIGURE_WRITERS if args.figures else ()))
-    result = optimize(problem)
-    writers.join()  # the drawings are forked from a process of one thread
     try:
-        notes = result.save(out, figures=args.figures, workers=os.cpu_count() or 1)
+        notes = result.save(out, figures=args.figures, drawer=drawer)
     except WorkshopError as exc:
         named = [name for name in WORKSHOP_FLAGS if f"{name} = " in str(exc)]
         fix = "; ".join(f"set it with --{name.replace('_', '-')} or the spec's [workshop] {name}"
@@ -219,28 +224,12 @@ def _not_written(result, why: str) -> int:
     return 1
 
 
-#: The modules ``cadcam design`` writes its files with: the workshop files' (ezdxf), and the
-#: figures' and drawing sheets' (matplotlib, with the backends that draw the PNGs and the PDF
-#: and the font subsetting the PDF embeds, which each drawing process would otherwise import
-#: itself: 0.1 s of the PDF's), which ``--no-figures`` does not write.
-WORKSHOP_WRITERS = ("cadcam.make.workshop",)
+#: The modules ``cadcam design``'s drawing processes draw the figures and sheets with,
+#: imported while the design is made (:class:`cadcam.outputs.forked.Drawer`): matplotlib, with
+#: the backends that draw the PNGs and the PDF and the font subsetting the PDF embeds (0.1 s of
+#: the PDF's). ``--no-figures`` draws none and imports none of them.
 FIGURE_WRITERS = ("cadcam.outputs.plots", "cadcam.make.drawing", "matplotlib.backends.backend_agg",
                   "matplotlib.backends.backend_pdf", "fontTools.subset")
-
-
-def _import_in_background(*modules: str) -> threading.Thread:
-    """Import ``modules`` on a daemon thread (returned, started), so that loading them (0.3–1 s)
-    overlaps the build and the solve; a module that fails to import there fails again, and is
-    reported, where the files are written."""
-    def run():
-        for name in modules:
-            try:
-                importlib.import_module(name)
-            except Exception:  # reported by the writer's own import
-                continue
-    thread = threading.Thread(target=run, name="cadcam-writers", daemon=True)
-    thread.start()
-    return thread
 
 
 #: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.problem.Workshop`).

@@ -21,7 +21,7 @@ from .verify.builds import Builds, simulate_builds
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
 from .version import __version__
-from .outputs.forked import Drawing, draw, drawn_meanwhile
+from .outputs.forked import Drawer, Drawing
 from .solve.messages import count
 from .outputs.run_files import (ADJUSTMENT_FILE, WorkshopError, figure_drawings, run_file_names, torque_table,
                                  write_outputs, write_workshop_files)
@@ -319,7 +319,7 @@ class Result:
         return figs[which]
 
     def save(self, directory, workshop: Workshop | None | Literal["spec"] = "spec",
-             figures: bool = True, workers: int = 1) -> list[str]:
+             figures: bool = True, workers: int = 1, drawer: Drawer | None = None) -> list[str]:
         """Write what ``cadcam design`` writes into ``directory``, the set whole or not at all
         (:func:`cadcam.files.staged_folder`). It replaces or removes only the files of the set
         cadcam recorded writing there that are unchanged since (a file of the earlier set this one
@@ -338,8 +338,12 @@ class Result:
             written all the same.
         workers : int
             Processes that draw the figures and sheets side by side (forked from this one; see
-            :func:`cadcam.outputs.forked.draw`, which falls back to one where forking is unsafe).
+            :class:`cadcam.outputs.forked.Drawer`, which draws here where forking is unsafe).
             ``cadcam design`` uses one per core.
+        drawer : Drawer, optional
+            The processes to draw them (:class:`cadcam.outputs.forked.Drawer`), forked before
+            the design was made, so that they imported matplotlib meanwhile (``workers`` is
+            then theirs); waited for (or, on an error, ended) before this returns.
 
         Returns
         -------
@@ -363,8 +367,10 @@ class Result:
         with staged_folder(Path(directory), "result.json", run_file_names(self.problem, figures, sizes)) as stage:
             outcome = None  # the workshop step's, recorded in result.json beside the design's status
             # the figures need only the design: drawn while this process makes the workshop
-            # files, whose sheets are drawn beside them once those are made
-            with drawn_meanwhile(figure_drawings(self, stage) if figures else [], workers):
+            # files, whose sheets are drawn beside them once those are made; the drawing
+            # processes end before the staging folder is swapped in or removed
+            with drawer or Drawer(workers if figures else 1) as drawing:
+                drawing.send(figure_drawings(self, stage) if figures else [])
                 if sizes is not None:
                     try:
                         notes = write_workshop_files(self, stage, sizes, figures, sheets)
@@ -372,8 +378,9 @@ class Result:
                     except WorkshopError as exc:
                         failure = exc
                         outcome = {"status": "failed", "message": str(exc)}
+                drawing.send(sheets)
                 write_outputs(self, stage, False, None, outcome)
-                draw(sheets, workers)
+                drawing.wait()
         if failure is not None:
             raise failure
         return notes

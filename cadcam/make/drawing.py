@@ -446,13 +446,36 @@ def part_sheets(outline: Outline, bore_diameter: float, anchor_diameter: float, 
     """A part's two sheets: the workshop drawing (:func:`workshop_figure`, sheet 1) and the
     checking sheet (:func:`sheet_figure`, sheet 2), the same date on both."""
     date = date or datetime.date.today().isoformat()
-    first, _ = workshop_figure(outline, bore_diameter, anchor_diameter, title, part, spec=spec, drawing=drawing,
-                               date=date)
-    second, _ = sheet_figure(outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, spec=spec,
-                             drawing=drawing, date=date, words=words,
-                             cable=cable_notes(part.cable, part.profile) if part.cable else (),
-                             sheet=f"2 of {SHEETS} · A4", tolerance=part.fit_tolerance)
-    return first, second
+    return tuple(part_sheet(page, outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, part, spec=spec,
+                            drawing=drawing, date=date, words=words) for page in range(1, SHEETS + 1))
+
+
+def part_sheet(page: int, outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
+               rho_max: float, title: str, part: PartNotes, *, spec: str = "", drawing: str = "",
+               date: str | None = None, words: Picture = Picture()) -> Figure:
+    """Sheet ``page`` (1 or 2) of :func:`part_sheets`."""
+    if page == 1:
+        return workshop_figure(outline, bore_diameter, anchor_diameter, title, part, spec=spec, drawing=drawing,
+                               date=date)[0]
+    return sheet_figure(outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, spec=spec,
+                        drawing=drawing, date=date, words=words,
+                        cable=cable_notes(part.cable, part.profile) if part.cable else (),
+                        sheet=f"2 of {SHEETS} · A4", tolerance=part.fit_tolerance)[0]
+
+
+def save_part_sheets(path, pages: tuple[int, ...], outline: Outline, bore_diameter: float, anchor_diameter: float,
+                     rho_min: float, rho_max: float, title: str, part: dict, words: dict) -> None:
+    """Write the sheets ``pages`` of a part (:func:`part_sheet`; ``part``, the fields of its
+    :class:`PartNotes`; ``words``, its keyword arguments, the date among them) to ``path``: a
+    PDF of them, or a PNG of one. Only the sheets written are built, so that each file can be
+    drawn by a process of its own."""
+    notes = PartNotes(**part)
+    figures = [part_sheet(page, outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, notes, **words)
+               for page in pages]
+    if _sheet_format(path) == "pdf":
+        save_pdf(figures, path)
+    else:
+        save_sheet(*figures, path)
 
 
 @matplotlib_defaults()

@@ -878,9 +878,11 @@ def figure_makers(ev: Evaluation, history: dict | None = None, band: Band | None
     return out
 
 
-def save_made(make: Callable[[], Figure], path) -> None:
-    """Build a figure by ``make`` and write it to ``path`` (:func:`save_figure`)."""
-    save_figure(make(), path)
+def save_named(name: str, ev: Evaluation, history: dict | None, band: Band | None, recheck: Evaluation | None,
+               friction: FrictionBand | None, path) -> None:
+    """Build the figure ``name`` of :func:`figure_makers` and write it to ``path``
+    (:func:`save_figure`)."""
+    save_figure(figure_makers(ev, history, band, recheck, friction)[name](), path)
 
 
 # --------------------------------------------------------------------------------------- study

@@ -5,12 +5,14 @@ write them into a folder.
 The figures (matplotlib) and the workshop files (ezdxf, manifold3d) are imported where they are
 written, so that importing cadcam — in every sweep worker, for ``cadcam evaluate`` — does not
 load them. Drawing the figures and the sheets is most of a small design's time; given a list,
-the writers append them to it as drawings, which :func:`cadcam.outputs.forked.draw` runs side by
-side on the cores.
+the writers append them to it as drawings, which the drawing processes of
+:class:`cadcam.outputs.forked.Drawer` draw side by side on the cores: each a
+:class:`cadcam.outputs.forked.Call` that builds its figure where it is drawn, so that the
+process making the files imports no matplotlib.
 """
 from __future__ import annotations
 
-import functools
+import datetime
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +21,7 @@ from ..verify.builds import adjusts, table_rows
 from ..verify.evaluate import cable_report, output_error, output_law
 from ..files import write_csv, write_json
 from ..problem import Workshop
-from .forked import Drawing
+from .forked import Call, Drawing
 
 
 class WorkshopError(ValueError):
@@ -30,6 +32,8 @@ class WorkshopError(ValueError):
 #: A planar part's drawing sheets (:func:`cadcam.make.drawing.part_sheets`), each name after
 #: ``camN``: one PDF of both sheets, then a PNG of each, sheet 1 (the workshop drawing) first.
 SHEET_FILES = ("_sheet.pdf", "_sheet.png", "_sheet2.png")
+#: The sheets each of :data:`SHEET_FILES` holds.
+SHEET_PAGES = ((1, 2), (1,), (2,))
 
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
@@ -77,8 +81,7 @@ def run_file_names(problem, figures: bool, workshop: Workshop | None) -> list[st
     names = ["result.json", "torque.csv", "torque_recheck.csv", "profile.csv", *(["output.csv"] if output else []),
              *([ADJUSTMENT_FILE] if adjusts(problem) else [])]
     if figures:
-        names += [f"{name}.png" for name in ("profile", "convergence", *(("torque", "springs") if problem.springs else ()),
-                                              *(("output",) if output else ()))]
+        names += [f"{name}.png" for name in figure_names(problem)]
     if workshop is None:
         return names
     kinds = (".dxf", ".svg", "_points.csv", "_groove.csv", *(SHEET_FILES if figures else ()),
@@ -99,9 +102,9 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
     with ``figures`` the PNG figures (torque and springs only if there are springs,
     ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
-    ``output.png``) in ``out``. With a list ``drawings``, the figures are built here and
-    appended to it, the convergence figure (the longest to draw) first, to be drawn by
-    :func:`cadcam.outputs.forked.draw`, not drawn here. ``workshop``: the workshop step's
+    ``output.png``) in ``out``. With a list ``drawings``, the figures are appended to it
+    (:func:`figure_drawings`), to be drawn by :class:`cadcam.outputs.forked.Drawer`, not drawn
+    here. ``workshop``: the workshop step's
     outcome (``status`` ``written`` with its ``files``, or ``failed`` with its ``message``),
     recorded in ``result.json`` beside the design's own status."""
     ev = result.evaluation
@@ -128,16 +131,25 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
             _drawn(drawing, drawings)
 
 
+def figure_names(problem, history: dict | None = None) -> list[str]:
+    """The names of the PNG figures of a design of ``problem``
+    (:func:`cadcam.outputs.plots.figure_makers`), the longest to draw first (three axes of
+    logarithmic ticks), so that workers drawing side by side end together: ``convergence``
+    where IPOPT's iterates are in ``history`` (None: where they may be), ``torque`` and
+    ``springs`` where there are springs, ``output`` for mechanisms with an output law."""
+    output = any(mech.output_target is not None for mech in problem.mechanisms)
+    return [*(("convergence",) if history is None or history.get("iteration") else ()), "profile",
+            *(("torque", "springs") if problem.springs else ()), *(("output",) if output else ())]
+
+
 def figure_drawings(result, out: Path) -> list[Drawing]:
     """The PNG figures of ``result`` in ``out`` (:func:`write_outputs`) as drawings, each
-    building its figure (where it is drawn: side by side, the figures are built side by side
-    too); the longest to draw first (three axes of logarithmic ticks: 0.8 s on the 1-DOF spec,
-    against 0.3–0.5 s for the others), so that workers drawing side by side end together."""
-    from .plots import figure_makers, save_made
-
-    makers = figure_makers(result.evaluation, result.history, result.band, result.recheck, result.friction)
-    return [functools.partial(save_made, makers[name], out / f"{name}.png")
-            for name in sorted(makers, key=lambda name: name != "convergence")]
+    building its figure where it is drawn (:func:`cadcam.outputs.plots.save_named`; named by
+    module, so that this process need not import matplotlib)."""
+    ev = result.evaluation
+    return [Call("cadcam.outputs.plots", "save_named",
+                 (name, ev, result.history, result.band, result.recheck, result.friction, out / f"{name}.png"))
+            for name in figure_names(ev.problem, result.history or {})]
 
 
 def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
@@ -146,8 +158,8 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
     on request; then ``verification.json`` and ``verification.md``. A profile whose cable wraps
     a turn or more (a helical groove) gets the groove's centre line ``cam{i}_groove.csv``
     instead: no planar outline holds it. WorkshopError when a profile's files cannot be made.
-    With a list ``drawings``, the sheets are built here and appended to it, to be drawn by
-    :func:`cadcam.outputs.forked.draw`, not drawn here.
+    With a list ``drawings``, the sheets are appended to it, to be drawn (and built) by
+    :class:`cadcam.outputs.forked.Drawer`, not drawn here.
 
     The outlines and grooves are written as accurately as the design claims (the tolerance of
     :func:`cadcam.outputs.verification.fit_tolerance`, at most ``args.tolerance``), read back
@@ -264,20 +276,19 @@ def _datum(problem, i: int, outline, args: Workshop):
 
 def _part_notes(problem, i: int, args: Workshop, tolerance: float, datum, cable: dict | None,
                 installation: list[dict]):
-    """What profile ``i``'s workshop sheet states beyond its outline
-    (:class:`cadcam.make.drawing.PartNotes`): the springs on its mechanism, each mounted
-    spring's cable cut length on the mechanism's first profile only, where the cable is
-    anchored (:func:`cadcam.verify.installation.spring_installation`)."""
-    from ..make.drawing import PartNotes
-
+    """What profile ``i``'s workshop sheet states beyond its outline, the fields of its
+    :class:`cadcam.make.drawing.PartNotes` (built where the sheet is drawn: this process need
+    not import matplotlib): the springs on its mechanism, each mounted spring's cable cut
+    length on the mechanism's first profile only, where the cable is anchored
+    (:func:`cadcam.verify.installation.spring_installation`)."""
     u, k = _owner(problem, i)
     springs = tuple({key: value for key, value in row.items() if key != "cable_length" or k == 0}
                     for row, spring in zip(installation, problem.springs)
                     if any(port.mechanism == u for port in spring.ports))
-    return PartNotes(thickness=args.with_solids().stl, thickness_given=args.stl is not None,
-                     profile_tolerance=problem.tolerance["profile"], fit_tolerance=tolerance, datum=datum,
-                     dxf=f"cam{i + 1}.dxf", mirrored=_mirrored(problem, i), springs=springs, cable=cable, profile=i,
-                     cable_diameter=args.cable_diameter)
+    return dict(thickness=args.with_solids().stl, thickness_given=args.stl is not None,
+                profile_tolerance=problem.tolerance["profile"], fit_tolerance=tolerance, datum=datum,
+                dxf=f"cam{i + 1}.dxf", mirrored=_mirrored(problem, i), springs=springs, cable=cable, profile=i,
+                cable_diameter=args.cable_diameter)
 
 
 def _fitted_files(result, out: Path, args: Workshop, outlines: dict, grooves: dict, datums: dict, reference: dict):
@@ -378,8 +389,8 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
                          drawings: list[Drawing] | None, points: int) -> str:
     """The SVG, sheets and STL of profile ``i`` of mechanism ``mech`` (its DXF is written by
     :func:`_fitted_files`, its ``points`` points by :func:`_points_files`), the sheets
-    (:data:`SHEET_FILES`) stating ``part`` (a :class:`cadcam.make.drawing.PartNotes`; None: no
-    sheets); returns its line of the summary."""
+    (:data:`SHEET_FILES`) stating ``part`` (the fields of a :class:`cadcam.make.drawing.PartNotes`;
+    None: no sheets); returns its line of the summary."""
     from ..make.workshop import holes, write_stl, write_svg
 
     cam = ev.problem.profiles[i]
@@ -388,15 +399,14 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance,
               _mirrored(ev.problem, i))
     if part is not None:
-        from ..make.drawing import part_sheets, save_pdf, save_sheet
-
-        figures = part_sheets(outline, args.bore_diameter, args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name,
-                              part, spec=ev.problem.name, drawing=f"cam{i + 1}", words=mech.picture)
-        pdf, *pngs = (out / f"cam{i + 1}{kind}" for kind in SHEET_FILES)
-        # each file a drawing of its own, to be drawn side by side
-        _drawn(functools.partial(save_pdf, figures, pdf), drawings)
-        for fig, png in zip(figures, pngs):
-            _drawn(functools.partial(save_sheet, fig, png), drawings)
+        # each file a drawing of its own, to be drawn side by side: the PDF of both sheets,
+        # then a PNG of each; the same date on all
+        words = dict(spec=ev.problem.name, drawing=f"cam{i + 1}", date=datetime.date.today().isoformat(),
+                     words=mech.picture)
+        for kind, pages in zip(SHEET_FILES, SHEET_PAGES):
+            _drawn(Call("cadcam.make.drawing", "save_part_sheets", (
+                out / f"cam{i + 1}{kind}", pages, outline, args.bore_diameter, args.anchor_diameter, cam.rho_min,
+                cam.rho_max, cam.name, part, words)), drawings)
     note = f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, {points} points at {1e3 * polygon:.3g} mm"
     if args.stl is not None:
         circles = holes(outline, args.bore_diameter, args.anchor_diameter, tolerance)  # as the DXF's
@@ -422,7 +432,7 @@ def _write_step(path: Path, outline, args: Workshop, tolerance: float, circles: 
 
 def _drawn(drawing: Drawing, drawings: list[Drawing] | None) -> None:
     """Draw ``drawing`` now, or append it to ``drawings`` (a list) to be drawn by
-    :func:`cadcam.outputs.forked.draw`."""
+    :class:`cadcam.outputs.forked.Drawer`."""
     if drawings is None:
         drawing()
     else:

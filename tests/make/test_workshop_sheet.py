@@ -64,7 +64,9 @@ def written(tmp_path_factory):
     out = tmp_path_factory.mktemp("sheets")
     drawings = []
     write_workshop_files(result, out, result.problem.workshop, True, drawings)
-    figures = next(d for d in drawings if d.func is save_pdf).args[0]
+    _, pages, *sizes, part, words = next(d for d in drawings if d.args[0].suffix == ".pdf").args
+    assert pages == (1, 2)
+    figures = part_sheets(*sizes, PartNotes(**part), **words)  # the sheets the PDF holds
     draw(drawings, workers=2)
     return result, out, figures
 
