@@ -463,19 +463,20 @@ def part_sheet(page: int, outline: Outline, bore_diameter: float, anchor_diamete
                         sheet=f"2 of {SHEETS} · A4", tolerance=part.fit_tolerance)[0]
 
 
-def save_part_sheets(path, pages: tuple[int, ...], outline: Outline, bore_diameter: float, anchor_diameter: float,
-                     rho_min: float, rho_max: float, title: str, part: dict, words: dict) -> None:
-    """Write the sheets ``pages`` of a part (:func:`part_sheet`; ``part``, the fields of its
-    :class:`PartNotes`; ``words``, its keyword arguments, the date among them) to ``path``: a
-    PDF of them, or a PNG of one. Only the sheets written are built, so that each file can be
-    drawn by a process of its own."""
+def save_part_sheets(files: dict, outline: Outline, bore_diameter: float, anchor_diameter: float, rho_min: float,
+                     rho_max: float, title: str, part: dict, words: dict) -> None:
+    """Write a part's sheets (:func:`part_sheet`; ``part``, the fields of its
+    :class:`PartNotes`; ``words``, its keyword arguments, the date among them) to files: path →
+    the pages it holds, a PDF of them or a PNG of one. The sheets the files hold are built
+    once, and no other, so that a drawing process builds only those it writes."""
     notes = PartNotes(**part)
-    figures = [part_sheet(page, outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, notes, **words)
-               for page in pages]
-    if _sheet_format(path) == "pdf":
-        save_pdf(figures, path)
-    else:
-        save_sheet(*figures, path)
+    built = {page: part_sheet(page, outline, bore_diameter, anchor_diameter, rho_min, rho_max, title, notes, **words)
+             for page in sorted({page for pages in files.values() for page in pages})}
+    for path, pages in files.items():
+        if _sheet_format(path) == "pdf":
+            save_pdf([built[page] for page in pages], path)
+        else:
+            save_sheet(*(built[page] for page in pages), path)
 
 
 @matplotlib_defaults()

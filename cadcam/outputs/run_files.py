@@ -33,7 +33,11 @@ class WorkshopError(ValueError):
 #: ``camN``: one PDF of both sheets, then a PNG of each, sheet 1 (the workshop drawing) first.
 SHEET_FILES = ("_sheet.pdf", "_sheet.png", "_sheet2.png")
 #: The sheets each of :data:`SHEET_FILES` holds.
-SHEET_PAGES = ((1, 2), (1,), (2,))
+SHEET_PAGES = {"_sheet.pdf": (1, 2), "_sheet.png": (1,), "_sheet2.png": (2,)}
+#: The sheet files drawn together, each group by a drawing process of its own, which builds
+#: the sheets they hold once: the workshop drawing's PNG (the longest to draw) alone, the PDF
+#: with the checking sheet's PNG.
+SHEET_DRAWINGS = (("_sheet.png",), ("_sheet.pdf", "_sheet2.png"))
 
 #: Points of a tensor grid up to which a torque table holds every one of them.
 TABLE_POINTS = 1_000_000
@@ -399,14 +403,13 @@ def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, toleran
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance,
               _mirrored(ev.problem, i))
     if part is not None:
-        # each file a drawing of its own, to be drawn side by side: the PDF of both sheets,
-        # then a PNG of each; the same date on all
+        # drawn side by side (:data:`SHEET_DRAWINGS`), the same date on all
         words = dict(spec=ev.problem.name, drawing=f"cam{i + 1}", date=datetime.date.today().isoformat(),
                      words=mech.picture)
-        for kind, pages in zip(SHEET_FILES, SHEET_PAGES):
+        for kinds in SHEET_DRAWINGS:
             _drawn(Call("cadcam.make.drawing", "save_part_sheets", (
-                out / f"cam{i + 1}{kind}", pages, outline, args.bore_diameter, args.anchor_diameter, cam.rho_min,
-                cam.rho_max, cam.name, part, words)), drawings)
+                {out / f"cam{i + 1}{kind}": SHEET_PAGES[kind] for kind in kinds}, outline, args.bore_diameter,
+                args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name, part, words)), drawings)
     note = f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, {points} points at {1e3 * polygon:.3g} mm"
     if args.stl is not None:
         circles = holes(outline, args.bore_diameter, args.anchor_diameter, tolerance)  # as the DXF's

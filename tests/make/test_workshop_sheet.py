@@ -64,8 +64,8 @@ def written(tmp_path_factory):
     out = tmp_path_factory.mktemp("sheets")
     drawings = []
     write_workshop_files(result, out, result.problem.workshop, True, drawings)
-    _, pages, *sizes, part, words = next(d for d in drawings if d.args[0].suffix == ".pdf").args
-    assert pages == (1, 2)
+    files, *sizes, part, words = next(d for d in drawings if out / "cam1_sheet.pdf" in d.args[0]).args
+    assert files[out / "cam1_sheet.pdf"] == (1, 2)
     figures = part_sheets(*sizes, PartNotes(**part), **words)  # the sheets the PDF holds
     draw(drawings, workers=2)
     return result, out, figures
