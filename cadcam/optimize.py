@@ -22,6 +22,7 @@ from .solve.builds import built_for
 from .solve.memory import MemoryBudgetError
 from .solve.messages import count, merged
 from .solve.ipopt import Multipliers, Solve, joined
+from .solve.stall import STALL_STATUS
 from .solve.transcription import Transcription
 
 
@@ -112,6 +113,9 @@ def verdict(problem: Problem, solve: Solve, fine, what: str, grid: str = "fine r
     if solve.status == "acceptable":
         return solve.status, (f"IPOPT stopped at its acceptable level ({solve.return_status}), not at its "
                               "tolerance: the design is not an optimum; tighten or drop the acceptable_* options")
+    if solve.status == STALL_STATUS:
+        return solve.status, (f"IPOPT stopped by the stall rule in force: its primal infeasibility still "
+                              f"{solve.history['inf_pr'][-1]:.3g}; neither an optimum nor proof of none")
     if solve.status != "converged":
         return solve.status, f"IPOPT stopped: {solve.return_status}"
     numbers = [m.rmse, m.max_abs_error, m.extension_min, m.extension_max, m.rho_min, m.rho_max,

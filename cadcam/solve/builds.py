@@ -8,6 +8,7 @@ from collections import OrderedDict
 
 from ..problem import Problem
 from . import robust
+from .stall import STALL_RULE
 from .transcription import Transcription
 
 #: How many built NLPs a process keeps, the least recently used dropped first (a 2-DOF build
@@ -30,7 +31,7 @@ def structure_key(problem: Problem) -> str:
         [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs],
         [s.free_length is not None for s in problem.springs],
         [sorted(m.placement_region()) for m in problem.mechanisms],
-        sorted(problem.arm_scales().items()), robust.structure(problem)])
+        sorted(problem.arm_scales().items()), robust.structure(problem), repr(STALL_RULE.get())])
 
 
 def built_for(problem: Problem) -> tuple[Transcription, bool]:

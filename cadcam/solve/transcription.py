@@ -36,7 +36,7 @@ import numpy as np
 from ..designs import Design
 from . import compiled, robust
 from .blocks import BAND_SCALE, LENGTH_SCALE
-from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IPOPT_STATUS, RESOLVE_OPTIONS, WARM_IPOPT,
+from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IMPOSE_OPTIONS, IPOPT_STATUS, RESOLVE_OPTIONS,
                     Multipliers, Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
 from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
@@ -44,6 +44,7 @@ from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensiti
                         _tracking_terms)
 from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order, placement_scales
 from .sharing import sharing_solver
+from .stall import STALL_RULE, stall_watch, watched
 from .variables import _parameter_blocks, _Rows, _Vars
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.wrap import length_function
@@ -78,6 +79,9 @@ class Transcription:
     functions_used : str
         How this build evaluates IPOPT's functions: ``expanded``, ``mapped`` or one of
         :data:`COMPILED_NOW`, :data:`COMPILED_CACHED`, :data:`EXPANDED_COMPILING`.
+    stall : StallRule or None
+        The stall rule in force when it was built (:data:`cadcam.solve.stall.STALL_RULE`),
+        which stops its solvers' runs (None: none).
     """
 
     def __init__(self, problem: Problem):
@@ -92,6 +96,9 @@ class Transcription:
         self._split: Transcription | None = None  # the graph compiled functions come from
         # the library auto looks for, named once (serializing the graph takes a while)
         self._key = compiled.key_of(self.nlp) if problem.options.functions == "auto" else None
+        # the stall rule in force now (builds.structure_key keeps builds under it apart) stops
+        # the runs of every solver of this build, those built later too
+        self.stall = STALL_RULE.get()
         self._build_solvers()
         self.build_time_s = time.perf_counter() - t0
 
@@ -99,8 +106,8 @@ class Transcription:
         """IPOPT on :attr:`nlp` (:attr:`solver`, :attr:`functions_used`); the solvers with the
         deferred rows and the warm one are built when first needed."""
         self.solver, self.functions_used = _ipopt_solver(self.nlp, self.problem.options, self._split_nlp,
-                                                         key=self._key)
-        self._imposing = None  # the solver with the deferred rows
+                                                         key=self._key, stall=self.stall)
+        self._imposing: dict = {}  # the solvers with the deferred rows, by their options
         self._warm: dict = {}  # the solvers warm from an answer and its multipliers, by their options
 
     def adopt_compiled(self) -> bool:
@@ -450,14 +457,18 @@ class Transcription:
         return np.r_[lo, dlo], np.r_[hi, dhi]
 
     def _imposing_solver(self) -> ca.Function:
-        """IPOPT on :attr:`whole_nlp` started warm (:data:`WARM_IPOPT`), built on first use.
-        Its derivatives are generated for the whole NLP, not summed from :attr:`solver`'s and
-        the deferred rows' (:mod:`.sharing`): that sum differs by rounding, and IPOPT's path
-        through these problems is sensitive enough to it to change the optimum reached."""
-        if self._imposing is None:
-            self._imposing, _ = _ipopt_solver(self.whole_nlp, self.problem.options,
-                                              lambda: self._split_graph().whole_nlp, WARM_IPOPT)
-        return self._imposing
+        """IPOPT on :attr:`whole_nlp` started warm, with the options of the running context
+        (:data:`cadcam.solve.ipopt.IMPOSE_OPTIONS`: :data:`WARM_IPOPT` but in a catalogue
+        search), built on first use. Its derivatives are generated for the whole NLP, not summed
+        from :attr:`solver`'s and the deferred rows' (:mod:`.sharing`): that sum differs by
+        rounding, and IPOPT's path through these problems is sensitive enough to it to change
+        the optimum reached."""
+        options = IMPOSE_OPTIONS.get()
+        key = tuple(sorted(options.items()))
+        if key not in self._imposing:
+            self._imposing[key], _ = _ipopt_solver(self.whole_nlp, self.problem.options,
+                                                   lambda: self._split_graph().whole_nlp, options, stall=self.stall)
+        return self._imposing[key]
 
     def _warm_solver(self) -> ca.Function:
         """IPOPT on :attr:`nlp` re-solving warm from an answer, with the options of the running
@@ -468,10 +479,13 @@ class Transcription:
         if key not in self._warm:
             opt = self.problem.options
             if self.functions_used in (COMPILED_NOW, COMPILED_CACHED):
-                self._warm[key], _ = _ipopt_solver(self.nlp, opt, self._split_nlp, options, key=self._key)
+                self._warm[key], _ = _ipopt_solver(self.nlp, opt, self._split_nlp, options, key=self._key,
+                                                   stall=self.stall)
             else:
-                self._warm[key] = sharing_solver(self.solver, self.nlp, _ipopt_options(opt, options),
-                                                 expand=opt.functions != "mapped")
+                watching, watch = stall_watch(self.stall, self.nlp)
+                self._warm[key] = watched(sharing_solver(self.solver, self.nlp,
+                                                         _ipopt_options(opt, {**options, **watching}),
+                                                         expand=opt.functions != "mapped"), watch)
         return self._warm[key]
 
     def design_of(self, w) -> Design:
@@ -500,9 +514,9 @@ class Transcription:
         def impose(x0, m: Multipliers):
             """The solve with the deferred rows, from ``x0`` and ``m`` (of every row)."""
             wlo, whi = self.whole_bounds(problem)
-            sol = self._imposing_solver()(x0=x0, lam_x0=m.lam_x, lam_g0=m.lam_g, p=pv,
-                                          lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
-            runs.append(self._imposing.stats())
+            solver = self._imposing_solver()
+            sol = solver(x0=x0, lam_x0=m.lam_x, lam_g0=m.lam_g, p=pv, lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
+            runs.append(solver.stats())
             return sol
 
         with signals_kept(), kept_warnings() as warnings, printed_to_stderr():

@@ -14,6 +14,7 @@ start once (:data:`NEIGHBOUR_SPAN`).
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import math
@@ -28,6 +29,8 @@ from ..errors import SpecError
 from ..physics.catalogue import Catalogue, Need, Screen, Slack, room_arms, screen
 from ..physics.springs import Spring
 from ..problem import Problem
+from ..solve.ipopt import IMPOSE_OPTIONS, SEARCH_IMPOSE_IPOPT
+from ..solve.stall import STALL_STATUS, StallRule, stall_rule
 
 #: Points of the joint's range the target's work and peak torque are taken on.
 NEED_POINTS = 2001
@@ -99,6 +102,17 @@ def screen_slot(problem: Problem, j: int, catalogue: Catalogue) -> Screen:
 #: reported undecided, not infeasible.
 SEARCH_MAX_ITER = 100
 
+#: The stall rule of a search's solves (:class:`cadcam.solve.stall.StallRule`): a run whose
+#: primal infeasibility (IPOPT's inf_pr, in the NLP's scaled units, mm and mm²) has stayed at
+#: least 3 through iterations 25 to 30 is stopped at the 30th, its spring undecided, where it
+#: would otherwise hold a worker to :data:`SEARCH_MAX_ITER`. Measured on the tutorial's
+#: catalogue (a serial search, every run's iterates kept): all 65 undecided springs had ended
+#: at the iteration cap, 38 % of the search's iterations; this rule stops 56 of them and 3 of
+#: the 516 that converge (1 feasible, 2 near), and saves a quarter of the iterations. Stopping
+#: at iteration 40 wherever inf_pr is still ≥ 1 stopped 61, but 16 that converge (9 feasible):
+#: their inf_pr rises and falls on the way.
+SEARCH_STALL = StallRule(iteration=30, window=5, inf_pr=3.0)
+
 #: How a search solves again a design whose profile broke its shape between the NLP's check
 #: points (:data:`cadcam.optimize.REFINEMENTS`): its margins raised in the same NLP, warm, in a
 #: fraction of a second, where ``cadcam design``'s four times the check points took 3–25 s a
@@ -120,7 +134,8 @@ VERDICTS = {
     "feasible": "designed; the solve converged and the re-check passed, the body's limits included",
     "near": "designed and converged, but the re-check failed: the reason names the binding limit and by how much",
     "undecided": "passed the screen, but its design did not converge (its status; a search's within its budget, "
-                 "SEARCH_MAX_ITER iterations from one start): neither found nor ruled out",
+                 "SEARCH_MAX_ITER iterations from one start, or stopped by SEARCH_STALL, the stall rule): neither "
+                 "found nor ruled out",
     "infeasible": "screened out (its reason: a test it cannot pass), or a part the spec cannot use",
     "not_designed": "passed the screen but beyond --limit",
 }
@@ -191,6 +206,19 @@ def _spec_problem(spec: tuple) -> Problem:
     return _PARSED["problem"]
 
 
+@contextlib.contextmanager
+def search_solves():
+    """Within the block, solves as a search's are (:func:`design_part`): their stalled runs
+    stopped (:data:`SEARCH_STALL`, fixed into the builds made or kept for them) and the
+    deferred rows imposed with :data:`cadcam.solve.ipopt.SEARCH_IMPOSE_IPOPT`."""
+    impose = IMPOSE_OPTIONS.set(SEARCH_IMPOSE_IPOPT)
+    try:
+        with stall_rule(SEARCH_STALL):
+            yield
+    finally:
+        IMPOSE_OPTIONS.reset(impose)
+
+
 def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: dict | None,
                 band: bool = False) -> dict:
     """Design the spec ``spec`` = (data, origin, base folder) with spring ``j`` made catalogue
@@ -210,14 +238,15 @@ def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: di
         row.update(status="unusable", message=str(exc), wall_time_s=time.perf_counter() - t0)
         return row
     try:
-        tr, _ = built_for(problem)
         start = start or {}
         design = (force_matched(Design.from_dict(start["design"], problem), j, start["spring"], problem.springs[j],
                                 start["extension"]) if start else None)
-        # a warm start that fails is not tried again from the default start: on the tutorial's
-        # catalogue that retry seldom converged and cost more than the springs that did
-        result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", start.get("multipliers"),
-                               refine=SEARCH_REFINE, margins=start.get("margins"), retry=False)
+        with search_solves():
+            tr, _ = built_for(problem)
+            # a warm start that fails is not tried again from the default start: on the tutorial's
+            # catalogue that retry seldom converged and cost more than the springs that did
+            result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", start.get("multipliers"),
+                                   refine=SEARCH_REFINE, margins=start.get("margins"), retry=False)
         row.update(status=result.status, message=result.message, iterations=result.solve.iterations,
                    violations=result.recheck.violations if not result.success else [],
                    rmse=max(result.evaluation.metrics.rmse),
@@ -226,7 +255,8 @@ def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: di
                    multipliers=result.solve.multipliers, margins=result.solve.margins,
                    extension=float(np.mean([result.recheck.metrics.extension_min[j],
                                             result.recheck.metrics.extension_max[j]])),
-                   body=problem.springs[j].body_report(result.recheck.metrics.extension_max[j]))
+                   body=problem.springs[j].body_report(result.recheck.metrics.extension_max[j]),
+                   inf_pr=result.solve.history["inf_pr"][-1] if result.solve.history["inf_pr"] else None)
         if band and result.band is not None:
             row["band"] = float(result.band.half_width.max())
     except Exception as exc:  # noqa: BLE001 - any failure of one spring is its row, the search goes on
@@ -278,6 +308,9 @@ def verdict(row: dict) -> tuple[str, str]:
     (:func:`with_part`) is ``infeasible`` here."""
     if row["status"] == "unusable":
         return "infeasible", f"unusable: {row['message']}"
+    if row["status"] == STALL_STATUS:
+        return "undecided", (f"stopped by the stall rule: {SEARCH_STALL.words()} (its inf_pr {row['inf_pr']:.3g}); "
+                             "neither found nor ruled out")
     if row["status"] == "error" or "body" not in row:
         return "undecided", f"not finished: {row['status']}: {row['message']}"
     words, ratio = binding_limit(row["body"])
