@@ -62,10 +62,10 @@ SESSION_IPOPT = {**RESOLVE_IPOPT, **{f"ipopt.warm_start_{name}": SESSION_PUSH fo
     "bound_push", "bound_frac", "mult_bound_push", "slack_bound_push", "slack_bound_frac")}}
 #: IPOPT options of a catalogue search's solve that imposes the deferred rows
 #: (:data:`IMPOSE_OPTIONS`): :data:`WARM_IPOPT` with :data:`RESOLVE_LINEAR`. Measured on the
-#: tutorial's catalogue (its 100 springs nearest the spec's rate, serially): the same verdicts
-#: and best design, 2 % fewer iterations and its solves some 20 % faster than with
-#: :data:`WARM_IPOPT`'s linear algebra, whose larger KKT matrix (the whole NLP's rows, twice
-#: the first solve's) costs the most per iteration.
+#: tutorial's catalogue, serially: over its 60 springs nearest the spec's rate, these solves
+#: took 6.3 CPU-s against 8.6 with :data:`WARM_IPOPT`'s linear algebra (whose KKT matrix, of
+#: twice the first solve's rows, costs the most per iteration), in 8 % fewer iterations; over
+#: its 100 nearest, the same verdicts and best design.
 SEARCH_IMPOSE_IPOPT = {**WARM_IPOPT, **RESOLVE_LINEAR}
 #: The options of the solve imposing the deferred rows in the running context
 #: (:meth:`cadcam.solve.transcription.Transcription.solve`): :data:`WARM_IPOPT`, or
