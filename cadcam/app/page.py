@@ -535,10 +535,10 @@ class DesignPage:
             self.verdict.object = self._verdict(outcome)
             return
         self._show_error(None, None)
-        self.verdict.object = self._verdict(outcome) + " " + MOVING
-        self.lines.object = self._lines(outcome.result)
-        with self.drawing():
+        with self.drawing():  # the curves first, the lines above them in the same message
             self.live.draw(frame)
+            self.verdict.object = self._verdict(outcome) + " " + MOVING
+            self.lines.object = self._lines(outcome.result)
 
     def _moving_design(self, request: Request, key: str | None, pose: int, keys: set[str]):
         """(In the worker.) The provisional design of ``request`` (no fine re-check,
@@ -963,10 +963,15 @@ class DesignPage:
             button.filename = stem + end
 
     def _show_error(self, key: str | None, message: str | None) -> None:
+        """Show ``message`` under field ``key`` (None: under no field). Only the field showing an
+        error and field ``key`` are set: setting every field's (tens of them) took a slider's step
+        milliseconds of the page's loop, for nothing to show."""
+        for k in dict.fromkeys((self._error_key, key)):
+            pane = self.errors.get(k)
+            if pane is not None:
+                shown = k == key
+                pane.object, pane.visible = _escape(self._public(message)) if shown else "", shown
         self._error_key = key
-        for k, pane in self.errors.items():
-            shown = k == key
-            pane.object, pane.visible = _escape(self._public(message)) if shown else "", shown
 
     def _verdict(self, outcome: Outcome) -> str:
         """The verdict line of ``outcome``: its status and message, or the error it ended in."""
