@@ -32,7 +32,7 @@ from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
 from .solve import compiled
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
-from .solve.ipopt import RESOLVE_OPTIONS, SESSION_IPOPT
+from .solve.ipopt import MOVING_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT
 from .solve.transcription import Transcription
 from .optimize import completed, optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
@@ -214,14 +214,17 @@ class Session:
         ``build_time_s`` is what this design built (0 through an NLP kept). With ``recheck``
         False, no fine re-check and no refusal of a target out of reach
         (:func:`refuse_unreachable`, milliseconds to tens of them): a provisional design judged
-        on the design grid (:func:`cadcam.optimize.optimize`), as while a slider moves; designed
-        again with it, the same edits start from that answer and need few iterations."""
+        on the design grid (:func:`cadcam.optimize.optimize`), as while a slider moves, re-solved
+        warm with a low cap on IPOPT's barrier (:data:`cadcam.solve.ipopt.MOVING_IPOPT`: fewer
+        iterations from the last answer); designed again with it, the same edits start from that
+        answer and need few iterations."""
         problem = load_problem(spec, **options)
         if recheck:
             refuse_unreachable(problem)
         if problem.options.method != "nlp":
             return optimize(problem, recheck=recheck)
-        token = RESOLVE_OPTIONS.set(SESSION_IPOPT)  # a warm start at the last answer: pushed little off it
+        # a warm start at the last answer: pushed little off it; provisional, its barrier capped
+        token = RESOLVE_OPTIONS.set(SESSION_IPOPT if recheck else MOVING_IPOPT)
         try:
             return self._designed(problem, recheck)
         finally:

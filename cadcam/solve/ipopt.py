@@ -72,9 +72,21 @@ SEARCH_IMPOSE_IPOPT = {**WARM_IPOPT, **RESOLVE_LINEAR}
 #: :data:`SEARCH_IMPOSE_IPOPT` within a catalogue search's design
 #: (:func:`cadcam.sweep.springs.design_part`).
 IMPOSE_OPTIONS: ContextVar[dict] = ContextVar("impose_options", default=WARM_IPOPT)
+#: The largest barrier parameter of a provisional re-solve (:data:`MOVING_IPOPT`), in the NLP's
+#: scaled units: IPOPT's adaptive μ raises it from a warm start, and the iterates wander off the
+#: last answer before they return to the optimum beside it. Measured on Ludovico2021's pendulum,
+#: warm after 0.3 % steps of spring 1's rate (``benchmarks/bench_page.py``'s edit): 7 iterations
+#: a step under this cap (1e-9: 7–9), 9–30 under :data:`MU_MAX`, to the same objectives; a
+#: monotone μ from 1e-9 took 4–5, but ended at complementarity 1e-9, its objective 2e-4
+#: (relative) above the optimum's.
+MOVING_MU_MAX = 1e-8
+#: IPOPT options of a provisional re-solve while a slider moves (:class:`cadcam.Session`'s
+#: ``recheck=False``): :data:`SESSION_IPOPT`, the barrier capped at :data:`MOVING_MU_MAX`.
+MOVING_IPOPT = {**SESSION_IPOPT, "ipopt.mu_max": MOVING_MU_MAX}
 #: The options of a warm re-solve from an answer and its multipliers in the running context
 #: (:meth:`cadcam.solve.transcription.Transcription.solve`): :data:`RESOLVE_IPOPT`, or
-#: :data:`SESSION_IPOPT` within a design session's design.
+#: :data:`SESSION_IPOPT` within a design session's design (:data:`MOVING_IPOPT` within its
+#: provisional one).
 RESOLVE_OPTIONS: ContextVar[dict] = ContextVar("resolve_options", default=RESOLVE_IPOPT)
 
 
