@@ -236,3 +236,24 @@ def test_a_slider_held_still_is_designed_in_full_once_it_rests(wire_cam, monkeyp
     assert len(history.entries) == made + 1 and page.MOVING not in view.verdict.object
     assert "verdict-success" in view.verdict.object and "fine re-check grid" in view.verdict.object
     assert view.state.result.problem.springs[0].rate == 1150.0 and not view.state.result.provisional
+
+
+def test_an_error_is_shown_under_its_field_alone_and_cleared_where_it_was(wire_cam):
+    """Only the field showing an error and the field named are set (a slider's step clears the
+    error without setting every field's); the error moves from field to field and goes."""
+    view = wire_cam
+    assert view._error_key is None
+    view._show_error("springs.1.rate", "rate: bad")
+    shown = [k for k, pane in view.errors.items() if pane.visible]
+    assert shown == ["springs.1.rate"] and view.errors["springs.1.rate"].object == "rate: bad"
+    view._show_error("springs.2.travel", "travel: bad")
+    shown = [k for k, pane in view.errors.items() if pane.visible]
+    assert shown == ["springs.2.travel"] and view.errors["springs.1.rate"].object == ""
+    set_panes = []  # each field whose error pane is set, whether or not its value changes
+    for key, pane in view.errors.items():
+        pane.param.watch(lambda event, key=key: set_panes.append(key), ["object", "visible"], onlychanged=False)
+    view._show_error(None, None)
+    assert not any(pane.visible or pane.object for pane in view.errors.values()) and view._error_key is None
+    assert set(set_panes) == {"springs.2.travel"} and len(view.errors) > 10
+    view._show_error(None, None)  # nothing shown: nothing set
+    assert set(set_panes) == {"springs.2.travel"} and not any(pane.visible for pane in view.errors.values())
