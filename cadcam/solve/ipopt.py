@@ -61,11 +61,9 @@ SESSION_PUSH = 1e-7
 SESSION_IPOPT = {**RESOLVE_IPOPT, **{f"ipopt.warm_start_{name}": SESSION_PUSH for name in (
     "bound_push", "bound_frac", "mult_bound_push", "slack_bound_push", "slack_bound_frac")}}
 #: IPOPT options of a catalogue search's solve that imposes the deferred rows
-#: (:data:`IMPOSE_OPTIONS`): :data:`WARM_IPOPT` with :data:`RESOLVE_LINEAR`. Measured on the
-#: tutorial's catalogue, serially: over its 60 springs nearest the spec's rate, these solves
-#: took 6.3 CPU-s against 8.6 with :data:`WARM_IPOPT`'s linear algebra (whose KKT matrix, of
-#: twice the first solve's rows, costs the most per iteration), in 8 % fewer iterations; over
-#: its 100 nearest, the same verdicts and best design.
+#: (:data:`IMPOSE_OPTIONS`): :data:`WARM_IPOPT` with :data:`RESOLVE_LINEAR`, because that
+#: solve's KKT matrix, of twice the first solve's rows, costs the most per iteration and the
+#: warm re-solves' linear algebra is cheaper on it, to the same verdicts (``bench_springs.py``).
 SEARCH_IMPOSE_IPOPT = {**WARM_IPOPT, **RESOLVE_LINEAR}
 #: The options of the solve imposing the deferred rows in the running context
 #: (:meth:`cadcam.solve.transcription.Transcription.solve`): :data:`WARM_IPOPT`, or
@@ -74,11 +72,9 @@ SEARCH_IMPOSE_IPOPT = {**WARM_IPOPT, **RESOLVE_LINEAR}
 IMPOSE_OPTIONS: ContextVar[dict] = ContextVar("impose_options", default=WARM_IPOPT)
 #: The largest barrier parameter of a provisional re-solve (:data:`MOVING_IPOPT`), in the NLP's
 #: scaled units: IPOPT's adaptive μ raises it from a warm start, and the iterates wander off the
-#: last answer before they return to the optimum beside it. Measured on Ludovico2021's pendulum,
-#: warm after 0.3 % steps of spring 1's rate (``benchmarks/bench_page.py``'s edit): 7 iterations
-#: a step under this cap (1e-9: 7–9), 9–30 under :data:`MU_MAX`, to the same objectives; a
-#: monotone μ from 1e-9 took 4–5, but ended at complementarity 1e-9, its objective 2e-4
-#: (relative) above the optimum's.
+#: last answer before they return to the optimum beside it; capped, a small slider step ends in
+#: fewer iterations at the same optimum (``bench_page.py``). A monotone μ this small is not
+#: used: it stops at a complementarity too loose for the optimum's objective.
 MOVING_MU_MAX = 1e-8
 #: IPOPT options of a provisional re-solve while a slider moves (:class:`cadcam.Session`'s
 #: ``recheck=False``): :data:`SESSION_IPOPT`, the barrier capped at :data:`MOVING_MU_MAX`.

@@ -105,12 +105,10 @@ SEARCH_MAX_ITER = 100
 #: The stall rule of a search's solves (:class:`cadcam.solve.stall.StallRule`): a run whose
 #: primal infeasibility (IPOPT's inf_pr, in the NLP's scaled units, mm and mm²) has stayed at
 #: least 3 through iterations 25 to 30 is stopped at the 30th, its spring undecided, where it
-#: would otherwise hold a worker to :data:`SEARCH_MAX_ITER`. Measured on the tutorial's
-#: catalogue (a serial search, every run's iterates kept): all 65 undecided springs had ended
-#: at the iteration cap, 38 % of the search's iterations; this rule stops 56 of them and 3 of
-#: the 516 that converge (1 feasible, 2 near), and saves a quarter of the iterations. Stopping
-#: at iteration 40 wherever inf_pr is still ≥ 1 stopped 61, but 16 that converge (9 feasible):
-#: their inf_pr rises and falls on the way.
+#: would otherwise hold a worker to :data:`SEARCH_MAX_ITER`: on the tutorial's catalogue nearly
+#: every undecided spring sat that far from feasible for dozens of iterations, and a window
+#: rather than one iteration spares the converging runs whose inf_pr rises and falls on the way
+#: (a single test at iteration 40 with inf_pr ≥ 1 stopped feasible springs too).
 SEARCH_STALL = StallRule(iteration=30, window=5, inf_pr=3.0)
 
 #: How a search solves again a design whose profile broke its shape between the NLP's check
