@@ -26,6 +26,7 @@ finish, so warm-started sweeps are reproducible only serially.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import json
 import math
 import os
@@ -382,6 +383,11 @@ def _start_resource_tracker() -> None:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+def _imported(module: str) -> None:
+    """Import ``module`` in a worker (a failure is raised again by the worker's first case)."""
+    importlib.import_module(module)
+
+
 class _Local:
     """``task`` (a module-level function; default :func:`run_case`) run on a process pool of
     ``workers`` processes started with :data:`WORKER_ENV`."""
@@ -394,6 +400,10 @@ class _Local:
             _start_resource_tracker()
             self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
             list(self.pool.map(abs, range(workers)))
+        # not waited for: each worker imports its task's module while this process goes on (a
+        # search compiles the NLP's functions meanwhile), rather than when its first case comes
+        for _ in range(workers):
+            self.pool.submit(_imported, self.task.__module__)
 
     def submit(self, *args):
         return self.pool.submit(self.task, *args)

@@ -466,8 +466,7 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     found = Search(catalogue, screened, {}, len(todo))
     if not todo:
         return found
-    if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
-        prepare_functions(problem, j, catalogue.parts[todo[0]], catalogue_path)
+    # started first: a local pool's workers start up while the functions compile
     executor = (_Dask(dask, max(workers, 1), design_part) if dask else
                 _Local(workers, design_part) if workers else _Serial(design_part))
     # two springs per worker keep a pool busy; serially a spring is designed when submitted, so
@@ -475,6 +474,8 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     room, pending, solved = 2 * max(workers, 1) if workers or dask else 1, {}, []
     interrupted = True
     try:
+        if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
+            prepare_functions(problem, j, catalogue.parts[todo[0]], catalogue_path)
         while todo or pending:
             while todo and len(pending) < room:
                 i = todo.pop(0)
