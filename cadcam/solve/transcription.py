@@ -456,6 +456,13 @@ class Transcription:
         (lo, hi), (dlo, dhi) = self.bounds(problem), self.bounds(problem, deferred=True)
         return np.r_[lo, dlo], np.r_[hi, dhi]
 
+    def whole_library(self) -> tuple:
+        """:func:`cadcam.solve.compiled.library` of :attr:`whole_nlp`, generated from the graph
+        the solve imposing the deferred rows compiles it from (:meth:`_split_graph`): a library
+        in the cache is named by the NLP's graph alone, so whoever compiles it first must
+        generate it as every other does."""
+        return compiled.library(self.whole_nlp, lambda: self._split_graph().whole_nlp)
+
     def _imposing_solver(self) -> ca.Function:
         """IPOPT on :attr:`whole_nlp` started warm, with the options of the running context
         (:data:`cadcam.solve.ipopt.IMPOSE_OPTIONS`: :data:`WARM_IPOPT` but in a catalogue

@@ -441,7 +441,7 @@ def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None
     if problem.options.functions in ("auto", "compiled") and compiled.available():
         try:
             tr = Transcription(with_part(problem, j, part, catalogue).with_options(functions="compiled"))
-            compiled.library(tr.whole_nlp)
+            tr.whole_library()
         except (compiled.CompileError, SpecError):
             pass
 
