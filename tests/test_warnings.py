@@ -208,6 +208,7 @@ def test_the_design_page_shows_the_warnings(warned):
 
     view = DesignPage.__new__(DesignPage)
     view.errors, view.state, view.name = {}, SimpleNamespace(path=FIRST, result=None, aliases={}), FIRST.name
+    view._error_key = None  # no field shows an error
     view.verdict, view.details, view.lines, view.springs = (SimpleNamespace(object=None) for _ in range(4))
     outcome = Outcome(result=warned, seconds=1.0)
     _, details = DesignPage._drawn(outcome, 0, set())  # in the worker
