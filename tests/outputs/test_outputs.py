@@ -3,13 +3,10 @@ place with result.json last, so a run that fails or is interrupted leaves the pr
 was and never a final-looking result.json beside a partial set; temporary files of a killed run
 are recognised and removed by the next; output paths are checked before any work."""
 import errno
-import multiprocessing
 import os
 import signal
 import subprocess
 import sys
-import time
-from pathlib import Path
 
 import importlib.util
 
@@ -19,7 +16,7 @@ from PIL import Image
 
 import cadcam.outputs.plots
 from cadcam.cli import main
-from cadcam.files import MANIFEST, TEMP_PREFIX, NotCadcams, process_alive, recorded_sets, staged_folder, write_text
+from cadcam.files import MANIFEST, TEMP_PREFIX, NotCadcams, recorded_sets, staged_folder, write_text
 from cadcam.solve.transcription import Transcription
 from cadcam.optimize import optimize
 from cadcam.spec import load_spec
@@ -100,31 +97,6 @@ def test_an_interrupt_midway_exits_130_and_leaves_nothing(tmp_path, design, monk
     _fail_at_torque_png(monkeypatch, KeyboardInterrupt())
     code, err = design(tmp_path / "o")
     assert code == 130 and "interrupted" in err and not (tmp_path / "o").exists()
-
-
-def test_an_interrupt_during_the_design_ends_the_drawing_processes_forked_before_it(tmp_path, monkeypatch, capsys):
-    """``cadcam design`` forks its drawing processes before the design, so that they import
-    matplotlib meanwhile (the first forks the others once it has); a Ctrl-C during the design
-    ends every one of them before the run exits 130, and nothing is written."""
-    module = importlib.import_module("cadcam.optimize")
-    importlib.import_module("cadcam.api")  # first: its own name for optimize stays the real function
-    drawers = []
-
-    def interrupted(problem):
-        first, = multiprocessing.active_children()
-        children = Path(f"/proc/{first.pid}/task/{first.pid}/children")
-        deadline = time.monotonic() + 60
-        while not children.read_text().split():
-            assert time.monotonic() < deadline, "the first drawing process forked no other"
-            time.sleep(0.02)
-        drawers.extend([first.pid, *map(int, children.read_text().split())])
-        raise KeyboardInterrupt
-    monkeypatch.setattr(module, "optimize", interrupted)
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    code = main(["design", str(SPEC_1DOF), "-o", str(tmp_path / "o")])
-    assert code == 130 and "interrupted" in capsys.readouterr().err
-    assert len(drawers) == 2 and not any(process_alive(pid) for pid in drawers)
-    assert not (tmp_path / "o").exists()
 
 
 def _signal_during_solves(monkeypatch, signum):
@@ -261,26 +233,6 @@ def test_output_paths_are_checked_before_any_work(tmp_path, capsys, argv):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and ("is a folder" in err or "is a file" in err)
     assert sorted(os.listdir(tmp_path)) == ["file", "folder"] and not os.listdir(tmp_path / "folder")
-
-
-def _record_import(path, name: str) -> None:
-    """A drawing that writes whether module ``name`` is imported where it is drawn."""
-    path.write_text(str(name in sys.modules))
-
-
-def test_the_drawing_processes_import_the_writers_first_and_leave_a_failed_import_to_the_writer(tmp_path):
-    """``cadcam design``'s drawing processes import the figures' libraries while the design is
-    made (:class:`cadcam.outputs.forked.Drawer`); one that fails is left to the drawing."""
-    from cadcam.cli import FIGURE_WRITERS
-    from cadcam.outputs.forked import Call, Drawer
-
-    assert all(importlib.util.find_spec(name) for name in FIGURE_WRITERS)
-    sys.modules.pop("tabnanny", None)
-    with Drawer(2, ("cadcam_no_such_module", "tabnanny")) as drawer:
-        drawer.send([Call(__name__, "_record_import", (tmp_path / "seen", "tabnanny"))])
-        drawer.wait()
-    assert (tmp_path / "seen").read_text() == "True"  # imported before the drawing, past the failure
-    assert "tabnanny" not in sys.modules  # by the drawing process, not here
 
 
 def test_no_figures_loads_no_matplotlib():
