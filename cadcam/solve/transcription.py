@@ -205,6 +205,10 @@ class Transcription:
         """:attr:`nlp` as :meth:`_split_graph` writes it."""
         return self._split_graph().nlp
 
+    def _whole_split_nlp(self) -> dict:
+        """:attr:`whole_nlp` as :meth:`_split_graph` writes it."""
+        return self._split_graph().whole_nlp
+
     @property
     def compiled_now(self) -> bool:
         """Whether this build compiled the NLP's library (False: found in the cache, or its
@@ -461,7 +465,7 @@ class Transcription:
         the solve imposing the deferred rows compiles it from (:meth:`_split_graph`): a library
         in the cache is named by the NLP's graph alone, so whoever compiles it first must
         generate it as every other does."""
-        return compiled.library(self.whole_nlp, lambda: self._split_graph().whole_nlp)
+        return compiled.library(self.whole_nlp, self._whole_split_nlp)
 
     def _imposing_solver(self) -> ca.Function:
         """IPOPT on :attr:`whole_nlp` started warm, with the options of the running context
@@ -474,7 +478,7 @@ class Transcription:
         key = tuple(sorted(options.items()))
         if key not in self._imposing:
             self._imposing[key], _ = _ipopt_solver(self.whole_nlp, self.problem.options,
-                                                   lambda: self._split_graph().whole_nlp, options, stall=self.stall)
+                                                   self._whole_split_nlp, options, stall=self.stall)
         return self._imposing[key]
 
     def _warm_solver(self) -> ca.Function:
