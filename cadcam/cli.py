@@ -160,7 +160,7 @@ def _design_into(args, problem, out: Path) -> int:
     from .outputs.forked import Drawer
 
     # forked before the design, the drawing processes import matplotlib while it is made
-    with Drawer(os.cpu_count() or 1 if args.figures else 1, FIGURE_WRITERS) as drawer:
+    with Drawer((os.cpu_count() or 1) if args.figures else 1, FIGURE_WRITERS) as drawer:
         result = optimize(problem)
         return _saved(args, problem, result, out, drawer)
 
