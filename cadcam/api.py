@@ -33,6 +33,7 @@ from .files import InputFileError, read_input, short_repr
 from .solve import compiled
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
 from .solve.ipopt import MOVING_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT
+from .solve.predictor import PREDICT
 from .solve.transcription import Transcription
 from .optimize import completed, optimize, start_design, warm_optimize
 from .problem import SOLVER, Options, Problem, evaluation_size_error, size_error
@@ -225,9 +226,11 @@ class Session:
             return optimize(problem, recheck=recheck)
         # a warm start at the last answer: pushed little off it; provisional, its barrier capped
         token = RESOLVE_OPTIONS.set(SESSION_IPOPT if recheck else MOVING_IPOPT)
+        predicting = PREDICT.set(not recheck)  # provisional: from where the last answer moves to
         try:
             return self._designed(problem, recheck)
         finally:
+            PREDICT.reset(predicting)
             RESOLVE_OPTIONS.reset(token)
 
     def _designed(self, problem: Problem, recheck: bool) -> Result:

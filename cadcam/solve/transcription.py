@@ -40,6 +40,7 @@ from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IMPOSE_OP
                     Multipliers, Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
 from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
+from .predictor import PREDICT, PREDICTED_IPOPT, predicted
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
                         _tracking_terms)
 from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order, placement_scales
@@ -481,11 +482,11 @@ class Transcription:
                                                    self._whole_split_nlp, options, stall=self.stall)
         return self._imposing[key]
 
-    def _warm_solver(self) -> ca.Function:
+    def _warm_solver(self, extra: dict | None = None) -> ca.Function:
         """IPOPT on :attr:`nlp` re-solving warm from an answer, with the options of the running
-        context (:data:`cadcam.solve.ipopt.RESOLVE_OPTIONS`), built on first use: from the
-        library :attr:`solver` loaded (in milliseconds), else from its derivatives."""
-        options = RESOLVE_OPTIONS.get()
+        context (:data:`cadcam.solve.ipopt.RESOLVE_OPTIONS`) and ``extra``, built on first use:
+        from the library :attr:`solver` loaded (in milliseconds), else from its derivatives."""
+        options = {**RESOLVE_OPTIONS.get(), **(extra or {})}
         key = tuple(sorted(options.items()))
         if key not in self._warm:
             opt = self.problem.options
@@ -513,13 +514,16 @@ class Transcription:
         (:data:`cadcam.solve.ipopt.RESOLVE_OPTIONS`), and from that answer's
         own NLP point where ``warm`` holds it (``samples`` are then not used and may be
         None): with the deferred rows at once if that answer's solve imposed them."""
-        if warm is not None and warm.x is not None:
-            w0, pv = self.warm_point(problem, warm.x)
-        else:
-            w0, pv = self.start_point(problem, start, samples)
         t0 = time.perf_counter()
         lbg, ubg = self.bounds(problem)
         lbx, ubx = self.variable_bounds(problem)
+        guess = None  # the predicted start (:mod:`.predictor`), tried first
+        if warm is not None and warm.x is not None:
+            w0, pv = self.warm_point(problem, warm.x)
+            if PREDICT.get() and not warm.whole:
+                guess = predicted(self.solver, warm, pv, (lbg, ubg), (lbx, ubx))
+        else:
+            w0, pv = self.start_point(problem, start, samples)
         runs = []
 
         def impose(x0, m: Multipliers):
@@ -534,10 +538,17 @@ class Transcription:
             if warm is not None and warm.whole:  # the answer needed the deferred rows: so will this one
                 sol = impose(w0, warm)
             else:
-                solver = self.solver if warm is None else self._warm_solver()
-                sol = solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
-                             **({} if warm is None else {"lam_x0": warm.lam_x, "lam_g0": warm.lam_g}))
-                runs.append(solver.stats())
+                sol = None
+                if guess is not None and guess is not warm:  # from the prediction, in few iterations or not at all
+                    solver = self._warm_solver(PREDICTED_IPOPT)
+                    sol = solver(x0=guess.x, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, lam_x0=guess.lam_x,
+                                 lam_g0=guess.lam_g)
+                    runs.append(solver.stats())
+                if sol is None or not runs[-1].get("success", False):
+                    solver = self.solver if warm is None else self._warm_solver()
+                    sol = solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
+                                 **({} if warm is None else {"lam_x0": warm.lam_x, "lam_g0": warm.lam_g}))
+                    runs.append(solver.stats())
                 if self._breaks_deferred(problem, sol["x"], pv):
                     lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(self._deferred.numel_out(0))]
                     sol = impose(sol["x"], Multipliers(sol["lam_x"], lam_g0, True))
