@@ -8,6 +8,7 @@ import cadcam
 from cadcam import spec as spec_module
 from cadcam.optimize import PROVISIONAL
 from cadcam.solve.ipopt import MOVING_IPOPT, RESOLVE_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT
+from cadcam.solve.predictor import PREDICTED_IPOPT
 from cadcam.solve.transcription import Transcription
 
 from .conftest import SPEC_1DOF
@@ -35,21 +36,22 @@ def test_a_provisional_design_is_judged_on_the_design_grid_then_rechecked_in_ful
 
 def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(session, monkeypatch):
     """Within a session's design its warm re-solves take :data:`SESSION_IPOPT`, within its
-    provisional design :data:`MOVING_IPOPT` (its barrier capped low); elsewhere (a sweep, a
-    catalogue search) :data:`RESOLVE_IPOPT` stands."""
+    provisional design :data:`MOVING_IPOPT` (its barrier capped low), from the predicted start
+    with its iterations capped (:data:`PREDICTED_IPOPT`); elsewhere (a sweep, a catalogue
+    search) :data:`RESOLVE_IPOPT` stands."""
     used = []
     warm_solver = Transcription._warm_solver
 
-    def recorded(self):
-        used.append(RESOLVE_OPTIONS.get())
-        return warm_solver(self)
+    def recorded(self, extra=None):
+        used.append({**RESOLVE_OPTIONS.get(), **(extra or {})})
+        return warm_solver(self, extra)
 
     monkeypatch.setattr(Transcription, "_warm_solver", recorded)
     edit = {"springs.1.rate": 1.01 * cadcam.load_spec(SPEC_1DOF).springs[0].rate}
     assert session.design(SPEC_1DOF, grid=12, overrides=edit, recheck=False).message.endswith(
         "(warm start from the last design)")
     assert session.design(SPEC_1DOF, grid=12, overrides=edit).message.endswith("(warm start from the last design)")
-    assert used == [MOVING_IPOPT, SESSION_IPOPT] and RESOLVE_OPTIONS.get() is RESOLVE_IPOPT
+    assert used == [{**MOVING_IPOPT, **PREDICTED_IPOPT}, SESSION_IPOPT] and RESOLVE_OPTIONS.get() is RESOLVE_IPOPT
 
 
 def test_a_target_that_passed_its_check_is_not_checked_again(monkeypatch):
