@@ -98,9 +98,7 @@ class Basis:
         if source.order > self.order:
             phi = np.linspace(*self.domain, max(samples, self.size))
             return fit_profile(self, phi, np.asarray(profile_function(source).map(phi.size)(phi[None, :], c)[0]).ravel())
-        target = self._numpy_poly(np.zeros(1))  # its kind and domain (monomial: φ itself)
-        out = source._numpy_poly(c).convert(kind=type(target), domain=target.domain).coef
-        return np.pad(out, (0, self.size - out.size))
+        return _exactly_converted(self, source, tuple(np.asarray(c, dtype=float).ravel())).copy()
 
     def offset(self, delta: float) -> np.ndarray:
         """Coefficients in this basis of the constant ρ(φ) = ``delta`` [m]: added to a profile's,
@@ -148,6 +146,21 @@ def inside_tangent(rho, drho, rho_e, delta):
     arc, n·(p − p_e) changes sign at most once, where the tangent has turned by half a turn.
     """
     return (rho**2 - rho_e * (rho * ca.cos(delta) + drho * ca.sin(delta))) / (delta**2 / 2)
+
+
+#: Exact conversions of profiles between bases kept (:func:`_exactly_converted`): a design
+#: session converts the same start circles at every step.
+KEPT_CONVERSIONS = 256
+
+
+@lru_cache(maxsize=KEPT_CONVERSIONS)
+def _exactly_converted(basis: Basis, source: Basis, c: tuple) -> np.ndarray:
+    """Coefficients in ``basis`` of the profile ``c`` in ``source``, whose degree is at most
+    ``basis``'s (:meth:`Basis.converted`), made once per profile: NumPy's conversion takes
+    milliseconds. Not to be changed in place (the caller copies it)."""
+    target = basis._numpy_poly(np.zeros(1))  # its kind and domain (monomial: φ itself)
+    out = source._numpy_poly(np.asarray(c)).convert(kind=type(target), domain=target.domain).coef
+    return np.pad(out, (0, basis.size - out.size))
 
 
 @lru_cache(maxsize=64)
