@@ -57,23 +57,17 @@ def predicted(solver: ca.Function, warm: Multipliers, pv: np.ndarray, bounds, va
     (lbg, ubg), (lbx, ubx) = bounds, variable_bounds
     grad_f, jac_g, hess = (solver.get_function(name) for name in FUNCTIONS)
     g, jac = jac_g(x, pv)
-    jac, g = _sparse(jac), np.asarray(g).ravel()
-    upper = _sparse(hess(x, pv, 1.0, lam_g))  # the Hessian's upper triangle
-    hessian = upper + sp.triu(upper, 1).T
-    residual_x = np.asarray(grad_f(x, pv)[1]).ravel() + jac.T @ lam_g + lam_x
-    equal = lbg == ubg
-    largest = max(np.abs(lam_g[~equal]).max(initial=0.0), np.abs(lam_x).max(initial=0.0))
-    rows = equal | (np.abs(lam_g) >= ACTIVE_SHARE * largest) if largest > 0 else equal
-    free = lbx < ubx
-    held = free & (np.abs(lam_x) >= ACTIVE_SHARE * largest) if largest > 0 else np.zeros_like(free)
+    g, jac = np.asarray(g).ravel(), _triplets(jac)
+    upper = _triplets(hess(x, pv, 1.0, lam_g))  # the Hessian's upper triangle
+    # ∇f + Jᵀλ_g + λ_x: the Lagrangian's gradient, zero at the last answer for its own numbers
+    residual_x = np.asarray(grad_f(x, pv)[1]).ravel() + np.bincount(
+        jac[1], jac[2] * lam_g[jac[0]], x.size) + lam_x
+    rows, moved = _active(lam_g, lam_x, lbg == ubg, lbx < ubx)
     # each active row's bound: the upper where its multiplier pushes it up, else the lower
     bound = np.where(lam_g > 0, ubg, lbg)
-    moved = np.flatnonzero(free & ~held)
-    a = jac[rows][:, moved]
-    kkt = sp.bmat([[hessian[moved][:, moved], a.T], [a, None]], format="csc")
     with warnings.catch_warnings():  # a singular matrix: the step is not finite, and not taken
         warnings.simplefilter("ignore", spl.MatrixRankWarning)
-        step = spl.spsolve(kkt, -np.r_[residual_x[moved], (g - bound)[rows]])
+        step = spl.spsolve(_kkt(upper, jac, rows, moved, x.size), -np.r_[residual_x[moved], (g - bound)[rows]])
     if not np.all(np.isfinite(step)):
         return warm
     dx = np.zeros_like(x)
@@ -81,12 +75,44 @@ def predicted(solver: ca.Function, warm: Multipliers, pv: np.ndarray, bounds, va
     new_lam_g = lam_g.copy()
     new_lam_g[rows] += step[moved.size:]
     # an inequality's multiplier keeps its sign: the row stays on the side it binds
-    flipped = ~equal & (np.sign(new_lam_g) != np.sign(lam_g))
+    flipped = (lbg < ubg) & (np.sign(new_lam_g) != np.sign(lam_g))
     new_lam_g[flipped] = 0.0
     return Multipliers(lam_x, new_lam_g, warm.whole, np.clip(x + dx, lbx, ubx))
 
 
-def _sparse(dm: ca.DM) -> sp.csc_matrix:
-    """A CasADi sparse matrix as SciPy's."""
+def _active(lam_g: np.ndarray, lam_x: np.ndarray, equal: np.ndarray, free: np.ndarray):
+    """The rows of the active set (a mask: the equality rows, ``equal``, and the inequality rows
+    whose multiplier is :data:`ACTIVE_SHARE` of the largest) and the variables the step moves
+    (their indices: the ``free`` ones whose bound is not active so)."""
+    largest = max(np.abs(lam_g[~equal]).max(initial=0.0), np.abs(lam_x).max(initial=0.0))
+    if largest == 0:
+        return equal, np.flatnonzero(free)
+    rows = equal | (np.abs(lam_g) >= ACTIVE_SHARE * largest)
+    return rows, np.flatnonzero(free & (np.abs(lam_x) < ACTIVE_SHARE * largest))
+
+
+def _kkt(upper: tuple, jac: tuple, rows: np.ndarray, moved: np.ndarray, n: int) -> sp.csc_matrix:
+    """The KKT matrix [[H, Aᵀ], [A, 0]] of the ``moved`` variables (of ``n``) and the active
+    ``rows`` (a mask), H from the triplets of the Hessian's ``upper`` triangle and A from the Jacobian's
+    ``jac``, assembled from their triplets at once (SciPy's block assembly took milliseconds)."""
+    x_at = np.full(n, -1)
+    x_at[moved] = np.arange(moved.size)
+    g_at = np.full(rows.size, -1)
+    g_at[rows] = moved.size + np.arange(int(rows.sum()))
+    hr, hc, hv = upper
+    hr, hc = x_at[hr], x_at[hc]
+    keep = (hr >= 0) & (hc >= 0)
+    off = keep & (hr != hc)  # the lower triangle mirrors the upper's off-diagonal entries
+    jr, jc, jv = jac
+    jr, jc = g_at[jr], x_at[jc]
+    both = (jr >= 0) & (jc >= 0)
+    i = np.r_[hr[keep], hc[off], jr[both], jc[both]]
+    j = np.r_[hc[keep], hr[off], jc[both], jr[both]]
+    size = moved.size + int(rows.sum())
+    return sp.csc_matrix((np.r_[hv[keep], hv[off], jv[both], jv[both]], (i, j)), shape=(size, size))
+
+
+def _triplets(dm: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A CasADi sparse matrix's rows, columns and values of its structural nonzeros."""
     rows, cols = dm.sparsity().get_triplet()
-    return sp.csc_matrix((np.asarray(dm.nonzeros()), (rows, cols)), shape=dm.shape)
+    return np.asarray(rows, dtype=int), np.asarray(cols, dtype=int), np.asarray(dm.nonzeros())
