@@ -74,3 +74,20 @@ def test_slider_steps_reach_the_plain_warm_starts_optimum_in_fewer_iterations(mo
     plain_objectives, plain_iterations = steps()
     np.testing.assert_allclose(objectives, plain_objectives, rtol=1e-7)
     assert iterations < plain_iterations
+
+
+def test_a_row_the_step_would_break_joins_the_active_set():
+    """min (x₁ − p)² + (x₂ − 2)² subject to x₁ ≤ 1.1, free at p = 1, and x₂ ≤ 1, binding: at
+    p = 1.3 the step on the binding row alone would break the first, so it binds too,
+    x = (1.1, 1) with the multipliers (0.4, 2)."""
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    solver = ca.nlpsol("capped", "ipopt", {"x": x, "p": p, "f": (x[0] - p) ** 2 + (x[1] - 2) ** 2, "g": x},
+                       {"print_time": False, "ipopt.print_level": 0, "ipopt.tol": 1e-12})
+    bounds, free = (np.full(2, -np.inf), np.array([1.1, 1.0])), (np.full(2, -np.inf), np.full(2, np.inf))
+    sol = solver(x0=[0.0, 0.0], p=1.0, lbg=bounds[0], ubg=bounds[1])
+    warm = Multipliers(np.asarray(sol["lam_x"]).ravel(), np.asarray(sol["lam_g"]).ravel(), False,
+                       np.asarray(sol["x"]).ravel())
+    assert abs(warm.lam_g[0]) < 1e-6 and warm.lam_g[1] > 1  # the first row free, the second binding
+    guess = predicted(solver, warm, np.array([1.3]), bounds, free)
+    np.testing.assert_allclose(guess.x, [1.1, 1.0], atol=1e-7)
+    np.testing.assert_allclose(guess.lam_g, [0.4, 2.0], rtol=1e-6)
