@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .verify import derivatives
-from .verify.evaluate import Evaluation, start_samples
+from .verify.evaluate import FULL_SCAN, MOVING_SCAN, SCAN, Evaluation, start_samples
 from .verify.evaluate import evaluate as evaluate_design
 from .verify.model import solved_poses, torque_function, torque_jacobian_function
 from .verify.reachable import unreachable
@@ -227,9 +227,11 @@ class Session:
         # a warm start at the last answer: pushed little off it; provisional, its barrier capped
         token = RESOLVE_OPTIONS.set(SESSION_IPOPT if recheck else MOVING_IPOPT)
         predicting = PREDICT.set(not recheck)  # provisional: from where the last answer moves to
+        scan = SCAN.set(FULL_SCAN if recheck else MOVING_SCAN)  # and its profiles scanned coarser
         try:
             return self._designed(problem, recheck)
         finally:
+            SCAN.reset(scan)
             PREDICT.reset(predicting)
             RESOLVE_OPTIONS.reset(token)
 
