@@ -54,6 +54,12 @@ BOUND_TOL = 1e-8
 #: a long way round (Ludovico2021's pendulum: 152 iterations at one step); from a good one the
 #: templates' steps take 2–8.
 PREDICTED_IPOPT = {"ipopt.max_iter": 12}
+#: The largest primal and dual infeasibility (IPOPT's ``inf_pr`` and ``inf_du``, in the NLP's
+#: scaled units) at which a solve from the predicted start cut short by :data:`PREDICTED_IPOPT`
+#: goes on from where it stopped rather than again from the last answer: near its end (the
+#: 1-DOF wire cam's first step after a design: stopped at 5e-12 and 6e-6, one iteration short;
+#: started again, 10 iterations).
+NEARLY_CONVERGED = 1e-4
 #: The derivatives of the NLP the predictor evaluates, by CasADi's name of IPOPT's function.
 FUNCTIONS = ("nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
 
@@ -161,3 +167,10 @@ def _triplets(dm: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A CasADi sparse matrix's rows, columns and values of its structural nonzeros."""
     rows, cols = dm.sparsity().get_triplet()
     return np.asarray(rows, dtype=int), np.asarray(cols, dtype=int), np.asarray(dm.nonzeros())
+
+
+def nearly_converged(stats: dict) -> bool:
+    """Whether the IPOPT run of ``stats`` (CasADi's ``stats()``) ended with its primal and dual
+    infeasibility within :data:`NEARLY_CONVERGED`."""
+    its = stats.get("iterations") or {}
+    return all(its.get(key) and its[key][-1] <= NEARLY_CONVERGED for key in ("inf_pr", "inf_du"))

@@ -40,7 +40,7 @@ from .ipopt import (COMPILED_CACHED, COMPILED_NOW, EXPANDED_COMPILING, IMPOSE_OP
                     Multipliers, Solve, _ipopt_options, _ipopt_solver, iteration_history, joined, signals_kept)
 from .memory import check_memory
 from .messages import kept_warnings, printed_to_stderr
-from .predictor import PREDICT, PREDICTED_IPOPT, predicted
+from .predictor import PREDICT, PREDICTED_IPOPT, nearly_converged, predicted
 from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensitivity_rows,
                         _tracking_terms)
 from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order, placement_scales
@@ -538,16 +538,18 @@ class Transcription:
             if warm is not None and warm.whole:  # the answer needed the deferred rows: so will this one
                 sol = impose(w0, warm)
             else:
-                sol = None
+                sol, x0, m0 = None, w0, warm
                 if guess is not None and guess is not warm:  # from the prediction, in few iterations or not at all
                     solver = self._warm_solver(PREDICTED_IPOPT)
                     sol = solver(x0=guess.x, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, lam_x0=guess.lam_x,
                                  lam_g0=guess.lam_g)
                     runs.append(solver.stats())
+                    if nearly_converged(runs[-1]):  # cut short near its end: on from there
+                        x0, m0 = sol["x"], Multipliers(sol["lam_x"], sol["lam_g"], False)
                 if sol is None or not runs[-1].get("success", False):
-                    solver = self.solver if warm is None else self._warm_solver()
-                    sol = solver(x0=w0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
-                                 **({} if warm is None else {"lam_x0": warm.lam_x, "lam_g0": warm.lam_g}))
+                    solver = self.solver if m0 is None else self._warm_solver()
+                    sol = solver(x0=x0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
+                                 **({} if m0 is None else {"lam_x0": m0.lam_x, "lam_g0": m0.lam_g}))
                     runs.append(solver.stats())
                 if self._breaks_deferred(problem, sol["x"], pv):
                     lam_g0 = np.r_[np.asarray(sol["lam_g"]).ravel(), np.zeros(self._deferred.numel_out(0))]

@@ -8,7 +8,7 @@ import pytest
 import cadcam
 from cadcam.solve import transcription
 from cadcam.solve.ipopt import Multipliers
-from cadcam.solve.predictor import predicted
+from cadcam.solve.predictor import NEARLY_CONVERGED, nearly_converged, predicted
 
 from ..conftest import ROOT
 
@@ -91,3 +91,13 @@ def test_a_row_the_step_would_break_joins_the_active_set():
     guess = predicted(solver, warm, np.array([1.3]), bounds, free)
     np.testing.assert_allclose(guess.x, [1.1, 1.0], atol=1e-7)
     np.testing.assert_allclose(guess.lam_g, [0.4, 2.0], rtol=1e-6)
+
+
+@pytest.mark.parametrize("inf_pr, inf_du, near", [(1e-12, 0.1 * NEARLY_CONVERGED, True),
+                                                  (1e-12, 10 * NEARLY_CONVERGED, False),
+                                                  (10 * NEARLY_CONVERGED, 1e-12, False)])
+def test_a_run_cut_short_goes_on_only_near_its_end(inf_pr, inf_du, near):
+    """Judged on its last iterate's primal and dual infeasibility, both within the limit."""
+    stats = {"iterations": {"inf_pr": [1.0, inf_pr], "inf_du": [1.0, inf_du]}}
+    assert nearly_converged(stats) is near
+    assert not nearly_converged({})  # a run without iterations
