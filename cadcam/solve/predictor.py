@@ -49,11 +49,18 @@ ACTIVE_SET_PASSES = 3
 #: the NLP's scaled units (IPOPT's own constraint tolerance is 1e-8 of these).
 BOUND_TOL = 1e-8
 #: IPOPT's options of a solve from the predicted start, beside the running context's: at most
-#: this many iterations, after which the solve starts again from the last answer itself. A
-#: linearization on a wrong active set (a row about to bind or to come free) can lead IPOPT
-#: a long way round (Ludovico2021's pendulum: 152 iterations at one step); from a good one the
-#: templates' steps take 2–8.
-PREDICTED_IPOPT = {"ipopt.max_iter": 12}
+#: this many iterations, after which the solve starts again from the last answer itself (or goes
+#: on, :data:`NEARLY_CONVERGED`); and the barrier parameter held at IPOPT's least (its
+#: ``mu_min``), where the last answer's solve ended: the predicted start is that answer moved,
+#: so it starts at the end of the central path. A linearization on a wrong active set (a row
+#: about to bind) can lead IPOPT a long way round (Ludovico2021's pendulum: 152 iterations at one
+#: step); from a good one the templates' steps take 2–8. Measured on 10 steps of 2 % of spring 1's
+#: rate: the adaptive barrier (capped, :data:`cadcam.solve.ipopt.MOVING_IPOPT`) took 4–12
+#: iterations on Ludovico2021's pendulum (median 5), held at 1e-11 3–12 (median 3), to the same
+#: objectives within 1e-8; held at 1e-9 or 1e-10, it stopped at a looser complementarity (objectives
+#: 2e-4 higher) or took hundreds of iterations; the 1-DOF wire cam and the roller follower took as
+#: many as adaptive.
+PREDICTED_IPOPT = {"ipopt.max_iter": 12, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-11}
 #: The largest primal and dual infeasibility (IPOPT's ``inf_pr`` and ``inf_du``, in the NLP's
 #: scaled units) at which a solve from the predicted start cut short by :data:`PREDICTED_IPOPT`
 #: goes on from where it stopped rather than again from the last answer: near its end (the
