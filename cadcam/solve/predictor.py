@@ -67,8 +67,17 @@ PREDICTED_IPOPT = {"ipopt.max_iter": 12, "ipopt.mu_strategy": "monotone", "ipopt
 #: 1-DOF wire cam's first step after a design: stopped at 5e-12 and 6e-6, one iteration short;
 #: started again, 10 iterations).
 NEARLY_CONVERGED = 1e-4
+#: SuperLU's column ordering of the KKT matrix: the minimum degree ordering of its symmetric
+#: pattern (a KKT matrix is symmetric); on Ludovico2021's pendulum 1.1 ms a solve against 1.6 with
+#: SciPy's default (COLAMD).
+ORDERING = "MMD_AT_PLUS_A"
+#: The sparsities whose indices are kept (:func:`_indices`): a Jacobian's and a Hessian's for
+#: each structure a design session keeps (:data:`cadcam.solve.builds.KEPT_BUILDS` of them).
+KEPT_INDICES = 16
 #: The derivatives of the NLP the predictor evaluates, by CasADi's name of IPOPT's function.
 FUNCTIONS = ("nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
+#: The kept indices of sparsities, by their hash (:func:`_indices`).
+_INDICES: dict = {}
 
 
 def predicted(solver: ca.Function, warm: Multipliers, pv: np.ndarray, bounds, variable_bounds) -> Multipliers:
@@ -127,7 +136,7 @@ def _step(upper: tuple, jac: tuple, rows: np.ndarray, moved: np.ndarray, residua
     with warnings.catch_warnings():  # singular: a step not finite, or SuperLU refuses
         warnings.simplefilter("ignore", spl.MatrixRankWarning)
         try:
-            solution = spl.spsolve(kkt, -np.r_[residual_x[moved], residual_g[rows]])
+            solution = spl.spsolve(kkt, -np.r_[residual_x[moved], residual_g[rows]], permc_spec=ORDERING)
         except RuntimeError:
             return None
     if not np.all(np.isfinite(solution)):
@@ -172,8 +181,19 @@ def _kkt(upper: tuple, jac: tuple, rows: np.ndarray, moved: np.ndarray, n: int) 
 
 def _triplets(dm: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A CasADi sparse matrix's rows, columns and values of its structural nonzeros."""
-    rows, cols = dm.sparsity().get_triplet()
-    return np.asarray(rows, dtype=int), np.asarray(cols, dtype=int), np.asarray(dm.nonzeros())
+    return (*_indices(dm.sparsity()), np.asarray(dm.nonzeros()))
+
+
+def _indices(sparsity: ca.Sparsity) -> tuple[np.ndarray, np.ndarray]:
+    """The rows and columns of ``sparsity``'s nonzeros, made once per sparsity (the same at
+    every step: as lists from CasADi, a millisecond a step)."""
+    kept = _INDICES.get(sparsity.hash())
+    if kept is None or not kept[0].is_equal(sparsity):
+        rows, cols = sparsity.get_triplet()
+        kept = _INDICES[sparsity.hash()] = sparsity, np.asarray(rows, dtype=int), np.asarray(cols, dtype=int)
+        while len(_INDICES) > KEPT_INDICES:
+            del _INDICES[next(iter(_INDICES))]
+    return kept[1], kept[2]
 
 
 def nearly_converged(stats: dict) -> bool:
