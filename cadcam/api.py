@@ -217,8 +217,10 @@ class Session:
         (:func:`refuse_unreachable`, milliseconds to tens of them): a provisional design judged
         on the design grid (:func:`cadcam.optimize.optimize`), as while a slider moves, re-solved
         warm with a low cap on IPOPT's barrier (:data:`cadcam.solve.ipopt.MOVING_IPOPT`: fewer
-        iterations from the last answer); designed again with it, the same edits start from that
-        answer and need few iterations."""
+        iterations from the last answer), from where the last answer moves to
+        (:mod:`cadcam.solve.predictor`), its profiles scanned coarser
+        (:data:`cadcam.verify.evaluate.MOVING_SCAN`); designed again with it, the same edits
+        start from that answer and need few iterations."""
         problem = load_problem(spec, **options)
         if recheck:
             refuse_unreachable(problem)
