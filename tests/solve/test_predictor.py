@@ -10,10 +10,7 @@ from cadcam.solve import transcription
 from cadcam.solve.ipopt import Multipliers
 from cadcam.solve.predictor import NEARLY_CONVERGED, nearly_converged, predicted
 
-from ..conftest import ROOT
-
-#: Ludovico2021's anchored pulleys, the template whose slider steps the predictor was made for.
-PENDULUM = ROOT / "models" / "ludovico2021_pendulum.toml"
+from ..conftest import SPEC_1DOF
 
 
 @pytest.fixture(scope="module")
@@ -55,16 +52,16 @@ def test_a_singular_linearization_leaves_the_start_at_the_last_answer(quadratic)
 
 
 def test_slider_steps_reach_the_plain_warm_starts_optimum_in_fewer_iterations(monkeypatch):
-    """Ludovico2021's pendulum, spring 1's rate stepped 2 % four times while a slider moves: each
+    """The 1-DOF wire cam, spring 1's rate stepped 2 % four times while a slider moves: each
     provisional design from the predicted start ends at the optimum the plain warm start
-    reaches (within 1e-7 of it: IPOPT's tolerance is 1e-8 of the scaled problem), and the steps
+    reaches (within 1e-8 of it, IPOPT's tolerance: they differ by 1e-9), and the steps
     after the first, each from the last provisional answer, in fewer iterations."""
-    rate = cadcam.load_spec(PENDULUM).springs[0].rate
+    rate = cadcam.load_spec(SPEC_1DOF).springs[0].rate
 
     def steps():
         session = cadcam.Session()
-        assert session.design(PENDULUM).success
-        out = [session.design(PENDULUM, overrides={"springs.1.rate": rate * 1.02 ** k}, recheck=False)
+        assert session.design(SPEC_1DOF).success
+        out = [session.design(SPEC_1DOF, overrides={"springs.1.rate": rate * 1.02 ** k}, recheck=False)
                for k in (1, 2, 3, 4)]
         assert all(r.success for r in out)
         return [r.fun for r in out], sum(r.nit for r in out[1:])
@@ -72,7 +69,7 @@ def test_slider_steps_reach_the_plain_warm_starts_optimum_in_fewer_iterations(mo
     objectives, iterations = steps()
     monkeypatch.setattr(transcription, "predicted", lambda solver, warm, *args: warm)
     plain_objectives, plain_iterations = steps()
-    np.testing.assert_allclose(objectives, plain_objectives, rtol=1e-7)
+    np.testing.assert_allclose(objectives, plain_objectives, rtol=1e-8)
     assert iterations < plain_iterations
 
 
