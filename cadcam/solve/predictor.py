@@ -9,11 +9,12 @@ at x (the Lagrangian's Hessian and the constraint Jacobian, evaluated at the new
 gives the step of x and of the active multipliers, the residual of the new problem's
 conditions at x being first order in the change of its numbers; a row the step breaks joins
 the active set, one whose multiplier changes side leaves it, and the step is made again
-(:data:`ACTIVE_SET_PASSES`). IPOPT then starts there instead of at x: the same optimum, in
-fewer iterations (Ludovico2021's pendulum after 2 % steps of a spring's rate: 4–5 iterations
-against 12–17). The predictor changes only where IPOPT
-starts; where the KKT matrix is singular, or IPOPT does not converge from the predicted start
-within :data:`PREDICTED_IPOPT`'s iterations, the start is the last answer itself.
+(:data:`ACTIVE_SET_PASSES`). IPOPT then starts there instead of at x (:data:`PREDICTED_IPOPT`):
+the same optimum, in fewer iterations (Ludovico2021's pendulum after 2 % steps of a spring's
+rate: a median of 3 iterations against 13). The predictor changes only where IPOPT starts;
+where the KKT matrix is singular, the start is the last answer itself, and where IPOPT does
+not converge from the predicted start within :data:`PREDICTED_IPOPT`'s iterations, it starts
+again from the last answer (or goes on, :data:`NEARLY_CONVERGED`).
 """
 from __future__ import annotations
 
@@ -35,9 +36,9 @@ PREDICT: ContextVar[bool] = ContextVar("predict", default=False)
 #: this share of the largest multiplier of the inequality rows and bounds (1). The answers of
 #: an interior-point solve hold multipliers of the size μ/gap on the rows beside the active
 #: ones (1e-4 … 1e-6 of the largest on Ludovico2021's pendulum); held active, they over-determine
-#: the linearization, whose step then breaks the rows that do bind. Measured on 12 steps of 2 %
-#: of its spring 1's rate: at 1e-3 a row weakly bound at one step was held, and IPOPT took 152
-#: iterations from the step's point; at 1e-2 and 3e-2, 6–8 iterations (one step 19).
+#: the linearization, whose step then breaks the rows that do bind. Rows bound more weakly
+#: than this share are left to the passes (:data:`ACTIVE_SET_PASSES`): at 1e-2 the 1-DOF wire
+#: cam's steps took 21–71 iterations (a row of multiplier 1e-3 of the largest let go).
 ACTIVE_SHARE = 1e-3
 #: Passes of the active set: after each step, the row its linearization breaks most joins the
 #: active set and every row whose multiplier changed side leaves it, and the step is made
