@@ -10,8 +10,7 @@ gives the step of x and of the active multipliers, the residual of the new probl
 conditions at x being first order in the change of its numbers; a row the step breaks joins
 the active set, one whose multiplier changes side leaves it, and the step is made again
 (:data:`ACTIVE_SET_PASSES`). IPOPT then starts there instead of at x (:data:`PREDICTED_IPOPT`):
-the same optimum, in fewer iterations (Ludovico2021's pendulum after 2 % steps of a spring's
-rate: a median of 3 iterations against 13). The predictor changes only where IPOPT starts;
+the same optimum, in fewer iterations. The predictor changes only where IPOPT starts;
 where the KKT matrix is singular, the start is the last answer itself, and where IPOPT does
 not converge from the predicted start within :data:`PREDICTED_IPOPT`'s iterations, it starts
 again from the last answer (or goes on, :data:`NEARLY_CONVERGED`).
@@ -35,16 +34,16 @@ PREDICT: ContextVar[bool] = ContextVar("predict", default=False)
 #: An inequality row or variable bound is taken as active where its multiplier is at least
 #: this share of the largest multiplier of the inequality rows and bounds (1). The answers of
 #: an interior-point solve hold multipliers of the size μ/gap on the rows beside the active
-#: ones (1e-4 … 1e-6 of the largest on Ludovico2021's pendulum); held active, they over-determine
-#: the linearization, whose step then breaks the rows that do bind. Rows bound more weakly
-#: than this share are left to the passes (:data:`ACTIVE_SET_PASSES`): at 1e-2 the 1-DOF wire
-#: cam's steps took 21–71 iterations (a row of multiplier 1e-3 of the largest let go).
+#: ones, orders of magnitude below the binding ones; held active, they over-determine the
+#: linearization, whose step then breaks the rows that do bind. Rows bound more weakly than
+#: this share are left to the passes (:data:`ACTIVE_SET_PASSES`); a larger share lets go of
+#: rows that do bind, weakly (``benchmarks/bench_design.py`` measures the steps).
 ACTIVE_SHARE = 1e-3
 #: Passes of the active set: after each step, the row its linearization breaks most joins the
 #: active set and every row whose multiplier changed side leaves it, and the step is made
-#: again (a row about to bind, the anchored pulleys' next peak of the torque error). Measured on
-#: 12 steps of 2 % of Ludovico2021's pendulum's spring 1's rate: one pass, 6–8 iterations (twice
-#: 27); three, 4–5 (once 8, once 12); five, once 27 again.
+#: again (a row about to bind, the anchored pulleys' next peak of the torque error). Few
+#: passes: each adds one row, and a long chain of them follows a linearization far from where
+#: it holds.
 ACTIVE_SET_PASSES = 3
 #: How far beyond its bound a linearized inactive row may go before it joins the active set, in
 #: the NLP's scaled units (IPOPT's own constraint tolerance is 1e-8 of these).
@@ -54,23 +53,17 @@ BOUND_TOL = 1e-8
 #: on, :data:`NEARLY_CONVERGED`); and the barrier parameter held at IPOPT's least (its
 #: ``mu_min``), where the last answer's solve ended: the predicted start is that answer moved,
 #: so it starts at the end of the central path. A linearization on a wrong active set (a row
-#: about to bind) can lead IPOPT a long way round (Ludovico2021's pendulum: 152 iterations at one
-#: step); from a good one the templates' steps take 2–8. Measured on 10 steps of 2 % of spring 1's
-#: rate: the adaptive barrier (capped, :data:`cadcam.solve.ipopt.MOVING_IPOPT`) took 4–12
-#: iterations on Ludovico2021's pendulum (median 5), held at 1e-11 3–12 (median 3), to the same
-#: objectives within 1e-8; held at 1e-9 or 1e-10, it stopped at a looser complementarity (objectives
-#: 2e-4 higher) or took hundreds of iterations; the 1-DOF wire cam and the roller follower took as
-#: many as adaptive.
+#: about to bind) can lead IPOPT a long way round, where from a good one it takes a few. A
+#: barrier held higher than where the last solve ended stops at a looser complementarity (a
+#: higher objective) or wanders; an adaptive one climbs back up the central path first.
 PREDICTED_IPOPT = {"ipopt.max_iter": 12, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-11}
 #: The largest primal and dual infeasibility (IPOPT's ``inf_pr`` and ``inf_du``, in the NLP's
 #: scaled units) at which a solve from the predicted start cut short by :data:`PREDICTED_IPOPT`
-#: goes on from where it stopped rather than again from the last answer: near its end (the
-#: 1-DOF wire cam's first step after a design: stopped at 5e-12 and 6e-6, one iteration short;
-#: started again, 10 iterations).
+#: goes on from where it stopped rather than again from the last answer: near its end, going
+#: on costs an iteration or two, starting again a whole warm solve.
 NEARLY_CONVERGED = 1e-4
 #: SuperLU's column ordering of the KKT matrix: the minimum degree ordering of its symmetric
-#: pattern (a KKT matrix is symmetric); on Ludovico2021's pendulum 1.1 ms a solve against 1.6 with
-#: SciPy's default (COLAMD).
+#: pattern (a KKT matrix is symmetric), which fills it in less than SciPy's default (COLAMD).
 ORDERING = "MMD_AT_PLUS_A"
 #: The sparsities whose indices are kept (:func:`_indices`): a Jacobian's and a Hessian's for
 #: each structure a design session keeps (:data:`cadcam.solve.builds.KEPT_BUILDS` of them).
