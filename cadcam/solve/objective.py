@@ -9,7 +9,7 @@ import numpy as np
 
 from .blocks import BAND_SCALE, FORCE_SCALE, LENGTH_SCALE, SENSITIVITY_SCALE, TORQUE_SCALE, block_name
 from .rows import _apart, _first_segment_order, _Pose, _start_order
-from .variables import _equal, _nonnegative, _Rows, _Vars
+from .variables import _equal, _Rows, _Vars
 from ..mechanisms.base import (port_change_function, pose_change_function, split_coefficients,
                                wound_change_function)
 from ..physics.springs import Network
@@ -41,9 +41,7 @@ def _tracking_terms(rows: _Rows, p: _Vars, problem: Problem, terms: list, e: dic
                 raise SpecError(f"solver.objective = 'minimax' needs joint torques that each depend "
                                 f"on their own joint's angle; {problem.joints[i].name!r} is coupled "
                                 f"to other joints by a spring: use 'least_squares'")
-            t = rows.v.add("t", 1, i)
-            err = (U - p[f"td{i}"]) / TORQUE_SCALE
-            rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)
+            t = rows.epigraph("t", (U - p[f"td{i}"]) / TORQUE_SCALE, i)
             out.append(p[f"weights{i}"] * TORQUE_SCALE * t)
             continue
         mt = {c: ca.reshape(p[f"Mt{i}_{c}"], n, n) for c in range(m) if c != i}
@@ -326,8 +324,7 @@ def _output_law_terms(rows: _Rows, p: _Vars, minimax: bool, outputs: list, w: li
     for u, i, xu in outputs:
         err = (xu - p[f"xd{u}"]) / L
         if minimax:
-            t = rows.v.add("to", 1, u)
-            rows.constrain(ca.vertcat(t - err, t + err), _nonnegative)
+            t = rows.epigraph("to", err, u)
             out.append((L * t, p[f"xs{u}"] * t))
         else:
             sq = ca.dot(w[i], err * err)

@@ -187,6 +187,9 @@ class Transcription:
         self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
         self._band_fn = ca.Function("band", [x, P], [ca.vertcat(*band, ca.MX(0, 1))])
         self._robust_fn = ca.Function("robust", [x, P], [errors])
+        self._epigraph_names = [name for name, _ in rows.epigraphs]
+        self._epigraph_fn = ca.Function("epigraphs", [x, P], [ca.vertcat(*(e for _, e in rows.epigraphs),
+                                                                       ca.MX(0, 1))])
         self._bounds, self._deferred_bounds = rows.bounds, rows.deferred_bounds
         self._deferred = ca.Function("deferred", [x, P], [ca.vertcat(*rows.deferred_g, ca.MX(0, 1))])
         self.nlp = {"x": x, "p": P, "f": torque_objective * self.p["obj_scale"] + scaled,
@@ -416,6 +419,18 @@ class Transcription:
         range (:meth:`_with_check_ranges`) from the start's departures."""
         pv = self._with_check_ranges(problem, self.parameters(problem), lambda u, r: samples[u].z[r])
         return self.initial_guess(problem, design, samples, pv), pv
+
+    def epigraphs_met(self, w: np.ndarray, pv: np.ndarray) -> np.ndarray:
+        """``w`` (an NLP vector, with the parameters ``pv``) with each minimax epigraph
+        variable at the largest error its rows bound (:meth:`_Rows.epigraph`), where
+        :meth:`initial_guess` leaves it at zero: a start that meets the rows it can meet.
+        Started below its errors, the balancer's envelope pulleys, which meet their law
+        within 0.02 mm, were thrown far off by IPOPT's first steps (a 1 % edit of its mass
+        ended at the iteration limit)."""
+        w = np.array(w, dtype=float)
+        for name, value in zip(self._epigraph_names, np.asarray(self._epigraph_fn(w, pv)).ravel()):
+            self.v.put(w, name, [value])
+        return w
 
     def warm_point(self, problem: Problem, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The NLP's start at an answer's own NLP point ``w`` (:attr:`Multipliers.x`, of a

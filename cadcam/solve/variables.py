@@ -65,6 +65,7 @@ class _Rows:
     def __init__(self, v: _Vars):
         self.v, self.g, self.bounds, self.lifted = v, [], [], []
         self.deferred_g, self.deferred_bounds = [], []
+        self.epigraphs = []  # (block name, its rows' largest |error|) of each epigraph variable
 
     def constrain(self, expr, bounds, deferred: bool = False):
         """Add constraint rows; ``bounds(problem) -> (lo, hi)`` gives their numbers at
@@ -73,6 +74,16 @@ class _Rows:
         (:meth:`cadcam.solve.transcription.Transcription.solve`)."""
         (self.deferred_g if deferred else self.g).append(expr)
         (self.deferred_bounds if deferred else self.bounds).append((expr.shape[0], bounds))
+
+    def epigraph(self, family: str, err, *index):
+        """A new variable of ``family`` at ``index`` bounding the column ``err`` from above in
+        absolute value (a minimax objective's epigraph: t − err ≥ 0 and t + err ≥ 0), kept in
+        :attr:`epigraphs` with the largest |err|, where a start may meet its rows
+        (:meth:`cadcam.solve.transcription.Transcription.epigraphs_met`). Returns it."""
+        t = self.v.add(family, 1, *index)
+        self.constrain(ca.vertcat(t - err, t + err), _nonnegative)
+        self.epigraphs.append((block_name(family, index), ca.mmax(ca.fabs(err))))
+        return t
 
     def tie(self, family: str, row_of, start, scale, *index):
         """A new variable of ``family`` at ``index`` defined implicitly, by the rows
