@@ -176,26 +176,38 @@ def _judged(problem: Problem, solved: Solve, on_grid, what: str, recheck: bool, 
     return fine, recheck_s, *verdict(problem, solved, fine, what)
 
 
-def _synthesis_result(problem: Problem, design: Design, seconds: float, recheck: bool = True) -> Result:
+def _synthesis_result(problem: Problem, design: Design, seconds: float, recheck: bool = True,
+                      made: tuple[str, str] | None = None) -> Result:
     """The start design re-checked as the answer (a mechanism's own design method,
-    :class:`~cadcam.mechanisms.base.DesignMethod`): its evaluation on
+    :class:`~cadcam.mechanisms.base.DesignMethod`, or ``made``: what made it in the solver's
+    words and in the message's): its evaluation on
     the design grid and on the fine grid, and a :class:`Solve` of zero iterations whose
     objective is the largest output error on the design grid [m], or where no mechanism has
     an output law, the largest torque error there [N·m]. Without ``recheck``, provisional
     (:func:`_judged`)."""
     on_grid = evaluate(problem, design)
     errors = [e for e in on_grid.metrics.output_max_abs_error if e is not None] or on_grid.metrics.max_abs_error
-    method = design_methods()[problem.options.method]
-    solve = Solve(design=design, status="converged", return_status=method.title,
+    if made is None:
+        method = design_methods()[problem.options.method]
+        made = (method.title, f"{method.name} design")
+    solve = Solve(design=design, status="converged", return_status=made[0],
                   iterations=0, solve_time_s=seconds, objective=max(errors),
                   z=[u.z for u in on_grid.units])
     solve.trials = [_trial(solve)]
-    fine, recheck_s, status, message = _judged(problem, solve, on_grid, f"{method.name} design", recheck)
+    fine, recheck_s, status, message = _judged(problem, solve, on_grid, made[1], recheck)
     result = Result(status=status, message=message, problem=problem,
                     design=replace(design, poses=poses_of(problem, on_grid.units)),
                     evaluation=on_grid, recheck=fine, solve=solve, build_time_s=0.0, recheck_time_s=recheck_s,
                     provisional=not recheck)
     return _with_next_step(result, fine)
+
+
+def start_result(problem: Problem, design: Design, seconds: float, recheck: bool = True) -> Result:
+    """The default start ``design`` of ``problem`` (:func:`start_design`: the mechanisms' own
+    synthesis, Fedorov's envelope for a differential pair) judged as the answer, as a design
+    method's is (:func:`_synthesis_result`), made in ``seconds``; no NLP solved."""
+    return _synthesis_result(problem, design, seconds, recheck,
+                             ("the default start (the mechanisms' own synthesis, no NLP)", "the default start"))
 
 
 def optimize(problem: Problem, transcription: Transcription | None = None,
