@@ -23,7 +23,8 @@ while its libraries compile in the background), then, once those compiles have e
 ``cadcam cache --build`` has compiled whatever else its design loads (timed), again in a new
 process: a template's first design where its libraries were built ahead (at install, or by
 ``cadcam app`` as it starts); (4) Fedorov2018's balancer on the page's path: its first design,
-then an edit of the pendulum's mass, which the page makes in the output law too.
+then an edit of the pendulum's mass, which the page makes in the output law too: provisional, as
+while a slider moves, then in full, as when it is let go.
 """
 from __future__ import annotations
 
@@ -269,8 +270,9 @@ MASS_KEYS = ("joints.1.target.mass", "mechanisms.1.output_target.mass")
 MASS_STEP = 1.01
 
 
-def balancer_table() -> Time:
-    """Table 4; returns the edit's times."""
+def balancer_table() -> tuple[Time, Time]:
+    """Table 4; returns the edit's times: provisional (while a slider moves) and in full (the
+    slider let go)."""
     from cadcam import examples
 
     spec = examples.path(BALANCER)
@@ -278,18 +280,29 @@ def balancer_table() -> Time:
     with Clock() as first_clock:
         first = session.design(spec)
     mass = _spec_value(first.problem.to_dict(), MASS_KEYS[0]) * MASS_STEP
-    with Clock() as edit_clock:
-        edit = session.design(spec, overrides={key: mass for key in MASS_KEYS})
+    edited = {key: mass for key in MASS_KEYS}
+    with Clock() as moving_clock:  # the page's design while the slider moves
+        moving = session.design(spec, overrides=edited, recheck=False)
+    with Clock() as edit_clock:  # and the one when it is let go
+        edit = session.design(spec, overrides=edited)
     print(f"\nFedorov2018's balancer on the design page's path (`cadcam.Session`, functions {first.functions}, as its "
           "spec sets them): wall [s] (CPU [s])\n")
     print("| design | time | build [s] | solve [s] | iterations | fine re-check [s] | objective | status | how |")
     print("|---|---|---|---|---|---|---|---|---|")
-    for label, result, clock in (("first", first, first_clock), (f"mass × {MASS_STEP}", edit, edit_clock)):
-        how = "warm" if "(warm start" in result.message else "from the default start"
+    for label, result, clock in (("first", first, first_clock),
+                                 (f"mass × {MASS_STEP}, provisional (a slider moving)", moving, moving_clock),
+                                 (f"mass × {MASS_STEP} (the slider let go)", edit, edit_clock)):
         print(f"| {label} | {clock.wall:.1f} ({clock.cpu:.1f}) | {result.build_time_s:.1f} | "
               f"{result.solve.solve_time_s:.1f} | {result.nit} | {result.recheck_time_s:.1f} | {result.fun:.6g} | "
-              f"{result.status} | {how} |", flush=True)
-    return Time(edit_clock.wall, edit_clock.cpu)
+              f"{result.status} | {_how(result)} |", flush=True)
+    return Time(moving_clock.wall, moving_clock.cpu), Time(edit_clock.wall, edit_clock.cpu)
+
+
+def _how(result) -> str:
+    """Where a session's design of table 4 started, in words."""
+    if result.nit == 0:
+        return "the default start (Fedorov's envelope of the edited law), no NLP"
+    return "warm" if "(warm start" in result.message else "from the default start"
 
 
 #: The tables ``--tables`` names, by their numbers.
@@ -319,9 +332,12 @@ def main() -> int:
                       "; ".join(f"{name} {t.words()}" for name, t in ahead.items()),
                       max(t.wall for t in ahead.values()) <= FIRST_S))
     if "4" in args.tables:
-        edit_s = balancer_table()
-        goals.append((f"Fedorov2018's balancer ≤ {BALANCER_EDIT_S:g} s per edit (the page's path, the pendulum's "
-                      f"mass × {MASS_STEP})", edit_s.words(digits=1), edit_s.wall <= BALANCER_EDIT_S))
+        moving_s, edit_s = balancer_table()
+        goals.append((f"Fedorov2018's balancer ≤ {BALANCER_EDIT_S:g} s per edit while a slider moves (the page's "
+                      f"provisional design, the pendulum's mass × {MASS_STEP})", moving_s.words(digits=1),
+                      moving_s.wall <= BALANCER_EDIT_S))
+        goals.append((f"Fedorov2018's balancer ≤ {BALANCER_EDIT_S:g} s per edit in full (the slider let go: the NLP "
+                      "and the fine re-check)", edit_s.words(digits=1), edit_s.wall <= BALANCER_EDIT_S))
     print_goals(goals, issues="issue 53")
     return 0
 

@@ -200,7 +200,9 @@ class Session:
     from Fedorov's envelope of its output law), the last answer starts the next design only if
     the numbers completed are the same (an edit of a limit or a spring's travel, not of the law
     or of a quantity it shares with the target or the springs): an answer made for
-    another cable length is a poor start, and the new envelope a close one.
+    another cable length is a poor start, and the new envelope a close one. After such an
+    edit a provisional design (while a slider moves) is that start judged on the design grid,
+    without the NLP, and a full one the NLP solved from it (:func:`_from_completing_start`).
 
     >>> session = cadcam.Session()
     >>> first = session.design("models/johnston2023_1dof.toml")
@@ -256,7 +258,7 @@ class Session:
                                    recheck=recheck)
         if not built:  # the NLP kept from an earlier design: this design built none of it
             result.build_time_s -= transcription.build_time_s
-        if result.success:
+        if result.success and result.solve.multipliers is not None:  # an NLP's answer, not a start judged
             self._last[key] = result
             self._last.move_to_end(key)
             while len(self._last) > KEPT_BUILDS:
@@ -294,6 +296,7 @@ def _from_completing_start(problem: Problem, start: Design, transcription: Trans
         result.message += f" (from {how})"
         return result
     fallback = start_result(problem, start, time.perf_counter() - t0)
+    fallback.build_time_s = result.build_time_s  # the NLP tried was built as the result's
     fallback.message += f" (the NLP from {how}, ended {result.status}: {result.message})"
     return fallback if fallback.success else result
 
