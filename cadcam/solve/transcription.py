@@ -58,6 +58,7 @@ from ..errors import SpecError
 #: pulleys (which meet the law within 0.02 mm) and the whole NLP at once, no multipliers: from
 #: zero and from 1 × the error, the iteration limit; from 1.5 ×, an optimum on another branch
 #: of the departures (x off by 6 mm in the re-check); from 3 ×, an optimum in 138 iterations.
+#: With the last design's multipliers (:class:`cadcam.Session`): from 1 ×, 184; from 3 ×, 66.
 EPIGRAPH_START = 3.0
 #: How far below its bound a deferred row may end, in its scaled units (mm, mm²), before the
 #: solve is repeated with it imposed (IPOPT's own constraint tolerance is 1e-8 of these).
