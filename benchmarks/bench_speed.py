@@ -302,6 +302,8 @@ def _how(result) -> str:
     """Where a session's design of table 4 started, in words."""
     if result.nit == 0:
         return "the default start (Fedorov's envelope of the edited law), no NLP"
+    if "the last design's multipliers" in result.message:
+        return "from the default start, with the last design's multipliers"
     return "warm" if "(warm start" in result.message else "from the default start"
 
 

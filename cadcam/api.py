@@ -284,7 +284,10 @@ def _from_completing_start(problem: Problem, start: Design, transcription: Trans
     the start judged as the answer, the NLP's end in its message."""
     t0 = time.perf_counter()
     if not recheck:
-        return start_result(problem, start, time.perf_counter() - t0, recheck=False)
+        moving = start_result(problem, start, time.perf_counter() - t0, recheck=False)
+        # counted as an NLP's result counts its build: the session deducts a build it kept
+        moving.build_time_s = transcription.build_time_s
+        return moving
     tr, duals = transcription, last.solve.multipliers
     w0, pv = tr.start_point(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
     warm = Multipliers(duals.lam_x, duals.lam_g, duals.whole, tr.epigraphs_met(w0, pv))

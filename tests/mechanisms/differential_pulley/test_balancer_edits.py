@@ -33,6 +33,7 @@ def test_a_provisional_law_edit_is_the_envelope_of_the_edited_law(edits):
     completed, start = start_design(cadcam.load_problem(BALANCER, overrides={k: MASS for k in MASS_KEYS}))
     assert first.success and moving.success and moving.provisional
     assert moving.nit == 0 and moving.solve.multipliers is None  # no NLP solved
+    assert moving.build_time_s == 0.0  # through the NLP the session kept: nothing built
     assert moving.problem.mechanisms[0].cable_length == completed.mechanisms[0].cable_length \
         != first.problem.mechanisms[0].cable_length
     for got, want in zip(moving.design.coefficients, start.coefficients):
