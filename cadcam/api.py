@@ -202,7 +202,9 @@ class Session:
     or of a quantity it shares with the target or the springs): an answer made for
     another cable length is a poor start, and the new envelope a close one. After such an
     edit a provisional design (while a slider moves) is that start judged on the design grid,
-    without the NLP, and a full one the NLP solved from it (:func:`_from_completing_start`).
+    without the NLP, and a full one the NLP solved from it (:func:`_from_completing_start`);
+    a first design whose NLP fails from such a start is solved from it again
+    (:func:`_again_from_start`).
 
     >>> session = cadcam.Session()
     >>> first = session.design("models/johnston2023_1dof.toml")
@@ -252,6 +254,8 @@ class Session:
             result = _from_completing_start(completed, start, transcription, last, recheck)
         elif last is None:
             result = optimize(completed, transcription=transcription, start=start, recheck=recheck)
+            if not result.success and recheck and completed is not problem and transcription.epigraph_names:
+                result = _again_from_start(completed, start, transcription, result)
         else:
             result = warm_optimize(problem, transcription, last.design, last.evaluation.metrics.objective,
                                    "the last design", last.solve.multipliers if last.solve else None, default,
@@ -288,10 +292,7 @@ def _from_completing_start(problem: Problem, start: Design, transcription: Trans
         # counted as an NLP's result counts its build: the session deducts a build it kept
         moving.build_time_s = transcription.build_time_s
         return moving
-    tr, duals = transcription, last.solve.multipliers
-    w0, pv = tr.start_point(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
-    warm = Multipliers(duals.lam_x, duals.lam_g, duals.whole, tr.epigraphs_met(w0, pv))
-    result = optimize(problem, transcription=tr, start=start, warm=warm)
+    result = _from_start_above(problem, start, transcription, last.solve.multipliers)
     how = ("the default start, its epigraphs above its errors, and the last design's multipliers: that design "
            "was made for other numbers")
     if result.success:
@@ -301,6 +302,38 @@ def _from_completing_start(problem: Problem, start: Design, transcription: Trans
     fallback.build_time_s = result.build_time_s  # the NLP tried was built as the result's
     fallback.message += f" (the NLP from {how}, ended {result.status}: {result.message})"
     return fallback if fallback.success else result
+
+
+def _again_from_start(problem: Problem, start: Design, transcription: Transcription, failed: Result) -> Result:
+    """A session's first design of ``problem``, whose NLP from the default start ``start``
+    (which completed its numbers) ended ``failed``, solved again from that start with its
+    minimax epigraphs above the start's errors and every row at once
+    (:func:`_from_start_above`): on Fedorov2018's balancer with a 1 % heavier pendulum the
+    first ended at the iteration limit, the second converged in 138 iterations (its page's
+    edits then start from that answer). The better of the two (the first unless the second
+    succeeds), its message saying what was tried."""
+    again = _from_start_above(problem, start, transcription, None)
+    if not again.success:
+        failed.message += f" (solved again from the default start, its epigraphs above its errors: {again.status})"
+        return failed
+    again.solve.trials = failed.solve.trials + again.solve.trials  # result.json lists both runs
+    again.message += (f" (from the default start again, its epigraphs above its errors and every row at once: "
+                      f"from it as a first design starts, the NLP ended {failed.status})")
+    return again
+
+
+def _from_start_above(problem: Problem, start: Design, tr: Transcription, duals: Multipliers | None) -> Result:
+    """:func:`cadcam.optimize.optimize` of ``problem`` (full, re-checked) from its default
+    start ``start`` through ``tr``, the start's minimax epigraphs above its errors
+    (:meth:`Transcription.epigraphs_met`), from the multipliers ``duals`` of a neighbouring
+    problem's answer (with the deferred rows at once where it needed them), or with none
+    (None), every row at once."""
+    w0, pv = tr.start_point(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
+    if duals is None:
+        rows, whole = tr.whole_bounds(problem)[0].size, tr.bounds(problem)[0].size
+        duals = Multipliers(np.zeros(w0.size), np.zeros(rows), rows > whole)
+    warm = Multipliers(duals.lam_x, duals.lam_g, duals.whole, tr.epigraphs_met(w0, pv))
+    return optimize(problem, transcription=tr, start=start, warm=warm)
 
 
 def evaluate(spec, design, *, grid: int | None = None, profile: bool = True, **options) -> Evaluation:

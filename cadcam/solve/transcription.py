@@ -195,7 +195,8 @@ class Transcription:
         self._sensitivity_fn = ca.Function("sensitivity", [x, P], [ca.vertcat(*sens, ca.MX(0, 1))])
         self._band_fn = ca.Function("band", [x, P], [ca.vertcat(*band, ca.MX(0, 1))])
         self._robust_fn = ca.Function("robust", [x, P], [errors])
-        self._epigraph_names = [name for name, _ in rows.epigraphs]
+        #: the block names of the minimax epigraph variables (:meth:`epigraphs_met`)
+        self.epigraph_names = [name for name, _ in rows.epigraphs]
         self._epigraph_fn = ca.Function("epigraphs", [x, P], [ca.vertcat(*(e for _, e in rows.epigraphs),
                                                                        ca.MX(0, 1))])
         self._bounds, self._deferred_bounds = rows.bounds, rows.deferred_bounds
@@ -434,7 +435,7 @@ class Transcription:
         where :meth:`initial_guess` leaves it at zero: a start inside the rows it can meet
         (:data:`EPIGRAPH_START`)."""
         w = np.array(w, dtype=float)
-        for name, value in zip(self._epigraph_names, np.asarray(self._epigraph_fn(w, pv)).ravel()):
+        for name, value in zip(self.epigraph_names, np.asarray(self._epigraph_fn(w, pv)).ravel()):
             self.v.put(w, name, [above * value])
         return w
 

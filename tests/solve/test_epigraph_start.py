@@ -20,7 +20,7 @@ def test_a_met_epigraph_holds_its_rows_and_one_binds():
     w0, pv = tr.start_point(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
     lbg = tr.bounds(problem)[0]
     g = ca.Function("g", [tr.nlp["x"], tr.nlp["p"]], [tr.nlp["g"]])
-    (name,) = tr._epigraph_names
+    (name,) = tr.epigraph_names
     met = tr.epigraphs_met(w0, pv, above=1.0)
     assert tr.v.part(w0, name)[0] == 0.0 and tr.v.part(met, name)[0] > 0.0
     lower = met.copy()
@@ -38,6 +38,6 @@ def test_an_epigraph_starts_above_its_errors_by_default():
     problem, start = start_design(cadcam.load_problem(SPEC, functions="mapped"))
     tr = built_for(problem)[0]
     w0, pv = tr.start_point(problem, start, start_samples(problem, start, tr.n, tr.start_order()))
-    (name,) = tr._epigraph_names
+    (name,) = tr.epigraph_names
     on = tr.v.part(tr.epigraphs_met(w0, pv, above=1.0), name)[0]
     assert tr.v.part(tr.epigraphs_met(w0, pv), name)[0] == pytest.approx(EPIGRAPH_START * on, rel=1e-12)

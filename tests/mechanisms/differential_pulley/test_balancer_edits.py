@@ -50,3 +50,16 @@ def test_a_full_law_edit_converges_from_the_envelope_and_meets_fedorovs_goals(ed
     assert fine["output_max_abs_error"][0] < 1e-5  # x(θ) within 0.01 mm, as the first design
     assert fine["max_abs_error"][0] < 0.01 * MASS * GRAVITY * LENGTH  # the torque within 1 % of m g l_p
     assert full.fun < moving.fun  # polished below the envelope's error
+
+
+@pytest.mark.slow  # two balancer solves: minutes on two cores
+def test_a_first_design_of_the_edited_law_succeeds_from_its_envelope_again():
+    """The session's first design of the spec with the heavier pendulum (a page opening it):
+    from the default start as a first design starts, IPOPT ends at its iteration limit; solved
+    again from that start with its epigraph above its errors and every row at once, it
+    converges, and both runs are in its trials."""
+    result = cadcam.Session().design(BALANCER, overrides={key: MASS for key in MASS_KEYS})
+    assert result.success and result.solve.status == "converged"
+    assert "from the default start again" in result.message
+    assert [t["status"] for t in result.solve.trials] == ["max_iterations", "converged"]
+    assert result.recheck.metrics["output_max_abs_error"][0] < 1e-5
