@@ -282,9 +282,9 @@ def _from_completing_start(problem: Problem, start: Design, transcription: Trans
     Otherwise the NLP from the start, its minimax epigraphs above the start's errors
     (:meth:`Transcription.epigraphs_met`), with ``last``'s multipliers (a neighbouring
     problem's duals, of the rows it was solved with: with the deferred rows at once where it
-    needed them). On Fedorov2018's balancer after a 1 % edit of its mass: 66 iterations to an
-    optimum (138 with no multipliers; from the start as a first design starts it, its
-    epigraph at zero and its deferred rows after, the iteration limit). Where that NLP fails,
+    needed them): from the start as a first design starts it, its epigraph at zero and its
+    deferred rows after, an edit of Fedorov2018's balancer's law ran to IPOPT's iteration
+    limit. Where that NLP fails,
     the start judged as the answer, the NLP's end in its message."""
     t0 = time.perf_counter()
     if not recheck:
@@ -308,9 +308,9 @@ def _again_from_start(problem: Problem, start: Design, transcription: Transcript
     """A session's first design of ``problem``, whose NLP from the default start ``start``
     (which completed its numbers) ended ``failed``, solved again from that start with its
     minimax epigraphs above the start's errors and every row at once
-    (:func:`_from_start_above`): on Fedorov2018's balancer with a 1 % heavier pendulum the
-    first ended at the iteration limit, the second converged in 138 iterations (its page's
-    edits then start from that answer). The better of the two (the first unless the second
+    (:func:`_from_start_above`): on Fedorov2018's balancer with a heavier pendulum the first
+    can end at the iteration limit where the second converges (and the page's edits then start
+    from its answer). The better of the two (the first unless the second
     succeeds), its message saying what was tried."""
     again = _from_start_above(problem, start, transcription, None)
     if not again.success:

@@ -54,11 +54,10 @@ from ..errors import SpecError
 
 #: How many times its rows' largest error at a start a minimax epigraph variable starts at
 #: (:meth:`Transcription.epigraphs_met`), where :meth:`Transcription.initial_guess` leaves it at
-#: zero. Measured on Fedorov2018's balancer after a 1 % edit of its mass, from its envelope
-#: pulleys (which meet the law within 0.02 mm) and the whole NLP at once, no multipliers: from
-#: zero and from 1 × the error, the iteration limit; from 1.5 ×, an optimum on another branch
-#: of the departures (x off by 6 mm in the re-check); from 3 ×, an optimum in 138 iterations.
-#: With the last design's multipliers (:class:`cadcam.Session`): from 1 ×, 184; from 3 ×, 66.
+#: zero: on it, the rows hold at once and their barrier terms are steep, so that IPOPT's first
+#: steps throw the start away; just above it, a start can slide onto another branch of the
+#: departures. A few times the error leaves the barrier room (``benchmarks/bench_speed.py``
+#: measures the balancer's edits).
 EPIGRAPH_START = 3.0
 #: How far below its bound a deferred row may end, in its scaled units (mm, mm²), before the
 #: solve is repeated with it imposed (IPOPT's own constraint tolerance is 1e-8 of these).
