@@ -45,7 +45,7 @@ from .objective import (OBJECTIVE_SCALE, _band_rows, _output_law_terms, _sensiti
                         _tracking_terms)
 from .rows import _mechanism_rows, _spring_fit_rows, _spring_network_rows, _start_order, placement_scales
 from .sharing import sharing_solver
-from .stall import STALL_RULE, stall_watch, watched
+from .stall import STALL_RULE, run_starts, stall_watch, watched
 from .variables import _parameter_blocks, _Rows, _Vars
 from ..physics.quadrature import trapezoid_weights, trapezoid_weights_sx
 from ..physics.wrap import length_function
@@ -551,6 +551,7 @@ class Transcription:
             """The solve with the deferred rows, from ``x0`` and ``m`` (of every row)."""
             wlo, whi = self.whole_bounds(problem)
             solver = self._imposing_solver()
+            run_starts(solver)
             sol = solver(x0=x0, lam_x0=m.lam_x, lam_g0=m.lam_g, p=pv, lbx=lbx, ubx=ubx, lbg=wlo, ubg=whi)
             runs.append(solver.stats())
             return sol
@@ -562,6 +563,7 @@ class Transcription:
                 sol, x0, m0 = None, w0, warm
                 if guess is not None and guess is not warm:  # from the prediction, in few iterations or not at all
                     solver = self._warm_solver(PREDICTED_IPOPT)
+                    run_starts(solver)
                     sol = solver(x0=guess.x, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, lam_x0=guess.lam_x,
                                  lam_g0=guess.lam_g)
                     runs.append(solver.stats())
@@ -569,6 +571,7 @@ class Transcription:
                         x0, m0 = sol["x"], Multipliers(sol["lam_x"], sol["lam_g"], False)
                 if sol is None or not runs[-1].get("success", False):
                     solver = self.solver if m0 is None else self._warm_solver()
+                    run_starts(solver)
                     sol = solver(x0=x0, p=pv, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
                                  **({} if m0 is None else {"lam_x0": m0.lam_x, "lam_g0": m0.lam_g}))
                     runs.append(solver.stats())
