@@ -7,6 +7,7 @@ every constraint satisfied (status ``success``); otherwise the status says what 
 from __future__ import annotations
 
 import time
+from contextvars import ContextVar
 from dataclasses import replace
 
 import numpy as np
@@ -95,6 +96,15 @@ def solve(tr: Transcription, problem: Problem, start: Design, warm: Multipliers 
 
 #: The end of a provisional design's message (:func:`optimize` without its fine re-check).
 PROVISIONAL = "provisional: not yet re-checked on the fine grid"
+#: The end of the message of a design whose solve did not converge and that was not re-checked
+#: (:data:`RECHECK_UNCONVERGED`).
+UNCHECKED = "not re-checked on the fine grid: its solve did not converge"
+#: Whether a design whose solve did not converge is re-checked on the fine grid all the same
+#: (:func:`_judged`): its status is its solver's either way (:func:`verdict`), and the re-check
+#: only adds the fine grid's numbers to its result. A catalogue search, which reports such a
+#: spring undecided from its status alone, sets it False (:func:`cadcam.sweep.springs.search_solves`):
+#: on the tutorial's catalogue the re-checks of its undecided springs took some 5 s of CPU.
+RECHECK_UNCONVERGED: ContextVar[bool] = ContextVar("recheck_unconverged", default=True)
 #: The statuses :func:`verdict` gives a design whose solve converged.
 VERDICTS = ("success", "not_finite", "recheck_failed", "target_missed")
 
@@ -168,10 +178,14 @@ def _judged(problem: Problem, solved: Solve, on_grid, what: str, recheck: bool, 
     """The fine re-check of ``solved``'s design (evaluated on the design grid as ``on_grid``),
     its wall time [s] and the status and message judged on it (:func:`verdict`); without
     ``recheck``, ``on_grid`` judged instead, in 0 s, and the message ends by saying that the
-    design is provisional (:data:`PROVISIONAL`)."""
+    design is provisional (:data:`PROVISIONAL`); likewise, where ``solved`` did not converge and
+    :data:`RECHECK_UNCONVERGED` is False, its message ending with :data:`UNCHECKED`."""
     if not recheck:
         status, message = verdict(problem, solved, on_grid, what, "design")
         return on_grid, 0.0, status, f"{message} ({PROVISIONAL})"
+    if solved.status != "converged" and not RECHECK_UNCONVERGED.get():
+        status, message = verdict(problem, solved, on_grid, what, "design")
+        return on_grid, 0.0, status, f"{message} ({UNCHECKED})"
     fine, recheck_s = _recheck(problem, solved.design, seeds)
     return fine, recheck_s, *verdict(problem, solved, fine, what)
 

@@ -207,13 +207,18 @@ def _spec_problem(spec: tuple) -> Problem:
 @contextlib.contextmanager
 def search_solves():
     """Within the block, solves as a search's are (:func:`design_part`): their stalled runs
-    stopped (:data:`SEARCH_STALL`, fixed into the builds made or kept for them) and the
-    deferred rows imposed with :data:`cadcam.solve.ipopt.SEARCH_IMPOSE_IPOPT`."""
-    impose = IMPOSE_OPTIONS.set(SEARCH_IMPOSE_IPOPT)
+    stopped (:data:`SEARCH_STALL`, fixed into the builds made or kept for them), the
+    deferred rows imposed with :data:`cadcam.solve.ipopt.SEARCH_IMPOSE_IPOPT`, and a design
+    whose solve did not converge not re-checked on the fine grid
+    (:data:`cadcam.optimize.RECHECK_UNCONVERGED`: its spring is undecided from its status)."""
+    from ..optimize import RECHECK_UNCONVERGED
+
+    impose, unconverged = IMPOSE_OPTIONS.set(SEARCH_IMPOSE_IPOPT), RECHECK_UNCONVERGED.set(False)
     try:
         with stall_rule(SEARCH_STALL):
             yield
     finally:
+        RECHECK_UNCONVERGED.reset(unconverged)
         IMPOSE_OPTIONS.reset(impose)
 
 
