@@ -589,10 +589,10 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     prof = profile_function(basis)
     phi = np.linspace(0.0, phi_hi, n)
     rho, drho, _, conv = (np.asarray(v).ravel() for v in mapped(prof, n)(phi, c))
-    local = mapped(prof, REFINE_POINTS)
-    conv_min = _refine_min(local, c, phi, conv, 3)
-    rho_lo = _refine_min(local, c, phi, rho, 0)
-    rho_hi = -_refine_min(local, c, phi, -rho, 0, sign=-1.0)
+    # the three refined in step, each level's angles of all three in one call of the profile
+    conv_min, rho_lo, rho_hi = _refine_mins(lambda p, c: mapped(prof, p.size)(p, c), c, phi,
+                                            [(conv, 3, 1.0), (rho, 0, 1.0), (-rho, 0, -1.0)])
+    rho_hi = -rho_hi
     with np.errstate(divide="ignore", invalid="ignore"):  # 0 where not convex
         curvature = np.where(conv > 0, (rho**2 + drho**2) ** 1.5 / conv, 0.0)
     return phi, rho, conv, conv_min, rho_lo, rho_hi, float(np.min(curvature))
@@ -601,21 +601,34 @@ def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
 def _refine_min(local, c, phi, values, out_index, sign=1.0):
     """Minimum of ``values`` (= sign·output ``out_index`` of the profile at ``phi``) refined
     between samples by nested sampling: the two intervals around the least value so far are
-    sampled at :data:`REFINE_POINTS` angles by ``local`` (the profile function mapped over that
-    many), as many times as the running context's scan says (:data:`SCAN`). Every value it returns is the profile's at some angle,
-    so it never undershoots the true minimum, and a kink (a piecewise basis) or a flat stretch
-    does not mislead it (NaN where the profile itself is not finite)."""
-    if not np.all(np.isfinite(values)):
-        return float("nan")
-    k = int(np.argmin(values))
-    best, lo, hi = float(values[k]), phi[max(k - 1, 0)], phi[min(k + 1, phi.size - 1)]
-    for _ in range(SCAN.get().levels):
-        p = np.linspace(lo, hi, REFINE_POINTS)
-        v = sign * np.asarray(local(p, c)[out_index]).ravel()
-        v[~np.isfinite(v)] = np.inf  # a non-finite sample is never the least
-        j = int(np.argmin(v))
-        best, lo, hi = min(best, float(v[j])), p[max(j - 1, 0)], p[min(j + 1, p.size - 1)]
-    return best
+    sampled at :data:`REFINE_POINTS` angles by ``local`` (the profile function mapped over as
+    many angles as it is given), as many times as the running context's scan says
+    (:data:`SCAN`). Every value it returns is the profile's at some angle, so it never
+    undershoots the true minimum, and a kink (a piecewise basis) or a flat stretch does not
+    mislead it (NaN where the profile itself is not finite)."""
+    return _refine_mins(local, c, phi, [(values, out_index, sign)])[0]
+
+
+def _refine_mins(local, c, phi, wanted) -> list[float]:
+    """:func:`_refine_min` of each of ``wanted`` = [(values, out_index, sign), …], in step: each
+    level's angles of them all in one call of ``local``, where a call each costs more than the
+    profile's values at a hundred angles (the fine re-check of a catalogue search's design
+    refined three minima per profile); the same angles and values as one at a time."""
+    state = []  # per minimum: [least so far, bracket's ends], None where not finite
+    for values, _, _ in wanted:
+        k = int(np.argmin(values)) if np.all(np.isfinite(values)) else None
+        state.append(None if k is None else [float(values[k]), phi[max(k - 1, 0)], phi[min(k + 1, phi.size - 1)]])
+    live = [i for i, s in enumerate(state) if s is not None]
+    for _ in range(SCAN.get().levels if live else 0):
+        angles = [np.linspace(state[i][1], state[i][2], REFINE_POINTS) for i in live]
+        out = local(np.concatenate(angles), c)
+        for block, (i, p) in enumerate(zip(live, angles)):
+            _, out_index, sign = wanted[i]
+            v = sign * np.asarray(out[out_index]).ravel()[block * REFINE_POINTS:(block + 1) * REFINE_POINTS]
+            v[~np.isfinite(v)] = np.inf  # a non-finite sample is never the least
+            j = int(np.argmin(v))
+            state[i] = [min(state[i][0], float(v[j])), p[max(j - 1, 0)], p[min(j + 1, p.size - 1)]]
+    return [float("nan") if s is None else s[0] for s in state]
 
 
 def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarray,
