@@ -105,6 +105,14 @@ UNCHECKED = "not re-checked on the fine grid: its solve did not converge"
 #: spring undecided from its status alone, sets it False (:func:`cadcam.sweep.springs.search_solves`):
 #: on the tutorial's catalogue the re-checks of its undecided springs took some 5 s of CPU.
 RECHECK_UNCONVERGED: ContextVar[bool] = ContextVar("recheck_unconverged", default=True)
+#: Whether a design's evaluation on the design grid scans its profiles (their ρ and convexity
+#: margin between the grid's angles, :func:`cadcam.verify.evaluate.evaluate`'s ``profile``)
+#: where its fine re-check is made, which scans them itself and judges the design
+#: (:func:`_checked`). A catalogue search, which reads the design grid's rmse alone, sets it False
+#: (:func:`cadcam.sweep.springs.search_solves`): the scan was half of that evaluation's time,
+#: some 6 ms a spring on the tutorial's catalogue; its result's design-grid profile metrics are
+#: then NaN.
+SCAN_DESIGN_GRID: ContextVar[bool] = ContextVar("scan_design_grid", default=True)
 #: The statuses :func:`verdict` gives a design whose solve converged.
 VERDICTS = ("success", "not_finite", "recheck_failed", "target_missed")
 
@@ -344,7 +352,7 @@ def _checked(problem: Problem, tr: Transcription, best: Solve, recheck: bool = T
     # are checked by their residuals either way)
     seeds = [(problem.joints[mech.joint].grid(problem.options.grid), best.z[u])
              for u, mech in enumerate(problem.mechanisms)]
-    on_grid = evaluate(problem, best.design, seeds=seeds)
+    on_grid = evaluate(problem, best.design, seeds=seeds, profile=not recheck or SCAN_DESIGN_GRID.get())
     fine, recheck_s, status, message = _judged(problem, best, on_grid, "converged", recheck, seeds)
     if best.margins:
         message += f" (solved with {_margin_words(best.margins)})"

@@ -208,16 +208,20 @@ def _spec_problem(spec: tuple) -> Problem:
 def search_solves():
     """Within the block, solves as a search's are (:func:`design_part`): their stalled runs
     stopped (:data:`SEARCH_STALL`, fixed into the builds made or kept for them), the
-    deferred rows imposed with :data:`cadcam.solve.ipopt.SEARCH_IMPOSE_IPOPT`, and a design
-    whose solve did not converge not re-checked on the fine grid
-    (:data:`cadcam.optimize.RECHECK_UNCONVERGED`: its spring is undecided from its status)."""
-    from ..optimize import RECHECK_UNCONVERGED
+    deferred rows imposed with :data:`cadcam.solve.ipopt.SEARCH_IMPOSE_IPOPT`, a design whose
+    solve did not converge not re-checked on the fine grid
+    (:data:`cadcam.optimize.RECHECK_UNCONVERGED`: its spring is undecided from its status) and
+    the profiles scanned by the fine re-check alone (:data:`cadcam.optimize.SCAN_DESIGN_GRID`:
+    a row's rmse is the design grid's, its verdict the re-check's)."""
+    from ..optimize import RECHECK_UNCONVERGED, SCAN_DESIGN_GRID
 
     impose, unconverged = IMPOSE_OPTIONS.set(SEARCH_IMPOSE_IPOPT), RECHECK_UNCONVERGED.set(False)
+    scan = SCAN_DESIGN_GRID.set(False)
     try:
         with stall_rule(SEARCH_STALL):
             yield
     finally:
+        SCAN_DESIGN_GRID.reset(scan)
         RECHECK_UNCONVERGED.reset(unconverged)
         IMPOSE_OPTIONS.reset(impose)
 
