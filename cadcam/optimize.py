@@ -103,15 +103,14 @@ UNCHECKED = "not re-checked on the fine grid: its solve did not converge"
 #: (:func:`_judged`): its status is its solver's either way (:func:`verdict`), and the re-check
 #: only adds the fine grid's numbers to its result. A catalogue search, which reports such a
 #: spring undecided from its status alone, sets it False (:func:`cadcam.sweep.springs.search_solves`):
-#: on the tutorial's catalogue the re-checks of its undecided springs took some 5 s of CPU.
+#: a re-check that cannot change a verdict is time the search's other springs wait for.
 RECHECK_UNCONVERGED: ContextVar[bool] = ContextVar("recheck_unconverged", default=True)
 #: Whether a design's evaluation on the design grid scans its profiles (their ρ and convexity
 #: margin between the grid's angles, :func:`cadcam.verify.evaluate.evaluate`'s ``profile``)
 #: where its fine re-check is made, which scans them itself and judges the design
 #: (:func:`_checked`). A catalogue search, which reads the design grid's rmse alone, sets it False
-#: (:func:`cadcam.sweep.springs.search_solves`): the scan was half of that evaluation's time,
-#: some 6 ms a spring on the tutorial's catalogue; its result's design-grid profile metrics are
-#: then NaN.
+#: (:func:`cadcam.sweep.springs.search_solves`): the scan is most of that evaluation's time;
+#: its result's design-grid profile metrics are then NaN.
 SCAN_DESIGN_GRID: ContextVar[bool] = ContextVar("scan_design_grid", default=True)
 #: The statuses :func:`verdict` gives a design whose solve converged.
 VERDICTS = ("success", "not_finite", "recheck_failed", "target_missed")
