@@ -20,12 +20,15 @@ from __future__ import annotations
 import warnings
 from contextvars import ContextVar
 
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spl
 
 from .ipopt import Multipliers
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: Whether the warm re-solves in the running context start from the predicted point
 #: (:func:`predicted`) rather than the last answer: a design session's provisional designs
@@ -126,6 +129,8 @@ def _step(upper: tuple, jac: tuple, rows: np.ndarray, moved: np.ndarray, residua
     linearized Lagrangian's gradient ``residual_x`` and the linearized active ``rows``'
     distances to their bounds ``residual_g``, moving the ``moved`` variables alone; None where
     the KKT matrix is singular."""
+    import scipy.sparse.linalg as spl  # here: every design imports this module, few predict
+
     kkt = _kkt(upper, jac, rows, moved, n)
     with warnings.catch_warnings():  # singular: a step not finite, or SuperLU refuses
         warnings.simplefilter("ignore", spl.MatrixRankWarning)
@@ -156,6 +161,8 @@ def _kkt(upper: tuple, jac: tuple, rows: np.ndarray, moved: np.ndarray, n: int) 
     """The KKT matrix [[H, Aᵀ], [A, 0]] of the ``moved`` variables (of ``n``) and the active
     ``rows`` (a mask), H from the triplets of the Hessian's ``upper`` triangle and A from the Jacobian's
     ``jac``, assembled from their triplets at once (SciPy's block assembly took milliseconds)."""
+    import scipy.sparse as sp
+
     x_at = np.full(n, -1)
     x_at[moved] = np.arange(moved.size)
     g_at = np.full(rows.size, -1)

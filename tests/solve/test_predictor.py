@@ -98,3 +98,15 @@ def test_a_run_cut_short_goes_on_only_near_its_end(inf_pr, inf_du, near):
     stats = {"iterations": {"inf_pr": [1.0, inf_pr], "inf_du": [1.0, inf_du]}}
     assert nearly_converged(stats) is near
     assert not nearly_converged({})  # a run without iterations
+
+
+def test_a_design_imports_no_sparse_linear_algebra_for_the_predictor():
+    """Every design imports the predictor (the transcription's solve asks it); SciPy's sparse
+    modules, a noticeable share of a command's start, are imported only where it predicts."""
+    import subprocess
+    import sys
+
+    code = ("import sys; import cadcam.api, cadcam.cli, cadcam.solve.predictor; "
+            "print(sorted(m for m in sys.modules if m.startswith('scipy.sparse')))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "[]"
