@@ -262,7 +262,7 @@ class Session:
                                    recheck=recheck)
         if not built:  # the NLP kept from an earlier design: this design built none of it
             result.build_time_s -= transcription.build_time_s
-        if result.success and result.solve.multipliers is not None:  # an NLP's answer, not a start judged
+        if result.success and result.solve is not None and result.solve.multipliers is not None:  # an NLP's answer
             self._last[key] = result
             self._last.move_to_end(key)
             while len(self._last) > KEPT_BUILDS:
@@ -292,7 +292,7 @@ def _from_completing_start(problem: Problem, start: Design, transcription: Trans
         # counted as an NLP's result counts its build: the session deducts a build it kept
         moving.build_time_s = transcription.build_time_s
         return moving
-    result = _from_start_above(problem, start, transcription, last.solve.multipliers)
+    result = _from_start_above(problem, start, transcription, last.solve.multipliers if last.solve else None)
     how = ("the default start, its epigraphs above its errors, and the last design's multipliers: that design "
            "was made for other numbers")
     if result.success:
@@ -310,13 +310,14 @@ def _again_from_start(problem: Problem, start: Design, transcription: Transcript
     minimax epigraphs above the start's errors and every row at once
     (:func:`_from_start_above`): on Fedorov2018's balancer with a heavier pendulum the first
     can end at the iteration limit where the second converges (and the page's edits then start
-    from its answer). The better of the two (the first unless the second
-    succeeds), its message saying what was tried."""
+    from its answer). The better of the two (the first unless the second succeeds), its
+    message saying what was tried."""
     again = _from_start_above(problem, start, transcription, None)
     if not again.success:
         failed.message += f" (solved again from the default start, its epigraphs above its errors: {again.status})"
         return failed
-    again.solve.trials = failed.solve.trials + again.solve.trials  # result.json lists both runs
+    if again.solve is not None and failed.solve is not None:  # result.json lists both runs
+        again.solve.trials = failed.solve.trials + again.solve.trials
     again.message += (f" (from the default start again, its epigraphs above its errors and every row at once: "
                       f"from it as a first design starts, the NLP ended {failed.status})")
     return again
