@@ -104,7 +104,7 @@ def predicted(solver: ca.Function, warm: Multipliers, pv: np.ndarray, bounds, va
         lam = lam_g + dlam
         g_lin = g + np.bincount(jac[0], jac[2] * dx[jac[1]], g.size)
         below, above = ~rows & (g_lin < lbg - BOUND_TOL), ~rows & (g_lin > ubg + BOUND_TOL)
-        released = rows & (lbg < ubg) & (lam * np.where(bound == ubg, 1, -1) < 0)
+        released = rows & _turned(lam, bound, lbg, ubg)
         if not (below.any() or above.any() or released.any()):
             break
         # the most broken row joins the active set, every row whose multiplier turned leaves it
@@ -119,8 +119,15 @@ def predicted(solver: ca.Function, warm: Multipliers, pv: np.ndarray, bounds, va
     dx, dlam = step
     lam = lam_g + dlam
     # an inequality's multiplier stays on the side of its bound (zero where it turned)
-    lam[(lbg < ubg) & (lam * np.where(bound == ubg, 1, -1) < 0)] = 0.0
+    lam[_turned(lam, bound, lbg, ubg)] = 0.0
     return Multipliers(lam_x, lam, warm.whole, np.clip(x + dx, lbx, ubx))
+
+
+def _turned(lam: np.ndarray, bound: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> np.ndarray:
+    """The inequality rows (``lbg`` < ``ubg``) whose multiplier ``lam`` has turned to the other
+    side of the bound ``bound`` each is held at: pulling a row at its upper bound down, or one
+    at its lower bound up."""
+    return (lbg < ubg) & (lam * np.where(bound == ubg, 1, -1) < 0)
 
 
 def _step(upper: tuple, jac: tuple, rows: np.ndarray, moved: np.ndarray, residual_x: np.ndarray,

@@ -70,8 +70,8 @@ FULL_SCAN = Scan(2000, REFINE_LEVELS)
 #: The profile scan of a provisional design's evaluation while a slider moves
 #: (:meth:`cadcam.Session.design` with ``recheck=False``; the design is evaluated again when it
 #: stops): at least 600 angles, as many as a profile's curve is drawn from without a scan
-#: (:func:`cadcam.outputs.plots._curve`), refined 3 times (to 10⁻⁷ of the bracket): enough for the live view's
-#: curves and limits, and the design the slider stops at is scanned in full.
+#: (:func:`cadcam.outputs.plots._curve`), refined 3 times (to 10⁻⁷ of the bracket): enough for
+#: the live view's curves and limits, and the design the slider stops at is scanned in full.
 MOVING_SCAN = Scan(600, 3)
 #: The profile scan of the evaluations in the running context.
 SCAN: ContextVar[Scan] = ContextVar("scan", default=FULL_SCAN)
