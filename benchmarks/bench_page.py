@@ -3,7 +3,8 @@ after a small edit, against the same edit solved from the default start (the obj
 design must not lose) and warm without the last answer's multipliers; then, in the browser, a
 slider dragged step by step until each step's new curves arrive.
 
-``make bench`` (``python benchmarks/bench_page.py``). The page's path is
+``make bench`` (``python benchmarks/bench_page.py``; ``--browser [TEMPLATE ...]`` times only the
+browser's slider steps, of the templates named). The page's path is
 :class:`cadcam.app.state.DesignState` over a :class:`cadcam.Session`, functions as the spec says
 (by default ``auto``), timed as they run once a template's libraries are in the cache, where
 the background compile of the page's first design of that template leaves them: a template's
@@ -206,16 +207,16 @@ def _serve(port: int) -> subprocess.Popen:
             time.sleep(0.2)
 
 
-def browser_steps() -> dict[str, list[tuple[float, float]]] | str:
-    """Per template of :data:`LIVE_TEMPLATES`, each timed slider step's (new curves, painted)
-    [s] in the browser; or why it was not measured."""
+def browser_steps(templates=LIVE_TEMPLATES) -> dict[str, list[tuple[float, float]]] | str:
+    """Per template of ``templates`` (of :data:`LIVE_TEMPLATES`), each timed slider step's (new
+    curves, painted) [s] in the browser; or why it was not measured."""
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
         return "Playwright is not installed (the dev extra's)"
     if not CHROMIUM.exists():
         return f"{CHROMIUM} is missing (make test installs Debian's chromium)"
-    for name in LIVE_TEMPLATES:  # their libraries in the cache, as after a user's first designs
+    for name in templates:  # their libraries in the cache, as after a user's first designs
         _compile(DesignState.template(name))
     port = _free_port()
     server = _serve(port)
@@ -228,7 +229,7 @@ def browser_steps() -> dict[str, list[tuple[float, float]]] | str:
             page.goto(f"http://127.0.0.1:{port}/")
             page.wait_for_selector(".verdict-success", timeout=PAGE_WAIT_S * 1e3)
             out = {}
-            for name in LIVE_TEMPLATES:
+            for name in templates:
                 out[name] = _steps(page, name)
             context.close()
             return out
@@ -285,6 +286,30 @@ def _steps(page, name: str) -> list[tuple[float, float]]:
     return times
 
 
+def _browser_table(browser: dict[str, list[tuple[float, float]]]) -> None:
+    print("| template | steps | new curves: median | max | painted: median | max |")
+    print("|---|---|---|---|---|---|")
+    for name, times in browser.items():
+        came, painted = ([1e3 * t[i] for t in times] for i in (0, 1))
+        print(f"| {name} | {len(times)} | {statistics.median(came):.0f} | {max(came):.0f} | "
+              f"{statistics.median(painted):.0f} | {max(painted):.0f} |", flush=True)
+
+
+def browser_only(templates: list[str]) -> int:
+    """``--browser [TEMPLATE ...]``: only the browser's slider steps, of ``templates`` (default:
+    :data:`LIVE_TEMPLATES`), as :func:`main` prints them."""
+    unknown = [t for t in templates if t not in LIVE_TEMPLATES]
+    if unknown:
+        print(f"bench_page.py: {', '.join(unknown)} is not one of {', '.join(LIVE_TEMPLATES)}", file=sys.stderr)
+        return 2
+    browser = browser_steps(tuple(templates) or LIVE_TEMPLATES)
+    if isinstance(browser, str):
+        print(f"Not measured: {browser}.")
+        return 1
+    _browser_table(browser)
+    return 0
+
+
 def main() -> int:
     print(f"\nThe design page's path for each template (`DesignState`: a `cadcam.Session`, functions as the page "
           f"runs them once the template's libraries are in the cache): the first design (build + solve + fine re-check), then {KEY} × {EDIT} designed warm "
@@ -309,12 +334,7 @@ def main() -> int:
     if isinstance(browser, str):
         print(f"Not measured: {browser}.")
     else:
-        print("| template | steps | new curves: median | max | painted: median | max |")
-        print("|---|---|---|---|---|---|")
-        for name, times in browser.items():
-            came, painted = ([1e3 * t[i] for t in times] for i in (0, 1))
-            print(f"| {name} | {len(times)} | {statistics.median(came):.0f} | {max(came):.0f} | "
-                  f"{statistics.median(painted):.0f} | {max(painted):.0f} |", flush=True)
+        _browser_table(browser)
     listed = "; ".join
     rows: list[tuple[str, str, bool]] = [
         (f"a 1-DOF design back within {FIRST_S:g} s (the page's first design of each template, libraries from the "
@@ -337,4 +357,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(browser_only(sys.argv[2:]) if sys.argv[1:2] == ["--browser"] else main())

@@ -35,6 +35,11 @@ MECHANISM_SIDE = 440
 #: Colours of the plots (those of the figures, :mod:`cadcam.outputs.plots`).
 TORQUE_COLOUR, TARGET_COLOUR, ERROR_COLOUR, FRICTION_COLOUR = "#1f77b4", "black", "#d62728", "#ff7f0e"
 CABLE_COLOUR, SPRING_COLOUR, ACCEPTED_COLOUR = "#ff7f0e", "#9467bd", "#2ca02c"
+#: Largest array [values] the browser is sent in a message's text (:func:`sent`): Bokeh sends
+#: each array as a binary buffer of its own, two websocket messages each (its header, its bytes),
+#: and the browser handles each message as a task of its own; a curve of a few hundred points is
+#: cheaper as one buffer than as text.
+INLINE_VALUES = 128
 #: The tools of every plot (a mechanism's view adds the handle of its spring ends).
 TOOLS = "pan,wheel_zoom,box_zoom,reset,save"
 #: How the key under the mechanisms' views marks each thing drawn (:func:`cadcam.app.views.legend`).
@@ -298,14 +303,23 @@ class LiveView:
 def put(source: ColumnDataSource, data: dict) -> None:
     """Put ``data`` in ``source``, sending the browser only the columns that changed where the
     columns and their lengths stay (a design while a slider moves changes the torque, not the
-    angles or the target), else the whole data."""
+    angles or the target), else the whole data; small arrays as lists (:func:`sent`)."""
     old = source.data
     if set(old) != set(data) or any(len(old[c]) != len(v) for c, v in data.items()):
-        source.data = data
+        source.data = {c: sent(v) for c, v in data.items()}
         return
-    changed = {c: v for c, v in data.items() if not _same(old[c], v)}
+    changed = {c: sent(v) for c, v in data.items() if not _same(old[c], v)}
     if changed:
         source.data.update(changed)
+
+
+def sent(column):
+    """``column`` as the browser is sent it: a number array of at most :data:`INLINE_VALUES`
+    values as a list (in the message's text), a larger one as it is (a binary buffer); a list
+    of curves, each so."""
+    if isinstance(column, np.ndarray):
+        return column.tolist() if column.size <= INLINE_VALUES else column
+    return [sent(v) if isinstance(v, np.ndarray) else v for v in column]
 
 
 def _same(a, b) -> bool:
@@ -317,4 +331,4 @@ def _same(a, b) -> bool:
                                     for x, y in zip(a, b))
 
 
-__all__ = ["Frame", "LiveView", "Poses", "put"]
+__all__ = ["Frame", "LiveView", "Poses", "put", "sent"]

@@ -257,3 +257,25 @@ def test_an_error_is_shown_under_its_field_alone_and_cleared_where_it_was(wire_c
     assert set(set_panes) == {"springs.2.travel"} and len(view.errors) > 10
     view._show_error(None, None)  # nothing shown: nothing set
     assert set(set_panes) == {"springs.2.travel"} and not any(pane.visible for pane in view.errors.values())
+
+
+def test_small_columns_are_sent_in_the_messages_text_and_large_ones_as_binary_buffers():
+    """Each binary buffer is two websocket messages the browser handles one by one: a design
+    while a slider moves sends its torque (a few tens of angles) and its short curves as text."""
+    from bokeh.document import Document
+    from bokeh.models import ColumnDataSource
+    from bokeh.protocol import Protocol
+
+    from cadcam.app.live import INLINE_VALUES, put
+
+    source = ColumnDataSource({"tau": np.zeros(46), "xs": [np.zeros(401), np.zeros(2)]})
+    doc = Document()
+    doc.add_root(source)
+    events = []
+    doc.on_change(events.append)
+    long, short = np.linspace(0.0, 1.0, INLINE_VALUES + 1), np.array([1.0, 2.0])
+    put(source, {"tau": np.arange(46.0), "xs": [long, short]})
+    message = Protocol().create("PATCH-DOC", events)
+    assert [b.to_bytes() for b in message.buffers] == [long.tobytes()]  # the long curve alone
+    assert source.data["tau"] == list(range(46)) and source.data["xs"][1] == [1.0, 2.0]
+    np.testing.assert_array_equal(source.data["xs"][0], long)
