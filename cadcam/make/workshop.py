@@ -91,6 +91,10 @@ class Outline:
     samples: int = 2048
     phi: np.ndarray = field(init=False, repr=False)
     points: np.ndarray = field(init=False, repr=False)
+    # what :meth:`arcs` and :func:`holes` found, by their arguments: the DXF, the SVG, their
+    # checks and the drawing sheets (pickled with the outline to the processes that draw them)
+    # all ask for the same fit
+    _found: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self):
         #: the closing arc's own offset [m]: a smooth closure's is the arc's, a hull's none
@@ -146,6 +150,21 @@ class Outline:
         polar = np.unwrap(np.arctan2(self.points[:, 1], self.points[:, 0]))
         return float(np.interp(np.mod(angle - polar[0], TWO_PI) + polar[0], polar, np.hypot(*self.points.T),
                                period=TWO_PI))
+
+    def arcs(self, tolerance: float) -> ArcChain:
+        """The outline as biarcs within ``tolerance`` [m] (:func:`cadcam.make.biarc.biarc_fit`),
+        fitted once for each tolerance; its arrays are read-only."""
+        return self._once(("arcs", tolerance), lambda: biarc_fit(self, tolerance))
+
+    def _once(self, key: tuple, find):
+        """``find()``, computed once for ``key`` (an error is raised each time, not kept), its
+        arrays made read-only: the value is shared."""
+        if key not in self._found:
+            value = find()
+            for array in _arrays(value):
+                array.flags.writeable = False
+            self._found[key] = value
+        return self._found[key]
 
     @property
     def closing_joints(self) -> np.ndarray:
@@ -767,7 +786,14 @@ def holes(outline: Outline, bore_diameter: float, anchor_diameter: float,
         leaves less than MIN_WALL of material to the profile or to the other hole; saying so
         when the outline's arcs are not convex.
     """
-    chain = biarc_fit(outline, tolerance)
+    return outline._once(("holes", bore_diameter, anchor_diameter, tolerance),
+                         lambda: _holes(outline, bore_diameter, anchor_diameter, tolerance))
+
+
+def _holes(outline: Outline, bore_diameter: float, anchor_diameter: float,
+           tolerance: float) -> list[tuple[np.ndarray, float]]:
+    """:func:`holes`, found."""
+    chain = outline.arcs(tolerance)
     inwards = concavity(chain.vertices, chain.bulges)
     if inwards > NOTCH:
         raise ValueError(f"the cut outline is not convex: its arcs turn inwards, reaching {_length(inwards)} "
@@ -775,6 +801,18 @@ def holes(outline: Outline, bore_diameter: float, anchor_diameter: float,
     _check_bore(signed_distance(np.zeros((1, 2)), chain.vertices, chain.bulges)[0], bore_diameter)
     return [(np.zeros(2), bore_diameter), (anchor_centre(outline, chain, anchor_diameter, bore_diameter),
                                            anchor_diameter)]
+
+
+def _arrays(value) -> list[np.ndarray]:
+    """The arrays a value :meth:`Outline._once` keeps holds: an array's, a fit's, those in a
+    list or tuple (the holes' centres)."""
+    if isinstance(value, np.ndarray):
+        return [value]
+    if isinstance(value, ArcChain):
+        return [value.vertices, value.bulges]
+    if isinstance(value, (list, tuple)):
+        return [array for item in value for array in _arrays(item)]
+    return []
 
 
 def _check_bore(least_radius: float, bore_diameter):
@@ -822,7 +860,7 @@ def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
     layer MARK, which no check of the cut part reads. Returns the fitted chain.
     """
     circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
-    chain = biarc_fit(outline, tolerance)
+    chain = outline.arcs(tolerance)
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add("PROFILE", color=7)
     doc.layers.add("HOLES", color=1)
@@ -872,7 +910,7 @@ def write_svg(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
     """
     circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
     flip = np.array([MM, -MM])
-    chain = biarc_fit(outline, tolerance)
+    chain = outline.arcs(tolerance)
     points = chain.sample(SVG_BOX_SAMPLES) * flip + 0.0
     centres = np.array([centre for centre, _ in circles]) * flip + 0.0
     lo, size = points.min(axis=0), np.ptp(points, axis=0)

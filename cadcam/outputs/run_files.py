@@ -424,11 +424,10 @@ def _write_step(path: Path, outline, args: Workshop, tolerance: float, circles: 
     """``camN.step`` (the biarc outline extruded, the holes ``circles`` through it, the groove
     cut) where the extra ``step`` is installed; the summary's words either way."""
     from ..make import step
-    from ..make.biarc import biarc_fit
 
     if not step.available():
         return ", no STEP (pip install -e '.[step]')"
-    volume = step.write_step(path, biarc_fit(outline, tolerance), circles, args.stl, args.groove_depth,
+    volume = step.write_step(path, outline.arcs(tolerance), circles, args.stl, args.groove_depth,
                              args.groove_width)
     return f", STEP {volume * 1e9:.0f} mm³"
 
