@@ -1,6 +1,8 @@
 """PNG files of matplotlib figures, as cadcam writes its figures and sheets."""
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from ..files import atomic_path
@@ -17,9 +19,32 @@ def save_png(fig, path, dpi: float) -> None:
     """Write the matplotlib figure ``fig`` to ``path`` as a PNG at ``dpi`` dots per inch,
     atomically: matplotlib's pixels and metadata, without the alpha channel where every pixel
     is opaque (a figure's own white background) and at :data:`COMPRESS_LEVEL`: the same
-    image, encoded in less than half the time."""
-    with atomic_path(path) as tmp:
+    image, encoded in less than half the time. A figure with a layout engine is drawn once
+    (:func:`_laid_out`)."""
+    with atomic_path(path) as tmp, _laid_out(fig, dpi):
         fig.savefig(_PngFile(tmp, fig, dpi), format="rgba", dpi=dpi)
+
+
+@contextlib.contextmanager
+def _laid_out(fig, dpi: float):
+    """Inside this block ``fig`` is laid out by its layout engine (constrained layout) at
+    ``dpi``, as saving it there lays it out, and has no engine; the engine is given back after
+    it. Matplotlib saves a figure with an engine by drawing every artist twice: a dry draw that
+    runs the layout, then the draw that renders the pixels; laid out here, the figure is drawn
+    once, into the same pixels."""
+    engine = fig.get_layout_engine()
+    if engine is None:
+        yield
+        return
+    before = fig.dpi
+    fig.set_dpi(dpi)
+    try:
+        engine.execute(fig)
+        fig.set_layout_engine(None)
+        yield
+    finally:
+        fig.set_layout_engine(engine)
+        fig.set_dpi(before)
 
 
 class _PngFile:

@@ -59,3 +59,13 @@ def test_the_png_is_written_whole_or_not_at_all(tmp_path, monkeypatch):
         save_png(_figure(), path, 110)
     assert path.read_bytes() == b"the earlier file"
     assert [p.name for p in tmp_path.iterdir()] == ["figure.png"]
+
+
+def test_a_laid_out_figure_is_drawn_once_and_keeps_its_layout_engine(tmp_path, monkeypatch):
+    fig = _figure()
+    engine = fig.get_layout_engine()
+    draws = []
+    monkeypatch.setattr(Figure, "draw", lambda self, renderer, draw=Figure.draw: draws.append(1) or draw(self, renderer))
+    save_png(fig, tmp_path / "figure.png", 110)
+    assert len(draws) == 1  # matplotlib's savefig alone draws a constrained figure twice
+    assert fig.get_layout_engine() is engine and fig.dpi == 100
