@@ -21,10 +21,11 @@ from functools import partial
 
 import matplotlib
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
+from matplotlib.lines import TICKLEFT, TICKRIGHT, Line2D
 from matplotlib.patches import Circle
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, NullLocator
 
 from ..verify.binding import limit_state
 from ..verify.evaluate import METRICS, Evaluation, output_error, output_law
@@ -849,7 +850,40 @@ def convergence_figure(history: dict) -> Figure:
     for ax in (a1, a2, a3):
         if ax.get_yscale() == "log":
             ax.yaxis.set_major_formatter(FuncFormatter(power_of_ten))
+            _minor_marks(ax)
     return fig
+
+
+def _minor_marks(ax) -> None:
+    """Draw the minor ticks of ``ax``'s logarithmic y axis (eight a decade) as one line of tick
+    marks, as matplotlib draws them, and no tick objects: a tick is five artists, and an axis
+    over a few decades has dozens of them. Its limits are fixed at those its data give."""
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi)
+    axis = ax.yaxis
+    values = [v for v in axis.get_minorticklocs() if lo <= v <= hi]
+    axis.set_minor_locator(NullLocator())
+    tick = {key: matplotlib.rcParams[f"ytick.minor.{key}"] for key in ("size", "width")}
+    colour = matplotlib.rcParams["ytick.color"]
+    marks = Line2D(np.zeros(len(values)), values, transform=ax.get_yaxis_transform("tick1"), ls="none",
+                   marker=TICKLEFT if matplotlib.rcParams["ytick.direction"] == "out" else TICKRIGHT,
+                   ms=tick["size"], mew=tick["width"], color=colour, mec=colour, clip_on=False)
+    marks.set_figure(ax.figure)
+    ax.add_artist(_Marks(marks))
+
+
+class _Marks(Artist):
+    """Tick marks drawn by a line of markers that is not one of the axes' data lines, after the
+    axes' spines and ticks (as an axis draws its ticks)."""
+
+    zorder = 2.51
+
+    def __init__(self, line: Line2D):
+        super().__init__()
+        self.line = line
+
+    def draw(self, renderer) -> None:
+        self.line.draw(renderer)
 
 
 # ------------------------------------------------------------------------------- all of a run

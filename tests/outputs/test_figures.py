@@ -12,6 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from cadcam.verify.binding import RTOL, binding_constraints, limit_state
 from cadcam.verify.evaluate import METRIC_NAMES, evaluate
@@ -441,3 +442,18 @@ def test_pose_views_draw_one_angle_in_each_view_and_name_the_spring_off_a_close_
     labels = [t.get_text() for t in near.texts if "spring" in t.get_text()]
     assert labels == [f"spring ({coil[-1][0]:.0f}, {coil[-1][1]:.0f}) to its end ({coil[0][0]:.0f}, {coil[0][1]:.0f}) mm"]
     assert np.allclose(coil[0], [0.0, -200.0])  # the spec's spring_end, fixed to the base
+
+
+def test_convergence_figure_marks_matplotlibs_minor_ticks_without_tick_objects():
+    fig = convergence_figure(HISTORY)
+    for ax in fig.axes[:3]:
+        marks = [a.line for a in ax.artists if isinstance(getattr(a, "line", None), Line2D)]
+        own = Figure().add_subplot(yscale="log")  # the same data on matplotlib's own log axis
+        for line in ax.get_lines():
+            own.plot(line.get_xdata(), line.get_ydata())
+        lo, hi = own.get_ylim()
+        assert ax.get_ylim() == pytest.approx((lo, hi))
+        expected = [v for v in own.yaxis.get_minorticklocs() if lo <= v <= hi]
+        assert len(ax.yaxis.get_minorticklocs()) == 0 and len(marks) == 1
+        np.testing.assert_allclose(marks[0].get_ydata(), expected)
+    assert len(expected) > 8  # the step's axis, 10⁻⁵ to 1, has its minor ticks
