@@ -3,15 +3,17 @@
 The optimiser designs ρ(φ) only over the wrapped range φ ∈ [0, α_max]. :func:`closed_outline`
 completes it into a closed, convex, C2 outline; :func:`polyline` turns that into a polygon
 within a chordal tolerance; the writers export it as DXF, SVG, CSV and a watertight binary STL.
-Everything is in SI units (metres) inside; the files are in millimetres.
+Everything is in SI units (metres) inside; the files are in millimetres. The writers' libraries
+(ezdxf, manifold3d) are imported where they write, so that the processes that draw a part's
+sheets from its outline do not load them.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
-from manifold3d import CrossSection, JoinType, Manifold
 from numpy.polynomial import Legendre, Polynomial
 
 from ..files import atomic_path, write_csv as write_table, write_text
@@ -23,8 +25,8 @@ from .biarc import (ArcChain, arc_geometry, biarc_fit, concavity, segment_distan
                     tangent_angles)
 from ..units import MM
 
-with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
-    import ezdxf
+if TYPE_CHECKING:
+    from manifold3d import CrossSection
 
 TWO_PI = 2 * np.pi
 DEFAULT_TOLERANCE = 1e-5
@@ -859,6 +861,9 @@ def write_dxf(path, outline: Outline, bore_diameter: float, anchor_diameter: flo
     ends [m], shape (2, 2): :attr:`cadcam.make.datum.Datum.segment`), to be engraved, as a LINE on
     layer MARK, which no check of the cut part reads. Returns the fitted chain.
     """
+    with libraries_imported():  # ezdxf's ezdxf.ini: not from the working folder
+        import ezdxf
+
     circles = holes(outline, bore_diameter, anchor_diameter, tolerance)
     chain = outline.arcs(tolerance)
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
@@ -998,6 +1003,8 @@ def write_stl(path, outline: Outline, thickness: float, holes: list, groove_dept
     float
         Volume of the solid [m³].
     """
+    from manifold3d import CrossSection, JoinType, Manifold
+
     _check_solid(outline, thickness, holes[0][1], groove_depth, groove_width)
     profile = CrossSection([polyline(outline, tolerance) * MM])
     section = profile
@@ -1033,6 +1040,8 @@ def _check_solid(outline, thickness, bore_diameter, groove_depth, groove_width):
 def _hole_section(centre, radius: float, tolerance: float) -> CrossSection:
     """A regular polygon [mm] around the circle of ``radius`` [m] about ``centre`` [m], corners
     within ``tolerance``."""
+    from manifold3d import CrossSection
+
     sides = max(8, int(np.ceil(np.pi / np.arccos(radius / (radius + tolerance)))))
     return CrossSection.circle(radius / np.cos(np.pi / sides) * MM, sides).translate(tuple(np.asarray(centre) * MM))
 
