@@ -19,32 +19,36 @@ def save_png(fig, path, dpi: float) -> None:
     """Write the matplotlib figure ``fig`` to ``path`` as a PNG at ``dpi`` dots per inch,
     atomically: matplotlib's pixels and metadata, without the alpha channel where every pixel
     is opaque (a figure's own white background) and at :data:`COMPRESS_LEVEL`: the same
-    image, encoded in less than half the time. A figure with a layout engine is drawn once
-    (:func:`_laid_out`)."""
-    with atomic_path(path) as tmp, _laid_out(fig, dpi):
+    image, encoded in less than half the time. A figure with a layout engine is laid out and
+    drawn once, with one renderer (:func:`_drawn_once`)."""
+    with atomic_path(path) as tmp, _drawn_once(fig, dpi):
         fig.savefig(_PngFile(tmp, fig, dpi), format="rgba", dpi=dpi)
 
 
 @contextlib.contextmanager
-def _laid_out(fig, dpi: float):
-    """Inside this block ``fig`` is laid out by its layout engine (constrained layout) at
-    ``dpi``, as saving it there lays it out, and has no engine; the engine is given back after
-    it. Matplotlib saves a figure with an engine by drawing every artist twice: a dry draw that
-    runs the layout, then the draw that renders the pixels; laid out here, the figure is drawn
-    once, into the same pixels."""
-    engine = fig.get_layout_engine()
-    if engine is None:
-        yield
-        return
-    before = fig.dpi
-    fig.set_dpi(dpi)
+def _drawn_once(fig, dpi: float):
+    """Inside this block ``fig`` is on an Agg canvas, laid out by its layout engine
+    (constrained layout) at ``dpi``, as saving it there lays it out, and has no engine; its
+    canvas and engine are given back after it. Matplotlib saves a figure with an engine by
+    drawing every artist twice, a dry draw that runs the layout and the draw that renders the
+    pixels, each with a renderer of its own, which measures every text again; here the figure
+    is drawn once, into the same pixels, and the draw measures its texts with the renderer that
+    laid them out."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas, engine, before = fig.canvas, fig.get_layout_engine(), fig.dpi
+    if not isinstance(canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
     try:
-        engine.execute(fig)
-        fig.set_layout_engine(None)
+        if engine is not None:
+            fig.set_dpi(dpi)
+            engine.execute(fig)
+            fig.set_layout_engine(None)
         yield
     finally:
         fig.set_layout_engine(engine)
         fig.set_dpi(before)
+        fig.set_canvas(canvas)
 
 
 class _PngFile:

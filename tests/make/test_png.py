@@ -68,4 +68,4 @@ def test_a_laid_out_figure_is_drawn_once_and_keeps_its_layout_engine(tmp_path, m
     monkeypatch.setattr(Figure, "draw", lambda self, renderer, draw=Figure.draw: draws.append(1) or draw(self, renderer))
     save_png(fig, tmp_path / "figure.png", 110)
     assert len(draws) == 1  # matplotlib's savefig alone draws a constrained figure twice
-    assert fig.get_layout_engine() is engine and fig.dpi == 100
+    assert fig.get_layout_engine() is engine and fig.dpi == 100 and type(fig.canvas).__name__ == "FigureCanvasBase"
