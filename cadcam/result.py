@@ -21,7 +21,7 @@ from .verify.builds import Builds, simulate_builds
 from .verify.tolerance import Band, tolerance_band
 from .files import printable, staged_folder
 from .version import __version__
-from .outputs.forked import Drawer, Drawing
+from .outputs.forked import Drawer
 from .solve.messages import count
 from .outputs.run_files import (ADJUSTMENT_FILE, WorkshopError, figure_drawings, run_file_names, torque_table,
                                  write_outputs, write_workshop_files)
@@ -362,23 +362,21 @@ class Result:
             The set could not be written or swapped in (the earlier one is left whole).
         """
         notes, failure = [], None
-        sheets: list[Drawing] = []
         sizes = self.problem.workshop if workshop == "spec" else workshop
         with staged_folder(Path(directory), "result.json", run_file_names(self.problem, figures, sizes)) as stage:
             outcome = None  # the workshop step's, recorded in result.json beside the design's status
             # the figures need only the design: drawn while this process makes the workshop
-            # files, whose sheets are drawn beside them once those are made; the drawing
+            # files, whose sheets are sent as soon as the outlines are fitted; the drawing
             # processes end before the staging folder is swapped in or removed
             with drawer or Drawer(workers if figures else 1) as drawing:
                 drawing.send(figure_drawings(self, stage) if figures else [])
                 if sizes is not None:
                     try:
-                        notes = write_workshop_files(self, stage, sizes, figures, sheets)
+                        notes = write_workshop_files(self, stage, sizes, figures, drawing.send)
                         outcome = {"status": "written", "files": notes}
                     except WorkshopError as exc:
                         failure = exc
                         outcome = {"status": "failed", "message": str(exc)}
-                drawing.send(sheets)
                 write_outputs(self, stage, False, None, outcome)
                 drawing.wait()
         if failure is not None:

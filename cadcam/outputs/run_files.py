@@ -13,6 +13,7 @@ process making the files imports no matplotlib.
 from __future__ import annotations
 
 import datetime
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -137,12 +138,13 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
 
 def figure_names(problem, history: dict | None = None) -> list[str]:
     """The names of the PNG figures of a design of ``problem``
-    (:func:`cadcam.outputs.plots.figure_makers`), the longest to draw first (three axes of
-    logarithmic ticks), so that workers drawing side by side end together: ``convergence``
-    where IPOPT's iterates are in ``history`` (None: where they may be), ``torque`` and
-    ``springs`` where there are springs, ``output`` for mechanisms with an output law."""
+    (:func:`cadcam.outputs.plots.figure_makers`), the longest to draw first (the mechanism at
+    three poses), so that workers drawing side by side end together: ``profile``,
+    ``convergence`` where IPOPT's iterates are in ``history`` (None: where they may be),
+    ``torque`` and ``springs`` where there are springs, ``output`` for mechanisms with an
+    output law."""
     output = any(mech.output_target is not None for mech in problem.mechanisms)
-    return [*(("convergence",) if history is None or history.get("iteration") else ()), "profile",
+    return ["profile", *(("convergence",) if history is None or history.get("iteration") else ()),
             *(("torque", "springs") if problem.springs else ()), *(("output",) if output else ())]
 
 
@@ -157,13 +159,15 @@ def figure_drawings(result, out: Path) -> list[Drawing]:
 
 
 def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
-                         drawings: list[Drawing] | None = None) -> list[str]:
+                         send: Callable[[list[Drawing]], None] | None = None) -> list[str]:
     """Per profile: DXF, SVG, CSV points and, with ``sheets``, its drawing sheets (:data:`SHEET_FILES`); STL
     on request; then ``verification.json`` and ``verification.md``. A profile whose cable wraps
     a turn or more (a helical groove) gets the groove's centre line ``cam{i}_groove.csv``
     instead: no planar outline holds it. WorkshopError when a profile's files cannot be made.
-    With a list ``drawings``, the sheets are appended to it, to be drawn (and built) by
-    :class:`cadcam.outputs.forked.Drawer`, not drawn here.
+    The sheets need only the outlines and their fit: once the DXFs are fitted they are given to
+    ``send`` (:meth:`cadcam.outputs.forked.Drawer.send`), to be drawn (and built) by the
+    drawing processes while this one writes and checks the other files; drawn here, then,
+    without it.
 
     The outlines and grooves are written as accurately as the design claims (the tolerance of
     :func:`cadcam.outputs.verification.fit_tolerance`, at most ``args.tolerance``), read back
@@ -187,6 +191,16 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
 
     reference = design_reference(result)
     tolerance, chains, checks = _fitted_files(result, out, args, outlines, grooves, datums, reference)
+    if sheets:
+        cable = cable_report(result.problem, result.recheck.metrics)
+        drawings = [drawing for i, outline in outlines.items() for drawing in _sheet_drawings(
+            ev, i, outline, out, args, _part_notes(ev.problem, i, args, tolerance, datums[i], cable,
+                                                   result.installation), owners[i])]
+        if send is None:
+            for drawing in drawings:
+                drawing()
+        else:
+            send(drawings)
     names = {i: f"cam{i + 1}{'_groove.csv' if i in grooves else '.dxf'}" for i in chains}
     checks = _from_files(checks, names)
     points, point_checks, counts = _points_files(result, out, outlines, chains, _polygon_tolerance(tolerance),
@@ -197,12 +211,9 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
               + (" (wound clockwise: the CSV is its mirror image, a helix of the other hand; mirror y)"
                  if _mirrored(ev.problem, i) else "")
               for i, phi_max in grooves.items()]
-    cable = cable_report(result.problem, result.recheck.metrics)
     for i, outline in outlines.items():
-        part = _part_notes(ev.problem, i, args, tolerance, datums[i], cable, result.installation) if sheets else None
         try:
-            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, part, owners[i], drawings,
-                                              counts[i]))
+            notes.append(_write_outline_files(ev, i, outline, out, args, tolerance, counts[i]))
         except ValueError as exc:
             raise WorkshopError(f"cam{i + 1}: {exc}") from exc
     from .file_checks import dxf_rows, model_gap_rows, quantity_rows
@@ -389,27 +400,29 @@ def _polygon_tolerance(tolerance: float) -> float:
     return max(tolerance, WORKSHOP_LIMITS["tolerance"][0])
 
 
-def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, part, mech,
-                         drawings: list[Drawing] | None, points: int) -> str:
-    """The SVG, sheets and STL of profile ``i`` of mechanism ``mech`` (its DXF is written by
-    :func:`_fitted_files`, its ``points`` points by :func:`_points_files`), the sheets
-    (:data:`SHEET_FILES`) stating ``part`` (the fields of a :class:`cadcam.make.drawing.PartNotes`;
-    None: no sheets); returns its line of the summary."""
+def _sheet_drawings(ev, i: int, outline, out: Path, args: Workshop, part: dict, mech) -> list[Drawing]:
+    """The drawing sheets (:data:`SHEET_FILES`) of profile ``i`` of mechanism ``mech`` stating
+    ``part`` (the fields of a :class:`cadcam.make.drawing.PartNotes`), as the drawings of
+    :data:`SHEET_DRAWINGS`, each building the sheets it writes where it is drawn (this process
+    need not import matplotlib), the same date on all."""
+    cam = ev.problem.profiles[i]
+    words = dict(spec=ev.problem.name, drawing=f"cam{i + 1}", date=datetime.date.today().isoformat(),
+                 words=mech.picture)
+    return [Call("cadcam.make.drawing", "save_part_sheets", (
+        {out / f"cam{i + 1}{kind}": SHEET_PAGES[kind] for kind in kinds}, outline, args.bore_diameter,
+        args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name, part, words)) for kinds in SHEET_DRAWINGS]
+
+
+def _write_outline_files(ev, i: int, outline, out: Path, args: Workshop, tolerance: float, points: int) -> str:
+    """The SVG and STL of profile ``i`` (its DXF is written by :func:`_fitted_files`, its
+    ``points`` points by :func:`_points_files`, its sheets drawn from :func:`_sheet_drawings`);
+    returns its line of the summary."""
     from ..make.workshop import holes, write_stl, write_svg
 
-    cam = ev.problem.profiles[i]
     stem = out / f"cam{i + 1}"
     polygon = _polygon_tolerance(tolerance)
     write_svg(stem.with_suffix(".svg"), outline, args.bore_diameter, args.anchor_diameter, tolerance,
               _mirrored(ev.problem, i))
-    if part is not None:
-        # drawn side by side (:data:`SHEET_DRAWINGS`), the same date on all
-        words = dict(spec=ev.problem.name, drawing=f"cam{i + 1}", date=datetime.date.today().isoformat(),
-                     words=mech.picture)
-        for kinds in SHEET_DRAWINGS:
-            _drawn(Call("cadcam.make.drawing", "save_part_sheets", (
-                {out / f"cam{i + 1}{kind}": SHEET_PAGES[kind] for kind in kinds}, outline, args.bore_diameter,
-                args.anchor_diameter, cam.rho_min, cam.rho_max, cam.name, part, words)), drawings)
     note = f"cam{i + 1}: DXF arcs within {1e3 * tolerance:.3g} mm, {points} points at {1e3 * polygon:.3g} mm"
     if args.stl is not None:
         circles = holes(outline, args.bore_diameter, args.anchor_diameter, tolerance)  # as the DXF's

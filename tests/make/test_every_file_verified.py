@@ -28,7 +28,7 @@ KINDS = (".dxf", ".svg", "_points.csv", ".stl", ".step")
 def _written(result, out: Path, sheets: bool = False) -> dict:
     """``result``'s workshop files written into ``out`` (with ``sheets``, their drawing sheets
     built, not drawn), the report read back."""
-    write_workshop_files(result, out, result.problem.workshop, sheets=sheets, drawings=[])
+    write_workshop_files(result, out, result.problem.workshop, sheets=sheets, send=[].extend)
     return json.loads((out / "verification.json").read_text())
 
 

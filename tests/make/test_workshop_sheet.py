@@ -63,7 +63,7 @@ def written(tmp_path_factory):
     assert result.status == "success", result.message
     out = tmp_path_factory.mktemp("sheets")
     drawings = []
-    write_workshop_files(result, out, result.problem.workshop, True, drawings)
+    write_workshop_files(result, out, result.problem.workshop, True, drawings.extend)
     files, *sizes, part, words = next(d for d in drawings if out / "cam1_sheet.pdf" in d.args[0]).args
     assert files[out / "cam1_sheet.pdf"] == (1, 2)
     figures = part_sheets(*sizes, PartNotes(**part), **words)  # the sheets the PDF holds
