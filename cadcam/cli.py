@@ -226,10 +226,11 @@ def _not_written(result, why: str) -> int:
 
 #: The modules ``cadcam design``'s drawing processes draw the figures and sheets with,
 #: imported while the design is made (:class:`cadcam.outputs.forked.Drawer`): matplotlib, with
-#: the backends that draw the PNGs and the PDF and the font subsetting the PDF embeds (0.1 s of
-#: the PDF's). ``--no-figures`` draws none and imports none of them.
+#: the backends that draw the PNGs and the PDF, the font subsetting the PDF embeds (0.1 s of
+#: the PDF's) and the styles that give every drawing matplotlib's defaults. ``--no-figures``
+#: draws none and imports none of them.
 FIGURE_WRITERS = ("cadcam.outputs.plots", "cadcam.make.drawing", "matplotlib.backends.backend_agg",
-                  "matplotlib.backends.backend_pdf", "fontTools.subset")
+                  "matplotlib.backends.backend_pdf", "fontTools.subset", "matplotlib.style")
 
 
 #: The ``cadcam design`` flags that size the workshop files (:class:`cadcam.problem.Workshop`).
