@@ -123,10 +123,20 @@ def _problem_and_design(args):
 
 
 def cmd_design(args) -> int:
+    from .outputs.forked import Drawer
+
+    _check_workshop_args(args)
+    # forked first, the drawing processes import matplotlib while the spec is read and the
+    # design made (ended at once if the input is refused)
+    with Drawer((os.cpu_count() or 1) if args.figures else 1, FIGURE_WRITERS) as drawer:
+        return _designed(args, drawer)
+
+
+def _designed(args, drawer) -> int:
+    """``cadcam design`` of the parsed ``args``, its figures and sheets drawn by ``drawer``."""
     from .api import refuse_unreachable
     from .verify.reachable import advice
 
-    _check_workshop_args(args)
     # each flag given overrides the spec's [workshop] (the NLP designs round the bore it gives);
     # result.json records the sizes used
     flags = {name: getattr(args, name) for name in WORKSHOP_FLAGS if getattr(args, name) is not None}
@@ -140,7 +150,7 @@ def cmd_design(args) -> int:
     try:
         with held_folder(args.output) as out:
             _check_files_are_ours(out, problem, args.figures)
-            return _design_into(args, problem, out)
+            return _design_into(args, problem, out, drawer)
     except _NotWritten as failed:  # out of the folder's hold: the folders this run made are gone if empty
         return _not_written(failed.result, failed.why)
 
@@ -154,15 +164,13 @@ def _check_files_are_ours(out: Path, problem, figures: bool) -> None:
     refuse_files_of_others(out, run_file_names(problem, figures, problem.workshop), "result.json")
 
 
-def _design_into(args, problem, out: Path) -> int:
-    """Design ``problem``, print its summary and write its files into ``out`` (held)."""
+def _design_into(args, problem, out: Path, drawer) -> int:
+    """Design ``problem``, print its summary and write its files into ``out`` (held), the
+    figures and sheets drawn by ``drawer``."""
     from .optimize import optimize
-    from .outputs.forked import Drawer
 
-    # forked before the design, the drawing processes import matplotlib while it is made
-    with Drawer((os.cpu_count() or 1) if args.figures else 1, FIGURE_WRITERS) as drawer:
-        result = optimize(problem)
-        return _saved(args, problem, result, out, drawer)
+    result = optimize(problem)
+    return _saved(args, problem, result, out, drawer)
 
 
 def _saved(args, problem, result, out: Path, drawer) -> int:
