@@ -62,8 +62,15 @@ def written(tmp_path_factory):
     result = optimize(parse_spec(data))
     assert result.status == "success", result.message
     out = tmp_path_factory.mktemp("sheets")
-    drawings = []
-    write_workshop_files(result, out, result.problem.workshop, True, drawings.extend)
+    drawings, there = [], []
+
+    def send(sheets):  # as a Drawer's: what the folder holds when the sheets are sent
+        drawings.extend(sheets)
+        there.extend(path.name for path in out.iterdir())
+
+    write_workshop_files(result, out, result.problem.workshop, True, send)
+    # sent once the DXF is fitted, drawn while the other files are written and checked
+    assert "cam1.dxf" in there and not {"cam1_points.csv", "cam1.svg", "verification.json"} & set(there)
     files, *sizes, part, words = next(d for d in drawings if out / "cam1_sheet.pdf" in d.args[0]).args
     assert files[out / "cam1_sheet.pdf"] == (1, 2)
     figures = part_sheets(*sizes, PartNotes(**part), **words)  # the sheets the PDF holds
