@@ -4,9 +4,10 @@ write them into a folder.
 
 The figures (matplotlib) and the workshop files (ezdxf, manifold3d) are imported where they are
 written, so that importing cadcam — in every sweep worker, for ``cadcam evaluate`` — does not
-load them. Drawing the figures and the sheets is most of a small design's time; given a list,
-the writers append them to it as drawings, which the drawing processes of
-:class:`cadcam.outputs.forked.Drawer` draw side by side on the cores: each a
+load them. Drawing the figures and the sheets is most of a small design's time; the writers
+hand them on as drawings (the figures appended to a list, the sheets sent as soon as they can
+be drawn), which the drawing processes of :class:`cadcam.outputs.forked.Drawer` draw side by
+side on the cores: each a
 :class:`cadcam.outputs.forked.Call` that builds its figure where it is drawn, so that the
 process making the files imports no matplotlib.
 """
