@@ -11,6 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from cadcam.cli import main
@@ -20,8 +21,11 @@ from cadcam.optimize import MARGIN_STEP, _raised_margins, optimize, solve, start
 from cadcam.physics.catalogue import load_catalogue
 from cadcam.solve.builds import built_for
 from cadcam.spec import parse_spec, read_spec_data
-from cadcam.sweep.springs import (NEIGHBOUR_SPAN, TABLE_COLUMNS, _spec_problem, design_part, nearest_start,
-                                  part_spec, search, verdict, with_part)
+from cadcam.solve.blocks import LENGTH_SCALE
+from cadcam.solve.ipopt import Multipliers
+from cadcam.solve.variables import _Vars
+from cadcam.sweep.springs import (NEIGHBOUR_SPAN, TABLE_COLUMNS, _spec_problem, design_part, force_matched,
+                                  matched_point, nearest_start, part_spec, search, verdict, with_part)
 from cadcam.verify.evaluate import evaluate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -76,6 +80,27 @@ def test_the_nearest_solved_spring_within_the_span_starts_a_design():
     # beyond the span from every solved spring: the default start
     assert nearest_start((1000.0 * math.exp(2.0 * 1.01 * NEIGHBOUR_SPAN), 5.0), solved[:1], scales) is None
     assert nearest_start((1000.0, 5.0), [], scales) is None
+
+
+def test_a_neighbours_nlp_point_starts_with_the_matched_pre_extension():
+    """The warm start's point is where IPOPT starts: the pre-extension force_matched moved is
+    put there, and nothing else in the point changes."""
+    problem = with_part(_spec_problem(SPEC), 0, FITS, None)
+    design = start_design(problem)[1]
+    v = _Vars("w")
+    v.add("c", 3, 0), v.add("x", 1, 0)
+    warm = Multipliers(np.zeros(4), np.zeros(2), False, np.array([1.0, 2.0, 3.0, 4.0]))
+    tr = SimpleNamespace(v=v)
+    spring = problem.springs[0]
+    # a neighbour of the same rate and 1 N less initial tension: the part pulls as hard 1/k earlier
+    neighbour = replace(design, preextension=np.array([4.0 * LENGTH_SCALE]))
+    moved = force_matched(neighbour, 0, (spring.rate, spring.preload - 1.0), spring, 0.01)
+    assert moved.preextension[0] == pytest.approx(4.0 * LENGTH_SCALE - 1.0 / spring.rate)
+    matched = matched_point(tr, warm, moved, 0)
+    assert list(matched.x) == [1.0, 2.0, 3.0, pytest.approx(moved.preextension[0] / LENGTH_SCALE)]
+    assert list(warm.x) == [1.0, 2.0, 3.0, 4.0]  # the neighbour's own is kept as it was
+    assert matched_point(tr, warm, neighbour, 0) is warm  # nothing moved
+    assert matched_point(tr, None, moved, 0) is None
 
 
 def _fine(convexity=0.0, rho_min=0.0, rho_max=0.0):

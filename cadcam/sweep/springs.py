@@ -29,7 +29,8 @@ from ..errors import SpecError
 from ..physics.catalogue import Catalogue, Need, Screen, Slack, room_arms, screen
 from ..physics.springs import Spring
 from ..problem import Problem
-from ..solve.ipopt import IMPOSE_OPTIONS, SEARCH_IMPOSE_IPOPT
+from ..solve.blocks import LENGTH_SCALE
+from ..solve.ipopt import IMPOSE_OPTIONS, SEARCH_IMPOSE_IPOPT, Multipliers
 from ..solve.stall import STALL_STATUS, StallRule, stall_rule
 
 #: Points of the joint's range the target's work and peak torque are taken on.
@@ -250,9 +251,10 @@ def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: di
                                 start["extension"]) if start else None)
         with search_solves():
             tr, _ = built_for(problem)
+            warm = matched_point(tr, start.get("multipliers"), design, j) if start else None
             # a warm start that fails is not tried again from the default start: on the tutorial's
             # catalogue that retry seldom converged and cost more than the springs that did
-            result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", start.get("multipliers"),
+            result = warm_optimize(problem, tr, design, None, f"part {start.get('part')}", warm,
                                    refine=SEARCH_REFINE, margins=start.get("margins"), retry=False)
         row.update(status=result.status, message=result.message, iterations=result.solve.iterations,
                    violations=result.recheck.violations if not result.success else [],
@@ -287,6 +289,23 @@ def force_matched(design: Design, j: int, was: tuple[float, float], spring: Spri
     pre = np.array(design.preextension, dtype=float)
     pre[j] = moved
     return replace(design, preextension=pre)
+
+
+def matched_point(tr, warm: Multipliers | None, design: Design, j: int) -> Multipliers | None:
+    """``warm``, a neighbour's multipliers and NLP point, with spring ``j``'s pre-extension in
+    that point made ``design``'s (:func:`force_matched`'s, in the build ``tr``): a warm start
+    starts IPOPT at the answer's own NLP point where it holds one
+    (:meth:`cadcam.solve.transcription.Transcription.solve`), not at the design given beside
+    it, so the matched pre-extension is put where the solve reads it."""
+    if warm is None or warm.x is None:
+        return warm
+    x = np.array(warm.x, dtype=float)
+    pre = tr.v.part(x, "x0").copy()
+    if pre[j] * LENGTH_SCALE == design.preextension[j]:
+        return warm
+    pre[j] = design.preextension[j] / LENGTH_SCALE
+    tr.v.put(x, "x0", pre)
+    return replace(warm, x=x)
 
 
 def _largest(values) -> float | None:
