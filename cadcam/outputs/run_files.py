@@ -5,7 +5,7 @@ write them into a folder.
 The figures (matplotlib) and the workshop files (ezdxf, manifold3d) are imported where they are
 written, so that importing cadcam — in every sweep worker, for ``cadcam evaluate`` — does not
 load them. Drawing the figures and the sheets is most of a small design's time; the writers
-hand them on as drawings (the figures appended to a list, the sheets sent as soon as they can
+hand them on as drawings (the figures at once, the sheets as soon as they can
 be drawn), which the drawing processes of :class:`cadcam.outputs.forked.Drawer` draw side by
 side on the cores: each a
 :class:`cadcam.outputs.forked.Call` that builds its figure where it is drawn, so that the
@@ -101,15 +101,15 @@ def write_torque_csv(path: Path, ev) -> None:
     write_csv(path, *torque_table(ev))
 
 
-def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawing] | None = None,
+def write_outputs(result, out: Path, figures: bool = True, send: Callable[[list[Drawing]], None] | None = None,
                   workshop: dict | None = None) -> None:
     """``result.json``, ``torque.csv`` (design grid), ``torque_recheck.csv`` (the fine re-check
     grid), ``profile.csv``, for adjusted builds the adjustment table :data:`ADJUSTMENT_FILE`,
     with ``figures`` the PNG figures (torque and springs only if there are springs,
     ``convergence.png`` if the solver recorded IPOPT's iterates) and, for
     mechanisms with an output law (a differential pair's idler distance), ``output.csv`` (and
-    ``output.png``) in ``out``. With a list ``drawings``, the figures are appended to it
-    (:func:`figure_drawings`), to be drawn by :class:`cadcam.outputs.forked.Drawer`, not drawn
+    ``output.png``) in ``out``. With ``send``, the figures (:func:`figure_drawings`) are given to
+    it to be drawn by :class:`cadcam.outputs.forked.Drawer` (:func:`_hand_on`), not drawn
     here. ``workshop``: the workshop step's
     outcome (``status`` ``written`` with its ``files``, or ``failed`` with its ``message``),
     recorded in ``result.json`` beside the design's own status."""
@@ -133,8 +133,7 @@ def write_outputs(result, out: Path, figures: bool = True, drawings: list[Drawin
             cols += [ev.units[u].z[mech.unknowns.index(mech.output)], xd, output_error(mech, ev.units[u])]
         write_csv(out / "output.csv", header, np.column_stack(cols))
     if figures:
-        for drawing in figure_drawings(result, out):
-            _drawn(drawing, drawings)
+        _hand_on(figure_drawings(result, out), send)
 
 
 def figure_names(problem, history: dict | None = None) -> list[str]:
@@ -197,11 +196,7 @@ def write_workshop_files(result, out: Path, args: Workshop, sheets: bool = True,
         drawings = [drawing for i, outline in outlines.items() for drawing in _sheet_drawings(
             ev, i, outline, out, args, _part_notes(ev.problem, i, args, tolerance, datums[i], cable,
                                                    result.installation), owners[i])]
-        if send is None:
-            for drawing in drawings:
-                drawing()
-        else:
-            send(drawings)
+        _hand_on(drawings, send)
     names = {i: f"cam{i + 1}{'_groove.csv' if i in grooves else '.dxf'}" for i in chains}
     checks = _from_files(checks, names)
     points, point_checks, counts = _points_files(result, out, outlines, chains, _polygon_tolerance(tolerance),
@@ -446,10 +441,11 @@ def _write_step(path: Path, outline, args: Workshop, tolerance: float, circles: 
     return f", STEP {volume * 1e9:.0f} mm³"
 
 
-def _drawn(drawing: Drawing, drawings: list[Drawing] | None) -> None:
-    """Draw ``drawing`` now, or append it to ``drawings`` (a list) to be drawn by
-    :class:`cadcam.outputs.forked.Drawer`."""
-    if drawings is None:
-        drawing()
+def _hand_on(drawings: list[Drawing], send: Callable[[list[Drawing]], None] | None) -> None:
+    """Give ``drawings`` to ``send`` (:meth:`cadcam.outputs.forked.Drawer.send`), to be drawn by
+    the drawing processes; without ``send``, draw them here."""
+    if send is None:
+        for drawing in drawings:
+            drawing()
     else:
-        drawings.append(drawing)
+        send(drawings)

@@ -87,8 +87,8 @@ class _Watch(ca.Callback):
     def eval(self, arg):
         # read from the rule's iteration on: the solver's stats hold its whole history and cost
         # more to read than an iteration of a small NLP takes to evaluate; a run called back
-        # fewer times than that has not reached the rule's iteration (CasADi records each iterate before it calls back:
-        # the run's own, this one last)
+        # fewer times than that has not reached the rule's iteration (CasADi records each
+        # iterate before it calls back: the run's own, this one last)
         self.calls += 1
         if self.calls <= self.rule.iteration:
             return [0.0]
