@@ -186,6 +186,10 @@ class Drawer:
             A drawing's error, as it raised it; no drawing starts after it.
         DrawingProcessError
             A process ended without reporting (killed, out of memory).
+        KeyboardInterrupt
+            A process was ended by a stopping signal (:data:`cadcam.interrupts.STOPPING`): a
+            hang-up or ``kill`` of the process group stops the run, whether or not this
+            process has handled its own copy of the signal yet.
         """
         if self.process is None:
             return
@@ -203,6 +207,8 @@ class Drawer:
                 try:
                     error = pickle.loads(receiver.recv_bytes())
                 except EOFError:  # nothing sent: the process was killed
+                    if -code in STOPPING:  # stopped as the run is: a hang-up or kill of the group
+                        raise KeyboardInterrupt from None
                     how = f"by signal {-code}" if code < 0 else f"with exit code {code}"
                     raise DrawingProcessError(f"a process drawing the figures ended {how} (killed, or out of "
                                               "memory?)") from None

@@ -1,5 +1,5 @@
 """Drawings side by side: forked from a process of one Python thread, the first error comes
-back as raised, a worker killed is named, Ctrl-C (twice) and the parent's death end every
+back as raised, a worker killed is named (one ended by a stopping signal interrupts), Ctrl-C (twice) and the parent's death end every
 worker, and with other threads running nothing is forked."""
 import os
 import signal
@@ -26,6 +26,8 @@ def fail():
     raise ValueError("this drawing failed")
 def killed():
     os.kill(os.getpid(), signal.SIGKILL)
+def hung_up():
+    os.kill(os.getpid(), signal.SIGHUP)
 print(os.getpid(), flush=True)
 """
 
@@ -79,6 +81,14 @@ def test_a_worker_killed_while_drawing_is_named(tmp_path):
     code, _, stderr = _run("draw([killed, partial(mark, 'd0')], 2)", tmp_path)
     assert code == 1
     assert "DrawingProcessError: a process drawing the figures ended by signal 9" in stderr
+
+
+def test_a_worker_ended_by_a_stopping_signal_stops_the_run_as_the_signal_does(tmp_path):
+    """A hang-up of the process group can end a drawing process before this one has handled
+    its own copy: the run is interrupted, not failed."""
+    code, _, stderr = _run("draw([hung_up, partial(mark, 'd0')], 2)", tmp_path)
+    assert code != 0 and stderr.strip().endswith("KeyboardInterrupt"), stderr
+    assert "DrawingProcessError" not in stderr
 
 
 def test_ctrl_c_twice_ends_every_worker_and_the_run(tmp_path):
