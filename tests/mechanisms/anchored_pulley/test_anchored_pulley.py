@@ -1,7 +1,7 @@
 """The anchored-spring pulley (cadcam/mechanisms/anchored_pulley/model.py; Ludovico2021 Sec. II after
 Kim & Deshpande, Endo2010 Sec. II) against closed forms, world geometry, virtual work, the
-paper's closed-form pulley, solved designs and an independent model fed only the files
-``cadcam design`` writes (tests/mechanisms/anchored_pulley/independent_anchored_pulley.py).
+paper's closed-form pulley and solved designs; the independent model fed only the files
+``cadcam design`` writes is tests/mechanisms/anchored_pulley/test_independent_pulley.py's.
 
 Ludovico2021's closed-form infeasibility findings for the generic torque (Eq. 39: pulley 2
 non-regular at 0.916 rad, pulley 1's curvature zero at π − 0.546 rad) are asserted to ±0.01 rad
@@ -10,22 +10,20 @@ and are not repeated here.
 
 SI units throughout: m, N, N/m, rad, N·m.
 """
+import contextlib
 import dataclasses
-import json
-import subprocess
-import sys
+import io
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import cadcam
+from cadcam.cli import main
 from cadcam.mechanisms.anchored_pulley.starts import closed_form_start
 from cadcam.optimize import default_start
 from cadcam.physics.profile import Basis, profile_function
 from cadcam.mechanisms.anchored_pulley.kim_deshpande import closed_form
-
-from . import independent_anchored_pulley as ind
 
 ROOT = Path(__file__).resolve().parents[3]
 PENDULUM = ROOT / "models" / "ludovico2021_pendulum.toml"
@@ -37,7 +35,6 @@ TAU_MAX, LAMBDA, D_OFF = 147.1, 0.5, 79.6
 SHARES = {0: lambda th: -(LAMBDA * TAU_MAX * np.cos(th) + D_OFF),
           1: lambda th: -(1 - LAMBDA) * TAU_MAX * np.cos(th) + D_OFF}
 END = (0.05, -0.20)  # m: the circle tests' spring end at θ = 0, off the axes
-CHORD = 1e-5  # m: the chordal tolerance cam*_points.csv is written at (the CLI default, 0.01 mm)
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -337,23 +334,22 @@ BAD = {  # key: (original text in pulley 1's table, replacement)
 
 @pytest.fixture(scope="module")
 def bad_runs(tmp_path_factory):
-    """Run `cadcam design` on every malformed copy of the pendulum spec, all at once."""
+    """Run `cadcam design` on every malformed copy of the pendulum spec, in this process (the
+    command's exit code, stdout and stderr are :func:`cadcam.cli.main`'s; that a refusal by the
+    console command ends the same way is tests/test_spec_errors.py's
+    test_no_traceback_from_the_command)."""
     base = tmp_path_factory.mktemp("bad")
     text = PENDULUM.read_text()
-    runs = {}
+    done = {}
     for name, (old, new) in BAD.items():
         assert old in text
         spec = base / f"{name}.toml"
         spec.write_text(text.replace(old, new, 1))
         out = base / f"out_{name}"
-        proc = subprocess.Popen([sys.executable, "-m", "cadcam", "design", str(spec),
-                                 "-o", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True, cwd=ROOT)
-        runs[name] = (proc, out)
-    done = {}
-    for name, (proc, out) in runs.items():
-        stdout, stderr = proc.communicate(timeout=120)
-        done[name] = (proc.returncode, stdout, stderr, out)
+        stdout, stderr = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            code = main(["design", str(spec), "-o", str(out)])
+        done[name] = (code, stdout.getvalue(), stderr.getvalue(), out)
     return done
 
 
@@ -375,100 +371,3 @@ def test_boolean_sense_is_refused():
     data = circle_spec("pulley", "ccw", True, 0.03)
     with pytest.raises(cadcam.SpecError, match=r"mechanisms\[1\]\.sense"):
         cadcam.parse_spec(data)
-
-
-# ----------------------------------------------------------------------------- 8. third party
-
-def test_independent_model_on_a_polygonal_circle():
-    """The independent model alone (no cadcam): a regular polygon inscribed in a circle of
-    radius R with chordal sag δ, for each turning/winding/sense, gives σ(kx + F0)R with
-    x = x0 + Rσ(θ − θ_ref) — the σ of the docs derived here from world rotations alone. The
-    polygon's moment arm is off the circle's by ≤ δ and its extension by ≤ δ·|θ − θ_ref|, hence
-    the tolerance F·δ + kRδ|θ − θ_ref| (plus 1e-9 N·m for the central difference)."""
-    R, ell, k, F0, x0, ref, delta = 0.03, 0.2, 1000.0, 5.0, 0.05, 0.1, CHORD
-    n = int(np.ceil(np.pi / np.arccos(1 - delta / R)))
-    phi = 2 * np.pi * np.arange(n) / n
-    outline = R * np.c_[np.cos(phi), np.sin(phi)]
-    theta = np.linspace(-0.4, 0.6, 9)
-    for turning in ("pulley", "spring_end"):
-        for winding, w in (("ccw", 1.0), ("cw", -1.0)):
-            for sense in (1.0, -1.0):
-                sigma = w * sense * (-1.0 if turning == "pulley" else 1.0)
-                end = ell * np.array([np.cos(-1.2), np.sin(-1.2)])
-                # anchor 1.5 rad behind the tangent point at θ = 0: always wound
-                anchor = -1.2 - w * (np.arccos(R / ell) + 1.5)
-                pulley = ind.Pulley(outline, end, turning, sense, winding, anchor, ref)
-                system = ind.PulleySystem((pulley,), (k,), (F0,), (x0,), (((1.0, 0),),))
-                x = x0 + R * sigma * (theta - ref)
-                dx = np.abs(ind.extensions(system, theta)[0] - x)
-                assert np.all(dx <= delta * np.abs(theta - ref) + 1e-12), dx
-                tol = (k * x + F0) * delta + k * R * delta * np.abs(theta - ref) + 1e-9
-                dtau = np.abs(ind.torque(system, theta) - sigma * (k * x + F0) * R)
-                assert np.all(dtau <= tol), (dtau, tol)
-
-
-@pytest.fixture(scope="module")
-def designed_folder(tmp_path_factory):
-    """models/ludovico2021_pendulum.toml designed and written as `cadcam design PENDULUM
-    --tolerance 1e-05 --cable-diameter 0` designs and writes it (the spec's grid, 46: from the
-    default start the coarser grids 21–36 do not converge), workshop polygons at 0.01 mm, under
-    an ideal cable: the independent model wraps a thread on the polygon (a cable's diameter, the
-    cut outline inside its centre line, is checked from the DXF by
-    tests/make/test_file_accuracy.py). In this process, as the command does it (the flags
-    replace the spec's workshop sizes; its files are :meth:`Result.save`'s), without the
-    figures, which nothing here reads."""
-    out = tmp_path_factory.mktemp("pendulum") / "out"
-    problem = cadcam.load_problem(PENDULUM)
-    problem = dataclasses.replace(problem, workshop=dataclasses.replace(problem.workshop, tolerance=CHORD,
-                                                                        cable_diameter=0.0))
-    result = cadcam.optimize(problem)
-    assert result.success, result.message
-    result.save(out, figures=False)
-    return out
-
-
-def test_independent_model_reproduces_the_cli_torque(designed_folder):
-    """A third party's torque from cam{i}_points.csv and result.json alone agrees with
-    torque_recheck.csv at 11 angles across the range.
-
-    Tolerance, from the polygon: its chords lie within δ = 0.01 mm of the outline, so the
-    tangent from the spring end to the polygon is within ≈ δ of the true cable line: each
-    pulley's moment arm is off by ≲ δ and its extension by ≲ δ·|θ − θ_ref| ≤ δ·Δθ. With
-    F ≤ F_max (from the CSV's extensions) and a moment arm ≤ the polygon's largest radius
-    ρ_max, pulley u's torque is off by ≲ δ(F_max + k ρ_max Δθ): ≈ 0.12 N·m for the pair, 0.1 %
-    of the 127 N·m peak (measured 0.020 N·m). Extensions are compared to δ·Δθ (measured
-    6.3e-6 m). The departure polar angles must also reach the re-check's α_max (a polygon
-    vertex, since the outline has one at the end of the designed arc)."""
-    system = ind.load_system(designed_folder)
-    result = json.loads((designed_folder / "result.json").read_text())
-    assert result["status"] == "success"
-    lines = (designed_folder / "torque_recheck.csv").read_text().splitlines()
-    header = lines[0].split(",")
-    assert header == ["theta1_rad", "tau1_Nm", "tau_d1_Nm", "error1_Nm", "x1_m", "x2_m"]
-    table = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
-    col = {h: table[:, i] for i, h in enumerate(header)}
-    rows = np.linspace(0, len(table) - 1, 11).round().astype(int)
-    theta = col["theta1_rad"][rows]
-    span = np.ptp(col["theta1_rad"])
-
-    x = ind.extensions(system, theta)
-    for j in range(2):
-        np.testing.assert_allclose(x[j], col[f"x{j + 1}_m"][rows], rtol=0, atol=CHORD * span)
-
-    tau = ind.torque(system, theta)
-    bound = 0.0
-    for j, (k, f0) in enumerate(zip(system.rates, system.preloads)):
-        f_max = (k * col[f"x{j + 1}_m"] + f0).max()
-        rho_max = np.hypot(*system.pulleys[j].outline.T).max()
-        bound += CHORD * (f_max + k * rho_max * span)
-    peak = np.abs(col["tau1_Nm"]).max()
-    err = np.abs(tau - col["tau1_Nm"][rows]).max()
-    print(f"independent vs cadcam: max |Δτ| = {err:.4g} N·m, bound {bound:.3g} N·m, "
-          f"peak {peak:.4g} N·m")
-    assert bound < 0.005 * peak
-    assert err <= bound
-
-    for u, p in enumerate(system.pulleys):
-        _, D, _ = ind.departure(p, col["theta1_rad"])
-        phi = np.arctan2(D[:, 1], D[:, 0])
-        assert phi.max() == pytest.approx(result["recheck"]["alpha_max"][u], abs=1e-9)
