@@ -98,6 +98,14 @@ def problem_1dof():
 
 
 @pytest.fixture(scope="session")
+def result_1dof(problem_1dof):
+    """The 1-DOF model optimized as its spec states it (no files written): solved once per test
+    worker for every module that reads that optimum. Read it, never change it (a test that
+    alters a result alters a copy)."""
+    return cadcam.optimize(problem_1dof)
+
+
+@pytest.fixture(scope="session")
 def rr_problem():
     return load_spec(SPEC_RR)
 

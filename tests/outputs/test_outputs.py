@@ -25,8 +25,8 @@ from ..conftest import ROOT, SPEC_1DOF, SPEC_RR, TABLE3
 
 
 @pytest.fixture(scope="module")
-def demo():
-    return optimize(load_spec(SPEC_1DOF))
+def demo(result_1dof):
+    return result_1dof
 
 
 @pytest.fixture

@@ -27,9 +27,7 @@ from hypothesis import strategies as st
 from cadcam.cli import main
 from cadcam.files import MANIFEST, NotCadcams, recorded_sets, remove_leftovers, staged_folder
 from cadcam.make import step
-from cadcam.optimize import optimize
 from cadcam.outputs.run_files import run_file_names
-from cadcam.spec import load_spec
 
 from ..conftest import SPEC_1DOF
 
@@ -66,11 +64,11 @@ class Made(tuple):
 
 
 @pytest.fixture(scope="module")
-def made(tmp_path_factory):
+def made(tmp_path_factory, result_1dof):
     """The design and its two sets, ``full`` and ``lean``. The full set has no STEP solid even
     where build123d is installed: it takes longer than the rest of the module, and its name is
     one more of the set's, swapped like the STL's (``run_file_names`` foresees it)."""
-    result = optimize(load_spec(SPEC_1DOF))
+    result = result_1dof
     root = tmp_path_factory.mktemp("sets")
     solids = result.problem.workshop.with_solids()
     with pytest.MonkeyPatch.context() as patch:

@@ -160,8 +160,8 @@ def test_malformed_designs_are_refused(tmp_path, capsys, change, message):
 
 
 @pytest.fixture(scope="module")
-def demo():
-    return optimize(load_spec(SPEC_1DOF))
+def demo(result_1dof):
+    return result_1dof
 
 
 @pytest.mark.slow  # a whole cadcam design with every file: make test-slow
