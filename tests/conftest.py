@@ -21,6 +21,10 @@ SPEC_1DOF = ROOT / "models" / "johnston2023_1dof.toml"
 SPEC_RR = ROOT / "models" / "johnston2023_rr_arm.toml"
 TABLE3 = ROOT / "models" / "johnston2023_table3_design.json"
 TABLE4 = ROOT / "models" / "johnston2023_table4_design.json"
+#: Ludovico2021's inverted pendulum balanced by an antagonistic pair of anchored pulleys.
+SPEC_PENDULUM = ROOT / "models" / "ludovico2021_pendulum.toml"
+#: A pendulum balanced by a radial cam on a translating roller follower.
+SPEC_ROLLER = ROOT / "models" / "roller_follower_pendulum.toml"
 #: A package outside cadcam that adds a mechanism through the entry-point group.
 PLUGIN = ROOT / "tests" / "plugin"
 
@@ -103,6 +107,21 @@ def result_1dof(problem_1dof):
     worker for every module that reads that optimum. Read it, never change it (a test that
     alters a result alters a copy)."""
     return cadcam.optimize(problem_1dof)
+
+
+@pytest.fixture(scope="session")
+def pendulum_result():
+    """The Ludovico2021 pendulum designed as its spec states it (``cadcam.design``, no files
+    written): solved once per test worker for every module that reads that optimum. Read it,
+    never change it."""
+    return cadcam.design(SPEC_PENDULUM)
+
+
+@pytest.fixture(scope="session")
+def roller_result():
+    """The roller follower's pendulum balancer designed as its spec states it
+    (``cadcam.design``, no files written), once per test worker. Read it, never change it."""
+    return cadcam.design(SPEC_ROLLER)
 
 
 @pytest.fixture(scope="session")

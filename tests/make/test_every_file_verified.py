@@ -20,7 +20,6 @@ from cadcam.outputs.verification import (MODEL_GAP_SHARE, PEAK_SHARE, POINTS_SHA
                                          verdict)
 from cadcam.verify.file_model import read_dxf, read_points
 
-SPEC = Path(__file__).resolve().parents[2] / "models" / "roller_follower_pendulum.toml"
 #: The workshop files a planar part has (its drawing sheets are not written here).
 KINDS = (".dxf", ".svg", "_points.csv", ".stl", ".step")
 
@@ -33,10 +32,10 @@ def _written(result, out: Path, sheets: bool = False) -> dict:
 
 
 @pytest.fixture(scope="module")
-def roller(tmp_path_factory):
+def roller(tmp_path_factory, roller_result):
     """The roller follower's cam designed and its files written (with an STL and, with the extra
     ``step``, a STEP; its sheets built, not drawn): the result, the folder and the report."""
-    result = cadcam.design(SPEC)
+    result = roller_result
     out = tmp_path_factory.mktemp("roller")
     return result, out, _written(result, out, sheets=True)
 

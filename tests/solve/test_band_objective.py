@@ -12,7 +12,7 @@ from cadcam.spec import SpecError, parse_spec, read_spec_data
 from cadcam.verify.evaluate import mechanism_samples
 from cadcam.verify.tolerance import tolerance_band
 
-from ..conftest import ROOT, SPEC_1DOF, SPEC_RR
+from ..conftest import SPEC_1DOF, SPEC_RR
 
 #: Its designs with and without a band weight: too slow for make test's five minutes (make test-slow).
 pytestmark = pytest.mark.slow
@@ -134,13 +134,13 @@ def test_the_band_weight_is_read_checked_and_written():
     assert parse_spec(read_spec_data(SPEC_1DOF), "1dof").joints[0].band_weight == 0.0
 
 
-def test_the_nlps_band_is_the_reported_band_for_a_pair_of_anchored_pulleys():
+def test_the_nlps_band_is_the_reported_band_for_a_pair_of_anchored_pulleys(pendulum_result):
     """Ludovico2021's antagonistic pair: two mechanisms on one joint, each with a placed length
     and a placed angle (the spring end's ℓ and χ₀, misplaced by the tolerance over ℓ), and an
     anchored cable whose wrapped length grows with the profile's offset. The banded NLP's
     functions are mapped (its band is the same function of the variables; expanded, the NLP
     takes some 20 s to build)."""
-    off = cadcam.design(ROOT / "models" / "ludovico2021_pendulum.toml")
+    off = pendulum_result
     problem = cadcam.load_problem(off.problem, functions="mapped", overrides={"joints.*.band_weight": 1.0})
     nlp, tr = _nlp_band(problem, off.design)
     assert {tr.v.families[pos][0] for _, pos, _ in tr._band_splits} == {"bsp", "bqp", "bfp"}

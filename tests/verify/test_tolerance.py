@@ -20,10 +20,9 @@ H = 1e-6  # relative step of the finite differences
 
 
 @pytest.fixture(scope="module")
-def pair():
-    result = cadcam.design(SPEC)
-    assert result.success
-    return result
+def pair(pendulum_result):
+    assert pendulum_result.success
+    return pendulum_result
 
 
 def test_the_bands_model_gives_the_evaluations_torque_at_its_poses(pair):

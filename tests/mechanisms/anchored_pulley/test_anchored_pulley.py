@@ -201,14 +201,9 @@ def test_antagonistic_pair_torque_is_the_sum_of_its_pulleys(pendulum):
 
 # ----------------------------------------------------------------------------- 3, 6. solved
 
-@pytest.fixture(scope="module")
-def pendulum_result(pendulum):
-    """The spec as written (grid 46, its default start)."""
-    return cadcam.optimize(pendulum)
-
-
 def test_pendulum_is_designed_and_passes_its_recheck(pendulum_result):
-    """`optimize` on models/ludovico2021_pendulum.toml converges and its fine re-check (451
+    """The spec as written (grid 46, its default start; tests/conftest.py's pendulum_result):
+    `cadcam.design` of models/ludovico2021_pendulum.toml converges and its fine re-check (451
     angles, rootfinder + 48-point quadrature) holds every limit with a largest torque error
     below 1e-3 N·m (measured 4.6e-6 N·m; Ludovico2021's own QCQP design misses by 2.2 N·m, so
     1e-3 still separates a converged minimax optimum from a merely feasible pulley)."""

@@ -26,8 +26,8 @@ MASS, LENGTH, G = 0.5, 0.1, 9.81  # the spec's pendulum: tau_d = m g l sin(theta
 
 
 @pytest.fixture(scope="module")
-def result():
-    return cadcam.design(SPEC)
+def result(roller_result):
+    return roller_result
 
 
 @pytest.fixture(scope="module")

@@ -144,7 +144,8 @@ def test_spec_workshop_table_sizes_the_files_and_a_flag_overrides_it(tmp_path):
     spec.write_text(SPEC_1DOF.read_text().replace(
         "[workshop]\n", "[workshop]\nbore_diameter = 0.005\nanchor_diameter = 0.002\n", 1))
     out = tmp_path / "o"
-    assert main(["design", str(spec), "-o", str(out), "--no-figures", "--bore-diameter", "0.004"]) == 0
+    # a grid of 12 (the sizes the files are cut to are the workshop's, whatever the design grid)
+    assert main(["design", str(spec), "-o", str(out), "--no-figures", "--grid", "12", "--bore-diameter", "0.004"]) == 0
     holes = ezdxf.readfile(out / "cam1.dxf").modelspace().query('CIRCLE[layer=="HOLES"]')
     assert sorted(c.dxf.radius for c in holes) == pytest.approx([1.0, 2.0])  # anchor from the spec, bore from the flag
     workshop = json.loads((out / "result.json").read_text())["problem"]["workshop"]
