@@ -245,7 +245,10 @@ def _open(page, name: str) -> None:
         page.locator(".template select").select_option(label=template.title)
         page.get_by_text(f"open {name}.toml").wait_for(timeout=PAGE_WAIT_S * 1e3)
         # a template opened starts a history of its own: its first design shown, not the last one's
+        # (whose history may say "design 1 of 1" too, and whose form stays until the new design
+        # is shown: its summary names the spec)
         page.locator(".history-line").get_by_text("design 1 of 1").wait_for(timeout=PAGE_WAIT_S * 1e3)
+        page.locator(".details").get_by_text(f"{name}:").wait_for(timeout=PAGE_WAIT_S * 1e3)
     deadline = time.monotonic() + PAGE_WAIT_S
     while (page.locator(f".slider-{SLIDER} .noUi-handle").count() == 0 or page.locator("span.solving").count()
            or not page.locator("span.verdict-success").count()
