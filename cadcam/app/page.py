@@ -491,8 +491,11 @@ class DesignPage:
             if error:
                 self._show_error(key, error)
                 return
-            self._show_error(None, None)
-            self._show_values([key, *(k for k, leader in self.state.links.items() if leader == key)])
+            # the field, its slider and those in step with it in one message: else a message
+            # each, whose making holds a slider's step back from its design
+            with self.drawing():
+                self._show_error(None, None)
+                self._show_values([key, *(k for k, leader in self.state.links.items() if leader == key)])
         elif not final:
             return  # the page showing a value (a typed edit, a step back): no move
         if final:
