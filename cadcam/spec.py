@@ -13,6 +13,7 @@ import functools
 import json
 import math
 import os
+import pickle
 import re
 import sys
 import tomllib
@@ -1072,10 +1073,22 @@ def read_spec_data(path, variant: str | None = None, overrides=()) -> dict:
                             f"not {type(data).__name__}")
     else:
         try:
-            data = loads_toml(text)
+            data = pickle.loads(_document(text))
         except tomllib.TOMLDecodeError as exc:
             raise SpecError(f"{path}: not valid TOML ({exc})") from None
     return with_overrides(data, str(path), variant, overrides)
+
+
+#: How many specs' TOML documents are kept parsed, by their text (:func:`_document`).
+KEPT_DOCUMENTS = 16
+
+
+@functools.lru_cache(maxsize=KEPT_DOCUMENTS)
+def _document(text: str) -> bytes:
+    """The TOML document ``text`` parsed (:func:`cadcam.files.loads_toml`), pickled: each read
+    unpickles a copy of its own to apply its overrides to. A design page reads its spec again
+    at every step of a slider, and parsing the TOML cost more than a copy."""
+    return pickle.dumps(loads_toml(text))
 
 
 def with_overrides(data: dict, origin: str, variant: str | None = None, overrides=()) -> dict:

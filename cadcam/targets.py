@@ -9,8 +9,10 @@ from __future__ import annotations
 import ast
 import csv
 import io
+import pickle
 import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Callable
 
@@ -483,6 +485,24 @@ for _kind in (TargetKind("expression", _expression_law, output=True, keys=EXPRES
     register_target_kind(_kind)
 
 
+#: How many targets' functions are kept (:meth:`Target.function`, by their kind and data).
+KEPT_FUNCTIONS = 64
+
+
+@lru_cache(maxsize=KEPT_FUNCTIONS)
+def _kept_function(kind: str, data: bytes, n_joints: int, joint: int) -> ca.Function:
+    """:func:`_function` of the law of ``kind`` with the pickled ``data``, built once: a design
+    page parses its spec again, targets and all, at every step of a slider, and builds the
+    target's function several times a step (the parse, the NLP's parameters, the evaluation)."""
+    return _function(kind, pickle.loads(data), n_joints, joint)
+
+
+def _function(kind: str, data: dict, n_joints: int, joint: int) -> ca.Function:
+    """``target(theta[n_joints]) -> tau_d`` [N·m] of the law of ``kind`` with ``data``."""
+    th = ca.SX.sym("theta", n_joints)
+    return ca.Function("target", [th], [Target(kind, data).expression([th[i] for i in range(n_joints)], joint)])
+
+
 @dataclass
 class Target:
     """A target torque τ_d [N·m] for one joint.
@@ -522,9 +542,12 @@ class Target:
         return check_guards(guards, thetas, axes)
 
     def function(self, n_joints: int, joint: int) -> ca.Function:
-        """``target(theta[n_joints]) -> tau_d`` [N·m]."""
-        th = ca.SX.sym("theta", n_joints)
-        return ca.Function("target", [th], [self.expression([th[i] for i in range(n_joints)], joint)])
+        """``target(theta[n_joints]) -> tau_d`` [N·m], built once per law (:func:`_kept_function`)."""
+        try:
+            data = pickle.dumps(self.data)
+        except (pickle.PicklingError, TypeError, AttributeError):  # not plain data: built each time
+            return _function(self.kind, self.data, n_joints, joint)
+        return _kept_function(self.kind, data, n_joints, joint)
 
     def coupled_joints(self, n_joints: int, joint: int) -> list[int]:
         """The other joints (0-based) whose angles τ_d of ``joint`` depends on, read from its
