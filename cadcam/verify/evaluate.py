@@ -32,7 +32,7 @@ import numpy as np
 
 from ..designs import Design
 from ..mechanisms.base import departure_solver, margin_function, pose_function, room_function, split_coefficients
-from ..physics.mapped import mapped
+from ..physics.mapped import BINARY_OPS, LINEAR_OPS, UNARY_OPS, mapped, replayed
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import whole_wrap_order, wound_length
@@ -137,19 +137,7 @@ class TensorFunction:
     only (:attr:`support`).
     """
 
-    _UNARY = {ca.OP_ASSIGN: lambda a: a, ca.OP_SQ: np.square, ca.OP_INV: np.reciprocal,
-              ca.OP_SQRT: np.sqrt, ca.OP_EXP: np.exp, ca.OP_LOG: np.log, ca.OP_SIN: np.sin,
-              ca.OP_COS: np.cos, ca.OP_TAN: np.tan, ca.OP_ASIN: np.arcsin, ca.OP_ACOS: np.arccos,
-              ca.OP_ATAN: np.arctan, ca.OP_SINH: np.sinh, ca.OP_COSH: np.cosh,
-              ca.OP_TANH: np.tanh, ca.OP_ASINH: np.arcsinh, ca.OP_ACOSH: np.arccosh,
-              ca.OP_ATANH: np.arctanh, ca.OP_FABS: np.abs, ca.OP_SIGN: np.sign,
-              ca.OP_FLOOR: np.floor, ca.OP_CEIL: np.ceil}
-    _BINARY = {ca.OP_DIV: np.divide, ca.OP_POW: np.power, ca.OP_CONSTPOW: np.power,
-               ca.OP_ATAN2: np.arctan2, ca.OP_FMIN: np.fmin, ca.OP_FMAX: np.fmax,
-               ca.OP_FMOD: np.fmod, ca.OP_COPYSIGN: np.copysign, ca.OP_HYPOT: np.hypot}
-    _LINEAR = {ca.OP_ADD: lambda a, b: a + b, ca.OP_SUB: lambda a, b: a - b,
-               ca.OP_MUL: lambda a, b: a * b, ca.OP_NEG: lambda a: -a,
-               ca.OP_TWICE: lambda a: a * 2.0}
+    _UNARY, _BINARY, _LINEAR = UNARY_OPS, BINARY_OPS, LINEAR_OPS
 
     def __init__(self, fn: ca.Function):
         self.fn = fn
@@ -586,12 +574,11 @@ class Evaluation:
 
 def _profile_extremes(basis: Basis, c: np.ndarray, phi_hi: float, n: int):
     """Dense samples of ρ and the convexity margin on [0, phi_hi], with refined minima."""
-    prof = profile_function(basis)
+    prof = replayed(profile_function(basis))  # CasADi's values to the bit, every angle at once
     phi = np.linspace(0.0, phi_hi, n)
-    rho, drho, _, conv = (np.asarray(v).ravel() for v in mapped(prof, n)(phi, c))
+    rho, drho, _, conv = (v.ravel() for v in prof(phi, c))
     # the three refined in step, each level's angles of all three in one call of the profile
-    conv_min, rho_lo, rho_hi = _refine_mins(lambda p, c: mapped(prof, p.size)(p, c), c, phi,
-                                            [(conv, 3, 1.0), (rho, 0, 1.0), (-rho, 0, -1.0)])
+    conv_min, rho_lo, rho_hi = _refine_mins(prof, c, phi, [(conv, 3, 1.0), (rho, 0, 1.0), (-rho, 0, -1.0)])
     rho_hi = -rho_hi
     with np.errstate(divide="ignore", invalid="ignore"):  # 0 where not convex
         curvature = np.where(conv > 0, (rho**2 + drho**2) ** 1.5 / conv, 0.0)

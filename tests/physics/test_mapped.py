@@ -2,7 +2,7 @@
 import casadi as ca
 import numpy as np
 
-from cadcam.physics.mapped import mapped
+from cadcam.physics.mapped import mapped, replayed
 
 
 def test_a_map_is_built_once_per_function_and_count_and_evaluates_as_casadis():
@@ -13,3 +13,40 @@ def test_a_map_is_built_once_per_function_and_count_and_evaluates_as_casadis():
     assert mapped(f, 7) is not mapped(f, 8) and mapped(twin, 7) is not mapped(f, 7)
     points = np.linspace(-1, 2, 7)
     np.testing.assert_array_equal(np.asarray(mapped(f, 7)(points)), np.asarray(f.map(7)(points)))
+
+
+def test_a_replay_of_plain_arithmetic_gives_the_maps_values_to_the_bit():
+    from cadcam.physics.profile import Basis, profile_function
+
+    prof = profile_function(Basis("chebyshev", 5, (0.0, 6.0)))
+    replay = replayed(prof)
+    assert replay.exact and replayed(prof) is replay
+    rng = np.random.default_rng(3)
+    for n in (1, 7, 2000):
+        c = np.r_[0.03, rng.normal(0.0, 0.004, 5)]
+        phi = np.sort(rng.uniform(0.0, 6.0, n))
+        for got, want in zip(replay(phi, c), mapped(prof, n)(phi, c)):
+            assert got.shape == (1, n)
+            np.testing.assert_array_equal(got, np.asarray(want))
+
+
+def test_a_replay_broadcasts_outputs_that_do_not_vary_and_keeps_nan():
+    x, c = ca.SX.sym("x"), ca.SX.sym("c", 2)
+    f = ca.Function("f", [x, c], [x / c[0] - c[1], c[1] * 2, ca.SX(1, 1)])
+    points = np.array([0.0, 1.0, np.nan, 3.0])
+    got = replayed(f)(points, [0.0, 4.0])
+    np.testing.assert_array_equal(got[0], [[np.nan, np.inf, np.nan, np.inf]])
+    np.testing.assert_array_equal(got[1], [[8.0] * 4])
+    np.testing.assert_array_equal(got[2], np.zeros((1, 4)))
+
+
+def test_a_function_beyond_plain_arithmetic_is_evaluated_by_its_map():
+    x = ca.SX.sym("x")
+    f = ca.Function("f", [x], [ca.sin(x) * x, ca.vertcat(x, x * x)])
+    mx = ca.MX.sym("x")
+    g = ca.Function("g", [mx], [mx * 3])
+    points = np.linspace(-1.0, 2.0, 9)
+    assert not replayed(f).exact and not replayed(g).exact
+    for got, want in zip(replayed(f)(points), mapped(f, 9)(points)):
+        np.testing.assert_array_equal(got, np.asarray(want))
+    np.testing.assert_array_equal(replayed(g)(points), [np.asarray(mapped(g, 9)(points))])
