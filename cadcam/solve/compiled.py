@@ -63,6 +63,11 @@ ORACLE = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l", "nlp_grad")
 #: 1-DOF solve took 0.72 s, no faster than CasADi's virtual machine, against 0.17 s at -O1; -O2
 #: compiles about twice as long as -O1 (the similar C of ``cadcam export --what problem``).
 CFLAGS = ("-O1", "-fPIC")
+#: The functions of :data:`ORACLE` a solve calls once, after its iterations (``nlp_grad``, for
+#: the multipliers of the parameters, which cadcam does not read), and the C compiler flags of
+#: their files: unoptimized, their C compiles in a fraction of -O1's time (the Lagrangian
+#: gradient's is the third largest file), and one call per solve costs next to nothing more.
+AFTER_SOLVE, AFTER_SOLVE_CFLAGS = ("nlp_grad",), ("-O0", "-fPIC")
 #: Directions per call of a derivative in the generated functions (CasADi's ``max_num_dir``).
 #: CasADi writes each batch of directions out as straight-line code, so one direction keeps the
 #: C small: measured against CasADi's default batching (with the library as one C file, with
@@ -186,11 +191,12 @@ def rebuilt(f: ca.Function, options: dict) -> ca.Function:
 
 def library_key(nlp: dict, cc: str) -> str:
     """Hex digest naming the library of ``nlp`` compiled by ``cc``: its serialized graph, the
-    cadcam and CasADi versions, the compiler, :data:`CFLAGS`, :data:`DIRECTIONS` and
-    :data:`FUNCTION_OPTIONS`."""
+    cadcam and CasADi versions, the compiler, :data:`CFLAGS`, :data:`AFTER_SOLVE_CFLAGS`,
+    :data:`DIRECTIONS` and :data:`FUNCTION_OPTIONS`."""
     graph = _nlp_function(nlp).serialize()
     digest = hashlib.sha256()
-    for part in (__version__, ca.__version__, cc, " ".join(CFLAGS), str(DIRECTIONS),
+    flags = f"{' '.join(CFLAGS)}; {' '.join(AFTER_SOLVE)}: {' '.join(AFTER_SOLVE_CFLAGS)}"
+    for part in (__version__, ca.__version__, cc, flags, str(DIRECTIONS),
                  json.dumps(FUNCTION_OPTIONS, sort_keys=True), graph):
         digest.update(part.encode())
         digest.update(b"\0")
@@ -593,9 +599,10 @@ def compile_pending(key: str, pending: Path) -> None:
 
 
 def _compile(cc: str, source: Path) -> Path:
-    """Compile one C file into an object file beside it (:data:`CFLAGS`)."""
+    """Compile one C file into an object file beside it (:data:`CFLAGS`; a function of
+    :data:`AFTER_SOLVE`'s, :data:`AFTER_SOLVE_CFLAGS`)."""
     obj = source.with_suffix(".o")
-    _run([cc, *CFLAGS, "-c", str(source), "-o", str(obj)])
+    _run([cc, *(AFTER_SOLVE_CFLAGS if source.stem in AFTER_SOLVE else CFLAGS), "-c", str(source), "-o", str(obj)])
     return obj
 
 

@@ -216,3 +216,23 @@ def test_an_interrupted_compile_leaves_no_process_of_its_own(monkeypatch):
             return  # no process of that session is left
         time.sleep(0.1)
     pytest.fail("a process of the compiler's session outlived the interrupt (its 60 s sleep)")
+
+
+@needs_cc
+def test_the_functions_called_once_after_a_solve_compile_with_their_own_flags(small, empty_cache, monkeypatch):
+    """``nlp_grad`` (one call after a solve) compiles unoptimised, every function IPOPT calls
+    at each iteration with CFLAGS; the flags name the library, and it solves as the expanded
+    functions do."""
+    commands, run = [], compiled._run
+    monkeypatch.setattr(compiled, "_run", lambda command: (commands.append(command), run(command))[1])
+    monkeypatch.setattr(compiled, "AFTER_SOLVE_CFLAGS", ("-O0", "-fPIC", "-DCADCAM_AFTER_SOLVE"))
+    expanded = Transcription(small.with_options(functions="expanded"))
+    key = compiled.key_of(expanded.nlp)
+    assert _objective(small.with_options(functions="compiled"))[0] == pytest.approx(
+        _objective(small.with_options(functions="expanded"))[0], rel=1e-6)
+    flags = {os.path.basename(c[c.index("-c") + 1]): c[1:c.index("-c")] for c in commands if "-c" in c}
+    assert flags.pop("nlp_grad.c") == ["-O0", "-fPIC", "-DCADCAM_AFTER_SOLVE"]
+    assert set(flags) == {f"{name}.c" for name in ("nlp", *compiled.ORACLE) if name != "nlp_grad"}
+    assert all(f == list(FAST) for f in flags.values())
+    monkeypatch.setattr(compiled, "AFTER_SOLVE_CFLAGS", ("-O1", "-fPIC"))
+    assert compiled.key_of(expanded.nlp) != key
