@@ -37,52 +37,72 @@ BINARY_OPS = {ca.OP_DIV: np.divide, ca.OP_POW: np.power, ca.OP_CONSTPOW: np.powe
 LINEAR_OPS = {ca.OP_ADD: lambda a, b: a + b, ca.OP_SUB: lambda a, b: a - b,
               ca.OP_MUL: lambda a, b: a * b, ca.OP_NEG: lambda a: -a,
               ca.OP_TWICE: lambda a: a * 2.0}
-#: The operations of plain arithmetic: a replay made of these alone (and inputs, outputs and
-#: constants) gives CasADi's values to the bit, the same IEEE operations in the same order.
+#: The operations IEEE 754 rounds exactly (arithmetic, the square root, the least and greatest
+#: of two, the absolute value): a replay made of these alone (and inputs, outputs and constants)
+#: gives CasADi's values to the bit, the same operations in the same order.
 ARITHMETIC_OPS = frozenset((ca.OP_ADD, ca.OP_SUB, ca.OP_MUL, ca.OP_NEG, ca.OP_TWICE, ca.OP_SQ, ca.OP_DIV,
-                            ca.OP_INV, ca.OP_ASSIGN))
+                            ca.OP_INV, ca.OP_ASSIGN, ca.OP_SQRT, ca.OP_FMIN, ca.OP_FMAX, ca.OP_FABS))
 _IO = (ca.OP_CONST, ca.OP_INPUT, ca.OP_OUTPUT)
 _OPS = {**UNARY_OPS, **BINARY_OPS, **LINEAR_OPS}
+_TWO_OPERANDS = frozenset((*BINARY_OPS, ca.OP_ADD, ca.OP_SUB, ca.OP_MUL))
+#: From this many points on a replay (:func:`replayed`) of a function of a few thousand
+#: instructions (the re-check's pose of a mechanism) takes less time than its map: a replay
+#: costs a numpy call per instruction, a map a call of the function per point.
+REPLAY_POINTS = 200
 
 
 class Replay:
-    """An SX function of plain arithmetic (:data:`ARITHMETIC_OPS`) evaluated at many points at
-    once by performing its instructions, in its order, on numpy arrays that hold every point:
-    the values of :func:`mapped` to the bit, without a call of the function per point, which
-    costs more than its few arithmetic instructions (the re-check's dense scan of a profile:
-    9,020 angles, some ten times faster). Another function is evaluated by :func:`mapped`.
+    """An SX function evaluated at many points at once by performing its instructions, in its
+    order, on numpy arrays that hold every point, without a call of the function per point,
+    which costs more than a few instructions (the re-check's dense scan of a profile, some
+    ten times faster). A function of the operations IEEE 754 rounds exactly
+    (:data:`ARITHMETIC_OPS`) gives the values of :func:`mapped` to the bit (:attr:`exact`);
+    with ``rounding``, one with other functions (sin, cos, atan2, …) is replayed too, its
+    values then those of numpy's functions, equal to the C library's that CasADi calls to
+    their rounding (on this project's machines, to the bit). Any other function, and any
+    where ``rounding`` is not given, is evaluated by :func:`mapped`.
 
     Called as the map is (each input a column: one value, the same at every point, or its
-    entries × points, a row of points for a scalar input); returns each output as the map's
-    numbers (``numpy.asarray`` of its result: rows × columns · points).
+    entries × points, a row of points for a scalar input); returns what the map returns, as
+    arrays (``numpy.asarray`` of its result: rows × columns · points): a function of one output
+    that output, else the list of them.
     """
 
-    def __init__(self, f: ca.Function):
+    def __init__(self, f: ca.Function, rounding: bool = False):
         self.f = f
         ops = [f.instruction_id(k) for k in range(f.n_instructions())] if f.is_a("SXFunction") else None
         columns = all(f.sparsity_in(i).is_dense() and f.size2_in(i) == 1 for i in range(f.n_in()))
-        self.exact = ops is not None and columns and all(op in ARITHMETIC_OPS or op in _IO for op in ops)
-        self._program = [(op, _OPS.get(op), f.instruction_input(k), f.instruction_output(k),
+        known = ops is not None and columns and all(op in _OPS or op in _IO for op in ops)
+        #: Whether the replay gives the map's values to the bit (else, where it replays, to rounding).
+        self.exact = known and all(op in ARITHMETIC_OPS or op in _IO for op in ops)
+        #: Whether the function is replayed (else mapped).
+        self.replays = self.exact or (known and rounding)
+        self._program = [(op, _OPS.get(op), op in _TWO_OPERANDS, f.instruction_input(k), f.instruction_output(k),
                           f.instruction_constant(k) if op == ca.OP_CONST else None)
-                         for k, op in enumerate(ops)] if self.exact else []
+                         for k, op in enumerate(ops)] if self.replays else []
 
-    def __call__(self, *args) -> list[np.ndarray]:
+    def __call__(self, *args):
+        outs = self._outputs(args)
+        return outs[0] if len(outs) == 1 else outs
+
+    def _outputs(self, args) -> list[np.ndarray]:
+        """Every output at the points of ``args`` (:meth:`__call__`'s)."""
         f = self.f
         n = max(np.size(a) // max(f.numel_in(i), 1) for i, a in enumerate(args))  # the points
-        if not self.exact:
+        if not self.replays:
             return [np.asarray(v) for v in mapped(f, n).call([ca.DM(a) for a in args])]
         values = [np.asarray(a, dtype=float).reshape(f.nnz_in(i), -1) for i, a in enumerate(args)]
         out = [np.zeros((f.nnz_out(i), n)) for i in range(f.n_out())]
         work = [None] * f.sz_w()
         with np.errstate(all="ignore"):  # a NaN or infinity where CasADi's gives one, without a warning
-            for op, fn, ins, outs, const in self._program:
+            for op, fn, two, ins, outs, const in self._program:
                 if op == ca.OP_INPUT:
                     work[outs[0]] = values[ins[0]][ins[1]]
                 elif op == ca.OP_OUTPUT:
                     out[outs[0]][outs[1]] = work[ins[0]]
                 elif op == ca.OP_CONST:
                     work[outs[0]] = const
-                elif op in BINARY_OPS or op in (ca.OP_ADD, ca.OP_SUB, ca.OP_MUL):
+                elif two:
                     work[outs[0]] = fn(work[ins[0]], work[ins[1]])
                 else:
                     work[outs[0]] = fn(work[ins[0]])
@@ -99,6 +119,14 @@ class Replay:
 
 
 @lru_cache(maxsize=KEPT_MAPS)
-def replayed(f: ca.Function) -> Replay:
-    """:class:`Replay` of ``f``, made once per function (as :func:`mapped`'s maps are)."""
-    return Replay(f)
+def replayed(f: ca.Function, rounding: bool = False) -> Replay:
+    """:class:`Replay` of ``f`` (with ``rounding``), made once per function (as
+    :func:`mapped`'s maps are)."""
+    return Replay(f, rounding)
+
+
+def on_points(f: ca.Function, n: int):
+    """``f`` evaluated at ``n`` points as fast as it is to the map's rounding: replayed
+    (:func:`replayed` with ``rounding``) from :data:`REPLAY_POINTS` on, else mapped; either is
+    called as the map is, and its results read with ``numpy.asarray``."""
+    return replayed(f, rounding=True) if n >= REPLAY_POINTS else mapped(f, n)

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..designs import Design
 from ..mechanisms.base import departure_solver, margin_function, pose_function, room_function, split_coefficients
-from ..physics.mapped import BINARY_OPS, LINEAR_OPS, UNARY_OPS, mapped, replayed
+from ..physics.mapped import BINARY_OPS, LINEAR_OPS, UNARY_OPS, on_points, replayed
 from ..physics.profile import Basis, profile_function
 from ..physics.quadrature import trapezoid_weights
 from ..physics.wrap import whole_wrap_order, wound_length
@@ -640,9 +640,9 @@ def mechanism_samples(problem: Problem, design: Design, u: int, theta: np.ndarra
     z, residual = departure_solver(structure).solve(th, c, q, start)
     n = theta.size
     order = whole_wrap_order(design.bases) if order is None else order
-    pose = mapped(pose_function(structure, problem.torque_model, order, integrals), n)
+    pose = on_points(pose_function(structure, problem.torque_model, order, integrals), n)
     d, arm, _, branch = (np.asarray(v) for v in pose(theta, z[:, 1:], z[:, 0], c, q))
-    margins = np.asarray(mapped(margin_function(structure), n)(theta, z[:, 1:], c, q, arm))
+    margins = np.asarray(on_points(margin_function(structure), n)(theta, z[:, 1:], c, q, arm))
     pieces = split_coefficients(bases, c)
     rooms, wound = _mounted_rooms(structure, th, z, c, q)
     unit = UnitSamples(theta, z[:, 1:], z[:, 0], np.maximum(residual[1:], residual[0]),
@@ -666,7 +666,7 @@ def _mounted_rooms(structure, th: np.ndarray, z: np.ndarray, c: np.ndarray, q: n
     if not cls.mounted_ports:
         return {}, np.zeros(0)
     at = np.r_[th[1:], th[0]], np.c_[z[:, 1:], z[:, :1]]
-    rooms = {port: np.asarray(mapped(room_function(structure, port), th.size)(*at, c, q)).ravel()
+    rooms = {port: np.asarray(on_points(room_function(structure, port), th.size)(*at, c, q)).ravel()
              for port in cls.mounted_ports}
     wound = [float(wound_length(b, z[k, 0], ck)) for k, (b, ck) in enumerate(zip(bases, split_coefficients(bases, c)))]
     return rooms, np.array(wound)

@@ -2,7 +2,7 @@
 import casadi as ca
 import numpy as np
 
-from cadcam.physics.mapped import mapped, replayed
+from cadcam.physics.mapped import REPLAY_POINTS, Replay, mapped, on_points, replayed
 
 
 def test_a_map_is_built_once_per_function_and_count_and_evaluates_as_casadis():
@@ -49,4 +49,15 @@ def test_a_function_beyond_plain_arithmetic_is_evaluated_by_its_map():
     assert not replayed(f).exact and not replayed(g).exact
     for got, want in zip(replayed(f)(points), mapped(f, 9)(points)):
         np.testing.assert_array_equal(got, np.asarray(want))
-    np.testing.assert_array_equal(replayed(g)(points), [np.asarray(mapped(g, 9)(points))])
+    np.testing.assert_array_equal(replayed(g)(points), np.asarray(mapped(g, 9)(points)))
+
+
+def test_with_rounding_other_functions_are_replayed_to_the_maps_rounding():
+    x, c = ca.SX.sym("x"), ca.SX.sym("c", 2)
+    f = ca.Function("f", [x, c], [ca.atan2(ca.sin(x) * c[0], ca.cos(x) + c[1]), ca.sqrt(ca.fmax(x, c[1]))])
+    assert not replayed(f).replays and replayed(f, rounding=True).replays
+    assert not replayed(f, rounding=True).exact
+    points = np.linspace(-3.0, 3.0, 2 * REPLAY_POINTS)
+    for got, want in zip(replayed(f, rounding=True)(points, [1.5, 0.25]), mapped(f, points.size)(points, [1.5, 0.25])):
+        np.testing.assert_array_max_ulp(got, np.asarray(want), maxulp=4)
+    assert isinstance(on_points(f, REPLAY_POINTS), Replay) and on_points(f, REPLAY_POINTS - 1) is mapped(f, REPLAY_POINTS - 1)
