@@ -143,6 +143,20 @@ def test_every_rank_orders_verdicts_then_its_key_then_rmse(rank, seed):
     assert found.best() == (min(feasible, key=lambda p: found.designed[p]["rmse"]) if feasible else None)
 
 
+def test_the_best_so_far_follows_the_rows_as_they_come_and_as_they_are_replaced():
+    """As the progress line asks it after every spring: each answer the feasible row of least
+    rmse among those designed so far, a row replaced judged again."""
+    whole = _fake_search(1)
+    found = Search(whole.catalogue, whole.screened, {}, whole.planned)
+    for part, row in whole.designed.items():
+        found.designed[part] = row
+        feasible = [p for p, r in found.designed.items() if verdict(r)[0] == "feasible"]
+        assert found.best() == (min(feasible, key=lambda p: found.designed[p]["rmse"]) if feasible else None)
+    best = found.best()
+    found.designed[best] = {**found.designed[best], "status": "max_iterations"}  # no longer feasible
+    assert found.best() != best
+
+
 def test_a_near_row_names_the_limit_passed_and_by_how_much():
     body = {"max_length": 0.103, "length_max": 0.1, "peak_force": 5.0, "load_max": 10.0,
             "peak_stress": 1.0, "allowed_stress": 2.0}

@@ -19,7 +19,7 @@ import copy
 import json
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -407,6 +407,9 @@ class Search:
     screened: Screen
     designed: dict
     planned: int
+    #: Part → (its designed row, that row's verdict word), judged once (:meth:`best` is asked after every
+    #: spring designed; judging every row each time grew with the square of their number).
+    _words: dict = field(default_factory=dict, repr=False, compare=False)
 
     def verdicts(self) -> list[tuple[str, str]]:
         """(verdict, reason) of every catalogue row, in catalogue order."""
@@ -442,7 +445,10 @@ class Search:
 
     def best(self) -> str | None:
         """The feasible part of the least rmse, or None."""
-        ok = [(r["rmse"], p) for p, r in self.designed.items() if verdict(r)[0] == "feasible"]
+        for p, r in self.designed.items():
+            if p not in self._words or self._words[p][0] is not r:  # a row replaced is judged again
+                self._words[p] = (r, verdict(r)[0])
+        ok = [(r["rmse"], p) for p, r in self.designed.items() if self._words[p][1] == "feasible"]
         return min(ok)[1] if ok else None
 
 
