@@ -91,7 +91,8 @@ class Replay:
         n = max(np.size(a) // max(f.numel_in(i), 1) for i, a in enumerate(args))  # the points
         if not self.replays:
             return [np.asarray(v) for v in mapped(f, n).call([ca.DM(a) for a in args])]
-        values = [np.asarray(a, dtype=float).reshape(f.nnz_in(i), -1) for i, a in enumerate(args)]
+        values = [np.asarray(a, dtype=float).reshape(f.nnz_in(i), -1) if f.nnz_in(i) else None
+                  for i, a in enumerate(args)]  # an empty input has no entry to read
         out = [np.zeros((f.nnz_out(i), n)) for i in range(f.n_out())]
         work = [None] * f.sz_w()
         with np.errstate(all="ignore"):  # a NaN or infinity where CasADi's gives one, without a warning

@@ -61,3 +61,11 @@ def test_with_rounding_other_functions_are_replayed_to_the_maps_rounding():
     for got, want in zip(replayed(f, rounding=True)(points, [1.5, 0.25]), mapped(f, points.size)(points, [1.5, 0.25])):
         np.testing.assert_array_max_ulp(got, np.asarray(want), maxulp=4)
     assert isinstance(on_points(f, REPLAY_POINTS), Replay) and on_points(f, REPLAY_POINTS - 1) is mapped(f, REPLAY_POINTS - 1)
+
+
+def test_a_replay_takes_an_empty_input():
+    x, none = ca.SX.sym("x"), ca.SX.sym("none", 0)
+    f = ca.Function("f", [x, none], [x * 2, ca.sin(x)])
+    points = np.linspace(0.0, 1.0, 5)
+    for got, want in zip(replayed(f, rounding=True)(points, np.zeros(0)), mapped(f, 5)(points, np.zeros(0))):
+        np.testing.assert_array_max_ulp(got, np.asarray(want), maxulp=4)
