@@ -137,16 +137,13 @@ class TensorFunction:
     only (:attr:`support`).
     """
 
-    _UNARY, _BINARY, _LINEAR = UNARY_OPS, BINARY_OPS, LINEAR_OPS
-
     def __init__(self, fn: ca.Function):
         self.fn = fn
         #: The joints the function depends on.
         self.support = tuple(int(c) for c in
                              np.flatnonzero(fn.which_depends("i0", [fn.name_out(0)], 1, False)))
         ops = [fn.instruction_id(k) for k in range(fn.n_instructions())]
-        known = set(self._UNARY) | set(self._BINARY) | set(self._LINEAR) | {ca.OP_CONST, ca.OP_INPUT,
-                                                                             ca.OP_OUTPUT}
+        known = set(UNARY_OPS) | set(BINARY_OPS) | set(LINEAR_OPS) | {ca.OP_CONST, ca.OP_INPUT, ca.OP_OUTPUT}
         self.replayable = all(op in known for op in ops)
         self._program = [(op, fn.instruction_input(k), fn.instruction_output(k),
                           fn.instruction_constant(k) if op == ca.OP_CONST else None)
@@ -168,15 +165,15 @@ class TensorFunction:
                 work[outs[0]] = Terms.of(thetas[ins[1]], limit)
             elif op == ca.OP_OUTPUT:
                 out = work[ins[0]].compact()
-            elif op in self._LINEAR:
+            elif op in LINEAR_OPS:
                 args = ins[:1] if op in (ca.OP_NEG, ca.OP_TWICE) else ins[:2]
-                work[outs[0]] = self._LINEAR[op](*(work[r] for r in args))
+                work[outs[0]] = LINEAR_OPS[op](*(work[r] for r in args))
             elif op in (ca.OP_SIN, ca.OP_COS):
                 work[outs[0]] = work[ins[0]].trig(op == ca.OP_SIN)
-            elif op in self._UNARY:
-                work[outs[0]] = Terms.of(self._UNARY[op](work[ins[0]].value()), limit)
+            elif op in UNARY_OPS:
+                work[outs[0]] = Terms.of(UNARY_OPS[op](work[ins[0]].value()), limit)
             else:
-                work[outs[0]] = Terms.of(self._BINARY[op](work[ins[0]].value(), work[ins[1]].value()),
+                work[outs[0]] = Terms.of(BINARY_OPS[op](work[ins[0]].value(), work[ins[1]].value()),
                                          limit)
         return out
 
