@@ -182,8 +182,8 @@ def file_torque(problem, design, outlines: dict, thetas) -> np.ndarray:
 #: Largest gap [m] between the outline's arcs and the chords through their sampled points (the
 #: samples' sagitta): how far a clearance may be read long.
 SAGITTA = 1e-9
-#: Spans by outline points measured at once (memory: three arrays of that many floats).
-CLEARANCE_BLOCK = 4_000_000
+#: Spans by outline points measured at once (memory: some eight arrays of that many floats).
+CLEARANCE_BLOCK = 500_000
 
 
 def outline_points(outline: FileOutline) -> np.ndarray:
@@ -219,12 +219,15 @@ def span_clearance(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np
     length = np.hypot(*d.T)
     u = d / length[:, None]
     out = np.full(len(start), np.inf)
+    px, py = points[:, 0], points[:, 1]
     for rows in np.array_split(np.arange(len(start)), max(1, len(start) * len(points) // CLEARANCE_BLOCK)):
-        rel = points[None] - start[rows, None]
-        along = rel[..., 0] * u[rows, None, 0] + rel[..., 1] * u[rows, None, 1]
-        side = u[rows, None, 0] * rel[..., 1] - u[rows, None, 1] * rel[..., 0]
-        beyond = np.minimum(np.hypot(rel[..., 0], rel[..., 1]),
-                            np.hypot(*(points[None] - end[rows, None]).transpose(2, 0, 1)))
+        rx, ry = px[None] - start[rows, 0, None], py[None] - start[rows, 1, None]
+        ux, uy = u[rows, 0, None], u[rows, 1, None]
+        along = rx * ux + ry * uy
         beside = (along > 0) & (along < length[rows, None])
-        out[rows] = np.where(beside, side, beyond).min(axis=1)
+        side = np.where(beside, ux * ry - uy * rx, np.inf).min(axis=1)
+        ex, ey = px[None] - end[rows, 0, None], py[None] - end[rows, 1, None]
+        # the nearer end's squared distance, its root taken once per span after the least
+        ends = np.where(beside, np.inf, np.minimum(rx * rx + ry * ry, ex * ex + ey * ey)).min(axis=1)
+        out[rows] = np.minimum(side, np.sqrt(ends))
     return np.where(np.isfinite(length), out, np.nan)

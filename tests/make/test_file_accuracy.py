@@ -414,6 +414,24 @@ def test_span_clearance_is_signed_by_the_side_the_part_is_on():
     np.testing.assert_allclose(span_clearance(square, start, end), [0.25, -0.25, np.hypot(0.5, 0.5)])
 
 
+def test_span_clearance_in_blocks_is_each_pair_measured_on_its_own(monkeypatch):
+    """Random spans past random points, measured in blocks of a few spans: each span's least
+    signed distance as measured pair by pair (the side of the span's line where the point is
+    beside it, else its distance from the nearer end), to rounding."""
+    import cadcam.verify.file_model as file_model
+
+    rng = np.random.default_rng(7)
+    points, start, end = rng.normal(size=(40, 2)), rng.normal(size=(25, 2)), rng.normal(size=(25, 2))
+    monkeypatch.setattr(file_model, "CLEARANCE_BLOCK", 100)
+    expected = []
+    for s, e in zip(start, end):
+        u = (e - s) / np.linalg.norm(e - s)
+        each = [u[0] * (p - s)[1] - u[1] * (p - s)[0] if 0 < (p - s) @ u < np.linalg.norm(e - s)
+                else min(np.linalg.norm(p - s), np.linalg.norm(p - e)) for p in points]
+        expected.append(min(each))
+    np.testing.assert_allclose(span_clearance(points, start, end), expected, rtol=0, atol=1e-15)
+
+
 # ------------------------------------------------------------------------------- helical groove
 
 def _archimedes_groove(tmp_path, tolerance, a=0.03, b=0.002, phi_max=5 * np.pi):
