@@ -24,7 +24,7 @@ from cadcam.spec import parse_spec, read_spec_data
 from cadcam.solve.blocks import LENGTH_SCALE
 from cadcam.solve.ipopt import Multipliers
 from cadcam.solve.variables import _Vars
-from cadcam.sweep.springs import (NEIGHBOUR_SPAN, TABLE_COLUMNS, _spec_problem, design_part, force_matched,
+from cadcam.sweep.springs import (NEIGHBOUR_SPAN, TABLE_COLUMNS, NearestFirst, _spec_problem, design_part, force_matched,
                                   matched_point, nearest_start, part_spec, search, verdict, with_part)
 from cadcam.verify.evaluate import evaluate
 
@@ -80,6 +80,19 @@ def test_the_nearest_solved_spring_within_the_span_starts_a_design():
     # beyond the span from every solved spring: the default start
     assert nearest_start((1000.0 * math.exp(2.0 * 1.01 * NEIGHBOUR_SPAN), 5.0), solved[:1], scales) is None
     assert nearest_start((1000.0, 5.0), [], scales) is None
+
+
+def test_the_next_spring_designed_is_the_one_nearest_a_solved_spring():
+    """Before any is solved the springs come in the order given; then the one nearest to any
+    solved spring, each given once."""
+    scales = (2.0, 50.0)
+    springs = np.array([[1000.0, 5.0], [3000.0, 40.0], [1100.0, 6.0], [2900.0, 41.0], [1000.0, 30.0]])
+    order = NearestFirst(springs, scales)
+    assert [order.take(), order.take()] == [0, 1]
+    order.solved((3000.0, 40.0))
+    assert order.take() == 3  # beside the solved one, though the third given is beside the first
+    order.solved((1000.0, 5.0))
+    assert [order.take(), order.take()] == [2, 4]
 
 
 def test_a_neighbours_nlp_point_starts_with_the_matched_pre_extension():

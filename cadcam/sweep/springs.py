@@ -1,8 +1,8 @@
 """A spec's spring slot searched over a whole spring catalogue: what the slot asks of a spring
 (:func:`slot_need`), the catalogue's screen for it (:func:`screen_slot`) before any solve, and
 the survivors designed on a process pool or a Dask cluster (:func:`search`), each warm-started
-from the solved spring nearest in rate and initial tension, each given a verdict
-(:data:`VERDICTS`).
+from the solved spring nearest in rate and initial tension, the next one to design nearest to
+those solved (:class:`NearestFirst`), each given a verdict (:data:`VERDICTS`).
 
 Fast enough for a whole catalogue: each worker parses the spec once and swaps each part's
 spring into it (:func:`with_part`: the NLP's numbers change, not its graph, so one build serves
@@ -382,11 +382,49 @@ def nearest_start(spring: tuple[float, float], solved: list[tuple[tuple[float, f
     (rate k [N/m], initial tension F0 [N]), in log k and F0, each over its span ``scales``
     (:func:`spring_scales`); None if none is solved within :data:`NEIGHBOUR_SPAN` (the spring
     is then designed from the default start alone). ``solved`` holds ((k, F0), start) pairs."""
-    (k, f0), (sk, sf) = spring, scales
-    distance = [math.hypot(math.log(s[0][0] / k) / sk, (s[0][1] - f0) / sf) for s in solved]
-    if not solved or min(distance) > NEIGHBOUR_SPAN:
+    if not solved:
         return None
-    return solved[int(np.argmin(distance))][1]
+    distance = spring_gaps(np.array([s[0] for s in solved]), spring, scales)
+    return solved[int(np.argmin(distance))][1] if distance.min() <= NEIGHBOUR_SPAN else None
+
+
+def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[float, float]) -> np.ndarray:
+    """Distances from each of ``springs`` (m, 2) = (rate k [N/m], initial tension F0 [N]) to
+    ``spring``: in log k and F0, each over its span ``scales`` (:func:`spring_scales`)."""
+    (k, f0), (sk, sf) = spring, scales
+    return np.hypot(np.log(springs[:, 0] / k) / sk, (springs[:, 1] - f0) / sf)
+
+
+class NearestFirst:
+    """The order a search designs its springs in: next, the one nearest to a spring solved so
+    far (:func:`spring_gaps`), so that each starts from a close neighbour's design
+    (:func:`nearest_start`); while none near is solved, the next in the order given.
+
+    Parameters
+    ----------
+    springs : ndarray (m, 2)
+        The springs to design, (rate k [N/m], initial tension F0 [N]), in the order given.
+    scales : tuple
+        :func:`spring_scales` of the springs searched.
+    """
+
+    def __init__(self, springs: np.ndarray, scales: tuple[float, float]):
+        self._springs, self._scales = np.asarray(springs, dtype=float), scales
+        self._gap = np.full(len(self._springs), np.inf)
+        self._left = np.ones(len(self._springs), dtype=bool)
+
+    def solved(self, spring: tuple[float, float]) -> None:
+        """``spring`` (k, F0) was solved: the springs left nearer to it than to any other are
+        nearer to a solved one."""
+        np.minimum(self._gap, spring_gaps(self._springs, spring, self._scales), out=self._gap)
+
+    def take(self) -> int:
+        """Index, in the order given, of the spring to design next (taken: not given again)."""
+        left = np.flatnonzero(self._left)
+        gaps = self._gap[left]
+        i = int(left[np.argmin(gaps)] if np.isfinite(gaps).any() else left[0])
+        self._left[i] = False
+        return i
 
 
 @dataclass
@@ -485,8 +523,9 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     """Screen ``catalogue`` for spring ``j`` (0-based) of the spec ``spec`` = (data, origin,
     base folder) and design the survivors, at most ``limit`` of them (those nearest the spec's
     own rate), on ``workers`` processes (0: in this process) or the Dask cluster ``dask``
-    (``local`` or a scheduler address), each warm from the solved spring nearest in rate and
-    initial tension (:func:`nearest_start`); with each design's tolerance band where ``band``.
+    (``local`` or a scheduler address), next the one nearest to a solved spring
+    (:class:`NearestFirst`), each warm from the solved spring nearest in rate and initial
+    tension (:func:`nearest_start`); with each design's tolerance band where ``band``.
     ``catalogue_path`` is the file a part is read from (None: the shipped catalogue);
     ``report(row, search)`` is called as each spring is done.
     """
@@ -503,16 +542,18 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     # started first: a local pool's workers start up while the functions compile
     executor = (_Dask(dask, max(workers, 1), design_part) if dask else
                 _Local(workers, design_part) if workers else _Serial(design_part))
-    # two springs per worker keep a pool busy; serially a spring is designed when submitted, so
-    # one at a time lets the next start from it
-    room, pending, solved = 2 * max(workers, 1) if workers or dask else 1, {}, []
+    # a spring is chosen when a worker is free, so that it starts from the springs solved
+    # until then (a local pool's round trip is a small part of a design); a cluster's workers
+    # are kept two springs each, its round trips being longer
+    room, pending, solved = (2 * max(workers, 1) if dask else max(workers, 1)), {}, []
     interrupted = True
     try:
         if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
             prepare_functions(problem, j, catalogue.parts[todo[0]], catalogue_path)
-        while todo or pending:
-            while todo and len(pending) < room:
-                i = todo.pop(0)
+        order, left = NearestFirst(np.c_[body.rate[todo], body.preload[todo]], scales), len(todo)
+        while left or pending:
+            while left and len(pending) < room:
+                i, left = todo[order.take()], left - 1
                 spring = (float(body.rate[i]), float(body.preload[i]))
                 fut = executor.submit(spec, j, catalogue.parts[i], catalogue_path,
                                       nearest_start(spring, solved, scales), band)
@@ -521,6 +562,7 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
                 spring, row = pending.pop(fut), fut.result()
                 found.designed[row["part"]] = row
                 if row["status"] == "success":
+                    order.solved(spring)
                     solved.append((spring, {"design": row["design"], "multipliers": row["multipliers"],
                                             "margins": row["margins"], "part": row["part"], "spring": spring,
                                             "extension": row["extension"]}))
