@@ -29,6 +29,7 @@ rows of the mechanisms and the spring network (:mod:`.rows`), the objective's te
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import casadi as ca
 import numpy as np
@@ -109,6 +110,15 @@ class Transcription:
         self.stall = STALL_RULE.get()
         self._build_solvers()
         self.build_time_s = time.perf_counter() - t0
+
+    @classmethod
+    def graph_of(cls, problem: Problem) -> "Transcription":
+        """The NLP of ``problem``'s structure without its solvers: enough to compile its
+        libraries (:meth:`compile_libraries`), which a build then loads."""
+        tr = object.__new__(cls)
+        tr._build_graph(problem)
+        tr._split = None
+        return tr
 
     def _build_solvers(self) -> None:
         """IPOPT on :attr:`nlp` (:attr:`solver`, :attr:`functions_used`); the solvers with the
@@ -488,6 +498,15 @@ class Transcription:
         in the cache is named by the NLP's graph alone, so whoever compiles it first must
         generate it as every other does."""
         return compiled.library(self.whole_nlp, self._whole_split_nlp)
+
+    def compile_libraries(self) -> tuple:
+        """:func:`cadcam.solve.compiled.library` of :attr:`nlp` and of :attr:`whole_nlp`
+        (:meth:`whole_library`), compiled at the same time: each library's longest file, its
+        Hessian's, would otherwise leave the other cores idle while it compiles."""
+        self._split_graph()  # built once here, not by both compiles at once
+        with ThreadPoolExecutor(2) as pool:
+            plain, whole = pool.submit(compiled.library, self.nlp, self._split_nlp), pool.submit(self.whole_library)
+            return plain.result(), whole.result()
 
     def _imposing_solver(self) -> ca.Function:
         """IPOPT on :attr:`whole_nlp` started warm, with the options of the running context

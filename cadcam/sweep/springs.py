@@ -512,8 +512,7 @@ def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None
 
     if problem.options.functions in ("auto", "compiled") and compiled.available():
         try:
-            tr = Transcription(with_part(problem, j, part, catalogue).with_options(functions="compiled"))
-            tr.whole_library()
+            Transcription.graph_of(with_part(problem, j, part, catalogue)).compile_libraries()
         except (compiled.CompileError, SpecError):
             pass
 
