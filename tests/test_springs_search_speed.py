@@ -24,7 +24,7 @@ from cadcam.spec import parse_spec, read_spec_data
 from cadcam.solve.blocks import LENGTH_SCALE
 from cadcam.solve.ipopt import Multipliers
 from cadcam.solve.variables import _Vars
-from cadcam.sweep.springs import (NEIGHBOUR_SPAN, TABLE_COLUMNS, NearestFirst, _spec_problem, design_part, force_matched,
+from cadcam.sweep.springs import (TABLE_COLUMNS, NearestFirst, _spec_problem, design_part, force_matched,
                                   matched_point, nearest_start, part_spec, search, verdict, with_part)
 from cadcam.verify.evaluate import evaluate
 
@@ -71,15 +71,15 @@ def test_a_part_that_cannot_be_swapped_in_is_one_line(part, pre, words):
     assert "\n" not in str(err.value)
 
 
-def test_the_nearest_solved_spring_within_the_span_starts_a_design():
+def test_the_nearest_solved_spring_starts_a_design_however_far():
     scales = (2.0, 50.0)
     solved = [((1000.0, 5.0), "a"), ((1100.0, 9.0), "b"), ((1000.0, 20.0), "c")]
     assert nearest_start((1050.0, 8.0), solved, scales) == "b"
-    # 0.02 of the log-rate span away, and 0.04 of the tension span: within the span
+    # 0.02 of the log-rate span away, and 0.04 of the tension span
     assert nearest_start((1000.0 * math.exp(0.04), 5.0 + 2.0), solved, scales) == "a"
-    # beyond the span from every solved spring: the default start
-    assert nearest_start((1000.0 * math.exp(2.0 * 1.01 * NEIGHBOUR_SPAN), 5.0), solved[:1], scales) is None
-    assert nearest_start((1000.0, 5.0), [], scales) is None
+    # far from every solved spring: still the nearest, in log rate and tension over their spans
+    assert nearest_start((1000.0 * math.exp(2.0), 45.0), solved, scales) == "c"
+    assert nearest_start((1000.0, 5.0), [], scales) is None  # nothing solved: the default start
 
 
 def test_the_next_spring_designed_is_the_one_nearest_a_solved_spring():

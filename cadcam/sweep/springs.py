@@ -9,8 +9,8 @@ spring into it (:func:`with_part`: the NLP's numbers change, not its graph, so o
 every part); a spring starts from its neighbour's design with the spring's pre-extension
 matched (:func:`force_matched`), its IPOPT multipliers and the margins it needed; a profile
 that breaks its shape between the check points is mended by raising those margins in the same
-NLP (:data:`SEARCH_REFINE`); a spring with no solved neighbour near it starts from the default
-start once (:data:`NEIGHBOUR_SPAN`).
+NLP (:data:`SEARCH_REFINE`); only while no spring is solved does one start from the default
+start.
 """
 from __future__ import annotations
 
@@ -368,24 +368,17 @@ def spring_scales(catalogue: Catalogue, rows) -> tuple[float, float]:
     return tuple(v or 1.0 for v in spans)
 
 
-#: The farthest a solved spring may be from the one to design for its design to start it
-#: (:func:`nearest_start`), in spans of log rate and initial tension over the springs searched.
-#: On the tutorial, 99 % of the springs designed had a solved one within 0.045; of the 22 whose
-#: design failed, 16 had none within 0.05, and started again from the default start after their
-#: warm start failed, none converged: a second attempt that doubled their time for nothing.
-NEIGHBOUR_SPAN = 0.05
-
-
 def nearest_start(spring: tuple[float, float], solved: list[tuple[tuple[float, float], dict]],
                   scales: tuple[float, float]) -> dict | None:
     """The start (:func:`design_part`'s) of the solved spring nearest to ``spring`` =
     (rate k [N/m], initial tension F0 [N]), in log k and F0, each over its span ``scales``
-    (:func:`spring_scales`); None if none is solved within :data:`NEIGHBOUR_SPAN` (the spring
-    is then designed from the default start alone). ``solved`` holds ((k, F0), start) pairs."""
+    (:func:`spring_scales`), however far: even a distant neighbour's design, its multipliers
+    and its active set start a spring nearer its optimum than the default start, from which a
+    spring of the tutorial's catalogue more often ends undecided; None while none is solved.
+    ``solved`` holds ((k, F0), start) pairs."""
     if not solved:
         return None
-    distance = spring_gaps(np.array([s[0] for s in solved]), spring, scales)
-    return solved[int(np.argmin(distance))][1] if distance.min() <= NEIGHBOUR_SPAN else None
+    return solved[int(np.argmin(spring_gaps(np.array([s[0] for s in solved]), spring, scales)))][1]
 
 
 def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[float, float]) -> np.ndarray:
@@ -398,7 +391,7 @@ def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[
 class NearestFirst:
     """The order a search designs its springs in: next, the one nearest to a spring solved so
     far (:func:`spring_gaps`), so that each starts from a close neighbour's design
-    (:func:`nearest_start`); while none near is solved, the next in the order given.
+    (:func:`nearest_start`); while none is solved, the next in the order given.
 
     Parameters
     ----------
