@@ -535,9 +535,8 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     executor = (_Dask(dask, max(workers, 1), design_part) if dask else
                 _Local(workers, design_part) if workers else _Serial(design_part))
     # a spring is chosen when a worker is free, so that it starts from the springs solved
-    # until then (a local pool's round trip is a small part of a design); a cluster's workers
-    # are kept two springs each, its round trips being longer
-    room, pending, solved = (2 * max(workers, 1) if dask else max(workers, 1)), {}, []
+    # until then (a round trip to the worker is a small part of a design)
+    room, pending, solved = max(workers, 1), {}, []
     interrupted = True
     try:
         if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
