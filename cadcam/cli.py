@@ -418,12 +418,10 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
     """Write ``springs.csv`` and the best design's folder ``best/`` (its design solved again here
     from the search's answer with the spec's own solver options, then written as ``cadcam
     design`` writes it); print the summary; return the exit code."""
-    from .designs import Design
     from .files import write_csv
-    from .optimize import optimize
     from .outputs.run_files import WorkshopError
     from .spec import parse_spec
-    from .sweep.springs import SEARCH_REFINE, TABLE_COLUMNS, part_spec
+    from .sweep.springs import TABLE_COLUMNS, designed_again, part_spec
 
     data, origin, base = spec
     table = found.table(args.rank)
@@ -437,13 +435,7 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
         print(summary + f"no feasible spring; the table in {out / 'springs.csv'}")
         return 1
     problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
-    row = found.designed[best]
-    # warm from the search's answer (its multipliers and any margins it was solved with): the
-    # same design, re-checked, in a few iterations
-    result = optimize(problem, start=Design.from_dict(row["design"], problem), warm=row["multipliers"],
-                      refine=SEARCH_REFINE, margins=row["margins"])
-    if not result.success:  # solved again on another path (a fresh library, no cache) it may not pass
-        result = optimize(problem)
+    result = designed_again(problem, found.designed[best])
     try:
         result.save(out / "best", figures=args.figures, workers=os.cpu_count() or 1)
     except WorkshopError as exc:

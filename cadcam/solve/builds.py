@@ -8,6 +8,7 @@ from collections import OrderedDict
 
 from ..problem import Problem
 from . import robust
+from .rows import ANCHOR_ROWS_FIRST
 from .stall import STALL_RULE
 from .transcription import Transcription
 
@@ -31,7 +32,8 @@ def structure_key(problem: Problem) -> str:
         [[[p.mechanism, p.name, p.sign] for p in s.ports] for s in problem.springs],
         [s.free_length is not None for s in problem.springs],
         [sorted(m.placement_region()) for m in problem.mechanisms],
-        sorted(problem.arm_scales().items()), robust.structure(problem), repr(STALL_RULE.get())])
+        sorted(problem.arm_scales().items()), robust.structure(problem), repr(STALL_RULE.get()),
+        ANCHOR_ROWS_FIRST.get()])
 
 
 def built_for(problem: Problem) -> tuple[Transcription, bool]:

@@ -7,6 +7,7 @@ Also how the NLP calls a CasADi function (:func:`_apart`) and the quadrature ord
 wrapped lengths."""
 from __future__ import annotations
 
+from contextvars import ContextVar
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -234,6 +235,15 @@ def _profile_rows(rows: _Rows, p: _Vars, problem: Problem, mech: Mechanism, firs
             rows.constrain(((rho**2 + drho**2) ** 1.5 - rc * conv) / L**3, _nonnegative)
 
 
+#: Whether the builds made now impose two outline rows from the first solve instead of
+#: deferring them with the others (:func:`_outline_rows`): the anchor's distance from the
+#: centre and the hub's clearance at the anchor. A catalogue search's builds do
+#: (:func:`cadcam.sweep.springs.search_solves`): each spring moves the anchor end, and there
+#: those two rows bind in most designs, so that most designs would need a second solve with every
+#: deferred row; a build's structure (:func:`cadcam.solve.builds.structure_key`) names it.
+ANCHOR_ROWS_FIRST: ContextVar[bool] = ContextVar("anchor_rows_first", default=False)
+
+
 def _outline_rows(rows: _Rows, phi, rho, drho, conv):
     """Rows that let the designed arc, given as ρ, ρ′ and the Eq. 40 margin at the check angles
     ``phi`` [rad] from its anchor φ = 0 to its most-wound end (columns), be closed into a
@@ -241,11 +251,20 @@ def _outline_rows(rows: _Rows, phi, rho, drho, conv):
     arc and the hub's disk keeps the whole arc on its boundary (every free cable span a tangent
     of a convex part, clear of it) when each tangent line passes outside the hub and has both
     ends of the arc inside it; the anchor lies far enough out for the anchor hole, a wall deep,
-    to clear the hub; and the arc bends no tighter than the cable's radius and a cutter's."""
-    L = LENGTH_SCALE
-    rows.constrain(support_distance(rho, drho) / L,
-                   lambda pr: ((pr.workshop.hub_radius + pr.workshop.cable_radius) / L, np.inf), True)
-    rows.constrain(rho[0] / L, lambda pr: ((pr.workshop.anchor_radius + pr.workshop.cable_radius) / L, np.inf), True)
+    to clear the hub; and the arc bends no tighter than the cable's radius and a cutter's. All
+    are deferred rows, but for those at the anchor where :data:`ANCHOR_ROWS_FIRST` is set."""
+    L, deferred = LENGTH_SCALE, not ANCHOR_ROWS_FIRST.get()
+    hub = support_distance(rho, drho) / L
+
+    def clear(pr):
+        return (pr.workshop.hub_radius + pr.workshop.cable_radius) / L, np.inf
+    if deferred:
+        rows.constrain(hub, clear, True)
+    else:  # the anchor's row first, the others deferred
+        rows.constrain(hub[0], clear)
+        rows.constrain(hub[1:], clear, True)
+    rows.constrain(rho[0] / L, lambda pr: ((pr.workshop.anchor_radius + pr.workshop.cable_radius) / L, np.inf),
+                   deferred)
     for inner, end in ((slice(1, None), 0), (slice(None, -1), -1)):
         rows.constrain(inside_tangent(rho[inner], drho[inner], rho[end], phi[inner] - phi[end]) / L**2,
                        _nonnegative, True)

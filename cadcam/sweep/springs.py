@@ -31,6 +31,7 @@ from ..physics.springs import Spring
 from ..problem import Problem
 from ..solve.blocks import LENGTH_SCALE
 from ..solve.ipopt import IMPOSE_OPTIONS, SEARCH_IMPOSE_IPOPT, Multipliers
+from ..solve.rows import ANCHOR_ROWS_FIRST
 from ..solve.stall import STALL_STATUS, StallRule, stall_rule
 
 #: Points of the joint's range the target's work and peak torque are taken on.
@@ -213,15 +214,18 @@ def search_solves():
     solve did not converge not re-checked on the fine grid
     (:data:`cadcam.optimize.RECHECK_UNCONVERGED`: its spring is undecided from its status) and
     the profiles scanned by the fine re-check alone (:data:`cadcam.optimize.SCAN_DESIGN_GRID`:
-    a row's rmse is the design grid's, its verdict the re-check's)."""
+    a row's rmse is the design grid's, its verdict the re-check's); the NLPs built there impose
+    the outline's rows at the anchor from the first solve
+    (:data:`cadcam.solve.rows.ANCHOR_ROWS_FIRST`)."""
     from ..optimize import RECHECK_UNCONVERGED, SCAN_DESIGN_GRID
 
     impose, unconverged = IMPOSE_OPTIONS.set(SEARCH_IMPOSE_IPOPT), RECHECK_UNCONVERGED.set(False)
-    scan = SCAN_DESIGN_GRID.set(False)
+    scan, anchor = SCAN_DESIGN_GRID.set(False), ANCHOR_ROWS_FIRST.set(True)
     try:
         with stall_rule(SEARCH_STALL):
             yield
     finally:
+        ANCHOR_ROWS_FIRST.reset(anchor)
         SCAN_DESIGN_GRID.reset(scan)
         RECHECK_UNCONVERGED.reset(unconverged)
         IMPOSE_OPTIONS.reset(impose)
@@ -272,6 +276,24 @@ def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: di
         row.update(status="error", message=f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}")
     row["wall_time_s"] = time.perf_counter() - t0
     return row
+
+
+def designed_again(problem: Problem, row: dict):
+    """The design of a search's ``row`` solved again for ``problem`` (the spec with the row's
+    part, its own solver settings): warm from the row's answer (its multipliers and any
+    margins it was solved with), the same design, re-checked, in a few iterations; from the
+    default start where that fails (on another path, a fresh library, it may not pass). Both
+    in the NLP as the search built it (:data:`cadcam.solve.rows.ANCHOR_ROWS_FIRST`): its rows
+    in the order of the row's multipliers, its libraries the search's."""
+    from ..optimize import optimize
+
+    anchor = ANCHOR_ROWS_FIRST.set(True)
+    try:
+        result = optimize(problem, start=Design.from_dict(row["design"], problem), warm=row["multipliers"],
+                          refine=SEARCH_REFINE, margins=row["margins"])
+        return result if result.success else optimize(problem)
+    finally:
+        ANCHOR_ROWS_FIRST.reset(anchor)
 
 
 def force_matched(design: Design, j: int, was: tuple[float, float], spring: Spring, extension: float) -> Design:
@@ -494,10 +516,11 @@ COMPILE_FIRST = 40
 def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None) -> None:
     """Compile the functions of ``problem``'s NLP with spring ``j`` made ``part`` (of the
     catalogue file ``catalogue``; :func:`with_part`: a catalogue part may give the NLP more
-    than the spec's own spring), and of that NLP with its deferred outline rows (most designs
-    need them), into the cache now, where its ``solver.functions`` would otherwise solve with
-    expanded ones until a background compile is done (``auto``) or have each worker compile
-    them at once (``compiled``). A machine without a C compiler keeps expanded functions; a
+    than the spec's own spring), and of that NLP with its deferred outline rows (a design
+    that breaks one of them is solved again with them all), into the cache now, as the
+    search's designs build them (:func:`search_solves`), where its ``solver.functions``
+    would otherwise solve with expanded ones until a background compile is done (``auto``)
+    or have each worker compile them at once (``compiled``). A machine without a C compiler keeps expanded functions; a
     part that cannot be used or a compile that fails leaves the workers to build their own
     (each row of theirs then says why it failed, if it does)."""
     from ..solve import compiled
@@ -505,7 +528,8 @@ def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None
 
     if problem.options.functions in ("auto", "compiled") and compiled.available():
         try:
-            Transcription.graph_of(with_part(problem, j, part, catalogue)).compile_libraries()
+            with search_solves():  # the NLP as the search's designs build it
+                Transcription.graph_of(with_part(problem, j, part, catalogue)).compile_libraries()
         except (compiled.CompileError, SpecError):
             pass
 
