@@ -237,6 +237,10 @@ class LiveView:
         top.title.text_font_size = "10pt"
         for fig in (top, bottom):  # torques of a pendulum reach 1e5 N·mm: written out, not as powers of ten
             fig.yaxis.formatter = BasicTickFormatter(power_limit_high=7, power_limit_low=-4)
+        # the ranges fit in the browser to each new curve: were they sent back, each slider step
+        # would bring the server two messages to read before the next step's
+        for axis_range in (top.x_range, top.y_range, bottom.y_range):
+            axis_range.syncable = False
         self.torque_figure = top
         return column(top, bottom, sizing_mode="stretch_width")
 
