@@ -77,9 +77,7 @@ class Replay:
         self.exact = known and all(op in ARITHMETIC_OPS or op in _IO for op in ops)
         #: Whether the function is replayed (else mapped).
         self.replays = self.exact or (known and rounding)
-        self._program = [(op, _OPS.get(op), op in _TWO_OPERANDS, f.instruction_input(k), f.instruction_output(k),
-                          f.instruction_constant(k) if op == ca.OP_CONST else None)
-                         for k, op in enumerate(ops)] if self.replays else []
+        self._run = _replay_code(f, ops) if self.replays else None
 
     def __call__(self, *args):
         outs = self._outputs(args)
@@ -94,19 +92,8 @@ class Replay:
         values = [np.asarray(a, dtype=float).reshape(f.nnz_in(i), -1) if f.nnz_in(i) else None
                   for i, a in enumerate(args)]  # an empty input has no entry to read
         out = [np.zeros((f.nnz_out(i), n)) for i in range(f.n_out())]
-        work = [None] * f.sz_w()
         with np.errstate(all="ignore"):  # a NaN or infinity where CasADi's gives one, without a warning
-            for op, fn, two, ins, outs, const in self._program:
-                if op == ca.OP_INPUT:
-                    work[outs[0]] = values[ins[0]][ins[1]]
-                elif op == ca.OP_OUTPUT:
-                    out[outs[0]][outs[1]] = work[ins[0]]
-                elif op == ca.OP_CONST:
-                    work[outs[0]] = const
-                elif two:
-                    work[outs[0]] = fn(work[ins[0]], work[ins[1]])
-                else:
-                    work[outs[0]] = fn(work[ins[0]])
+            self._run(values, out)
         return [self._laid_out(i, v) for i, v in enumerate(out)]
 
     def _laid_out(self, i: int, nonzeros: np.ndarray) -> np.ndarray:
@@ -117,6 +104,39 @@ class Replay:
         dense = np.zeros((rows * cols, n))
         dense[self.f.sparsity_out(i).find()] = nonzeros  # column-major entries
         return dense.reshape(cols, rows, n).transpose(1, 2, 0).reshape(rows, n * cols)
+
+
+#: The operations a replay's code writes as Python's own arithmetic on arrays (the same
+#: numpy operations :data:`LINEAR_OPS` and OP_ASSIGN call), by their form in the code.
+_INLINE = {ca.OP_ADD: "{0} + {1}", ca.OP_SUB: "{0} - {1}", ca.OP_MUL: "{0} * {1}", ca.OP_NEG: "-{0}",
+           ca.OP_TWICE: "{0} * 2.0", ca.OP_ASSIGN: "{0}"}
+
+
+def _replay_code(f: ca.Function, ops: list[int]):
+    """The instructions ``ops`` of the SX function ``f`` as one Python function
+    ``run(values, out)``: each instruction a line, in CasADi's order, its work vector's entries
+    local variables (an input's row of ``values``, an output's row of ``out`` written, a
+    constant, or an operation of :data:`_OPS` on arrays), the same operations on the same
+    values as performing them one by one, without reading each instruction again at every
+    call (which cost more than the numpy operations of a profile's scan)."""
+    lines, constants = ["def run(values, out):"], []
+    for k, op in enumerate(ops):
+        ins, outs = f.instruction_input(k), f.instruction_output(k)
+        if op == ca.OP_INPUT:
+            lines.append(f"    w{outs[0]} = values[{ins[0]}][{ins[1]}]")
+        elif op == ca.OP_OUTPUT:
+            lines.append(f"    out[{outs[0]}][{outs[1]}] = w{ins[0]}")
+        elif op == ca.OP_CONST:
+            constants.append(f.instruction_constant(k))
+            lines.append(f"    w{outs[0]} = constants[{len(constants) - 1}]")
+        else:
+            operands = [f"w{i}" for i in ins[:2 if op in _TWO_OPERANDS else 1]]
+            form = _INLINE.get(op, f"op{op}({', '.join('{%d}' % i for i in range(len(operands)))})")
+            lines.append(f"    w{outs[0]} = " + form.format(*operands))
+    lines.append("    return None")
+    scope = {"constants": constants, **{f"op{op}": fn for op, fn in _OPS.items()}}
+    exec(compile("\n".join(lines), f"<replay of {f.name()}>", "exec"), scope)  # noqa: S102 -- code made here
+    return scope["run"]
 
 
 @lru_cache(maxsize=KEPT_MAPS)
