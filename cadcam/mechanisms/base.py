@@ -21,7 +21,7 @@ import casadi as ca
 import numpy as np
 
 from ..keys import PART_SIZE, Key, KeyTable
-from ..physics.mapped import mapped, on_points
+from ..physics.mapped import direct, mapped, on_points
 from ..physics.profile import BASES, Basis, profile_function
 from ..physics.wrap import arc_length_density, length_function, wound_length
 
@@ -1022,7 +1022,7 @@ class DepartureSolver:
         iteration) from ``z0``."""
         n = theta.size
         p = np.vstack([theta, np.tile(c[:, None], (1, n)), np.tile(q[:, None], (1, n))])
-        z = np.asarray(mapped(rootfinder or self._rf, n)(z0, p)).reshape(-1, n)
+        z = np.asarray(direct(mapped(rootfinder or self._rf, n))(z0, p)).reshape(-1, n)
         R = np.asarray(on_points(self.residual, n)(theta, z, c, q)[0]).reshape(-1, n)
         return z, np.abs(R).max(axis=0)
 

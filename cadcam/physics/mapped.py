@@ -1,7 +1,9 @@
-"""CasADi functions mapped over many points, each map built once; and SX functions replayed on
-numpy arrays (:func:`replayed`), all points at once."""
+"""CasADi functions mapped over many points, each map built once; SX functions replayed on
+numpy arrays (:func:`replayed`), all points at once; and functions called on numpy arrays
+through CasADi's buffers (:func:`direct`)."""
 from __future__ import annotations
 
+import threading
 from functools import lru_cache
 
 import casadi as ca
@@ -146,8 +148,97 @@ def replayed(f: ca.Function, rounding: bool = False) -> Replay:
     return Replay(f, rounding)
 
 
+class Direct:
+    """``f`` called on numpy arrays through CasADi's function buffers (``Function.buffer``):
+    the same evaluation of the same function as calling it, without converting each argument
+    to a CasADi matrix and each result back, which costs some tens of microseconds an argument,
+    more than evaluating a small function (a mechanism's drawing calls them pose by pose).
+
+    Called as ``f`` is, with numbers, sequences or arrays (an argument of an input's entries, or
+    for a map of ``f``, of one point's entries: the same at every point); returns each output
+    as an array of its rows × columns (``numpy.asarray`` of the call's result): a function of
+    one output that output, else the list of them. Any other argument, and an evaluation that
+    fails, goes through the call itself (its error is the call's). Each thread has its buffers.
+    """
+
+    def __init__(self, f: ca.Function):
+        self.f = f
+        self._dense = all(f.sparsity_in(i).is_dense() for i in range(f.n_in()))
+        # read once: each of CasADi's answers costs microseconds, as much as a small evaluation
+        self._shapes_in = [f.size_in(i) for i in range(f.n_in())]
+        self._outs = [(f.nnz_out(i), f.size_out(i), None if f.sparsity_out(i).is_dense() else f.sparsity_out(i).find())
+                      for i in range(f.n_out())]
+        self._threads = threading.local()
+
+    def __call__(self, *args):
+        outs = self._outputs(args)
+        return outs[0] if len(outs) == 1 else outs
+
+    def _outputs(self, args) -> list[np.ndarray]:
+        columns = [self._column(i, a) for i, a in enumerate(args)] if self._dense and len(args) == len(
+            self._shapes_in) else None
+        if columns is None or any(c is None for c in columns):
+            return self._called(args)
+        buffer, evaluate = self._buffer()
+        results = [np.empty(nnz) for nnz, _, _ in self._outs]
+        for i, column in enumerate(columns):
+            buffer.set_arg(i, memoryview(column))
+        for i, result in enumerate(results):
+            buffer.set_res(i, memoryview(result))
+        evaluate()
+        if buffer.ret() != 0:  # failed: the call says how
+            return self._called(args)
+        return [self._laid_out(i, v) for i, v in enumerate(results)]
+
+    def _called(self, args) -> list[np.ndarray]:
+        out = self.f(*args)
+        return [np.asarray(v) for v in (out if isinstance(out, (list, tuple)) else [out])]
+
+    def _buffer(self):
+        kept = getattr(self._threads, "buffer", None)
+        if kept is None:
+            kept = self._threads.buffer = self.f.buffer()
+        return kept
+
+    def _column(self, i: int, arg) -> np.ndarray | None:
+        """Input ``i``'s entries (column-major) from ``arg``, as the call takes it: a matrix of
+        the input's shape, a vector of its length either way round, or one of the input's
+        rows × some columns repeated across it (a map's point); None for any other (an
+        empty input has one entry of room: a buffer is never empty)."""
+        rows, cols = self._shapes_in[i]
+        try:
+            values = np.asarray(arg, dtype=float)
+        except (TypeError, ValueError):
+            return None
+        if values.ndim > 2:
+            return None
+        shape = values.shape if values.ndim == 2 else (values.size, 1)
+        flat = values.ravel(order="F")
+        if rows * cols == 0:
+            return np.zeros(1) if flat.size == 0 else None
+        if shape == (rows, cols) or (1 in shape and 1 in (rows, cols) and flat.size == rows * cols):
+            return np.ascontiguousarray(flat)
+        if shape[0] == rows and shape[1] and cols % shape[1] == 0:
+            return np.tile(flat, cols // shape[1])
+        return None
+
+    def _laid_out(self, i: int, nonzeros: np.ndarray) -> np.ndarray:
+        _, (rows, cols), entries = self._outs[i]
+        if entries is None:
+            return nonzeros.reshape((rows, cols), order="F")
+        dense = np.zeros(rows * cols)
+        dense[entries] = nonzeros
+        return dense.reshape((rows, cols), order="F")
+
+
+@lru_cache(maxsize=KEPT_MAPS)
+def direct(f: ca.Function) -> Direct:
+    """:class:`Direct` of ``f``, made once per function (as :func:`mapped`'s maps are)."""
+    return Direct(f)
+
+
 def on_points(f: ca.Function, n: int):
     """``f`` evaluated at ``n`` points as fast as it is to the map's rounding: replayed
-    (:func:`replayed` with ``rounding``) from :data:`REPLAY_POINTS` on, else mapped; either is
-    called as the map is, and its results read with ``numpy.asarray``."""
-    return replayed(f, rounding=True) if n >= REPLAY_POINTS else mapped(f, n)
+    (:func:`replayed` with ``rounding``) from :data:`REPLAY_POINTS` on, else its map called
+    through its buffers (:func:`direct`); either is called as the map is, and returns arrays."""
+    return replayed(f, rounding=True) if n >= REPLAY_POINTS else direct(mapped(f, n))

@@ -1,8 +1,9 @@
 """A map of a function over n points is built once and evaluates as CasADi's own map."""
 import casadi as ca
 import numpy as np
+import pytest
 
-from cadcam.physics.mapped import REPLAY_POINTS, Replay, mapped, on_points, replayed
+from cadcam.physics.mapped import REPLAY_POINTS, Direct, Replay, direct, mapped, on_points, replayed
 
 
 def test_a_map_is_built_once_per_function_and_count_and_evaluates_as_casadis():
@@ -60,7 +61,7 @@ def test_with_rounding_other_functions_are_replayed_to_the_maps_rounding():
     points = np.linspace(-3.0, 3.0, 2 * REPLAY_POINTS)
     for got, want in zip(replayed(f, rounding=True)(points, [1.5, 0.25]), mapped(f, points.size)(points, [1.5, 0.25])):
         np.testing.assert_array_max_ulp(got, np.asarray(want), maxulp=4)
-    assert isinstance(on_points(f, REPLAY_POINTS), Replay) and on_points(f, REPLAY_POINTS - 1) is mapped(f, REPLAY_POINTS - 1)
+    assert isinstance(on_points(f, REPLAY_POINTS), Replay) and on_points(f, REPLAY_POINTS - 1).f is mapped(f, REPLAY_POINTS - 1)
 
 
 def test_a_replay_takes_an_empty_input():
@@ -69,3 +70,29 @@ def test_a_replay_takes_an_empty_input():
     points = np.linspace(0.0, 1.0, 5)
     for got, want in zip(replayed(f, rounding=True)(points, np.zeros(0)), mapped(f, 5)(points, np.zeros(0))):
         np.testing.assert_array_max_ulp(got, np.asarray(want), maxulp=4)
+
+
+def test_a_direct_call_gives_the_calls_values_for_each_form_the_call_takes():
+    x, c = ca.SX.sym("x"), ca.SX.sym("c", 3)
+    f = ca.Function("f", [x, c], [ca.sin(x) * c[0] + c[1], ca.vertcat(x, c[2] * x), ca.SX(2, 1)])
+    m = mapped(f, 5)
+    points = np.linspace(-1.0, 2.0, 5)
+    coefficients = np.array([[1.5], [-0.25], [3.0]])
+    for args in [(points, [1.5, -0.25, 3.0]), (points[None, :], coefficients),
+                 (points[:, None], np.tile(coefficients, (1, 5)))]:
+        got, want = direct(m)(*args), m(*args)
+        assert len(got) == len(want)
+        for g, w in zip(got, want):
+            assert g.shape == np.asarray(w).shape
+            np.testing.assert_array_equal(g, np.asarray(w))
+    assert isinstance(on_points(f, 5), Direct) and on_points(f, 5).f is m
+    np.testing.assert_array_equal(direct(f)(0.5, coefficients)[1], np.asarray(f(0.5, coefficients)[1]))
+
+
+def test_a_direct_call_of_an_argument_it_cannot_take_as_is_is_the_call():
+    x = ca.SX.sym("x", 2, 2)
+    f = ca.Function("f", [x], [ca.trace(x)])
+    np.testing.assert_array_equal(direct(f)(np.eye(2)), [[2.0]])
+    np.testing.assert_array_equal(direct(f)([[1.0, 2.0], [3.0, 4.0]]), [[5.0]])
+    with pytest.raises(RuntimeError):  # a 3 × 3 for a 2 × 2: the call's own error
+        direct(f)(np.eye(3))

@@ -38,6 +38,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
+from ...physics.mapped import direct
 from ...physics.profile import profile_function
 from ...keys import PART_SIZE, Key, KeyTable
 from ..base import DesignMethod, Limit, Mechanism, Quantity, register
@@ -338,7 +339,7 @@ class AnchoredPulley(Mechanism):
     def segments(self, theta, z, c):
         """The free cable from the departure point to the spring end."""
         alpha = self.named_unknowns(z).alpha
-        rho = float(profile_function(self.bases[0])(alpha, c)[0])
+        rho = direct(profile_function(self.bases[0]))(alpha, c)[0].item()
         p = np.array(self.world_points(theta, alpha, rho), dtype=float)
         return [(p, self.spring_end(theta))]
 

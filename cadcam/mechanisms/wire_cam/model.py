@@ -19,6 +19,7 @@ import numpy as np
 from .capstan import wire_torque_function
 from .departure import cam_tangent, departure_moments, idler_centre_x, tangency_residuals
 from .file_model import wire_cam_port
+from ...physics.mapped import direct
 from ...physics.profile import profile_function
 from ...keys import PART_SIZE, Key, KeyTable
 from ..base import Mechanism, Quantity, register
@@ -131,7 +132,7 @@ class WireCam(Mechanism):
 
     def circles(self, theta, z, c):
         """The idler at one pose."""
-        qx = float(_idler_x_function(self.bases)(theta, z, c, self.parameter_values()))
+        qx = direct(_idler_x_function(self.bases))(theta, z, c, self.parameter_values()).item()
         return [(np.array([qx, self.idler_offset]), self.idler_radius)]
 
     def wraps(self, theta, z, c):
