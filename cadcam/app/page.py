@@ -179,8 +179,16 @@ def scrubbed(text: str, names: dict[str, str], folders=()) -> str:
 def server_folders() -> list[Path]:
     """The folders of the server a message may name: where cadcam is, where it runs, the
     user's home and the temporary folder (as given and resolved)."""
-    folders = [Path(__file__).resolve().parents[2], Path.cwd(), Path.home(), Path(tempfile.gettempdir())]
-    return [f for folder in folders for f in (folder, folder.resolve()) if len(f.parts) > 1]
+    folders = [resolved(Path(__file__)).parents[2], Path.cwd(), Path.home(), Path(tempfile.gettempdir())]
+    return [f for folder in folders for f in (folder, resolved(folder)) if len(f.parts) > 1]
+
+
+@functools.lru_cache(maxsize=64)
+def resolved(path: Path) -> Path:
+    """``path`` resolved (:meth:`pathlib.Path.resolve`), once per path: a resolution reads
+    each folder of the path from the file system, and the page scrubs each line it shows
+    (the verdict and what binds, at every slider step) of the same few folders."""
+    return path.resolve()
 
 
 def failure_line(action: str, exc: BaseException, line=one_line) -> str:
@@ -861,8 +869,8 @@ class DesignPage:
         """``text`` naming the file open and the files uploaded with it by the names the user
         knows them by, and no folder of the server (:func:`scrubbed`)."""
         path = self.state.path
-        names = {**self.state.aliases, str(path): self.name, str(path.resolve()): self.name}
-        return scrubbed(text, names, [path.parent.resolve()])
+        names = {**self.state.aliases, str(path): self.name, str(resolved(path)): self.name}
+        return scrubbed(text, names, [resolved(path.parent)])
 
     async def _on_slot(self, event) -> None:
         await self._show_catalogue()
