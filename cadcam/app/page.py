@@ -494,26 +494,34 @@ class DesignPage:
         moves the newest step is designed as it comes, and when it is let go the design is
         made in full (none where the edits are those of the design shown)."""
         text = value_text(value)
-        if text != value_text(self.state.value(key)):
+        turned = text != value_text(self.state.value(key))
+        if turned:
             error = self.state.edit(key, text)
             if error:
                 self._show_error(key, error)
                 return
-            # the field, its slider and those in step with it in one message: else a message
-            # each, whose making holds a slider's step back from its design
-            with self.drawing():
-                self._show_error(None, None)
-                self._show_values([key, *(k for k, leader in self.state.links.items() if leader == key)])
         elif not final:
             return  # the page showing a value (a typed edit, a step back): no move
+        moving = not final and self.state.edits() != self._asked
+        if moving:
+            self._moving = key
+            self._rest(None)
+            self._moves.ask()
+        if turned and moving:  # shown once the step's design has gone to the worker, while it designs
+            asyncio.get_running_loop().call_soon(self.guarded(f"moving {key}", self._show_turned), key)
+        elif turned:
+            self._show_turned(key)
         if final:
             self._moves.drop()
             if self.state.edits() != self._asked:
                 await self.design(edited=key)
-        elif self.state.edits() != self._asked:
-            self._moving = key
-            self._rest(None)
-            self._moves.ask()
+
+    def _show_turned(self, key: str) -> None:
+        """Field ``key`` turned: it, its slider and those in step with it show their values, in
+        one message (else a message each, whose making would hold a slider's step back)."""
+        with self.drawing():
+            self._show_error(None, None)
+            self._show_values([key, *(k for k, leader in self.state.links.items() if leader == key)])
 
     def _rest(self, key: str | None) -> None:
         """Forget the full design of a slider at rest asked for, if any; with ``key``, ask it

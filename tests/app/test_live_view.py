@@ -279,3 +279,36 @@ def test_small_columns_are_sent_in_the_messages_text_and_large_ones_as_binary_bu
     assert [b.to_bytes() for b in message.buffers] == [long.tobytes()]  # the long curve alone
     assert source.data["tau"] == list(range(46)) and source.data["xs"][1] == [1.0, 2.0]
     np.testing.assert_array_equal(source.data["xs"][0], long)
+
+
+def test_the_torque_plots_ranges_stay_in_the_browser(wire_cam):
+    """The browser fits the torque and error plots' ranges to each new curve; sent back, they
+    would be two messages for the server to read before each next slider step."""
+    live = wire_cam.live
+    bottom = live.torque.object.children[1]
+    ranges = [live.torque_figure.x_range, live.torque_figure.y_range, bottom.y_range]
+    assert bottom.x_range is ranges[0] and not any(r.syncable for r in ranges)
+    assert all(fig.x_range.syncable and fig.y_range.syncable for fig in live.mechanism_figures)  # the server sets these
+
+
+def test_a_slider_step_goes_to_the_worker_before_its_field_shows_the_value(wire_cam, monkeypatch):
+    """The field follows a slider's step while the worker designs it: its message is made once
+    the step's design has gone to the worker, not before it."""
+    view = wire_cam
+    asked, in_worker = [], view._in_worker
+
+    async def watched(fn, *args):
+        asked.append((fn.__name__, view.inputs["springs.1.rate"].value))
+        return await in_worker(fn, *args)
+
+    monkeypatch.setattr(view, "_in_worker", watched)
+    before = view.inputs["springs.1.rate"].value
+
+    async def step():
+        await view._turn("springs.1.rate", 1170.0, final=False)
+        await view._moves.idle()
+
+    asyncio.run(step())
+    assert before != "1170.0" and asked == [("_moving_design", before)]
+    assert view.inputs["springs.1.rate"].value == "1170.0" and view.sliders["springs.1.rate"][0].value == 1170.0
+    assert "verdict-provisional" in view.verdict.object
