@@ -219,8 +219,7 @@ class Transcription:
         with exact sparsity; built on first use (only to compile a library: one in the cache is
         named by :attr:`nlp`'s graph)."""
         if self._split is None:
-            self._split = object.__new__(Transcription)
-            self._split._build_graph(self.problem.with_options(functions="mapped"))
+            self._split = Transcription.graph_of(self.problem.with_options(functions="mapped"))
         return self._split
 
     def _split_nlp(self) -> dict:

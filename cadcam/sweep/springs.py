@@ -207,6 +207,17 @@ def _spec_problem(spec: tuple) -> Problem:
 
 
 @contextlib.contextmanager
+def search_nlp():
+    """Within the block, NLPs are built as a search builds them: the outline's rows at the
+    anchor imposed from the first solve (:data:`cadcam.solve.rows.ANCHOR_ROWS_FIRST`)."""
+    anchor = ANCHOR_ROWS_FIRST.set(True)
+    try:
+        yield
+    finally:
+        ANCHOR_ROWS_FIRST.reset(anchor)
+
+
+@contextlib.contextmanager
 def search_solves():
     """Within the block, solves as a search's are (:func:`design_part`): their stalled runs
     stopped (:data:`SEARCH_STALL`, fixed into the builds made or kept for them), the
@@ -214,18 +225,16 @@ def search_solves():
     solve did not converge not re-checked on the fine grid
     (:data:`cadcam.optimize.RECHECK_UNCONVERGED`: its spring is undecided from its status) and
     the profiles scanned by the fine re-check alone (:data:`cadcam.optimize.SCAN_DESIGN_GRID`:
-    a row's rmse is the design grid's, its verdict the re-check's); the NLPs built there impose
-    the outline's rows at the anchor from the first solve
-    (:data:`cadcam.solve.rows.ANCHOR_ROWS_FIRST`)."""
+    a row's rmse is the design grid's, its verdict the re-check's); the NLPs built there are
+    the search's (:func:`search_nlp`)."""
     from ..optimize import RECHECK_UNCONVERGED, SCAN_DESIGN_GRID
 
     impose, unconverged = IMPOSE_OPTIONS.set(SEARCH_IMPOSE_IPOPT), RECHECK_UNCONVERGED.set(False)
-    scan, anchor = SCAN_DESIGN_GRID.set(False), ANCHOR_ROWS_FIRST.set(True)
+    scan = SCAN_DESIGN_GRID.set(False)
     try:
-        with stall_rule(SEARCH_STALL):
+        with stall_rule(SEARCH_STALL), search_nlp():
             yield
     finally:
-        ANCHOR_ROWS_FIRST.reset(anchor)
         SCAN_DESIGN_GRID.reset(scan)
         RECHECK_UNCONVERGED.reset(unconverged)
         IMPOSE_OPTIONS.reset(impose)
@@ -283,17 +292,14 @@ def designed_again(problem: Problem, row: dict):
     part, its own solver settings): warm from the row's answer (its multipliers and any
     margins it was solved with), the same design, re-checked, in a few iterations; from the
     default start where that fails (on another path, a fresh library, it may not pass). Both
-    in the NLP as the search built it (:data:`cadcam.solve.rows.ANCHOR_ROWS_FIRST`): its rows
-    in the order of the row's multipliers, its libraries the search's."""
+    in the NLP as the search built it (:func:`search_nlp`): its rows in the order of the row's
+    multipliers, its libraries the search's."""
     from ..optimize import optimize
 
-    anchor = ANCHOR_ROWS_FIRST.set(True)
-    try:
+    with search_nlp():
         result = optimize(problem, start=Design.from_dict(row["design"], problem), warm=row["multipliers"],
                           refine=SEARCH_REFINE, margins=row["margins"])
         return result if result.success else optimize(problem)
-    finally:
-        ANCHOR_ROWS_FIRST.reset(anchor)
 
 
 def force_matched(design: Design, j: int, was: tuple[float, float], spring: Spring, extension: float) -> Design:
@@ -433,6 +439,10 @@ class NearestFirst:
         nearer to a solved one."""
         np.minimum(self._gap, spring_gaps(self._springs, spring, self._scales), out=self._gap)
 
+    def __len__(self) -> int:
+        """How many springs are not yet taken."""
+        return int(self._left.sum())
+
     def take(self) -> int:
         """Index, in the order given, of the spring to design next (taken: not given again)."""
         left = np.flatnonzero(self._left)
@@ -518,7 +528,7 @@ def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None
     catalogue file ``catalogue``; :func:`with_part`: a catalogue part may give the NLP more
     than the spec's own spring), and of that NLP with its deferred outline rows (a design
     that breaks one of them is solved again with them all), into the cache now, as the
-    search's designs build them (:func:`search_solves`), where its ``solver.functions``
+    search's designs build them (:func:`search_nlp`), where its ``solver.functions``
     would otherwise solve with expanded ones until a background compile is done (``auto``)
     or have each worker compile them at once (``compiled``). A machine without a C compiler keeps expanded functions; a
     part that cannot be used or a compile that fails leaves the workers to build their own
@@ -528,7 +538,7 @@ def prepare_functions(problem: Problem, j: int, part: str, catalogue: str | None
 
     if problem.options.functions in ("auto", "compiled") and compiled.available():
         try:
-            with search_solves():  # the NLP as the search's designs build it
+            with search_nlp():  # the NLP as the search's designs build it
                 Transcription.graph_of(with_part(problem, j, part, catalogue)).compile_libraries()
         except (compiled.CompileError, SpecError):
             pass
@@ -565,10 +575,10 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     try:
         if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
             prepare_functions(problem, j, catalogue.parts[todo[0]], catalogue_path)
-        order, left = NearestFirst(np.c_[body.rate[todo], body.preload[todo]], scales), len(todo)
-        while left or pending:
-            while left and len(pending) < room:
-                i, left = todo[order.take()], left - 1
+        order = NearestFirst(np.c_[body.rate[todo], body.preload[todo]], scales)
+        while order or pending:
+            while order and len(pending) < room:
+                i = todo[order.take()]
                 spring = (float(body.rate[i]), float(body.preload[i]))
                 fut = executor.submit(spec, j, catalogue.parts[i], catalogue_path,
                                       nearest_start(spring, solved, scales), band)
