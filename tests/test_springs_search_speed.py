@@ -1,12 +1,11 @@
 """`cadcam springs` made fast: a part swapped into the parsed spec is the problem its spec parses
 to; a profile that broke its shape between the NLP's check points is mended by raising its
-margins in the same NLP; a spring starts from the nearest solved one within a span; every
+margins in the same NLP; a spring starts from a solved neighbour, the same on any workers; every
 feasible row's design re-checks on its own; the table ranks by the tolerance band; the search
 runs on a Dask cluster; and the whole tutorial catalogue (slow lane) finds its feasible springs."""
 from __future__ import annotations
 
 import csv
-import math
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -24,8 +23,8 @@ from cadcam.spec import parse_spec, read_spec_data
 from cadcam.solve.blocks import LENGTH_SCALE
 from cadcam.solve.ipopt import Multipliers
 from cadcam.solve.variables import _Vars
-from cadcam.sweep.springs import (TABLE_COLUMNS, NearestFirst, _spec_problem, design_part, force_matched,
-                                  matched_point, nearest_start, part_spec, search, verdict, with_part)
+from cadcam.sweep.springs import (TABLE_COLUMNS, StartTree, _spec_problem, design_part, force_matched,
+                                  matched_point, part_spec, search, verdict, with_part)
 from cadcam.verify.evaluate import evaluate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -71,28 +70,41 @@ def test_a_part_that_cannot_be_swapped_in_is_one_line(part, pre, words):
     assert "\n" not in str(err.value)
 
 
-def test_the_nearest_solved_spring_starts_a_design_however_far():
-    scales = (2.0, 50.0)
-    solved = [((1000.0, 5.0), "a"), ((1100.0, 9.0), "b"), ((1000.0, 20.0), "c")]
-    assert nearest_start((1050.0, 8.0), solved, scales) == "b"
-    # 0.02 of the log-rate span away, and 0.04 of the tension span
-    assert nearest_start((1000.0 * math.exp(0.04), 5.0 + 2.0), solved, scales) == "a"
-    # far from every solved spring: still the nearest, in log rate and tension over their spans
-    assert nearest_start((1000.0 * math.exp(2.0), 45.0), solved, scales) == "c"
-    assert nearest_start((1000.0, 5.0), [], scales) is None  # nothing solved: the default start
+#: Five springs (rate k [N/m], initial tension F0 [N]) and the spans of log k and F0 their gaps are
+#: measured over: two pairs of neighbours and one between them.
+FIVE = np.array([[1000.0, 5.0], [3000.0, 40.0], [1100.0, 6.0], [2900.0, 41.0], [1000.0, 30.0]])
+FIVE_SCALES = (2.0, 50.0)
 
 
-def test_the_next_spring_designed_is_the_one_nearest_a_solved_spring():
-    """Before any is solved the springs come in the order given; then the one nearest to any
-    solved spring, each given once."""
-    scales = (2.0, 50.0)
-    springs = np.array([[1000.0, 5.0], [3000.0, 40.0], [1100.0, 6.0], [2900.0, 41.0], [1000.0, 30.0]])
-    order = NearestFirst(springs, scales)
-    assert [order.take(), order.take()] == [0, 1]
-    order.solved((3000.0, 40.0))
-    assert order.take() == 3  # beside the solved one, though the third given is beside the first
-    order.solved((1000.0, 5.0))
-    assert [order.take(), order.take()] == [2, 4]
+def test_the_tree_grows_from_the_first_spring_to_the_nearest_next():
+    """Each spring's parent is the nearest of those before it: 2 beside 0; 4 nearer 2 than 0; 3
+    nearer 4 than 2; 1 beside 3. The gaps are in log rate and tension over their spans."""
+    tree = StartTree(FIVE, FIVE_SCALES)
+    assert tree.order == [0, 2, 4, 3, 1]
+    assert list(tree.parent) == [-1, 3, 0, 4, 2]
+    assert tree.children == [[2], [], [4], [1], [3]]
+    assert list(tree.rank) == [0, 4, 1, 3, 2]
+
+
+def test_a_spring_starts_from_its_nearest_solved_ancestor():
+    tree = StartTree(FIVE, FIVE_SCALES)
+    assert tree.start_of(2, {0: "a"}) == "a"
+    assert tree.start_of(4, {0: "a", 2: None}) == "a"  # its parent failed: the one before it
+    assert tree.start_of(3, {0: "a", 2: None, 4: "c"}) == "c"
+    assert tree.start_of(2, {0: None}) is None  # none solved: the default start
+    assert tree.start_of(0, {}) is None
+
+
+@pytest.mark.slow  # a second search of the shared springs, on two workers: make test-slow
+def test_a_search_gives_the_same_rows_on_any_number_of_workers(found):
+    """Each spring's start is fixed by the tree and the verdicts of the springs before it, not by
+    which worker ends first: two workers design every spring as one process does."""
+    pooled = search(SPEC, 0, load_catalogue(None), None, 2, LIMIT)
+    assert pooled.designed.keys() == found.designed.keys()
+    for part, row in found.designed.items():
+        other = pooled.designed[part]
+        assert (other["status"], other["iterations"], other["rmse"]) == (row["status"], row["iterations"], row["rmse"])
+    assert pooled.table("error") == found.table("error")
 
 
 def test_a_neighbours_nlp_point_starts_with_the_matched_pre_extension():

@@ -1,8 +1,8 @@
 """A spec's spring slot searched over a whole spring catalogue: what the slot asks of a spring
 (:func:`slot_need`), the catalogue's screen for it (:func:`screen_slot`) before any solve, and
 the survivors designed on a process pool or a Dask cluster (:func:`search`), each warm-started
-from the solved spring nearest in rate and initial tension, the next one to design nearest to
-those solved (:class:`NearestFirst`), each given a verdict (:data:`VERDICTS`).
+from a solved spring near it in rate and initial tension, in an order and from starts fixed
+before any is designed (:class:`StartTree`), each given a verdict (:data:`VERDICTS`).
 
 Fast enough for a whole catalogue: each worker parses the spec once and swaps each part's
 spring into it (:func:`with_part`: the NLP's numbers change, not its graph, so one build serves
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import heapq
 import json
 import math
 import time
@@ -243,7 +244,7 @@ def search_solves():
 def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: dict | None,
                 band: bool = False) -> dict:
     """Design the spec ``spec`` = (data, origin, base folder) with spring ``j`` made catalogue
-    part ``part`` (:func:`with_part`), warm from ``start`` if given (:func:`nearest_start`: a
+    part ``part`` (:func:`with_part`), warm from ``start`` if given (:meth:`StartTree.start_of`: a
     solved neighbour's design, its multipliers and the margins it was solved with, its part,
     its spring's (k, F0) and middle extension for :func:`force_matched`); a row for
     :func:`verdict`, with the design's tolerance band where ``band``. Never raises: a failure
@@ -390,23 +391,10 @@ def design_order(catalogue: Catalogue, passed, nominal_rate: float) -> list[int]
 
 def spring_scales(catalogue: Catalogue, rows) -> tuple[float, float]:
     """The spans of log rate and of initial tension [N] over catalogue ``rows`` (those that
-    passed the screen; 1 where one is zero): the scales of :func:`nearest_start`'s distance."""
+    passed the screen; 1 where one is zero): the scales of :func:`spring_gaps`."""
     b = catalogue.body
     spans = (float(np.ptp(np.log(b.rate[rows]))), float(np.ptp(b.preload[rows]))) if len(rows) else (0.0, 0.0)
     return tuple(v or 1.0 for v in spans)
-
-
-def nearest_start(spring: tuple[float, float], solved: list[tuple[tuple[float, float], dict]],
-                  scales: tuple[float, float]) -> dict | None:
-    """The start (:func:`design_part`'s) of the solved spring nearest to ``spring`` =
-    (rate k [N/m], initial tension F0 [N]), in log k and F0, each over its span ``scales``
-    (:func:`spring_scales`), however far: even a distant neighbour's design, its multipliers
-    and its active set start a spring nearer its optimum than the default start, from which a
-    spring of the tutorial's catalogue more often ends undecided; None while none is solved.
-    ``solved`` holds ((k, F0), start) pairs."""
-    if not solved:
-        return None
-    return solved[int(np.argmin(spring_gaps(np.array([s[0] for s in solved]), spring, scales)))][1]
 
 
 def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[float, float]) -> np.ndarray:
@@ -416,10 +404,16 @@ def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[
     return np.hypot(np.log(springs[:, 0] / k) / sk, (springs[:, 1] - f0) / sf)
 
 
-class NearestFirst:
-    """The order a search designs its springs in: next, the one nearest to a spring solved so
-    far (:func:`spring_gaps`), so that each starts from a close neighbour's design
-    (:func:`nearest_start`); while none is solved, the next in the order given.
+class StartTree:
+    """The order a search designs its springs in and the spring each starts from, fixed before
+    any is designed, so that a search's rows are the same on any number of workers or a Dask
+    cluster and however long each design takes: the springs joined by Prim's tree over their
+    gaps (:func:`spring_gaps`), grown from the first given (the spring nearest the spec's
+    rate, :func:`design_order`), so that each spring's parent is the nearest of those before it
+    in :attr:`order`. A spring is designed once its parent is, warm from its nearest ancestor
+    that was solved (:meth:`start_of`): even a distant neighbour's design, its multipliers and
+    its active set start a spring nearer its optimum than the default start, from which a spring
+    of the tutorial's catalogue more often ends undecided.
 
     Parameters
     ----------
@@ -430,26 +424,35 @@ class NearestFirst:
     """
 
     def __init__(self, springs: np.ndarray, scales: tuple[float, float]):
-        self._springs, self._scales = np.asarray(springs, dtype=float), scales
-        self._gap = np.full(len(self._springs), np.inf)
-        self._left = np.ones(len(self._springs), dtype=bool)
+        springs = np.asarray(springs, dtype=float)
+        m = len(springs)
+        self.parent = np.full(m, -1)
+        self.order = [0] if m else []
+        gap, nearest = spring_gaps(springs, springs[0], scales) if m else np.zeros(0), np.zeros(m, dtype=int)
+        left = np.ones(m, dtype=bool)
+        left[:1] = False
+        for _ in range(m - 1):
+            free = np.flatnonzero(left)
+            i = int(free[np.argmin(gap[free])])  # on a tie, the first given
+            self.order.append(i)
+            self.parent[i], left[i] = nearest[i], False
+            to_i = spring_gaps(springs, springs[i], scales)
+            closer = to_i < gap
+            gap[closer], nearest[closer] = to_i[closer], i
+        self.rank = np.empty(m, dtype=int)
+        self.rank[self.order] = np.arange(m)
+        self.children: list[list[int]] = [[] for _ in range(m)]
+        for i in self.order[1:]:
+            self.children[self.parent[i]].append(i)
 
-    def solved(self, spring: tuple[float, float]) -> None:
-        """``spring`` (k, F0) was solved: the springs left nearer to it than to any other are
-        nearer to a solved one."""
-        np.minimum(self._gap, spring_gaps(self._springs, spring, self._scales), out=self._gap)
-
-    def __len__(self) -> int:
-        """How many springs are not yet taken."""
-        return int(self._left.sum())
-
-    def take(self) -> int:
-        """Index, in the order given, of the spring to design next (taken: not given again)."""
-        left = np.flatnonzero(self._left)
-        gaps = self._gap[left]
-        i = int(left[np.argmin(gaps)] if np.isfinite(gaps).any() else left[0])
-        self._left[i] = False
-        return i
+    def start_of(self, i: int, starts: dict) -> dict | None:
+        """The start of spring ``i``: that of its nearest ancestor solved, from ``starts``
+        (spring → its start, None where its design failed), where every ancestor of ``i`` is
+        done; None (the default start) where none was solved."""
+        p = int(self.parent[i])
+        while p >= 0 and starts[p] is None:
+            p = int(self.parent[p])
+        return starts[p] if p >= 0 else None
 
 
 @dataclass
@@ -549,9 +552,9 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     """Screen ``catalogue`` for spring ``j`` (0-based) of the spec ``spec`` = (data, origin,
     base folder) and design the survivors, at most ``limit`` of them (those nearest the spec's
     own rate), on ``workers`` processes (0: in this process) or the Dask cluster ``dask``
-    (``local`` or a scheduler address), next the one nearest to a solved spring
-    (:class:`NearestFirst`), each warm from the solved spring nearest in rate and initial
-    tension (:func:`nearest_start`); with each design's tolerance band where ``band``.
+    (``local`` or a scheduler address), in the order of their :class:`StartTree`, each warm from
+    its nearest ancestor there that was solved (the same rows on any workers); with each
+    design's tolerance band where ``band``.
     ``catalogue_path`` is the file a part is read from (None: the shipped catalogue);
     ``report(row, search)`` is called as each spring is done.
     """
@@ -568,29 +571,29 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
     # started first: a local pool's workers start up while the functions compile
     executor = (_Dask(dask, max(workers, 1), design_part) if dask else
                 _Local(workers, design_part) if workers else _Serial(design_part))
-    # a spring is chosen when a worker is free, so that it starts from the springs solved
-    # until then (a round trip to the worker is a small part of a design)
-    room, pending, solved = max(workers, 1), {}, []
+    # a ready spring is sent when a worker is free, one per worker, so that the workers take
+    # the ready springs in the tree's order (a round trip to the worker is a small part of a design)
+    room, pending = max(workers, 1), {}
     interrupted = True
     try:
         if len(todo) >= COMPILE_FIRST or problem.options.functions == "compiled":
             prepare_functions(problem, j, catalogue.parts[todo[0]], catalogue_path)
-        order = NearestFirst(np.c_[body.rate[todo], body.preload[todo]], scales)
-        while order or pending:
-            while order and len(pending) < room:
-                i = todo[order.take()]
-                spring = (float(body.rate[i]), float(body.preload[i]))
-                fut = executor.submit(spec, j, catalogue.parts[i], catalogue_path,
-                                      nearest_start(spring, solved, scales), band)
-                pending[fut] = spring
+        tree, starts = StartTree(np.c_[body.rate[todo], body.preload[todo]], scales), {}
+        ready = [(0, tree.order[0])]  # (rank in the tree's order, spring) of the springs whose parent is done
+        while ready or pending:
+            while ready and len(pending) < room:  # the ready spring first in the tree's order
+                k = heapq.heappop(ready)[1]
+                fut = executor.submit(spec, j, catalogue.parts[todo[k]], catalogue_path, tree.start_of(k, starts), band)
+                pending[fut] = k
             for fut in executor.wait(list(pending)):
-                spring, row = pending.pop(fut), fut.result()
+                k, row = pending.pop(fut), fut.result()
                 found.designed[row["part"]] = row
-                if row["status"] == "success":
-                    order.solved(spring)
-                    solved.append((spring, {"design": row["design"], "multipliers": row["multipliers"],
-                                            "margins": row["margins"], "part": row["part"], "spring": spring,
-                                            "extension": row["extension"]}))
+                i = todo[k]
+                starts[k] = ({"design": row["design"], "multipliers": row["multipliers"], "margins": row["margins"],
+                              "part": row["part"], "spring": (float(body.rate[i]), float(body.preload[i])),
+                              "extension": row["extension"]} if row["status"] == "success" else None)
+                for child in tree.children[k]:
+                    heapq.heappush(ready, (int(tree.rank[child]), child))
                 if report is not None:
                     report(row, found)
         interrupted = False
