@@ -24,7 +24,7 @@ from cadcam.solve.blocks import LENGTH_SCALE
 from cadcam.solve.ipopt import Multipliers
 from cadcam.solve.variables import _Vars
 from cadcam.sweep.springs import (TABLE_COLUMNS, StartTree, _spec_problem, design_part, force_matched,
-                                  matched_point, part_spec, search, verdict, with_part)
+                                  matched_point, part_spec, search, spring_gaps, verdict, with_part)
 from cadcam.verify.evaluate import evaluate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -77,20 +77,38 @@ FIVE_SCALES = (2.0, 50.0)
 
 
 def test_the_tree_grows_from_the_first_spring_to_the_nearest_next():
-    """Each spring's parent is the nearest of those before it: 2 beside 0; 4 nearer 2 than 0; 3
-    nearer 4 than 2; 1 beside 3. The gaps are in log rate and tension over their spans."""
+    """Each spring's parent is the nearest of those before it, rate counting more than initial
+    tension (TENSION_WEIGHT): 2 beside 0; 4, of 0's rate, nearer 0 than 1 and 3 are to either;
+    3 nearer 2 than 4, whose tension is nearer but whose rate is not; 1 beside 3."""
     tree = StartTree(FIVE, FIVE_SCALES)
     assert tree.order == [0, 2, 4, 3, 1]
-    assert list(tree.parent) == [-1, 3, 0, 4, 2]
-    assert tree.children == [[2], [], [4], [1], [3]]
+    assert list(tree.parent) == [-1, 3, 0, 2, 0]
+    assert tree.children == [[2, 4], [], [3], [1], []]
     assert list(tree.rank) == [0, 4, 1, 3, 2]
+
+
+def test_the_tree_is_prims_over_the_spring_gaps():
+    """On random springs: each spring added is the one nearest to those before it, and its parent
+    the nearest of them, as a brute-force search over every pair's gap finds."""
+    rng = np.random.default_rng(7)
+    springs = np.c_[np.exp(rng.uniform(5.0, 9.0, 40)), rng.uniform(0.0, 60.0, 40)]
+    scales = (4.0, 60.0)
+    gap = np.array([spring_gaps(springs, tuple(s), scales) for s in springs])
+    tree = StartTree(springs, scales)
+    assert sorted(tree.order) == list(range(40)) and tree.order[0] == 0
+    for t in range(1, 40):
+        before, after = tree.order[:t], tree.order[t:]
+        nearest = gap[np.ix_(after, before)].min(axis=1)
+        assert tree.order[t] == after[int(np.argmin(nearest))]
+        assert tree.parent[tree.order[t]] == before[int(np.argmin(gap[tree.order[t], before]))]
 
 
 def test_a_spring_starts_from_its_nearest_solved_ancestor():
     tree = StartTree(FIVE, FIVE_SCALES)
     assert tree.start_of(2, {0: "a"}) == "a"
-    assert tree.start_of(4, {0: "a", 2: None}) == "a"  # its parent failed: the one before it
-    assert tree.start_of(3, {0: "a", 2: None, 4: "c"}) == "c"
+    assert tree.start_of(3, {0: "a", 2: "b"}) == "b"
+    assert tree.start_of(3, {0: "a", 2: None}) == "a"  # its parent failed: the one before that
+    assert tree.start_of(1, {0: "a", 2: None, 3: "c"}) == "c"
     assert tree.start_of(2, {0: None}) is None  # none solved: the default start
     assert tree.start_of(0, {}) is None
 

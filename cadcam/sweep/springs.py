@@ -397,11 +397,21 @@ def spring_scales(catalogue: Catalogue, rows) -> tuple[float, float]:
     return tuple(v or 1.0 for v in spans)
 
 
+#: The weight of initial tension against rate in :func:`spring_gaps`: a neighbour's design starts
+#: a spring with its pre-extension moved so that it pulls as hard in the middle of its range
+#: (:func:`force_matched`), which makes up for most of a difference in initial tension and none
+#: of one in rate. Chosen where the searches of the tutorial's catalogue, the 1-DOF wire cam's
+#: and Endo2010's pulley's took fewer IPOPT iterations than at 1 and found as many feasible
+#: springs or more (``bench_springs.py`` measures the tutorial's).
+TENSION_WEIGHT = 0.3
+
+
 def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[float, float]) -> np.ndarray:
     """Distances from each of ``springs`` (m, 2) = (rate k [N/m], initial tension F0 [N]) to
-    ``spring``: in log k and F0, each over its span ``scales`` (:func:`spring_scales`)."""
+    ``spring``: in log k and F0, each over its span ``scales`` (:func:`spring_scales`), F0's
+    weighted by :data:`TENSION_WEIGHT`."""
     (k, f0), (sk, sf) = spring, scales
-    return np.hypot(np.log(springs[:, 0] / k) / sk, (springs[:, 1] - f0) / sf)
+    return np.hypot(np.log(springs[:, 0] / k) / sk, TENSION_WEIGHT * (springs[:, 1] - f0) / sf)
 
 
 class StartTree:
