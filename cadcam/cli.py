@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -414,10 +415,43 @@ def _springs_progress():
     return line
 
 
+#: The figure ``cadcam springs`` writes beside its table (:func:`cadcam.outputs.plots.catalogue_figure`).
+CATALOGUE_FIGURE = "catalogue.png"
+
+
 def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) -> int:
-    """Write ``springs.csv`` and the best design's folder ``best/`` (its design solved again here
-    from the search's answer with the spec's own solver options, then written as ``cadcam
-    design`` writes it); print the summary; return the exit code."""
+    """Write ``springs.csv``, its figure (:data:`CATALOGUE_FIGURE`) and the best design's folder
+    ``best/`` (its design solved again here from the search's answer with the spec's own solver
+    options, then written as ``cadcam design`` writes it), the figures drawn side by side; print
+    the summary; return the exit code."""
+    from .outputs.forked import Drawer
+
+    with Drawer((os.cpu_count() or 1) if args.figures else 1, FIGURE_WRITERS) as drawer:
+        if args.figures:
+            drawer.send([_catalogue_drawing(found, out / CATALOGUE_FIGURE, f"{Path(spec[1]).name}, spring {args.slot}")])
+        code = _write_table_and_best(found, spec, args, part_path, out, drawer)
+        drawer.wait()  # where no best design's folder waited for the figure (leaving ends the drawing)
+        return code
+
+
+def _catalogue_drawing(found, path: Path, title: str):
+    """The drawing of the search ``found``'s :data:`CATALOGUE_FIGURE` into ``path`` (named by
+    module: this process need not import matplotlib)."""
+    from .outputs.forked import Call
+    from .sweep.springs import VERDICT_COLOURS
+
+    cat, best = found.catalogue, found.best()
+    words = [word for word, _ in found.verdicts()]
+    # the error of a design that converged: an undecided one's is only where its solve stopped
+    rmse = [found.designed[part]["rmse"] if word in ("feasible", "near") else math.nan
+            for part, word in zip(cat.parts, words)]
+    return Call("cadcam.outputs.plots", "plot_catalogue",
+                (cat.body.rate, cat.body.preload, words, rmse, None if best is None else cat.parts.index(best),
+                 VERDICT_COLOURS, path, title))
+
+
+def _write_table_and_best(found, spec: tuple, args, part_path: str | None, out: Path, drawer) -> int:
+    """:func:`_write_search` with its figures drawn by ``drawer``."""
     from .files import write_csv
     from .outputs.run_files import WorkshopError
     from .spec import parse_spec
@@ -432,19 +466,24 @@ def _write_search(found, spec: tuple, args, part_path: str | None, out: Path) ->
                f"{len(found.designed)} designed, {words.count('feasible')} feasible, {words.count('near')} near, "
                f"{words.count('undecided')} undecided; ")
     if best is None:
-        print(summary + f"no feasible spring; the table in {out / 'springs.csv'}")
+        print(summary + f"no feasible spring; the table in {out / 'springs.csv'}{_figure_words(args, out)}")
         return 1
     problem = parse_spec(part_spec(data, args.slot - 1, best, part_path), origin, base)
     result = designed_again(problem, found.designed[best])
     try:
-        result.save(out / "best", figures=args.figures, workers=os.cpu_count() or 1)
+        result.save(out / "best", figures=args.figures, drawer=drawer)
     except WorkshopError as exc:
         print(summary + f"the best: {best}; its workshop files cannot be made: {exc} (the table and the "
               f"design's other files are written to {out})", file=sys.stderr)
         return 1
     print(summary + f"the best: {best}, rmse {found.designed[best]['rmse']:.4g} N·m ({result.status} again "
-          f"in {out / 'best'}); the table, ranked by {args.rank}, in {out / 'springs.csv'}")
+          f"in {out / 'best'}); the table, ranked by {args.rank}, in {out / 'springs.csv'}{_figure_words(args, out)}")
     return 0
+
+
+def _figure_words(args, out: Path) -> str:
+    """Where the summary of ``cadcam springs`` says its figure is, if it drew one."""
+    return f" (its figure: {out / CATALOGUE_FIGURE})" if args.figures else ""
 
 
 def cmd_sweep_export(args) -> int:

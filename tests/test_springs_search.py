@@ -88,6 +88,7 @@ def test_the_best_design_is_written_with_its_part(searched):
     assert body["part"] == best["part_number"]
     assert body["peak_force"] == pytest.approx(float(best["peak_force"]), rel=1e-3)
     assert (out / "best" / "cam1.dxf").is_file()
+    assert not (out / "catalogue.png").exists() and not (out / "best" / "torque.png").exists()  # --no-figures
 
 
 def test_a_limit_designs_the_nearest_rate_only(tmp_path, capsys):
@@ -207,6 +208,7 @@ def test_no_feasible_spring_exits_1_with_its_summary(tmp_path, capsys):
     assert "3 screened out, 0 designed, 0 feasible" in capsys.readouterr().out
     assert [r["verdict"] for r in _table(tmp_path / "out" / "springs.csv")] == ["infeasible"] * 3
     assert not (tmp_path / "out" / "best").exists()
+    assert (tmp_path / "out" / "catalogue.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the figure all the same
 
 
 def test_text_cells_that_look_like_formulas_are_escaped(tmp_path):

@@ -16,7 +16,7 @@ import pandas as pd
 
 from ..physics.catalogue import Catalogue, Screen, load_catalogue
 from ..problem import Problem
-from ..sweep.springs import VERDICTS
+from ..sweep.springs import VERDICT_COLOURS, VERDICTS
 
 
 class Light(NamedTuple):
@@ -29,11 +29,12 @@ class Light(NamedTuple):
 #: The table's lights, best first (a light's column holds its place here, so that sorting on it
 #: puts the best first).
 LIGHTS = {
-    "feasible": Light("#2e7d32", VERDICTS["feasible"]),
-    "near": Light("#f9a825", VERDICTS["near"]),
-    "untried": Light("#90a4ae", "passes the screen; not designed with these edits yet: pick it to design"),
-    "undecided": Light("#8d6e63", VERDICTS["undecided"]),
-    "infeasible": Light("#c62828", VERDICTS["infeasible"]),
+    "feasible": Light(VERDICT_COLOURS["feasible"], VERDICTS["feasible"]),
+    "near": Light(VERDICT_COLOURS["near"], VERDICTS["near"]),
+    "untried": Light(VERDICT_COLOURS["not_designed"],
+                     "passes the screen; not designed with these edits yet: pick it to design"),
+    "undecided": Light(VERDICT_COLOURS["undecided"], VERDICTS["undecided"]),
+    "infeasible": Light(VERDICT_COLOURS["infeasible"], VERDICTS["infeasible"]),
 }
 
 

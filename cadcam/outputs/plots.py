@@ -1044,3 +1044,63 @@ def plot_study(table: list[dict], x: str, y: str, color: str | None, pareto: boo
                title: str) -> None:
     """:func:`study_figure` as a PNG."""
     save_figure(study_figure(table, x, y, color, pareto, title), path)
+
+
+# ---------------------------------------------------------------------------------- catalogue
+#: Marker of the best spring of a catalogue search (:func:`catalogue_figure`).
+BEST_SPRING = dict(marker="o", mfc="none", mec="black", mew=1.6, ms=13, ls="none", zorder=6)
+
+
+@matplotlib_defaults()
+def catalogue_figure(rate, preload, verdicts: list[str], rmse, best: int | None, colours: dict[str, str],
+                     title: str = "") -> Figure:
+    """A catalogue searched for one spring slot (``cadcam springs``). Left: every spring by its
+    rate [N/mm, log] and initial tension [N], coloured by its verdict (``colours``: verdict →
+    colour, the first drawn on top); right: the designed springs' rmse [N·mm, log] against their
+    rate (those ``rmse`` gives). The best spring (index ``best``) is ringed on both.
+
+    Parameters
+    ----------
+    rate, preload : array_like
+        Each spring's rate [N/m] and initial tension [N].
+    verdicts : list of str
+        Each spring's verdict, a key of ``colours``.
+    rmse : array_like
+        Each spring's design rmse [N·m], NaN where none is drawn.
+    """
+    k, f0, e = np.asarray(rate, float) / MM, np.asarray(preload, float), np.asarray(rmse, float) * MM
+    words = np.asarray(verdicts)
+    fig = Figure(figsize=(11, 4.6), layout="constrained")
+    springs, errors = fig.subplots(1, 2)
+    for word in reversed(list(colours)):
+        mask = words == word
+        if not mask.any():
+            continue
+        label = f"{word.replace('_', ' ')} ({int(mask.sum())})"
+        springs.scatter(k[mask], f0[mask], s=9, color=colours[word], label=label, linewidths=0)
+        shown = mask & np.isfinite(e)
+        if shown.any():
+            errors.scatter(k[shown], e[shown], s=12, color=colours[word], label=label, linewidths=0)
+    if best is not None:
+        springs.plot(k[best], f0[best], **BEST_SPRING, label="the best")
+        errors.plot(k[best], e[best], **BEST_SPRING, label="the best")
+    springs.set_xscale("log")
+    springs.set(xlabel="rate [N/mm]", ylabel="initial tension [N]",
+                title=f"{len(words)} springs by their verdict")
+    errors.set(xscale="log", yscale="log", xlabel="rate [N/mm]", ylabel="design rmse [N·mm]",
+               title="the designed springs' error")
+    if not np.isfinite(e).any():
+        errors.text(0.5, 0.5, "no design converged", ha="center", va="center", transform=errors.transAxes)
+    for ax in (springs, errors):
+        handles, labels = ax.get_legend_handles_labels()
+        if handles:
+            ax.legend(handles[::-1], labels[::-1], fontsize=8, loc="best")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def plot_catalogue(rate, preload, verdicts: list[str], rmse, best: int | None, colours: dict[str, str], path,
+                   title: str = "") -> None:
+    """:func:`catalogue_figure` as a PNG."""
+    save_figure(catalogue_figure(rate, preload, verdicts, rmse, best, colours, title), path)

@@ -140,6 +140,10 @@ VERDICTS = {
     "infeasible": "screened out (its reason: a test it cannot pass), or a part the spec cannot use",
     "not_designed": "passed the screen but beyond --limit",
 }
+#: Each verdict's colour (CSS), best first: the catalogue figure's (``catalogue.png``) and the
+#: design page's lights (:data:`cadcam.app.parts.LIGHTS`).
+VERDICT_COLOURS = {"feasible": "#2e7d32", "near": "#f9a825", "undecided": "#8d6e63", "infeasible": "#c62828",
+                   "not_designed": "#90a4ae"}
 
 #: The columns of ``springs.csv`` (SI units; the price in the catalogue's currency; ``band``
 #: only with ``--rank band``).

@@ -22,8 +22,8 @@ from cadcam.spec import load_spec
 from cadcam.version import __version__
 from cadcam.make.drawing import draw_sheet, sheet_figure
 from cadcam.outputs.run_files import write_outputs
-from cadcam.outputs.plots import (METRIC_LABELS, axis_label, convergence_figure, figures, pose_frames,
-                                study_figure, torque_figure)
+from cadcam.outputs.plots import (METRIC_LABELS, axis_label, catalogue_figure, convergence_figure, figures,
+                                pose_frames, study_figure, torque_figure)
 from cadcam.make.workshop import closed_outline
 
 from ..conftest import ROOT, check_output_file, circle_design
@@ -286,6 +286,27 @@ def test_study_figure_draws_in_the_labelled_units():
     assert (ax.get_xlabel(), ax.get_ylabel()) == ("cams 1 idler offset [mm]", "RMSE, joint 1 [N·mm]")
     np.testing.assert_allclose(ax.collections[0].get_offsets(), [[10, 0.1], [20, 0.2], [30, 0.3]])
     assert ax.get_title() == "t: 3 successful cases of 4"
+
+
+def test_the_catalogue_figure_draws_each_verdict_in_n_per_mm_and_rings_the_best():
+    """Each verdict's springs in its colour, the best drawn on top; the error panel holds the
+    springs given an rmse, in N·mm; the best is ringed where it lies on both."""
+    colours = {"feasible": "green", "near": "orange", "infeasible": "red"}
+    rate, preload = [1000.0, 2000.0, 4000.0, 500.0], [1.0, 2.0, 3.0, 4.0]
+    fig = catalogue_figure(rate, preload, ["infeasible", "feasible", "near", "feasible"],
+                           [np.nan, 2e-6, 5e-3, 1e-6], 3, colours, title="t")
+    springs, errors = fig.axes
+    drawn = {c.get_label().split(" (")[0]: c.get_offsets().tolist() for c in springs.collections}
+    assert drawn == {"infeasible": [[1.0, 1.0]], "near": [[4.0, 3.0]], "feasible": [[2.0, 2.0], [0.5, 4.0]]}
+    assert [c.get_label() for c in springs.collections] == ["infeasible (1)", "near (1)", "feasible (2)"]
+    errs = {c.get_label().split(" (")[0]: c.get_offsets().tolist() for c in errors.collections}
+    assert errs == {"near": [[4.0, 5.0]], "feasible": [[2.0, pytest.approx(2e-3)], [0.5, pytest.approx(1e-3)]]}
+    ring = [line for line in springs.lines if line.get_label() == "the best"][0]
+    assert (list(ring.get_xdata()), list(ring.get_ydata())) == ([0.5], [4.0])
+    assert springs.get_xlabel() == "rate [N/mm]" and errors.get_ylabel() == "design rmse [N·mm]"
+    assert [t.get_text() for t in springs.get_legend().get_texts()][:2] == ["the best", "feasible (2)"]
+    none = catalogue_figure(rate, preload, ["infeasible"] * 4, [np.nan] * 4, None, colours).axes[1]
+    assert none.get_legend() is None and [t.get_text() for t in none.texts] == ["no design converged"]
 
 
 # -------------------------------------------------------------------------------- provenance
