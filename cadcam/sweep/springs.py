@@ -248,9 +248,9 @@ def search_solves():
 def design_part(spec: tuple, j: int, part: str, catalogue: str | None, start: dict | None,
                 band: bool = False) -> dict:
     """Design the spec ``spec`` = (data, origin, base folder) with spring ``j`` made catalogue
-    part ``part`` (:func:`with_part`), warm from ``start`` if given (:meth:`StartTree.start_of`: a
-    solved neighbour's design, its multipliers and the margins it was solved with, its part,
-    its spring's (k, F0) and middle extension for :func:`force_matched`); a row for
+    part ``part`` (:func:`with_part`), warm from ``start`` if given (:func:`solved_start`: a solved
+    neighbour's design, its multipliers and the margins it was solved with, its part, its
+    spring's (k, F0) and middle extension for :func:`force_matched`); a row for
     :func:`verdict`, with the design's tolerance band where ``band``. Never raises: a failure
     is a row."""
     from ..optimize import warm_optimize
@@ -418,6 +418,16 @@ def spring_gaps(springs: np.ndarray, spring: tuple[float, float], scales: tuple[
     return np.hypot(np.log(springs[:, 0] / k) / sk, TENSION_WEIGHT * (springs[:, 1] - f0) / sf)
 
 
+def solved_start(row: dict, spring: tuple[float, float]) -> dict | None:
+    """The start a designed ``row`` (:func:`design_part`'s) gives the springs after it: its
+    design, multipliers, margins and part, its spring ``spring`` = (k [N/m], F0 [N]) and its
+    middle extension (for :func:`force_matched`); None where its design failed."""
+    if row["status"] != "success":
+        return None
+    return {"design": row["design"], "multipliers": row["multipliers"], "margins": row["margins"],
+            "part": row["part"], "spring": spring, "extension": row["extension"]}
+
+
 class StartTree:
     """The order a search designs its springs in and the spring each starts from, fixed before
     any is designed, so that a search's rows are the same on any number of workers or a Dask
@@ -440,16 +450,15 @@ class StartTree:
     def __init__(self, springs: np.ndarray, scales: tuple[float, float]):
         springs = np.asarray(springs, dtype=float)
         m = len(springs)
-        self.parent = np.full(m, -1)
-        self.order = [0] if m else []
-        gap, nearest = spring_gaps(springs, springs[0], scales) if m else np.zeros(0), np.zeros(m, dtype=int)
-        left = np.ones(m, dtype=bool)
-        left[:1] = False
-        for _ in range(m - 1):
+        self.parent, self.order = np.full(m, -1), []
+        gap, nearest, left = np.full(m, np.inf), np.zeros(m, dtype=int), np.ones(m, dtype=bool)
+        for _ in range(m):
             free = np.flatnonzero(left)
-            i = int(free[np.argmin(gap[free])])  # on a tie, the first given
+            i = int(free[np.argmin(gap[free])])  # on a tie (the first, all at no gap yet), the first given
+            if self.order:
+                self.parent[i] = nearest[i]
             self.order.append(i)
-            self.parent[i], left[i] = nearest[i], False
+            left[i] = False
             to_i = spring_gaps(springs, springs[i], scales)
             closer = to_i < gap
             gap[closer], nearest[closer] = to_i[closer], i
@@ -602,10 +611,7 @@ def search(spec: tuple, j: int, catalogue: Catalogue, catalogue_path: str | None
             for fut in executor.wait(list(pending)):
                 k, row = pending.pop(fut), fut.result()
                 found.designed[row["part"]] = row
-                i = todo[k]
-                starts[k] = ({"design": row["design"], "multipliers": row["multipliers"], "margins": row["margins"],
-                              "part": row["part"], "spring": (float(body.rate[i]), float(body.preload[i])),
-                              "extension": row["extension"]} if row["status"] == "success" else None)
+                starts[k] = solved_start(row, (float(body.rate[todo[k]]), float(body.preload[todo[k]])))
                 for child in tree.children[k]:
                     heapq.heappush(ready, (int(tree.rank[child]), child))
                 if report is not None:
