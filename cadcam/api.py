@@ -33,7 +33,7 @@ from .designs import Design, DesignError
 from .files import InputFileError, read_input, short_repr
 from .solve import compiled
 from .solve.builds import KEPT_BUILDS, built_for, structure_key
-from .solve.ipopt import MOVING_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT, Multipliers
+from .solve.ipopt import RESOLVE_OPTIONS, SESSION_IPOPT, Multipliers, moving_options
 from .solve.predictor import PREDICT
 from .solve.transcription import Transcription
 from .optimize import completed, optimize, start_design, start_result, warm_optimize
@@ -221,8 +221,9 @@ class Session:
         False, no fine re-check and no refusal of a target out of reach
         (:func:`refuse_unreachable`, milliseconds to tens of them): a provisional design judged
         on the design grid (:func:`cadcam.optimize.optimize`), as while a slider moves, re-solved
-        warm with a low cap on IPOPT's barrier (:data:`cadcam.solve.ipopt.MOVING_IPOPT`: fewer
-        iterations from the last answer), from where the last answer moves to
+        warm with a low cap on IPOPT's barrier and a looser tolerance
+        (:func:`cadcam.solve.ipopt.moving_options`: fewer iterations from the last answer),
+        from where the last answer moves to
         (:mod:`cadcam.solve.predictor`), its profiles scanned coarser
         (:data:`cadcam.verify.evaluate.MOVING_SCAN`); designed again with it, the same edits
         start from that answer and need few iterations."""
@@ -232,7 +233,7 @@ class Session:
         if problem.options.method != "nlp":
             return optimize(problem, recheck=recheck)
         # a warm start at the last answer: pushed little off it; provisional, its barrier capped
-        token = RESOLVE_OPTIONS.set(SESSION_IPOPT if recheck else MOVING_IPOPT)
+        token = RESOLVE_OPTIONS.set(SESSION_IPOPT if recheck else moving_options(problem.options.tol))
         predicting = PREDICT.set(not recheck)  # provisional: from where the last answer moves to
         scan = SCAN.set(FULL_SCAN if recheck else MOVING_SCAN)  # and its profiles scanned coarser
         try:

@@ -7,7 +7,7 @@ import pytest
 import cadcam
 from cadcam import spec as spec_module
 from cadcam.optimize import PROVISIONAL
-from cadcam.solve.ipopt import MOVING_IPOPT, RESOLVE_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT
+from cadcam.solve.ipopt import MOVING_TOL_FACTOR, RESOLVE_IPOPT, RESOLVE_OPTIONS, SESSION_IPOPT, moving_options
 from cadcam.solve.predictor import PREDICTED_IPOPT
 from cadcam.solve.transcription import Transcription
 
@@ -36,7 +36,8 @@ def test_a_provisional_design_is_judged_on_the_design_grid_then_rechecked_in_ful
 
 def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(session, monkeypatch):
     """Within a session's design its warm re-solves take :data:`SESSION_IPOPT`, within its
-    provisional design :data:`MOVING_IPOPT` (its barrier capped low), from the predicted start
+    provisional design :func:`moving_options` (its barrier capped low, its tolerance the
+    spec's loosened), from the predicted start
     with its iterations capped (:data:`PREDICTED_IPOPT`); elsewhere (a sweep, a catalogue
     search) :data:`RESOLVE_IPOPT` stands."""
     used = []
@@ -51,7 +52,9 @@ def test_a_sessions_warm_solve_starts_pushed_little_off_its_last_answer(session,
     assert session.design(SPEC_1DOF, grid=12, overrides=edit, recheck=False).message.endswith(
         "(warm start from the last design)")
     assert session.design(SPEC_1DOF, grid=12, overrides=edit).message.endswith("(warm start from the last design)")
-    assert used == [{**MOVING_IPOPT, **PREDICTED_IPOPT}, SESSION_IPOPT] and RESOLVE_OPTIONS.get() is RESOLVE_IPOPT
+    tol = cadcam.load_spec(SPEC_1DOF).options.tol
+    assert used == [{**moving_options(tol), **PREDICTED_IPOPT}, SESSION_IPOPT] and RESOLVE_OPTIONS.get() is RESOLVE_IPOPT
+    assert used[0]["ipopt.tol"] == MOVING_TOL_FACTOR * tol > tol
 
 
 def test_a_target_that_passed_its_check_is_not_checked_again(monkeypatch):

@@ -77,11 +77,28 @@ IMPOSE_OPTIONS: ContextVar[dict] = ContextVar("impose_options", default=WARM_IPO
 #: used: it stops at a complementarity too loose for the optimum's objective.
 MOVING_MU_MAX = 1e-8
 #: IPOPT options of a provisional re-solve while a slider moves (:class:`cadcam.Session`'s
-#: ``recheck=False``): :data:`SESSION_IPOPT`, the barrier capped at :data:`MOVING_MU_MAX`.
+#: ``recheck=False``): :data:`SESSION_IPOPT`, the barrier capped at :data:`MOVING_MU_MAX`; its
+#: tolerance is the problem's, loosened (:func:`moving_options`).
 MOVING_IPOPT = {**SESSION_IPOPT, "ipopt.mu_max": MOVING_MU_MAX}
+#: How much looser than the problem's own IPOPT tolerance (``solver.tol``) a provisional
+#: re-solve stops. What the page draws of a provisional design is that design evaluated on the
+#: design grid, whatever its optimality; a solve to the full tolerance spends its last
+#: iteration or two on digits the curves do not show (Ludovico2021's pendulum after 1.5 %
+#: steps of a spring's rate: three iterations at 1e-8, about two at 1e-6, the torques within
+#: 1e-9 of their peak). The design made when the slider is let go, warm from this one, is
+#: solved to the full tolerance and re-checked.
+MOVING_TOL_FACTOR = 100.0
+
+
+def moving_options(tol: float) -> dict:
+    """The IPOPT options of a provisional re-solve of a problem whose IPOPT tolerance is ``tol``:
+    :data:`MOVING_IPOPT`, stopping at :data:`MOVING_TOL_FACTOR` times ``tol``."""
+    return {**MOVING_IPOPT, "ipopt.tol": MOVING_TOL_FACTOR * tol}
+
+
 #: The options of a warm re-solve from an answer and its multipliers in the running context
 #: (:meth:`cadcam.solve.transcription.Transcription.solve`): :data:`RESOLVE_IPOPT`, or
-#: :data:`SESSION_IPOPT` within a design session's design (:data:`MOVING_IPOPT` within its
+#: :data:`SESSION_IPOPT` within a design session's design (:func:`moving_options` within its
 #: provisional one).
 RESOLVE_OPTIONS: ContextVar[dict] = ContextVar("resolve_options", default=RESOLVE_IPOPT)
 
