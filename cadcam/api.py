@@ -233,6 +233,7 @@ class Session:
         if problem.options.method != "nlp":
             return optimize(problem, recheck=recheck)
         # a warm start at the last answer: pushed little off it; provisional, its barrier capped
+        # and its tolerance loosened
         token = RESOLVE_OPTIONS.set(SESSION_IPOPT if recheck else moving_options(problem.options.tol))
         predicting = PREDICT.set(not recheck)  # provisional: from where the last answer moves to
         scan = SCAN.set(FULL_SCAN if recheck else MOVING_SCAN)  # and its profiles scanned coarser

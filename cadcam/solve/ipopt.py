@@ -83,10 +83,8 @@ MOVING_IPOPT = {**SESSION_IPOPT, "ipopt.mu_max": MOVING_MU_MAX}
 #: How much looser than the problem's own IPOPT tolerance (``solver.tol``) a provisional
 #: re-solve stops. What the page draws of a provisional design is that design evaluated on the
 #: design grid, whatever its optimality; a solve to the full tolerance spends its last
-#: iteration or two on digits the curves do not show (Ludovico2021's pendulum after 1.5 %
-#: steps of a spring's rate: three iterations at 1e-8, about two at 1e-6, the torques within
-#: 1e-9 of their peak). The design made when the slider is let go, warm from this one, is
-#: solved to the full tolerance and re-checked.
+#: iteration or two on digits the curves do not show. The design made when the slider is let
+#: go, warm from this one, is solved to the full tolerance and re-checked.
 MOVING_TOL_FACTOR = 100.0
 
 

@@ -54,9 +54,9 @@ def test_a_singular_linearization_leaves_the_start_at_the_last_answer(quadratic)
 def test_slider_steps_reach_the_plain_warm_starts_optimum_in_fewer_iterations(monkeypatch):
     """The 1-DOF wire cam, spring 1's rate stepped 2 % four times while a slider moves: each
     provisional design from the predicted start ends at the optimum the plain warm start
-    reaches (within the provisional solve's tolerance, :func:`moving_options`: they differ by
-    5e-8 of it), and the steps after the first, each from the last provisional answer, in
-    fewer iterations."""
+    reaches (within the tolerance both provisional solves stop at, :func:`moving_options`),
+    and the steps after the first, each from the last provisional answer, in fewer
+    iterations."""
     spec = cadcam.load_spec(SPEC_1DOF)
     rate, tol = spec.springs[0].rate, moving_options(spec.options.tol)["ipopt.tol"]
 
